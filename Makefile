@@ -1,0 +1,32 @@
+# Set-up and checks.  `make install` then `make test` is all a new machine needs.
+VENV   := .venv
+PY     := $(VENV)/bin/python
+PIP    := $(VENV)/bin/pip
+
+.PHONY: install test test-fast lint samples clean
+
+install: $(VENV)/bin/nurbscomp
+
+$(VENV)/bin/nurbscomp: pyproject.toml
+	python3 -m venv $(VENV)
+	$(PIP) install --quiet --upgrade pip
+	$(PIP) install --quiet -e '.[dev]'
+	@$(VENV)/bin/nurbscomp --version
+
+# The whole suite, corpus round trips included.  pytest exits 5 when no test
+# ran, which fails this target as it should.
+test: install
+	$(PY) -m pytest -q
+
+test-fast: install
+	$(PY) -m pytest -q -m "not slow"
+
+lint: install
+	$(VENV)/bin/ruff check nurbscomp tests samples
+	$(VENV)/bin/ruff format --check nurbscomp tests samples
+
+samples: install
+	$(PY) samples/make_samples.py
+
+clean:
+	rm -rf $(VENV) build *.egg-info .pytest_cache

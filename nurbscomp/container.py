@@ -1,0 +1,152 @@
+"""The ``.nzc`` byte layout: header, section directory, one compressed body.
+
+See docs/format.md for the specification; this module is its reference
+implementation.  All fields are little-endian.
+
+::
+
+    header     magic "\\x89NZC" | major u8 | minor u8 | flags u16 | nsections u16
+               | reserved u16 (0) | crc32 u32 of the 12 bytes before it
+    directory  nsections x (tag 4s | raw_length u32 | crc32 u32 of the section's bytes)
+    body       coder u8 | reserved 3 bytes (0) | raw_length u32 | stored_length u32
+               | crc32 u32 of the directory, the 12 body-header bytes and the payload
+               | payload: the sections' bytes, concatenated, then compressed
+
+The sections are compressed together, not one by one: B-rep data repeats
+across tables (a vertex is the end pole of its curves, which are boundary
+poles of their surfaces) and one LZ window sees those repeats.  Measured on
+the corpus, this is 13% smaller than compressing each section alone.
+"""
+
+from __future__ import annotations
+
+import struct
+import zlib
+from dataclasses import dataclass
+
+from . import entropy
+from .errors import (
+    BadMagicError,
+    ChecksumError,
+    CorruptError,
+    FormatError,
+    TruncatedError,
+    VersionError,
+)
+
+MAGIC = b"\x89NZC"
+MAJOR = 0
+MINOR = 1
+FLAG_LOSSLESS = 1
+_KNOWN_FLAGS = FLAG_LOSSLESS
+_HEADER = struct.Struct("<4sBBHHH")
+_ENTRY = struct.Struct("<4sII")
+_BODY = struct.Struct("<B3sII")
+_CRC = struct.Struct("<I")
+#: Largest section a reader will inflate (a decompression-bomb guard).
+MAX_RAW = 1 << 31
+
+
+@dataclass(frozen=True)
+class Section:
+    """One section: its tag and its (decoded) bytes."""
+
+    tag: str
+    raw: bytes
+
+
+@dataclass(frozen=True)
+class Container:
+    major: int
+    minor: int
+    flags: int
+    coder: int
+    stored_length: int
+    sections: list[Section]
+
+    def get(self, tag: str) -> bytes:
+        for s in self.sections:
+            if s.tag == tag:
+                return s.raw
+        raise CorruptError(f"missing section {tag}")
+
+    def tags(self) -> list[str]:
+        return [s.tag for s in self.sections]
+
+
+def pack(sections: list[tuple[str, bytes]], flags: int = 0) -> bytes:
+    """Build container bytes from ``(tag, raw payload)`` pairs."""
+    head = _HEADER.pack(MAGIC, MAJOR, MINOR, flags, len(sections), 0)
+    directory = []
+    for tag, raw in sections:
+        tb = tag.encode("ascii")
+        if len(tb) != 4:
+            raise ValueError(f"section tag must be 4 ASCII bytes: {tag!r}")
+        directory.append(_ENTRY.pack(tb, len(raw), zlib.crc32(raw)))
+    body = b"".join(raw for _, raw in sections)
+    coder, stored = entropy.compress(body)
+    bh = _BODY.pack(coder, b"\0\0\0", len(body), len(stored))
+    d = b"".join(directory)
+    crc = zlib.crc32(stored, zlib.crc32(bh, zlib.crc32(d)))
+    return b"".join([head, _CRC.pack(zlib.crc32(head)), d, bh, _CRC.pack(crc), stored])
+
+
+def unpack(data: bytes) -> Container:
+    """Parse and check container bytes; decompress the body and split it into sections.
+
+    Raises
+    ------
+    FormatError
+        A subclass naming what is wrong, with the byte offset.
+    """
+    if len(data) < 4 or data[:4] != MAGIC:
+        raise BadMagicError("not a .nzc container (bad magic at offset 0)")
+    if len(data) < _HEADER.size + 4:
+        raise TruncatedError(f"header truncated at offset {len(data)}")
+    magic, major, minor, flags, nsec, reserved = _HEADER.unpack_from(data, 0)
+    (crc,) = _CRC.unpack_from(data, _HEADER.size)
+    if crc != zlib.crc32(data[: _HEADER.size]):
+        raise ChecksumError("header checksum mismatch at offset 12")
+    if major != MAJOR:
+        raise VersionError(f"format version {major}.{minor} is not supported (this reads {MAJOR}.x)")
+    if flags & ~_KNOWN_FLAGS or reserved:
+        raise FormatError("reserved header bits are set at offset 6")
+    pos = _HEADER.size + 4
+    dir_end = pos + nsec * _ENTRY.size
+    body_at = dir_end
+    if body_at + _BODY.size + 4 > len(data):
+        raise TruncatedError(f"directory or body header truncated at offset {len(data)}")
+    coder, res, raw_len, stored_len = _BODY.unpack_from(data, body_at)
+    (crc,) = _CRC.unpack_from(data, body_at + _BODY.size)
+    start = body_at + _BODY.size + 4
+    if stored_len > len(data) - start:
+        raise TruncatedError(
+            f"body at offset {start} declares {stored_len} bytes, {len(data) - start} remain"
+        )
+    if start + stored_len != len(data):
+        raise CorruptError(f"{len(data) - start - stored_len} unexpected bytes at offset {start + stored_len}")
+    stored = data[start:]
+    d = data[pos:dir_end]
+    if crc != zlib.crc32(stored, zlib.crc32(data[body_at : body_at + _BODY.size], zlib.crc32(d))):
+        raise ChecksumError(f"body checksum mismatch (directory at offset {pos}, body at {body_at})")
+    if res != b"\0\0\0":
+        raise FormatError(f"reserved body bytes are set at offset {body_at + 1}")
+    entries = [_ENTRY.unpack_from(data, pos + i * _ENTRY.size) for i in range(nsec)]
+    if sum(e[1] for e in entries) != raw_len:
+        raise CorruptError(f"section lengths do not add up to the body length at offset {body_at}")
+    if raw_len > MAX_RAW:
+        raise CorruptError(f"body at offset {body_at} declares an implausible size")
+    body = entropy.decompress(coder, stored, raw_len)
+    sections = []
+    at = 0
+    for i, (tb, n, scrc) in enumerate(entries):
+        raw = body[at : at + n]
+        at += n
+        if zlib.crc32(raw) != scrc:
+            raise ChecksumError(f"section {i} checksum mismatch (entry at offset {pos + i * _ENTRY.size})")
+        try:
+            tag = tb.decode("ascii")
+        except UnicodeDecodeError:
+            raise CorruptError(f"bad section tag at offset {pos + i * _ENTRY.size}") from None
+        sections.append(Section(tag, raw))
+    return Container(major, minor, flags, coder, stored_len, sections)

@@ -1,0 +1,75 @@
+"""The entropy stage: bytes <-> compressed bytes, choosing the best coder per block.
+
+Each section of a container is compressed on its own by every coder below, and
+the smallest result is kept; its id goes into the section header.  Measured on
+the corpus (docs/benchmarks.md), raw LZMA2 wins on most geometry sections and
+zstd or brotli on a few small ones, so all three stay.
+"""
+
+from __future__ import annotations
+
+import lzma
+from enum import IntEnum
+
+import brotli
+import zstandard
+
+from .errors import CorruptError
+
+
+class Coder(IntEnum):
+    """Coder ids stored in section headers.  Never renumber."""
+
+    STORED = 0
+    LZMA = 1  # raw LZMA2 stream (no .xz container), preset 9e
+    ZSTD = 2  # zstd frame, level 19
+    BROTLI = 3  # brotli, quality 11
+
+
+_LZMA_FILTERS = [{"id": lzma.FILTER_LZMA2, "preset": 9 | lzma.PRESET_EXTREME}]
+
+
+def _compress(coder: Coder, raw: bytes) -> bytes:
+    if coder == Coder.STORED:
+        return raw
+    if coder == Coder.LZMA:
+        return lzma.compress(raw, format=lzma.FORMAT_RAW, filters=_LZMA_FILTERS)
+    if coder == Coder.ZSTD:
+        return zstandard.ZstdCompressor(level=19, write_content_size=False).compress(raw)
+    return brotli.compress(raw, quality=11)
+
+
+def compress(raw: bytes, coders: tuple[Coder, ...] = tuple(Coder)) -> tuple[Coder, bytes]:
+    """Compress ``raw`` with each coder and keep the smallest (ties go to the lower id)."""
+    best = min(((len(out := _compress(c, raw)), c, out) for c in coders), key=lambda t: t[:2])
+    return best[1], best[2]
+
+
+def decompress(coder: int, data: bytes, raw_length: int) -> bytes:
+    """Invert :func:`compress`, producing at most ``raw_length`` bytes.
+
+    Raises
+    ------
+    CorruptError
+        Unknown coder, undecodable data, or a length other than ``raw_length``.
+    """
+    try:
+        if coder == Coder.STORED:
+            out = data
+        elif coder == Coder.LZMA:
+            d = lzma.LZMADecompressor(format=lzma.FORMAT_RAW, filters=_LZMA_FILTERS)
+            out = d.decompress(data, max_length=raw_length + 1)
+        elif coder == Coder.ZSTD:
+            dz = zstandard.ZstdDecompressor().decompressobj()
+            out = dz.decompress(data)
+        elif coder == Coder.BROTLI:
+            out = brotli.decompress(data)
+        else:
+            raise CorruptError(f"unknown coder id {coder}")
+    except CorruptError:
+        raise
+    except (lzma.LZMAError, zstandard.ZstdError, brotli.error, EOFError) as e:
+        raise CorruptError(f"compressed data does not decode ({e})") from None
+    if len(out) != raw_length:
+        raise CorruptError(f"section decodes to {len(out)} bytes, header says {raw_length}")
+    return out

@@ -1,0 +1,53 @@
+"""One exception family for nurbscomp; ``cli.py`` is the only place that catches it.
+
+Every error carries a one-line message. The CLI prints ``error: FILE: message``
+and exits with the code of the class (see README, "Exit codes").
+"""
+
+from __future__ import annotations
+
+
+class NurbscompError(Exception):
+    """Base class of every error nurbscomp raises on purpose."""
+
+    exit_code = 1
+
+
+class InputError(NurbscompError):
+    """The input CAD file is missing, unreadable, or holds no B-rep."""
+
+
+class FormatError(NurbscompError):
+    """A ``.nzc`` container is damaged or not a container at all."""
+
+
+class BadMagicError(FormatError):
+    """The file does not start with the ``.nzc`` magic number."""
+
+
+class VersionError(FormatError):
+    """The container's major version is not one this build can read."""
+
+
+class TruncatedError(FormatError):
+    """The container ends before a declared length."""
+
+
+class ChecksumError(FormatError):
+    """A section's CRC32 does not match its bytes."""
+
+
+class CorruptError(FormatError):
+    """The container's bytes pass their checksums but do not decode."""
+
+
+class OutputError(NurbscompError):
+    """The output cannot be written: it exists already, or its folder is missing."""
+
+
+class VerifyError(NurbscompError):
+    """The written container does not decode to what was encoded."""
+
+
+class UnsupportedError(NurbscompError):
+    """The B-rep holds an entity this version cannot store."""

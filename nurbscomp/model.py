@@ -1,0 +1,304 @@
+"""The B-rep model: geometry records and topology tables as plain numpy data.
+
+The layout follows OCCT's own ``BRepTools_ShapeSet``: a table of locations, tables
+of surfaces, 3-D curves and 2-D curves, and one table of shapes in which every
+shape refers to its sub-shapes by index, with an orientation and a location.
+A sub-shape shared by several parents (an edge between two faces) is stored once.
+
+Nothing here imports OCP: ``nurbscomp.occ`` converts at the door, and the codec
+and the container see only these records.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from enum import IntEnum
+
+import numpy as np
+
+
+class Kind(IntEnum):
+    """Geometry kinds.  Values are part of the container format: never renumber."""
+
+    # surfaces
+    PLANE = 0
+    CYLINDER = 1
+    CONE = 2
+    SPHERE = 3
+    TORUS = 4
+    REVOLUTION = 5
+    EXTRUSION = 6
+    OFFSET_SURFACE = 7
+    TRIMMED_SURFACE = 8
+    BEZIER_SURFACE = 9
+    BSPLINE_SURFACE = 10
+    # curves, 2-D or 3-D
+    LINE = 16
+    CIRCLE = 17
+    ELLIPSE = 18
+    HYPERBOLA = 19
+    PARABOLA = 20
+    BEZIER_CURVE = 21
+    BSPLINE_CURVE = 22
+    TRIMMED_CURVE = 23
+    OFFSET_CURVE = 24
+
+
+SURFACE_KINDS = frozenset(k for k in Kind if k < 16)
+
+
+class ShapeType(IntEnum):
+    """Shape types, numbered as OCCT's ``TopAbs_ShapeEnum``."""
+
+    COMPOUND = 0
+    COMPSOLID = 1
+    SOLID = 2
+    SHELL = 3
+    FACE = 4
+    WIRE = 5
+    EDGE = 6
+    VERTEX = 7
+
+
+class RepKind(IntEnum):
+    """Curve representations on an edge (``BRep_CurveRepresentation`` subclasses)."""
+
+    CURVE3D = 0  # curve, location, range
+    ON_SURFACE = 1  # pcurve, surface, location, range, uv end points
+    ON_CLOSED_SURFACE = 2  # two pcurves (seam), surface, location, range, uv points, continuity
+    ON_TWO_SURFACES = 3  # regularity: surface, surface2, location, location2, continuity
+
+
+class PointRepKind(IntEnum):
+    """Point representations on a vertex (``BRep_PointRepresentation`` subclasses)."""
+
+    ON_CURVE = 0  # parameter, 3-D curve, location
+    ON_CURVE_ON_SURFACE = 1  # parameter, pcurve, surface, location
+    ON_SURFACE = 2  # u, v, surface, location
+
+
+@dataclass(frozen=True, eq=False)
+class Analytic:
+    """A plane, quadric, line or conic: a frame plus a few scalars.
+
+    Parameters
+    ----------
+    kind : Kind
+    frame : ndarray, shape (k, dim)
+        Row 0 is the origin; the other rows are the axis directions as OCCT
+        stores them (``gp_Ax3``: main, X, Y; ``gp_Ax2``: main, X, Y;
+        ``gp_Ax22d``: X, Y; ``gp_Ax1``/``gp_Ax2d``: direction).
+    params : ndarray, shape (m,)
+        Radii, semi-angle, focal length, in OCCT's constructor order.
+    """
+
+    kind: Kind
+    frame: np.ndarray
+    params: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
+class BSplineCurve:
+    """A B-spline or Bezier curve (eq. 3), 2-D or 3-D.
+
+    Parameters
+    ----------
+    poles : ndarray, shape (n, dim)
+    weights : ndarray, shape (n,), or None when non-rational
+    knots : ndarray, shape (k,)
+    mults : ndarray of int, shape (k,)
+    degree : int
+    periodic : bool
+    bezier : bool
+        Rebuild as ``Geom_BezierCurve`` (knots are then [0, 1]).
+    """
+
+    poles: np.ndarray
+    weights: np.ndarray | None
+    knots: np.ndarray
+    mults: np.ndarray
+    degree: int
+    periodic: bool
+    bezier: bool = False
+
+    @property
+    def kind(self) -> Kind:
+        return Kind.BEZIER_CURVE if self.bezier else Kind.BSPLINE_CURVE
+
+
+@dataclass(frozen=True, eq=False)
+class BSplineSurface:
+    """A B-spline or Bezier surface (eq. 1-2).
+
+    Parameters
+    ----------
+    poles : ndarray, shape (nu, nv, 3)
+    weights : ndarray, shape (nu, nv), or None when non-rational
+    uknots, vknots : ndarray, shapes (ku,), (kv,)
+    umults, vmults : ndarray of int, shapes (ku,), (kv,)
+    udegree, vdegree : int
+    uperiodic, vperiodic : bool
+    bezier : bool
+        Rebuild as ``Geom_BezierSurface``.
+    """
+
+    poles: np.ndarray
+    weights: np.ndarray | None
+    uknots: np.ndarray
+    vknots: np.ndarray
+    umults: np.ndarray
+    vmults: np.ndarray
+    udegree: int
+    vdegree: int
+    uperiodic: bool
+    vperiodic: bool
+    bezier: bool = False
+
+    @property
+    def kind(self) -> Kind:
+        return Kind.BEZIER_SURFACE if self.bezier else Kind.BSPLINE_SURFACE
+
+
+@dataclass(frozen=True, eq=False)
+class Derived:
+    """A geometry built on another one.
+
+    ``basis`` indexes the 3-D curve table for REVOLUTION and EXTRUSION, the
+    surface table for OFFSET_SURFACE and TRIMMED_SURFACE, and the curve table of
+    the same dimension for TRIMMED_CURVE and OFFSET_CURVE.
+
+    Parameters
+    ----------
+    kind : Kind
+    basis : int
+    frame : ndarray, shape (k, 3)
+        REVOLUTION: axis origin and direction; EXTRUSION: direction;
+        3-D OFFSET_CURVE: reference direction; otherwise empty.
+    params : ndarray, shape (m,)
+        OFFSET_*: the offset; TRIMMED_SURFACE: u1, u2, v1, v2;
+        TRIMMED_CURVE: u1, u2.
+    """
+
+    kind: Kind
+    basis: int
+    frame: np.ndarray
+    params: np.ndarray
+
+
+Geometry = Analytic | BSplineCurve | BSplineSurface | Derived
+
+
+@dataclass(frozen=True, eq=False)
+class Location:
+    """A ``TopLoc_Location``: a product of elementary transforms raised to powers.
+
+    Parameters
+    ----------
+    datums : tuple of int
+        Indices into ``BRepModel.datums``, first factor first.
+    powers : tuple of int
+    """
+
+    datums: tuple[int, ...]
+    powers: tuple[int, ...]
+
+
+IDENTITY = Location((), ())
+
+
+@dataclass(eq=False)
+class BRepModel:
+    """A whole B-rep as tables.
+
+    Shapes are numbered in post-order: a shape's sub-shapes all come before it,
+    so a decoder can build the table front to back.  Index 0 of ``locations``
+    is always the identity.
+
+    Attributes
+    ----------
+    datums : ndarray, shape (D, 3, 4)
+        Elementary transforms (``gp_Trsf`` as its 3x4 matrix).
+    datum_forms : ndarray of uint8, shape (D,)
+        ``gp_TrsfForm`` of each datum.
+    locations : list of Location
+    surfaces, curves3d, curves2d : list of Geometry
+    shape_type : ndarray of uint8, shape (S,)
+    shape_flags : ndarray of uint8, shape (S,)
+        TShape flags, bit 0..7: free, modified, checked, orientable, closed,
+        infinite, convex, locked.
+    child_start : ndarray of int64, shape (S + 1,)
+        Children of shape ``s`` are rows ``child_start[s]:child_start[s+1]`` of
+        ``child_shape``, ``child_orient``, ``child_loc``.
+    child_shape, child_orient, child_loc : ndarray, shape (C,)
+    vertex_point : ndarray, shape (V, 3)
+    vertex_tol : ndarray, shape (V,)
+    vertex_reps : ndarray, shape (R, 6)
+        Rows (vertex, PointRepKind, geometry, surface, location, 0) ...
+    vertex_rep_params : ndarray, shape (R, 2)
+    edge_tol : ndarray, shape (E,)
+    edge_flags : ndarray of uint8, shape (E,)
+        Bit 0 degenerated, bit 1 same parameter, bit 2 same range.
+    edge_reps : ndarray of int64, shape (Q, 8)
+        Rows (edge, RepKind, curve, curve2, surface, surface2, location, location2,
+        continuity) without the trailing continuity -> see ``edge_rep_cont``.
+    edge_rep_cont : ndarray of uint8, shape (Q,)
+    edge_rep_range : ndarray, shape (Q, 2)
+    edge_rep_uv : ndarray, shape (Q, 8)
+        UV end points of the first and (seam) second pcurve.
+    face_surface, face_loc : ndarray of int64, shape (F,)
+    face_tol : ndarray, shape (F,)
+    face_natural : ndarray of bool, shape (F,)
+    root_shape, root_orient, root_loc : int
+    unit : str
+        The source file's length unit name (``"MM"``, ``"CM"``, ``"INCH"``...).
+    source_format : str
+        ``"STEP"`` or ``"IGES"``.
+    """
+
+    datums: np.ndarray = field(default_factory=lambda: np.zeros((0, 3, 4)))
+    datum_forms: np.ndarray = field(default_factory=lambda: np.zeros(0, np.uint8))
+    locations: list[Location] = field(default_factory=lambda: [IDENTITY])
+    surfaces: list[Geometry] = field(default_factory=list)
+    curves3d: list[Geometry] = field(default_factory=list)
+    curves2d: list[Geometry] = field(default_factory=list)
+    shape_type: np.ndarray = field(default_factory=lambda: np.zeros(0, np.uint8))
+    shape_flags: np.ndarray = field(default_factory=lambda: np.zeros(0, np.uint8))
+    child_start: np.ndarray = field(default_factory=lambda: np.zeros(1, np.int64))
+    child_shape: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    child_orient: np.ndarray = field(default_factory=lambda: np.zeros(0, np.uint8))
+    child_loc: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    vertex_point: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    vertex_tol: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    vertex_reps: np.ndarray = field(default_factory=lambda: np.zeros((0, 5), np.int64))
+    vertex_rep_params: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    edge_tol: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    edge_flags: np.ndarray = field(default_factory=lambda: np.zeros(0, np.uint8))
+    edge_reps: np.ndarray = field(default_factory=lambda: np.zeros((0, 8), np.int64))
+    edge_rep_cont: np.ndarray = field(default_factory=lambda: np.zeros(0, np.uint8))
+    edge_rep_range: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    edge_rep_uv: np.ndarray = field(default_factory=lambda: np.zeros((0, 8)))
+    face_surface: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    face_loc: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    face_tol: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    face_natural: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
+    root_shape: int = -1
+    root_orient: int = 0
+    root_loc: int = 0
+    unit: str = "MM"
+    source_format: str = "STEP"
+
+    def type_index(self) -> np.ndarray:
+        """Position of each shape within the rows of its own type, shape (S,).
+
+        The ``k``-th vertex in the shapes table owns row ``k`` of the vertex
+        arrays, and likewise for edges and faces.
+        """
+        out = np.zeros(len(self.shape_type), np.int64)
+        for t in (ShapeType.VERTEX, ShapeType.EDGE, ShapeType.FACE):
+            sel = self.shape_type == t
+            out[sel] = np.arange(int(sel.sum()))
+        return out
+
+    def counts(self) -> dict[str, int]:
+        """Number of distinct shapes of each type."""
+        return {t.name.lower(): int((self.shape_type == t).sum()) for t in ShapeType}

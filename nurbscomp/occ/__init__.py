@@ -1,0 +1,24 @@
+"""The only door to OCP (OpenCASCADE).
+
+Everything that touches OCCT lives in this package; the rest of nurbscomp works
+on the plain numpy data of :mod:`nurbscomp.model`.
+"""
+
+from .files import UNITS_MM, CadFile, bintools_bytes, read_cad, write_shape
+from .measure import counts, deviation, faces, free_edges, is_valid
+from .topology import model_to_shape, shape_to_model
+
+__all__ = [
+    "UNITS_MM",
+    "CadFile",
+    "bintools_bytes",
+    "counts",
+    "deviation",
+    "faces",
+    "free_edges",
+    "is_valid",
+    "model_to_shape",
+    "read_cad",
+    "shape_to_model",
+    "write_shape",
+]

@@ -1,0 +1,237 @@
+"""Reading STEP / IGES files into shapes and writing shapes to STEP, IGES or BREP.
+
+Every reader and writer status is checked; a failure is an ``InputError`` or
+``OutputError`` with a one-line message.  OCCT converts lengths to millimetres
+on reading; the file's own unit is reported so that the output can be written
+back in it.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from OCP.BinTools import BinTools
+from OCP.BRepTools import BRepTools
+from OCP.IFSelect import IFSelect_ReturnStatus
+from OCP.IGESControl import IGESControl_Reader, IGESControl_Writer
+from OCP.Interface import Interface_Static
+from OCP.Message import Message
+from OCP.STEPControl import STEPControl_AsIs, STEPControl_Reader, STEPControl_Writer
+from OCP.TColStd import TColStd_SequenceOfAsciiString
+
+from ..errors import InputError, OutputError
+
+# OCCT prints progress and statistics to stdout; the CLI owns stdout.
+Message.DefaultMessenger_s().ChangePrinters().Clear()
+
+#: Length units the writers know, with their size in millimetres.
+UNITS_MM = {
+    "MM": 1.0,
+    "CM": 10.0,
+    "M": 1000.0,
+    "KM": 1e6,
+    "UM": 1e-3,
+    "INCH": 25.4,
+    "FT": 304.8,
+    "MI": 1609344.0,
+    "MIL": 0.0254,
+    "UIN": 25.4e-6,
+}
+
+_STEP_UNIT_NAMES = {
+    "millimetre": "MM",
+    "millimeter": "MM",
+    "centimetre": "CM",
+    "centimeter": "CM",
+    "metre": "M",
+    "meter": "M",
+    "kilometre": "KM",
+    "kilometer": "KM",
+    "micrometre": "UM",
+    "micrometer": "UM",
+    "micron": "UM",
+    "inch": "INCH",
+    "foot": "FT",
+    "feet": "FT",
+    "mile": "MI",
+    "mil": "MIL",
+    "thou": "MIL",
+    "microinch": "UIN",
+}
+
+_IGES_UNIT_FLAGS = {
+    1: "INCH",
+    2: "MM",
+    4: "FT",
+    5: "MI",
+    6: "M",
+    7: "KM",
+    8: "MIL",
+    9: "UM",
+    10: "CM",
+    11: "UIN",
+}
+
+STEP_SUFFIXES = (".step", ".stp", ".p21")
+IGES_SUFFIXES = (".iges", ".igs")
+BREP_SUFFIXES = (".brep",)
+
+_STEP_MARKERS = {
+    b"STYLED_ITEM": "colours",
+    b"PRESENTATION_LAYER_ASSIGNMENT": "layers",
+    b"NEXT_ASSEMBLY_USAGE_OCCURRENCE": "assembly structure",
+    b"DIMENSIONAL_": "PMI",
+    b"DRAUGHTING_CALLOUT": "PMI",
+    b"PROPERTY_DEFINITION": "properties",
+}
+
+
+@dataclass
+class CadFile:
+    """What a CAD file gave: the shape, its unit, its format, and warnings."""
+
+    shape: Any
+    unit: str
+    source_format: str
+    warnings: list[str] = field(default_factory=list)
+
+
+def _check_readable(path: Path) -> bytes:
+    if not path.exists():
+        raise InputError("no such file")
+    if path.is_dir():
+        raise InputError("is a directory")
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(1 << 16)
+    except OSError as e:
+        raise InputError(e.strerror or str(e)) from None
+    if not head.strip():
+        raise InputError("file is empty")
+    return head
+
+
+def sniff_format(path: Path, head: bytes) -> str:
+    """``"STEP"`` or ``"IGES"`` by content, falling back to the file name."""
+    if head.lstrip().startswith(b"ISO-10303-21"):
+        return "STEP"
+    lines = head.splitlines()
+    if lines and len(lines[0]) >= 73 and lines[0][72:73] in (b"S", b"F"):
+        return "IGES"
+    suffix = path.suffix.lower()
+    if suffix in IGES_SUFFIXES:
+        return "IGES"
+    if suffix in STEP_SUFFIXES:
+        return "STEP"
+    raise InputError("not a STEP or IGES file")
+
+
+def read_cad(path: str | os.PathLike[str]) -> CadFile:
+    """Read a STEP (AP203/214/242) or IGES file into one shape, in millimetres.
+
+    Raises
+    ------
+    InputError
+        The file is missing, empty, not STEP/IGES, fails to parse, or holds
+        nothing OCCT can turn into a B-rep.
+    """
+    p = Path(path)
+    head = _check_readable(p)
+    fmt = sniff_format(p, head)
+    if fmt == "STEP":
+        reader: Any = STEPControl_Reader()
+    else:
+        reader = IGESControl_Reader()
+    status = reader.ReadFile(str(p))
+    if status != IFSelect_ReturnStatus.IFSelect_RetDone:
+        raise InputError(f"cannot parse {fmt} file ({status.name.removeprefix('IFSelect_')})")
+    if fmt == "STEP":
+        names = [TColStd_SequenceOfAsciiString() for _ in range(3)]
+        reader.FileUnits(*names)
+        lengths = [names[0].Value(i).ToCString() for i in range(1, names[0].Length() + 1)]
+        unit = _STEP_UNIT_NAMES.get(lengths[0].lower(), "MM") if lengths else "MM"
+    else:
+        unit = _IGES_UNIT_FLAGS.get(reader.IGESModel().GlobalSection().UnitFlag(), "MM")
+    if reader.NbRootsForTransfer() == 0:
+        raise InputError(f"the {fmt} file holds no shape to transfer")
+    reader.TransferRoots()
+    if reader.NbShapes() == 0:
+        raise InputError(f"nothing in the {fmt} file transfers to a B-rep")
+    shape = reader.OneShape()
+    if shape.IsNull():
+        raise InputError(f"nothing in the {fmt} file transfers to a B-rep")
+    warnings = []
+    if fmt == "STEP":
+        warnings = _step_losses(p)
+    else:
+        warnings = ["IGES colours, levels and names are not stored"]
+    return CadFile(shape, unit, fmt, warnings)
+
+
+def _step_losses(path: Path) -> list[str]:
+    """Name what the STEP file holds that the container does not keep."""
+    data = path.read_bytes()
+    found = sorted({what for marker, what in _STEP_MARKERS.items() if marker in data})
+    names = b"PRODUCT(" in data
+    if names:
+        found.append("names")
+    if not found:
+        return []
+    return [f"not stored: {', '.join(found)} (geometry and topology only)"]
+
+
+def _atomic_target(path: Path) -> None:
+    if not path.parent.exists():
+        raise OutputError("output folder does not exist")
+
+
+def write_shape(shape: Any, path: str | os.PathLike[str], unit: str = "MM") -> None:
+    """Write a shape to STEP, IGES or BREP, chosen by the file's extension.
+
+    Parameters
+    ----------
+    shape : TopoDS_Shape
+        In millimetres.
+    path : path
+        ``.step``/``.stp`` (the default for any other extension), ``.igs``/
+        ``.iges``, or ``.brep``.
+    unit : str
+        A key of ``UNITS_MM``: the length unit written to the file.
+    """
+    p = Path(path)
+    _atomic_target(p)
+    suffix = p.suffix.lower()
+    if suffix in BREP_SUFFIXES:
+        if not BRepTools.Write_s(shape, str(p)):
+            raise OutputError("cannot write BREP")
+        return
+    if suffix in IGES_SUFFIXES:
+        w = IGESControl_Writer("IN" if unit == "INCH" else unit, 1)
+        if not w.AddShape(shape):
+            raise OutputError("the IGES writer refused the shape")
+        w.ComputeModel()
+        if not w.Write(str(p)):
+            raise OutputError("cannot write IGES")
+        return
+    Interface_Static.SetCVal_s("write.step.unit", unit)
+    Interface_Static.SetCVal_s("write.step.schema", "AP214IS")
+    sw = STEPControl_Writer()
+    status = sw.Transfer(shape, STEPControl_AsIs)
+    if status != IFSelect_ReturnStatus.IFSelect_RetDone:
+        raise OutputError(f"the STEP writer refused the shape ({status.name})")
+    status = sw.Write(str(p))
+    if status != IFSelect_ReturnStatus.IFSelect_RetDone:
+        raise OutputError(f"cannot write STEP ({status.name})")
+
+
+def bintools_bytes(shape: Any) -> bytes:
+    """OCCT's own binary BRep of a shape (``BinTools``), for comparison."""
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as d:
+        f = os.path.join(d, "s.bin")
+        BinTools.Write_s(shape, f)
+        return Path(f).read_bytes()

@@ -1,0 +1,430 @@
+"""TopoDS shapes <-> the model's topology tables.
+
+Reading walks the shape graph once, in post-order, and stores every TShape once,
+keyed by the shape at the identity location with FORWARD orientation.  Each
+reference to a sub-shape keeps its own orientation and location.
+
+Building goes front to back through the shapes table with ``BRep_Builder``
+(never sewing), and restores every curve and point representation of edges and
+vertices as it was, so that the rebuilt shape is the same B-rep: same sub-shape
+order, same sharing, same flags, same numbers.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from OCP.BRep import (
+    BRep_Builder,
+    BRep_Curve3D,
+    BRep_CurveOn2Surfaces,
+    BRep_CurveOnClosedSurface,
+    BRep_CurveOnSurface,
+    BRep_PointOnCurve,
+    BRep_PointOnCurveOnSurface,
+    BRep_PointOnSurface,
+)
+from OCP.GeomAbs import GeomAbs_Shape
+from OCP.gp import gp_Pnt, gp_Pnt2d, gp_Trsf, gp_TrsfForm, gp_Vec
+from OCP.TopAbs import TopAbs_FORWARD, TopAbs_Orientation
+from OCP.TopLoc import TopLoc_Datum3D, TopLoc_Location
+from OCP.TopoDS import (
+    TopoDS_Compound,
+    TopoDS_CompSolid,
+    TopoDS_Edge,
+    TopoDS_Face,
+    TopoDS_Iterator,
+    TopoDS_Shell,
+    TopoDS_Solid,
+    TopoDS_Vertex,
+    TopoDS_Wire,
+)
+from OCP.TopTools import TopTools_IndexedMapOfShape
+
+from ..errors import UnsupportedError
+from ..model import BRepModel, Location, PointRepKind, RepKind, ShapeType
+from .geometry import GeometryBuilder, GeometryReader
+
+_FLAG_NAMES = ("Free", "Modified", "Checked", "Orientable", "Closed", "Infinite", "Convex", "Locked")
+_ORIENT = [TopAbs_Orientation(i) for i in range(4)]
+_CONT = [GeomAbs_Shape(i) for i in range(7)]
+
+
+def _flags(ts: Any) -> int:
+    return sum(1 << i for i, n in enumerate(_FLAG_NAMES) if getattr(ts, n)())
+
+
+def _set_flags(ts: Any, flags: int) -> None:
+    for i, n in enumerate(_FLAG_NAMES):
+        getattr(ts, n)(bool(flags >> i & 1))
+
+
+def _trsf_rows(t: gp_Trsf) -> list[float]:
+    return [t.Value(i, j) for i in (1, 2, 3) for j in (1, 2, 3, 4)]
+
+
+def _trsf(rows: np.ndarray, form: int) -> gp_Trsf:
+    t = gp_Trsf()
+    v = rows.reshape(12).tolist()
+    if form == gp_TrsfForm.gp_Identity.value:
+        return t
+    if form == gp_TrsfForm.gp_Translation.value:
+        t.SetTranslation(gp_Vec(v[3], v[7], v[11]))
+        return t
+    t.SetValues(*v)
+    return t
+
+
+class _Reader:
+    def __init__(self) -> None:
+        self.geo = GeometryReader()
+        self.keys = TopTools_IndexedMapOfShape()
+        self.datum_objs: list[Any] = []
+        self.datum_rows: list[list[float]] = []
+        self.datum_forms: list[int] = []
+        self.loc_index: dict[tuple[tuple[int, int], ...], int] = {(): 0}
+        self.locations: list[Location] = [Location((), ())]
+        self.types: list[int] = []
+        self.flags: list[int] = []
+        self.child_start = [0]
+        self.children: list[tuple[int, int, int]] = []
+        self.vpoint: list[tuple[float, float, float]] = []
+        self.vtol: list[float] = []
+        self.vreps: list[tuple[int, ...]] = []
+        self.vrep_params: list[tuple[float, float]] = []
+        self.etol: list[float] = []
+        self.eflags: list[int] = []
+        self.ereps: list[tuple[int, ...]] = []
+        self.erep_cont: list[int] = []
+        self.erep_range: list[tuple[float, float]] = []
+        self.erep_uv: list[tuple[float, ...]] = []
+        self.fsurf: list[int] = []
+        self.floc: list[int] = []
+        self.ftol: list[float] = []
+        self.fnat: list[bool] = []
+        self.warnings: list[str] = []
+        # shape index -> table index (keys map is 1-based and filled in pre-order)
+        self.index_of: dict[int, int] = {}
+
+    def location(self, loc: TopLoc_Location) -> int:
+        items = []
+        while not loc.IsIdentity():
+            d = loc.FirstDatum()
+            for k, obj in enumerate(self.datum_objs):
+                if obj is d:
+                    break
+            else:
+                k = len(self.datum_objs)
+                self.datum_objs.append(d)
+                t = d.Transformation()
+                self.datum_rows.append(_trsf_rows(t))
+                self.datum_forms.append(t.Form().value)
+            items.append((k, loc.FirstPower()))
+            loc = loc.NextLocation()
+        key = tuple(items)
+        i = self.loc_index.get(key)
+        if i is None:
+            i = self.loc_index[key] = len(self.locations)
+            self.locations.append(
+                Location(tuple(k for k, _ in items), tuple(p for _, p in items))
+            )
+        return i
+
+    def shape(self, s: Any) -> int:
+        """Table index of the TShape under ``s`` (adding it and its sub-shapes)."""
+        key = s.Located(TopLoc_Location()).Oriented(TopAbs_FORWARD)
+        k = self.keys.FindIndex(key)
+        if k:
+            return self.index_of[k]
+        k = self.keys.Add(key)
+        kids = []
+        it = TopoDS_Iterator(key, False, False)
+        while it.More():
+            c = it.Value()
+            kids.append((self.shape(c), c.Orientation().value, self.location(c.Location())))
+            it.Next()
+        ts = key.TShape()
+        t = key.ShapeType().value
+        if t == ShapeType.VERTEX:
+            self._vertex(ts)
+        elif t == ShapeType.EDGE:
+            self._edge(ts)
+        elif t == ShapeType.FACE:
+            self._face(ts)
+        i = len(self.types)
+        self.index_of[k] = i
+        self.types.append(t)
+        self.flags.append(_flags(ts))
+        self.children.extend(kids)
+        self.child_start.append(len(self.children))
+        return i
+
+    def _vertex(self, tv: Any) -> None:
+        v = len(self.vtol)
+        self.vpoint.append((tv.Pnt().X(), tv.Pnt().Y(), tv.Pnt().Z()))
+        self.vtol.append(tv.Tolerance())
+        for pr in tv.Points():
+            name = type(pr).__name__
+            loc = self.location(pr.Location())
+            if name == "BRep_PointOnCurve":
+                row = (v, PointRepKind.ON_CURVE, self.geo.curve3d(pr.Curve()), -1, loc)
+                par = (pr.Parameter(), 0.0)
+            elif name == "BRep_PointOnCurveOnSurface":
+                row = (
+                    v,
+                    PointRepKind.ON_CURVE_ON_SURFACE,
+                    self.geo.curve2d(pr.PCurve()),
+                    self.geo.surface(pr.Surface()),
+                    loc,
+                )
+                par = (pr.Parameter(), 0.0)
+            elif name == "BRep_PointOnSurface":
+                row = (v, PointRepKind.ON_SURFACE, -1, self.geo.surface(pr.Surface()), loc)
+                par = (pr.Parameter(), pr.Parameter2())
+            else:
+                raise UnsupportedError(f"vertex representation {name} is not supported")
+            self.vreps.append(row)
+            self.vrep_params.append(par)
+
+    def _edge(self, te: Any) -> None:
+        e = len(self.etol)
+        self.etol.append(te.Tolerance())
+        self.eflags.append(
+            int(te.Degenerated()) | int(te.SameParameter()) << 1 | int(te.SameRange()) << 2
+        )
+        geo = self.geo
+        skipped = 0
+        for cr in te.Curves():
+            name = type(cr).__name__
+            loc = self.location(cr.Location())
+            uv = (0.0,) * 8
+            rng = (0.0, 0.0)
+            cont = 0
+            if name == "BRep_Curve3D":
+                row = (e, RepKind.CURVE3D, geo.curve3d(cr.Curve3D()), -1, -1, -1, loc, 0)
+                rng = (cr.First(), cr.Last())
+            elif name in ("BRep_CurveOnSurface", "BRep_CurveOnClosedSurface"):
+                closed = name == "BRep_CurveOnClosedSurface"
+                p1, p2 = gp_Pnt2d(), gp_Pnt2d()
+                cr.UVPoints(p1, p2)
+                uv2 = (0.0,) * 4
+                if closed:
+                    q1, q2 = gp_Pnt2d(), gp_Pnt2d()
+                    cr.UVPoints2(q1, q2)
+                    uv2 = (q1.X(), q1.Y(), q2.X(), q2.Y())
+                    cont = cr.Continuity().value
+                uv = (p1.X(), p1.Y(), p2.X(), p2.Y(), *uv2)
+                row = (
+                    e,
+                    RepKind.ON_CLOSED_SURFACE if closed else RepKind.ON_SURFACE,
+                    geo.curve2d(cr.PCurve()),
+                    geo.curve2d(cr.PCurve2()) if closed else -1,
+                    geo.surface(cr.Surface()),
+                    -1,
+                    loc,
+                    0,
+                )
+                rng = (cr.First(), cr.Last())
+            elif name == "BRep_CurveOn2Surfaces":
+                row = (
+                    e,
+                    RepKind.ON_TWO_SURFACES,
+                    -1,
+                    -1,
+                    geo.surface(cr.Surface()),
+                    geo.surface(cr.Surface2()),
+                    loc,
+                    self.location(cr.Location2()),
+                )
+                cont = cr.Continuity().value
+            else:
+                skipped += 1
+                continue
+            self.ereps.append(row)
+            self.erep_cont.append(cont)
+            self.erep_range.append(rng)
+            self.erep_uv.append(uv)
+        if skipped:
+            self.warnings.append("edge polygons (mesh data) are not stored")
+
+    def _face(self, tf: Any) -> None:
+        s = tf.Surface()
+        if s is None:
+            raise UnsupportedError("a face has no surface (mesh-only face)")
+        self.fsurf.append(self.geo.surface(s))
+        self.floc.append(self.location(tf.Location()))
+        self.ftol.append(tf.Tolerance())
+        self.fnat.append(bool(tf.NaturalRestriction()))
+        if tf.NbTriangulations():
+            self.warnings.append("face triangulations (mesh data) are not stored")
+
+    def model(self, root: Any) -> BRepModel:
+        r = self.shape(root)
+        root_loc = self.location(root.Location())
+
+        def arr(x: list[Any], dtype: Any, shape: tuple[int, ...]) -> np.ndarray:
+            return np.array(x, dtype).reshape(shape)
+
+        ch = np.array(self.children, np.int64).reshape(-1, 3)
+        return BRepModel(
+            datums=arr(self.datum_rows, np.float64, (-1, 3, 4)),
+            datum_forms=arr(self.datum_forms, np.uint8, (-1,)),
+            locations=self.locations,
+            surfaces=self.geo.surfaces.records,
+            curves3d=self.geo.curves3d.records,
+            curves2d=self.geo.curves2d.records,
+            shape_type=arr(self.types, np.uint8, (-1,)),
+            shape_flags=arr(self.flags, np.uint8, (-1,)),
+            child_start=arr(self.child_start, np.int64, (-1,)),
+            child_shape=ch[:, 0].copy(),
+            child_orient=ch[:, 1].astype(np.uint8),
+            child_loc=ch[:, 2].copy(),
+            vertex_point=arr(self.vpoint, np.float64, (-1, 3)),
+            vertex_tol=arr(self.vtol, np.float64, (-1,)),
+            vertex_reps=arr(self.vreps, np.int64, (-1, 5)),
+            vertex_rep_params=arr(self.vrep_params, np.float64, (-1, 2)),
+            edge_tol=arr(self.etol, np.float64, (-1,)),
+            edge_flags=arr(self.eflags, np.uint8, (-1,)),
+            edge_reps=arr(self.ereps, np.int64, (-1, 8)),
+            edge_rep_cont=arr(self.erep_cont, np.uint8, (-1,)),
+            edge_rep_range=arr(self.erep_range, np.float64, (-1, 2)),
+            edge_rep_uv=arr(self.erep_uv, np.float64, (-1, 8)),
+            face_surface=arr(self.fsurf, np.int64, (-1,)),
+            face_loc=arr(self.floc, np.int64, (-1,)),
+            face_tol=arr(self.ftol, np.float64, (-1,)),
+            face_natural=arr(self.fnat, bool, (-1,)),
+            root_shape=r,
+            root_orient=root.Orientation().value,
+            root_loc=root_loc,
+        )
+
+
+def shape_to_model(shape: Any) -> tuple[BRepModel, list[str]]:
+    """Convert a ``TopoDS_Shape`` to a model; also return warnings (unique, sorted).
+
+    Raises
+    ------
+    UnsupportedError
+        For geometry or representations the model cannot hold.
+    """
+    r = _Reader()
+    m = r.model(shape)
+    return m, sorted(set(r.warnings))
+
+
+_MAKERS = {
+    ShapeType.COMPOUND: (TopoDS_Compound, "MakeCompound"),
+    ShapeType.COMPSOLID: (TopoDS_CompSolid, "MakeCompSolid"),
+    ShapeType.SOLID: (TopoDS_Solid, "MakeSolid"),
+    ShapeType.SHELL: (TopoDS_Shell, "MakeShell"),
+    ShapeType.WIRE: (TopoDS_Wire, "MakeWire"),
+}
+
+
+def model_to_shape(m: BRepModel) -> Any:
+    """Rebuild the ``TopoDS_Shape`` a model describes, with ``BRep_Builder``."""
+    b = BRep_Builder()
+    geo = GeometryBuilder(m.surfaces, m.curves3d, m.curves2d)
+    datums = [TopLoc_Datum3D(_trsf(r, int(f))) for r, f in zip(m.datums, m.datum_forms)]
+    locs = []
+    for loc in m.locations:
+        acc = TopLoc_Location()
+        # Multiplied() puts its argument's items at the head of the chain.
+        for d, p in zip(reversed(loc.datums), reversed(loc.powers)):
+            acc = acc.Multiplied(TopLoc_Location(datums[d]).Powered(p))
+        locs.append(acc)
+
+    tidx = m.type_index()
+    vreps = _group(m.vertex_reps[:, 0], len(m.vertex_tol))
+    ereps = _group(m.edge_reps[:, 0], len(m.edge_tol))
+    built: list[Any] = []
+    for s, t in enumerate(m.shape_type.tolist()):
+        k = int(tidx[s])
+        if t == ShapeType.VERTEX:
+            sh = TopoDS_Vertex()
+            b.MakeVertex(sh, gp_Pnt(*m.vertex_point[k]), float(m.vertex_tol[k]))
+            tv = sh.TShape()
+            tv.Tolerance(float(m.vertex_tol[k]))
+            pts = tv.ChangePoints()
+            for q in vreps[k]:
+                _, kind, g, surf, loc = m.vertex_reps[q].tolist()
+                u, v = m.vertex_rep_params[q].tolist()
+                if kind == PointRepKind.ON_CURVE:
+                    pts.Append(BRep_PointOnCurve(u, geo.curve3d(g), locs[loc]))
+                elif kind == PointRepKind.ON_CURVE_ON_SURFACE:
+                    pts.Append(
+                        BRep_PointOnCurveOnSurface(
+                            u, geo.curve2d(g), geo.surface(surf), locs[loc]
+                        )
+                    )
+                else:
+                    pts.Append(BRep_PointOnSurface(u, v, geo.surface(surf), locs[loc]))
+        elif t == ShapeType.EDGE:
+            sh = TopoDS_Edge()
+            b.MakeEdge(sh)
+            te = sh.TShape()
+            f = int(m.edge_flags[k])
+            te.Tolerance(float(m.edge_tol[k]))
+            te.Degenerated(bool(f & 1))
+            te.SameParameter(bool(f & 2))
+            te.SameRange(bool(f & 4))
+            curves = te.ChangeCurves()
+            for q in ereps[k]:
+                curves.Append(_edge_rep(m, q, geo, locs))
+        elif t == ShapeType.FACE:
+            sh = TopoDS_Face()
+            b.MakeFace(
+                sh, geo.surface(int(m.face_surface[k])), locs[m.face_loc[k]], float(m.face_tol[k])
+            )
+            tf = sh.TShape()
+            tf.Tolerance(float(m.face_tol[k]))
+            tf.NaturalRestriction(bool(m.face_natural[k]))
+        else:
+            cls, maker = _MAKERS[ShapeType(t)]
+            sh = cls()
+            getattr(b, maker)(sh)
+        for c in range(m.child_start[s], m.child_start[s + 1]):
+            child = built[m.child_shape[c]]
+            b.Add(sh, child.Oriented(_ORIENT[m.child_orient[c]]).Located(locs[m.child_loc[c]]))
+        built.append(sh)
+    for sh, fl in zip(built, m.shape_flags.tolist()):
+        _set_flags(sh.TShape(), fl)
+    root = built[m.root_shape]
+    return root.Oriented(_ORIENT[m.root_orient]).Located(locs[m.root_loc])
+
+
+def _group(owner: np.ndarray, n: int) -> list[list[int]]:
+    """Row numbers of a representation table, grouped by owner, in table order."""
+    out: list[list[int]] = [[] for _ in range(n)]
+    for q, o in enumerate(owner.tolist()):
+        out[o].append(q)
+    return out
+
+
+def _edge_rep(m: BRepModel, q: int, geo: GeometryBuilder, locs: list[Any]) -> Any:
+    _, kind, c1, c2, s1, s2, l1, l2 = m.edge_reps[q].tolist()
+    first, last = m.edge_rep_range[q].tolist()
+    if kind == RepKind.CURVE3D:
+        rep = BRep_Curve3D(geo.curve3d(c1), locs[l1])
+        rep.SetRange(first, last)
+        return rep
+    if kind == RepKind.ON_TWO_SURFACES:
+        return BRep_CurveOn2Surfaces(
+            geo.surface(s1), geo.surface(s2), locs[l1], locs[l2], _CONT[m.edge_rep_cont[q]]
+        )
+    uv = m.edge_rep_uv[q].tolist()
+    if kind == RepKind.ON_SURFACE:
+        rep = BRep_CurveOnSurface(geo.curve2d(c1), geo.surface(s1), locs[l1])
+    else:
+        rep = BRep_CurveOnClosedSurface(
+            geo.curve2d(c1),
+            geo.curve2d(c2),
+            geo.surface(s1),
+            locs[l1],
+            _CONT[m.edge_rep_cont[q]],
+        )
+        rep.SetUVPoints2(gp_Pnt2d(uv[4], uv[5]), gp_Pnt2d(uv[6], uv[7]))
+    rep.SetRange(first, last)
+    rep.SetUVPoints(gp_Pnt2d(uv[0], uv[1]), gp_Pnt2d(uv[2], uv[3]))
+    return rep

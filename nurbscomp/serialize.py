@@ -1,0 +1,485 @@
+"""The B-rep model <-> the payloads of a container's sections.
+
+Sections, in the order they are written and read (docs/format.md gives the
+array-by-array layout of each):
+
+====  ==========================================================
+META  JSON: unit, source format, mode, tolerance, source name/size
+LOCS  datums (3x4 matrices) and locations (datum, power chains)
+SURF  surface table
+CRV3  3-D curve table
+CRV2  2-D curve table (pcurves)
+SHAP  shape types, flags, and sub-shape references
+VERT  vertex points, tolerances, point representations
+EDGE  edge tolerances, flags, curve representations
+FACE  face surface, location, tolerance, natural-restriction flag
+====  ==========================================================
+"""
+
+from __future__ import annotations
+
+import json
+from typing import Any
+
+import numpy as np
+
+from .errors import CorruptError
+from .model import (
+    Analytic,
+    BRepModel,
+    BSplineCurve,
+    BSplineSurface,
+    Derived,
+    Geometry,
+    Kind,
+    Location,
+    RepKind,
+)
+from .streams import BlockReader, BlockWriter
+
+#: Kind code of a table row that repeats an earlier row's record.
+COPY = 255
+
+# rows of `frame` and length of `params`, by kind, for (3-D, 2-D)
+_ANALYTIC_SHAPE: dict[Kind, tuple[tuple[int, int], tuple[int, int]]] = {
+    Kind.PLANE: ((4, 0), (0, 0)),
+    Kind.CYLINDER: ((4, 1), (0, 0)),
+    Kind.CONE: ((4, 2), (0, 0)),
+    Kind.SPHERE: ((4, 1), (0, 0)),
+    Kind.TORUS: ((4, 2), (0, 0)),
+    Kind.LINE: ((2, 0), (2, 0)),
+    Kind.CIRCLE: ((3, 1), (3, 1)),
+    Kind.ELLIPSE: ((3, 2), (3, 2)),
+    Kind.HYPERBOLA: ((3, 2), (3, 2)),
+    Kind.PARABOLA: ((3, 1), (3, 1)),
+}
+_DERIVED_SHAPE: dict[Kind, tuple[tuple[int, int], tuple[int, int]]] = {
+    Kind.REVOLUTION: ((2, 0), (0, 0)),
+    Kind.EXTRUSION: ((1, 0), (0, 0)),
+    Kind.OFFSET_SURFACE: ((0, 1), (0, 0)),
+    Kind.TRIMMED_SURFACE: ((0, 4), (0, 0)),
+    Kind.TRIMMED_CURVE: ((0, 2), (0, 2)),
+    Kind.OFFSET_CURVE: ((1, 1), (0, 1)),
+}
+_SWEPT = (Kind.REVOLUTION, Kind.EXTRUSION)
+
+# ---------------------------------------------------------------- geometry tables
+
+
+def _write_geometry(records: list[Geometry], dim: int) -> bytes:
+    """Write one geometry table.  ``dim`` is 3 for surfaces and 3-D curves, 2 for pcurves."""
+    kinds, copies, hdr, basis, mults = [], [], [], [], []
+    frames: list[np.ndarray] = []
+    params: list[np.ndarray] = []
+    poles: list[np.ndarray] = []
+    weights: list[np.ndarray] = []
+    knots: list[np.ndarray] = []
+    seen: dict[int, int] = {}
+    for i, r in enumerate(records):
+        if id(r) in seen:
+            kinds.append(COPY)
+            copies.append(i - seen[id(r)])
+            continue
+        seen[id(r)] = i
+        kinds.append(int(r.kind))
+        if isinstance(r, Analytic):
+            frames.append(r.frame.reshape(-1))
+            params.append(r.params)
+        elif isinstance(r, Derived):
+            # a swept surface's basis is in the 3-D curve table: absolute index;
+            # other bases precede their row in the same table: distance back
+            basis.append(r.basis if r.kind in _SWEPT else i - r.basis)
+            frames.append(r.frame.reshape(-1))
+            params.append(r.params)
+        elif isinstance(r, BSplineSurface):
+            nu, nv = r.poles.shape[:2]
+            flags = int(r.weights is not None) | int(r.uperiodic) << 1 | int(r.vperiodic) << 2
+            hdr += [nu, nv, flags]
+            if not r.bezier:
+                hdr += [r.udegree, r.vdegree, len(r.uknots), len(r.vknots)]
+                knots += [r.uknots, r.vknots]
+                mults += [*r.umults.tolist(), *r.vmults.tolist()]
+            poles.append(r.poles.reshape(-1))
+            if r.weights is not None:
+                weights.append(r.weights.reshape(-1))
+        elif isinstance(r, BSplineCurve):
+            hdr += [len(r.poles), int(r.weights is not None) | int(r.periodic) << 1]
+            if not r.bezier:
+                hdr += [r.degree, len(r.knots)]
+                knots.append(r.knots)
+                mults += r.mults.tolist()
+            poles.append(r.poles.reshape(-1))
+            if r.weights is not None:
+                weights.append(r.weights)
+    w = BlockWriter()
+    w.ints(kinds)
+    w.ints(copies)
+    w.ints(hdr)
+    w.ints(basis)
+    w.ints(mults)
+    for group in (frames, params, poles, weights, knots):
+        w.floats(np.concatenate(group) if group else np.zeros(0))
+    return bytes(w)
+
+
+class _Cursor:
+    """Hands out consecutive slices of one decoded array, checking bounds."""
+
+    def __init__(self, a: np.ndarray, name: str) -> None:
+        self.a, self.pos, self.name = a, 0, name
+
+    def take(self, n: int) -> np.ndarray:
+        if n < 0 or self.pos + n > len(self.a):
+            raise CorruptError(f"{self.name} stream is too short")
+        out = self.a[self.pos : self.pos + n]
+        self.pos += n
+        return out
+
+    def one(self) -> int:
+        return int(self.take(1)[0])
+
+    def done(self) -> None:
+        if self.pos != len(self.a):
+            raise CorruptError(f"{self.name} stream has unread values")
+
+
+def _read_geometry(data: bytes, tag: str, dim: int) -> list[Geometry]:
+    r = BlockReader(data, tag)
+    kinds = r.ints()
+    copies, hdr, basis, mults = (_Cursor(r.ints(), f"{tag} {n}") for n in ("copy", "hdr", "basis", "mults"))
+    frames, params, poles, weights, knots = (
+        _Cursor(r.floats(), f"{tag} {n}") for n in ("frame", "param", "pole", "weight", "knot")
+    )
+    r.done()
+    out: list[Geometry] = []
+    surface = tag == "SURF"
+    for i, k in enumerate(kinds.tolist()):
+        if k == COPY:
+            j = i - copies.one()
+            if not 0 <= j < i:
+                raise CorruptError(f"{tag}: row {i} copies a row that does not exist")
+            out.append(out[j])
+            continue
+        try:
+            kind = Kind(k)
+        except ValueError:
+            raise CorruptError(f"{tag}: unknown geometry kind {k} in row {i}") from None
+        if (kind in _ANALYTIC_SHAPE or kind in _DERIVED_SHAPE) and (kind < 16) != surface:
+            raise CorruptError(f"{tag}: kind {kind.name} in the wrong table")
+        if kind in _ANALYTIC_SHAPE:
+            nf, npar = _ANALYTIC_SHAPE[kind][dim == 2]
+            out.append(Analytic(kind, frames.take(nf * dim).reshape(nf, dim), params.take(npar)))
+        elif kind in _DERIVED_SHAPE:
+            nf, npar = _DERIVED_SHAPE[kind][dim == 2]
+            b = basis.one()
+            if kind not in _SWEPT:
+                b = i - b
+            if not (b >= 0 if kind in _SWEPT else 0 <= b < i):
+                raise CorruptError(f"{tag}: row {i} refers to a missing basis")
+            out.append(Derived(kind, b, frames.take(nf * 3).reshape(nf, 3), params.take(npar)))
+        elif kind in (Kind.BSPLINE_SURFACE, Kind.BEZIER_SURFACE):
+            nu, nv, flags = (hdr.one() for _ in range(3))
+            bez = kind == Kind.BEZIER_SURFACE
+            if bez:
+                ud, vd, ku, kv = nu - 1, nv - 1, 2, 2
+            else:
+                ud, vd, ku, kv = (hdr.one() for _ in range(4))
+            if min(nu, nv, ku, kv) < 2 or not (1 <= ud and 1 <= vd):
+                raise CorruptError(f"{tag}: row {i} has a bad B-spline header")
+            if bez:
+                uk, vk = np.array([0.0, 1.0]), np.array([0.0, 1.0])
+                um, vm = np.array([nu, nu]), np.array([nv, nv])
+            else:
+                uk, vk = knots.take(ku), knots.take(kv)
+                um, vm = mults.take(ku).copy(), mults.take(kv).copy()
+            p = poles.take(nu * nv * 3).reshape(nu, nv, 3)
+            wts = weights.take(nu * nv).reshape(nu, nv) if flags & 1 else None
+            out.append(
+                BSplineSurface(p, wts, uk, vk, um, vm, ud, vd, bool(flags & 2), bool(flags & 4), bez)
+            )
+        else:  # BSPLINE_CURVE / BEZIER_CURVE
+            n, flags = hdr.one(), hdr.one()
+            bez = kind == Kind.BEZIER_CURVE
+            deg, nk = (n - 1, 2) if bez else (hdr.one(), hdr.one())
+            if n < 2 or nk < 2 or deg < 1:
+                raise CorruptError(f"{tag}: row {i} has a bad B-spline header")
+            kn = np.array([0.0, 1.0]) if bez else knots.take(nk)
+            mu = np.array([n, n]) if bez else mults.take(nk).copy()
+            p = poles.take(n * dim).reshape(n, dim)
+            wts = weights.take(n) if flags & 1 else None
+            out.append(BSplineCurve(p, wts, kn, mu, deg, bool(flags & 2), bez))
+    for c in (copies, hdr, basis, mults, frames, params, poles, weights, knots):
+        c.done()
+    return out
+
+
+# ---------------------------------------------------------------- topology
+
+
+def _write_locations(m: BRepModel) -> bytes:
+    w = BlockWriter()
+    w.ints(m.datum_forms)
+    w.floats(m.datums.reshape(-1))
+    locs = m.locations[1:]
+    w.ints([len(loc.datums) for loc in locs])
+    w.ints([d for loc in locs for d in loc.datums])
+    w.ints([p for loc in locs for p in loc.powers])
+    return bytes(w)
+
+
+def _read_locations(data: bytes, m: BRepModel) -> None:
+    r = BlockReader(data, "LOCS")
+    m.datum_forms = r.ints().astype(np.uint8)
+    nd = len(m.datum_forms)
+    m.datums = r.floats(nd * 12).reshape(nd, 3, 4)
+    lengths = r.ints()
+    datums, powers = r.ints(int(lengths.sum())), r.ints(int(lengths.sum()))
+    r.done()
+    if len(datums) and (datums.min() < 0 or datums.max() >= nd):
+        raise CorruptError("LOCS: a location refers to a missing datum")
+    ends = np.cumsum(lengths)
+    m.locations = [Location((), ())] + [
+        Location(tuple(datums[e - n : e].tolist()), tuple(powers[e - n : e].tolist()))
+        for n, e in zip(lengths.tolist(), ends.tolist())
+    ]
+
+
+def _write_shapes(m: BRepModel) -> bytes:
+    w = BlockWriter()
+    w.ints(m.shape_type)
+    w.ints(m.shape_flags)
+    nkids = np.diff(m.child_start)
+    w.ints(nkids)
+    parent = np.repeat(np.arange(len(m.shape_type)), nkids)
+    w.ints(parent - m.child_shape)
+    w.ints(m.child_orient)
+    w.ints(m.child_loc)
+    w.ints([m.root_shape, m.root_orient, m.root_loc])
+    return bytes(w)
+
+
+def _read_shapes(data: bytes, m: BRepModel) -> None:
+    r = BlockReader(data, "SHAP")
+    m.shape_type = r.ints().astype(np.uint8)
+    n = len(m.shape_type)
+    m.shape_flags = r.ints(n).astype(np.uint8)
+    nkids = r.ints(n)
+    if len(nkids) and nkids.min() < 0:
+        raise CorruptError("SHAP: negative child count")
+    m.child_start = np.concatenate([[0], np.cumsum(nkids)]).astype(np.int64)
+    c = int(m.child_start[-1])
+    parent = np.repeat(np.arange(n), nkids)
+    back = r.ints(c)
+    m.child_shape = parent - back
+    m.child_orient = r.ints(c).astype(np.uint8)
+    m.child_loc = r.ints(c)
+    m.root_shape, m.root_orient, m.root_loc = r.ints(3).tolist()
+    r.done()
+    if c and ((back < 1).any() or (m.child_orient > 3).any()):
+        raise CorruptError("SHAP: a shape refers to a sub-shape that does not precede it")
+    if not 0 <= m.root_shape < n or m.root_orient > 3:
+        raise CorruptError("SHAP: bad root reference")
+
+
+def _write_vertices(m: BRepModel) -> bytes:
+    w = BlockWriter()
+    w.floats(m.vertex_point.reshape(-1))
+    w.floats(m.vertex_tol)
+    reps = m.vertex_reps
+    w.ints(np.bincount(reps[:, 0], minlength=len(m.vertex_tol)) if len(reps) else [])
+    for col in range(1, 5):
+        w.ints(reps[:, col])
+    w.floats(m.vertex_rep_params.reshape(-1))
+    return bytes(w)
+
+
+def _read_vertices(data: bytes, m: BRepModel) -> None:
+    r = BlockReader(data, "VERT")
+    pts = r.floats()
+    if len(pts) % 3:
+        raise CorruptError("VERT: point array length is not a multiple of 3")
+    m.vertex_point = pts.reshape(-1, 3)
+    nv = len(m.vertex_point)
+    m.vertex_tol = r.floats(nv)
+    per = r.ints()
+    if len(per) not in (0, nv) or (len(per) and per.min() < 0):
+        raise CorruptError("VERT: bad representation counts")
+    nrep = int(per.sum()) if len(per) else 0
+    cols = [np.repeat(np.arange(len(per)), per)] + [r.ints(nrep) for _ in range(4)]
+    m.vertex_reps = np.stack(cols, axis=1).astype(np.int64).reshape(-1, 5)
+    m.vertex_rep_params = r.floats(2 * nrep).reshape(-1, 2)
+    r.done()
+
+
+def _write_edges(m: BRepModel) -> bytes:
+    w = BlockWriter()
+    w.floats(m.edge_tol)
+    w.ints(m.edge_flags)
+    reps = m.edge_reps
+    w.ints(np.bincount(reps[:, 0], minlength=len(m.edge_tol)) if len(reps) else [])
+    kind = reps[:, 1]
+    w.ints(kind)
+    # each column only where the representation kind uses it
+    w.ints(reps[kind != RepKind.ON_TWO_SURFACES, 2])  # curve / pcurve
+    w.ints(reps[kind == RepKind.ON_CLOSED_SURFACE, 3])  # second pcurve
+    w.ints(reps[kind != RepKind.CURVE3D, 4])  # surface
+    w.ints(reps[kind == RepKind.ON_TWO_SURFACES, 5])  # second surface
+    w.ints(reps[:, 6])  # location
+    w.ints(reps[kind == RepKind.ON_TWO_SURFACES, 7])  # second location
+    cont = (kind == RepKind.ON_CLOSED_SURFACE) | (kind == RepKind.ON_TWO_SURFACES)
+    w.ints(m.edge_rep_cont[cont])
+    w.floats(m.edge_rep_range[kind != RepKind.ON_TWO_SURFACES].reshape(-1))
+    on = (kind == RepKind.ON_SURFACE) | (kind == RepKind.ON_CLOSED_SURFACE)
+    w.floats(m.edge_rep_uv[on, :4].reshape(-1))
+    w.floats(m.edge_rep_uv[kind == RepKind.ON_CLOSED_SURFACE, 4:].reshape(-1))
+    return bytes(w)
+
+
+def _read_edges(data: bytes, m: BRepModel) -> None:
+    r = BlockReader(data, "EDGE")
+    m.edge_tol = r.floats()
+    ne = len(m.edge_tol)
+    m.edge_flags = r.ints(ne).astype(np.uint8)
+    per = r.ints()
+    if len(per) not in (0, ne) or (len(per) and per.min() < 0):
+        raise CorruptError("EDGE: bad representation counts")
+    q = int(per.sum()) if len(per) else 0
+    kind = r.ints(q)
+    if q and (kind.min() < 0 or kind.max() > 3):
+        raise CorruptError("EDGE: unknown representation kind")
+    reps = np.full((q, 8), -1, np.int64)
+    reps[:, 0] = np.repeat(np.arange(len(per)), per)
+    reps[:, 1] = kind
+    two = kind == RepKind.ON_TWO_SURFACES
+    closed = kind == RepKind.ON_CLOSED_SURFACE
+    reps[~two, 2] = r.ints(int((~two).sum()))
+    reps[closed, 3] = r.ints(int(closed.sum()))
+    c3 = kind == RepKind.CURVE3D
+    reps[~c3, 4] = r.ints(int((~c3).sum()))
+    reps[two, 5] = r.ints(int(two.sum()))
+    reps[:, 6] = r.ints(q)
+    reps[:, 7] = 0
+    reps[two, 7] = r.ints(int(two.sum()))
+    m.edge_reps = reps
+    m.edge_rep_cont = np.zeros(q, np.uint8)
+    m.edge_rep_cont[closed | two] = r.ints(int((closed | two).sum()))
+    m.edge_rep_range = np.zeros((q, 2))
+    m.edge_rep_range[~two] = r.floats(2 * int((~two).sum())).reshape(-1, 2)
+    m.edge_rep_uv = np.zeros((q, 8))
+    on = (kind == RepKind.ON_SURFACE) | closed
+    m.edge_rep_uv[on, :4] = r.floats(4 * int(on.sum())).reshape(-1, 4)
+    m.edge_rep_uv[closed, 4:] = r.floats(4 * int(closed.sum())).reshape(-1, 4)
+    r.done()
+
+
+def _write_faces(m: BRepModel) -> bytes:
+    w = BlockWriter()
+    w.ints(m.face_surface)
+    w.ints(m.face_loc)
+    w.floats(m.face_tol)
+    w.ints(m.face_natural.astype(np.int64))
+    return bytes(w)
+
+
+def _read_faces(data: bytes, m: BRepModel) -> None:
+    r = BlockReader(data, "FACE")
+    m.face_surface = r.ints()
+    nf = len(m.face_surface)
+    m.face_loc = r.ints(nf)
+    m.face_tol = r.floats(nf)
+    m.face_natural = r.ints(nf).astype(bool)
+    r.done()
+
+
+# ---------------------------------------------------------------- whole model
+
+
+def model_to_sections(m: BRepModel, meta: dict[str, Any]) -> list[tuple[str, bytes]]:
+    """The sections of a container holding ``m`` exactly."""
+    meta = {**meta, "unit": m.unit, "source_format": m.source_format}
+    return [
+        ("META", json.dumps(meta, sort_keys=True, separators=(",", ":")).encode()),
+        ("LOCS", _write_locations(m)),
+        ("SURF", _write_geometry(m.surfaces, 3)),
+        ("CRV3", _write_geometry(m.curves3d, 3)),
+        ("CRV2", _write_geometry(m.curves2d, 2)),
+        ("SHAP", _write_shapes(m)),
+        ("VERT", _write_vertices(m)),
+        ("EDGE", _write_edges(m)),
+        ("FACE", _write_faces(m)),
+    ]
+
+
+def read_meta(raw: bytes) -> dict[str, Any]:
+    try:
+        meta = json.loads(raw.decode("utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError):
+        raise CorruptError("META section is not valid JSON") from None
+    if not isinstance(meta, dict):
+        raise CorruptError("META section is not a JSON object")
+    return meta
+
+
+def sections_to_model(get: Any) -> tuple[BRepModel, dict[str, Any]]:
+    """Rebuild a model from a section lookup ``get(tag) -> bytes``; check every reference."""
+    meta = read_meta(get("META"))
+    m = BRepModel()
+    m.unit = str(meta.get("unit", "MM"))
+    m.source_format = str(meta.get("source_format", "STEP"))
+    _read_locations(get("LOCS"), m)
+    m.surfaces = _read_geometry(get("SURF"), "SURF", 3)
+    m.curves3d = _read_geometry(get("CRV3"), "CRV3", 3)
+    m.curves2d = _read_geometry(get("CRV2"), "CRV2", 2)
+    _read_shapes(get("SHAP"), m)
+    _read_vertices(get("VERT"), m)
+    _read_edges(get("EDGE"), m)
+    _read_faces(get("FACE"), m)
+    check_references(m)
+    return m, meta
+
+
+def check_references(m: BRepModel) -> None:
+    """Raise ``CorruptError`` unless every index in ``m`` points into its table."""
+    ns, n3, n2, nl = len(m.surfaces), len(m.curves3d), len(m.curves2d), len(m.locations)
+    counts = m.counts()
+
+    def within(a: np.ndarray, lo: int, hi: int, what: str) -> None:
+        if len(a) and (a.min() < lo or a.max() >= hi):
+            raise CorruptError(f"{what} refers to a missing entry")
+
+    for g in m.surfaces:
+        if isinstance(g, Derived):
+            if g.kind in _SWEPT:
+                within(np.array([g.basis]), 0, n3, "a swept surface")
+    for table, n in ((m.curves3d, n3), (m.curves2d, n2)):
+        for g in table:
+            if isinstance(g, Derived):
+                within(np.array([g.basis]), 0, n, "a derived curve")
+    within(m.child_loc, 0, nl, "a sub-shape location")
+    within(np.array([m.root_loc]), 0, nl, "the root location")
+    if len(m.vertex_tol) != counts["vertex"] or len(m.edge_tol) != counts["edge"]:
+        raise CorruptError("vertex or edge table does not match the shapes table")
+    if len(m.face_surface) != counts["face"]:
+        raise CorruptError("face table does not match the shapes table")
+    within(m.face_surface, 0, ns, "a face surface")
+    within(m.face_loc, 0, nl, "a face location")
+    reps = m.edge_reps
+    kind = reps[:, 1]
+    two = kind == RepKind.ON_TWO_SURFACES
+    c3 = kind == RepKind.CURVE3D
+    within(reps[c3, 2], -1, n3, "an edge curve")
+    within(reps[~two & ~c3, 2], 0, n2, "an edge pcurve")
+    within(reps[kind == RepKind.ON_CLOSED_SURFACE, 3], 0, n2, "a seam pcurve")
+    within(reps[~c3, 4], 0, ns, "an edge surface")
+    within(reps[two, 5], 0, ns, "an edge surface")
+    within(reps[:, 6], 0, nl, "an edge location")
+    within(reps[two, 7], 0, nl, "an edge location")
+    within(m.edge_rep_cont, 0, 7, "a continuity")
+    vr = m.vertex_reps
+    within(vr[:, 1], 0, 3, "a vertex representation kind")
+    within(vr[vr[:, 1] == 0, 2], 0, n3, "a vertex curve")
+    within(vr[vr[:, 1] == 1, 2], 0, n2, "a vertex pcurve")
+    within(vr[vr[:, 1] > 0, 3], 0, ns, "a vertex surface")
+    within(vr[:, 4], 0, nl, "a vertex location")
+    types = m.shape_type
+    within(types, 0, 8, "a shape type")
