@@ -232,16 +232,20 @@ class BRepModel:
     child_shape, child_orient, child_loc : ndarray, shape (C,)
     vertex_point : ndarray, shape (V, 3)
     vertex_tol : ndarray, shape (V,)
-    vertex_reps : ndarray, shape (R, 6)
-        Rows (vertex, PointRepKind, geometry, surface, location, 0) ...
+    vertex_reps : ndarray of int64, shape (R, 5)
+        Rows (vertex, PointRepKind, curve or pcurve, surface, location), grouped
+        by vertex in the order of the vertex's representation list.
     vertex_rep_params : ndarray, shape (R, 2)
+        The curve parameter, or the surface (u, v).
     edge_tol : ndarray, shape (E,)
     edge_flags : ndarray of uint8, shape (E,)
         Bit 0 degenerated, bit 1 same parameter, bit 2 same range.
     edge_reps : ndarray of int64, shape (Q, 8)
-        Rows (edge, RepKind, curve, curve2, surface, surface2, location, location2,
-        continuity) without the trailing continuity -> see ``edge_rep_cont``.
+        Rows (edge, RepKind, curve, curve2, surface, surface2, location, location2),
+        grouped by edge in the order of the edge's representation list; -1
+        where a column does not apply (and for a degenerated edge's null curve).
     edge_rep_cont : ndarray of uint8, shape (Q,)
+        ``GeomAbs_Shape`` continuity of seam and two-surface representations.
     edge_rep_range : ndarray, shape (Q, 2)
     edge_rep_uv : ndarray, shape (Q, 8)
         UV end points of the first and (seam) second pcurve.
@@ -302,3 +306,61 @@ class BRepModel:
     def counts(self) -> dict[str, int]:
         """Number of distinct shapes of each type."""
         return {t.name.lower(): int((self.shape_type == t).sum()) for t in ShapeType}
+
+
+_ARRAY_FIELDS = (
+    "datums",
+    "datum_forms",
+    "shape_type",
+    "shape_flags",
+    "child_start",
+    "child_shape",
+    "child_orient",
+    "child_loc",
+    "vertex_point",
+    "vertex_tol",
+    "vertex_reps",
+    "vertex_rep_params",
+    "edge_tol",
+    "edge_flags",
+    "edge_reps",
+    "edge_rep_cont",
+    "edge_rep_range",
+    "edge_rep_uv",
+    "face_surface",
+    "face_loc",
+    "face_tol",
+    "face_natural",
+)
+
+
+def _same(a: object, b: object) -> bool:
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        if not (isinstance(a, np.ndarray) and isinstance(b, np.ndarray)):
+            return False
+        return a.shape == b.shape and a.astype(b.dtype).tobytes() == b.tobytes()
+    return a == b
+
+
+def differences(a: BRepModel, b: BRepModel) -> list[str]:
+    """Names of the parts in which two models differ, bit for bit; empty if equal."""
+    out = [f for f in _ARRAY_FIELDS if not _same(getattr(a, f), getattr(b, f))]
+    for f in ("root_shape", "root_orient", "root_loc", "unit", "source_format"):
+        if getattr(a, f) != getattr(b, f):
+            out.append(f)
+    if [(x.datums, x.powers) for x in a.locations] != [(x.datums, x.powers) for x in b.locations]:
+        out.append("locations")
+    for name in ("surfaces", "curves3d", "curves2d"):
+        ta, tb = getattr(a, name), getattr(b, name)
+        if len(ta) != len(tb):
+            out.append(f"{name}: {len(ta)} != {len(tb)} records")
+            continue
+        bad = [
+            i
+            for i, (x, y) in enumerate(zip(ta, tb))
+            if type(x) is not type(y)
+            or any(not _same(v, getattr(y, k)) for k, v in vars(x).items())
+        ]
+        if bad:
+            out.append(f"{name}: {len(bad)} records differ (first {bad[0]})")
+    return out

@@ -4,7 +4,7 @@ Everything that touches OCCT lives in this package; the rest of nurbscomp works
 on the plain numpy data of :mod:`nurbscomp.model`.
 """
 
-from .files import UNITS_MM, CadFile, bintools_bytes, read_cad, write_shape
+from .files import UNITS_MM, CadFile, bintools_bytes, output_format, read_cad, write_shape
 from .measure import counts, deviation, faces, free_edges, is_valid
 from .topology import model_to_shape, shape_to_model
 
@@ -18,6 +18,7 @@ __all__ = [
     "free_edges",
     "is_valid",
     "model_to_shape",
+    "output_format",
     "read_cad",
     "shape_to_model",
     "write_shape",

@@ -9,6 +9,7 @@ back in it.
 from __future__ import annotations
 
 import os
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -175,40 +176,42 @@ def _step_losses(path: Path) -> list[str]:
     """Name what the STEP file holds that the container does not keep."""
     data = path.read_bytes()
     found = sorted({what for marker, what in _STEP_MARKERS.items() if marker in data})
-    names = b"PRODUCT(" in data
-    if names:
+    if re.search(rb"PRODUCT\s*\(\s*'[^']", data):
         found.append("names")
     if not found:
         return []
     return [f"not stored: {', '.join(found)} (geometry and topology only)"]
 
 
-def _atomic_target(path: Path) -> None:
-    if not path.parent.exists():
-        raise OutputError("output folder does not exist")
+def output_format(path: str | os.PathLike[str]) -> str:
+    """``"STEP"`` (the default), ``"IGES"`` or ``"BREP"``, by the file's extension."""
+    suffix = Path(path).suffix.lower()
+    if suffix in BREP_SUFFIXES:
+        return "BREP"
+    if suffix in IGES_SUFFIXES:
+        return "IGES"
+    return "STEP"
 
 
-def write_shape(shape: Any, path: str | os.PathLike[str], unit: str = "MM") -> None:
-    """Write a shape to STEP, IGES or BREP, chosen by the file's extension.
+def write_shape(shape: Any, path: str | os.PathLike[str], fmt: str, unit: str = "MM") -> None:
+    """Write a shape to STEP, IGES or BREP.
 
     Parameters
     ----------
     shape : TopoDS_Shape
         In millimetres.
     path : path
-        ``.step``/``.stp`` (the default for any other extension), ``.igs``/
-        ``.iges``, or ``.brep``.
+    fmt : str
+        ``"STEP"``, ``"IGES"`` or ``"BREP"`` (see ``output_format``).
     unit : str
         A key of ``UNITS_MM``: the length unit written to the file.
     """
     p = Path(path)
-    _atomic_target(p)
-    suffix = p.suffix.lower()
-    if suffix in BREP_SUFFIXES:
+    if fmt == "BREP":
         if not BRepTools.Write_s(shape, str(p)):
             raise OutputError("cannot write BREP")
         return
-    if suffix in IGES_SUFFIXES:
+    if fmt == "IGES":
         w = IGESControl_Writer("IN" if unit == "INCH" else unit, 1)
         if not w.AddShape(shape):
             raise OutputError("the IGES writer refused the shape")

@@ -1,0 +1,286 @@
+"""The stages wired together: compress, decompress, info, test.
+
+Each function takes paths and options and returns a report (a plain dict that
+the CLI prints as text or JSON).  Outputs are written to a temporary file in
+the target folder and renamed into place only when complete, so a failure or
+an interrupt leaves nothing behind.
+"""
+
+from __future__ import annotations
+
+import collections
+import contextlib
+import os
+import tempfile
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+from . import __version__, container, occ, serialize
+from .errors import FormatError, InputError, NurbscompError, OutputError, VerifyError
+from .model import BRepModel, Derived, Kind, differences
+
+DEFAULT_TOL_MM = 0.01
+SUFFIX = ".nzc"
+
+
+# ---------------------------------------------------------------- output paths
+
+
+def default_compressed_name(src: Path) -> Path:
+    """``part.step`` -> ``part.step.nzc``."""
+    return src.with_name(src.name + SUFFIX)
+
+
+def default_decompressed_name(src: Path) -> Path:
+    """``part.step.nzc`` -> ``part.step``; ``part.nzc`` -> ``part.step``."""
+    if src.name.endswith(SUFFIX):
+        stem = Path(src.name[: -len(SUFFIX)])
+        if stem.suffix.lower() in (".step", ".stp", ".igs", ".iges", ".brep", ".p21"):
+            return src.with_name(stem.name)
+        return src.with_name(stem.name + ".step")
+    return src.with_name(src.name + ".step")
+
+
+@contextlib.contextmanager
+def atomic_output(dst: Path, force: bool) -> Iterator[Path]:
+    """Yield a temporary path beside ``dst``; rename it to ``dst`` on success.
+
+    Raises
+    ------
+    OutputError
+        ``dst`` exists and ``force`` is not set, or its folder does not exist.
+    """
+    if dst.exists() and not force:
+        raise OutputError(f"{dst} already exists (use --force to overwrite)")
+    if dst.is_dir():
+        raise OutputError(f"{dst} is a directory")
+    folder = dst.parent if str(dst.parent) else Path(".")
+    if not folder.is_dir():
+        raise OutputError(f"output folder {folder} does not exist")
+    fd, tmp = tempfile.mkstemp(prefix=f".{dst.name}.", suffix=".tmp", dir=folder)
+    os.close(fd)
+    try:
+        yield Path(tmp)
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; outputs get the usual mode
+        os.replace(tmp, dst)
+    finally:
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(tmp)
+
+
+# ---------------------------------------------------------------- reading containers
+
+
+def read_container(path: Path) -> container.Container:
+    """Read and check a ``.nzc`` file.
+
+    Raises
+    ------
+    InputError
+        The file is missing or is a folder.
+    FormatError
+        The bytes are not a valid container.
+    """
+    if not path.exists():
+        raise InputError("no such file")
+    if path.is_dir():
+        raise InputError("is a directory")
+    try:
+        data = path.read_bytes()
+    except OSError as e:
+        raise InputError(e.strerror or str(e)) from None
+    return container.unpack(data)
+
+
+def decode(c: container.Container) -> tuple[BRepModel, dict[str, Any]]:
+    """The model and metadata a checked container holds."""
+    return serialize.sections_to_model(c.get)
+
+
+def build(m: BRepModel) -> Any:
+    """The OCCT shape of a model, turning any OCCT failure into a ``FormatError``."""
+    try:
+        return occ.model_to_shape(m)
+    except NurbscompError:
+        raise
+    except Exception as e:  # OCCT raises Standard_Failure subclasses on bad data
+        raise FormatError(f"container does not rebuild into a shape ({type(e).__name__}: {e})")
+
+
+def decode_file(path: str | os.PathLike[str]) -> tuple[Any, BRepModel, dict[str, Any]]:
+    """Decode a ``.nzc`` file into an in-memory shape (millimetres)."""
+    m, meta = decode(read_container(Path(path)))
+    return build(m), m, meta
+
+
+# ---------------------------------------------------------------- compress
+
+
+def faces_by_type(m: BRepModel) -> dict[str, int]:
+    """Faces counted by the kind of their surface (a trimmed surface by its basis)."""
+    out: collections.Counter[str] = collections.Counter()
+    for s in m.face_surface.tolist():
+        g = m.surfaces[s]
+        while isinstance(g, Derived) and g.kind in (Kind.TRIMMED_SURFACE, Kind.OFFSET_SURFACE):
+            g = m.surfaces[g.basis]
+        out[g.kind.name.lower()] += 1
+    return dict(sorted(out.items()))
+
+
+def compress_file(
+    src: str | os.PathLike[str],
+    dst: str | os.PathLike[str] | None = None,
+    *,
+    tol: float | None = DEFAULT_TOL_MM,
+    lossless: bool = False,
+    force: bool = False,
+    verify: bool = True,
+) -> dict[str, Any]:
+    """Compress a STEP/IGES file into a ``.nzc`` container.
+
+    Parameters
+    ----------
+    tol : float
+        Tolerance in mm.  Until the lossy codec lands every mode stores the
+        geometry exactly; the tolerance is recorded.
+    lossless : bool
+        Store every number bit for bit (the container says so).
+    verify : bool
+        Decode what was written and check it against what was encoded before
+        renaming the output into place.
+    """
+    t0 = time.perf_counter()
+    src_p = Path(src)
+    dst_p = Path(dst) if dst is not None else default_compressed_name(src_p)
+    if dst_p.exists() and not force:
+        raise OutputError(f"{dst_p} already exists (use --force to overwrite)")
+    try:
+        cad = occ.read_cad(src_p)
+    except NurbscompError:
+        raise
+    except Exception as e:
+        raise InputError(f"OCCT failed to read the file ({type(e).__name__}: {e})") from None
+    t_read = time.perf_counter() - t0
+    m, warnings = occ.shape_to_model(cad.shape)
+    m.unit, m.source_format = cad.unit, cad.source_format
+    meta = {
+        "mode": "lossless" if lossless else "tolerance",
+        "tolerance_mm": None if lossless else tol,
+        "source_name": src_p.name,
+        "source_bytes": src_p.stat().st_size,
+        "writer": f"nurbscomp {__version__}",
+    }
+    data = container.pack(serialize.model_to_sections(m, meta), container.FLAG_LOSSLESS)
+    verified = False
+    with atomic_output(dst_p, force) as tmp:
+        tmp.write_bytes(data)
+        if verify:
+            back, _ = decode(read_container(tmp))
+            diff = differences(m, back)
+            if diff:
+                raise VerifyError(f"decoded container differs from the input: {', '.join(diff)}")
+            if occ.counts(build(back)) != occ.counts(cad.shape):
+                raise VerifyError("decoded shape has other topology counts than the input")
+            verified = True
+    seconds = time.perf_counter() - t0
+    return {
+        "command": "compress",
+        "input": str(src_p),
+        "output": str(dst_p),
+        "input_bytes": meta["source_bytes"],
+        "output_bytes": len(data),
+        "ratio": meta["source_bytes"] / len(data),
+        "mode": meta["mode"],
+        "tolerance_mm": meta["tolerance_mm"],
+        "geometry": "exact",
+        "unit": m.unit,
+        "source_format": m.source_format,
+        "counts": occ.counts(cad.shape),
+        "faces_by_type": faces_by_type(m),
+        "verified": verified,
+        "seconds": seconds,
+        "read_seconds": t_read,
+        "warnings": [*cad.warnings, *warnings],
+    }
+
+
+# ---------------------------------------------------------------- decompress, info, test
+
+
+def decompress_file(
+    src: str | os.PathLike[str],
+    dst: str | os.PathLike[str] | None = None,
+    *,
+    force: bool = False,
+) -> dict[str, Any]:
+    """Decode a ``.nzc`` container and write STEP, IGES or BREP (by extension)."""
+    t0 = time.perf_counter()
+    src_p = Path(src)
+    dst_p = Path(dst) if dst is not None else default_decompressed_name(src_p)
+    if dst_p.exists() and not force:
+        raise OutputError(f"{dst_p} already exists (use --force to overwrite)")
+    shape, m, meta = decode_file(src_p)
+    fmt = occ.output_format(dst_p)
+    with atomic_output(dst_p, force) as tmp:
+        occ.write_shape(shape, tmp, fmt, m.unit)
+        size = tmp.stat().st_size
+    return {
+        "command": "decompress",
+        "input": str(src_p),
+        "output": str(dst_p),
+        "format": fmt,
+        "unit": m.unit,
+        "output_bytes": size,
+        "counts": occ.counts(shape),
+        "seconds": time.perf_counter() - t0,
+    }
+
+
+def info(src: str | os.PathLike[str]) -> dict[str, Any]:
+    """What a container holds: version, mode, unit, counts, bytes per section."""
+    p = Path(src)
+    c = read_container(p)
+    m, meta = decode(c)
+    return {
+        "command": "info",
+        "input": str(p),
+        "format_version": f"{c.major}.{c.minor}",
+        "lossless": bool(c.flags & container.FLAG_LOSSLESS),
+        "mode": meta.get("mode"),
+        "tolerance_mm": meta.get("tolerance_mm"),
+        "unit": m.unit,
+        "source_format": m.source_format,
+        "source_name": meta.get("source_name"),
+        "source_bytes": meta.get("source_bytes"),
+        "writer": meta.get("writer"),
+        "file_bytes": p.stat().st_size,
+        "coder": container.entropy.Coder(c.coder).name.lower()
+        if c.coder in iter(container.entropy.Coder)
+        else c.coder,
+        "body_stored_bytes": c.stored_length,
+        "section_raw_bytes": {s.tag: len(s.raw) for s in c.sections},
+        "shapes": m.counts(),
+        "faces_by_type": faces_by_type(m),
+        "geometry": {
+            "surfaces": len(m.surfaces),
+            "curves3d": len(m.curves3d),
+            "curves2d": len(m.curves2d),
+        },
+    }
+
+
+def test_file(src: str | os.PathLike[str]) -> dict[str, Any]:
+    """Integrity check, like ``xz -t``: every checksum, every reference, a full rebuild."""
+    p = Path(src)
+    shape, m, _ = decode_file(p)
+    return {
+        "command": "test",
+        "input": str(p),
+        "ok": True,
+        "faces": len(m.face_surface),
+        "counts": occ.counts(shape),
+    }

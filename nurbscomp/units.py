@@ -1,0 +1,45 @@
+"""Lengths with unit suffixes, for ``--tol``: ``0.01``, ``10um``, ``0.0004in``."""
+
+from __future__ import annotations
+
+import math
+import re
+
+#: Suffix -> millimetres.  A bare number is in millimetres.
+SUFFIX_MM = {
+    "": 1.0,
+    "mm": 1.0,
+    "um": 1e-3,
+    "µm": 1e-3,
+    "micron": 1e-3,
+    "nm": 1e-6,
+    "cm": 10.0,
+    "m": 1000.0,
+    "in": 25.4,
+    "inch": 25.4,
+    '"': 25.4,
+    "mil": 0.0254,
+    "thou": 0.0254,
+    "ft": 304.8,
+}
+
+_RE = re.compile(r"^\s*([0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)\s*([a-zA-Zµ\"]*)\s*$")
+
+
+def parse_length(text: str) -> float:
+    """A positive length in millimetres.
+
+    Raises
+    ------
+    ValueError
+        With a message that lists the accepted suffixes.
+    """
+    m = _RE.match(text)
+    unit = m.group(2).lower() if m else None
+    if not m or unit not in SUFFIX_MM:
+        units = ", ".join(k for k in SUFFIX_MM if k)
+        raise ValueError(f"{text!r} is not a length (a number, optionally followed by {units})")
+    value = float(m.group(1)) * SUFFIX_MM[unit]
+    if not math.isfinite(value) or value <= 0:
+        raise ValueError(f"{text!r} must be a positive length")
+    return value

@@ -1,0 +1,31 @@
+"""Shared fixtures: the corpus (read in place from ../shared/corpus) and the samples."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+CORPUS = ROOT.parent / "shared" / "corpus"
+SAMPLES = ROOT / "samples"
+CAD_SUFFIXES = (".step", ".stp", ".igs", ".iges")
+
+
+def corpus_files() -> list[Path]:
+    """Every CAD file of the corpus (teapot.bpt is raw data, not CAD)."""
+    assert CORPUS.is_dir(), f"corpus folder missing: {CORPUS}"
+    files = sorted(p for p in CORPUS.iterdir() if p.suffix.lower() in CAD_SUFFIXES)
+    assert files, "no CAD files in the corpus"
+    return files
+
+
+def sample_files() -> list[Path]:
+    files = sorted(SAMPLES.glob("*.step"))
+    assert len(files) >= 4, "samples/*.step missing: run `make samples`"
+    return files
+
+
+@pytest.fixture(scope="session")
+def small_step() -> Path:
+    return SAMPLES / "bracket.step"

@@ -1,0 +1,105 @@
+"""Lossless round trips through the model and the container, on samples and corpus.
+
+The deviation check is independent of the codec: it samples points inside each
+original face and measures their distance to the decoded face of the same index.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from nurbscomp import container, occ, pipeline, serialize
+from nurbscomp.model import differences
+
+from .conftest import corpus_files, sample_files
+
+
+def _model(path: Path):
+    cad = occ.read_cad(path)
+    m, _ = occ.shape_to_model(cad.shape)
+    m.unit, m.source_format = cad.unit, cad.source_format
+    return cad, m
+
+
+@pytest.mark.parametrize("path", sample_files(), ids=lambda p: p.name)
+def test_model_round_trip_is_exact(path: Path) -> None:
+    cad, m = _model(path)
+    rebuilt = occ.model_to_shape(m)
+    again, _ = occ.shape_to_model(rebuilt)
+    again.unit, again.source_format = m.unit, m.source_format
+    assert differences(m, again) == [] or all(d.startswith(("surfaces", "curves")) for d in differences(m, again))
+    assert occ.counts(rebuilt) == occ.counts(cad.shape)
+    assert occ.is_valid(rebuilt)
+
+
+@pytest.mark.parametrize("path", sample_files(), ids=lambda p: p.name)
+def test_container_round_trip_of_model_is_exact(path: Path) -> None:
+    _, m = _model(path)
+    data = container.pack(serialize.model_to_sections(m, {"x": 1}))
+    back, meta = serialize.sections_to_model(container.unpack(data).get)
+    assert differences(m, back) == []
+    assert meta["x"] == 1
+
+
+def _check_lossless(path: Path, tmp_path: Path) -> dict:
+    """Compress losslessly, decode in memory and to .brep; compare with the input."""
+    cad = occ.read_cad(path)
+    nzc = tmp_path / (path.name + ".nzc")
+    report = pipeline.compress_file(path, nzc, lossless=True)
+    assert report["verified"]
+    shape, m, _ = pipeline.decode_file(nzc)
+    src_model, _ = occ.shape_to_model(cad.shape)
+    # same numbers, bit for bit, except analytic frames that OCCT's gp
+    # constructors re-normalise (at most a few ulp: see docs/format.md)
+    diff = [d for d in differences(src_model, m) if d not in ("unit", "source_format")]
+    assert diff == [] or all(d.startswith(("surfaces", "curves3d", "curves2d")) for d in diff), diff
+    assert occ.counts(shape) == occ.counts(cad.shape)
+    assert [f.TShape() is not None for f in occ.faces(shape)]
+    dev = occ.deviation(cad.shape, shape, n=4)
+    assert dev.max() <= 1e-9, f"max deviation {dev.max()}"
+    if occ.is_valid(cad.shape):
+        assert occ.is_valid(shape)
+    brep = tmp_path / "out.brep"
+    pipeline.decompress_file(nzc, brep)
+    from OCP.BRep import BRep_Builder
+    from OCP.BRepTools import BRepTools
+    from OCP.TopoDS import TopoDS_Shape
+
+    back = TopoDS_Shape()
+    assert BRepTools.Read_s(back, str(brep), BRep_Builder())
+    assert occ.counts(back) == occ.counts(cad.shape)
+    return report
+
+
+@pytest.mark.parametrize("path", sample_files(), ids=lambda p: p.name)
+def test_lossless_samples(path: Path, tmp_path: Path) -> None:
+    _check_lossless(path, tmp_path)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("path", corpus_files(), ids=lambda p: p.name)
+def test_lossless_corpus(path: Path, tmp_path: Path) -> None:
+    _check_lossless(path, tmp_path)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("path", corpus_files(), ids=lambda p: p.name)
+def test_step_output_keeps_what_occt_keeps(path: Path, tmp_path: Path) -> None:
+    """Decompressed to STEP and read back, the file keeps what OCCT's own round trip keeps."""
+    cad = occ.read_cad(path)
+    floor_file = tmp_path / "floor.step"
+    occ.write_shape(cad.shape, floor_file, "STEP", cad.unit)
+    floor = occ.read_cad(floor_file).shape
+    nzc = tmp_path / "x.nzc"
+    pipeline.compress_file(path, nzc, lossless=True)
+    out = tmp_path / "out.step"
+    pipeline.decompress_file(nzc, out)
+    ours = occ.read_cad(out).shape
+    assert occ.counts(ours) == occ.counts(floor)
+    if occ.is_valid(floor):
+        assert occ.is_valid(ours)
+    if occ.counts(ours) == occ.counts(cad.shape):
+        dev = occ.deviation(cad.shape, ours, n=4, tol=1e-9)
+        assert dev.max() <= 1e-9, f"max deviation {dev.max()}"
