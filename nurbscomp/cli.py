@@ -11,7 +11,6 @@ import json
 import sys
 import traceback
 from collections.abc import Callable
-from pathlib import Path
 from typing import Any
 
 import click
@@ -39,9 +38,7 @@ class _State:
         self.failed = False
 
 
-def _run(
-    state: _State, path: str, fn: Callable[[], dict[str, Any]]
-) -> dict[str, Any] | None:
+def _run(state: _State, path: str, fn: Callable[[], dict[str, Any]]) -> dict[str, Any] | None:
     """Run one file's work; turn any failure into one ``error:`` line."""
     try:
         return fn()
@@ -93,7 +90,9 @@ def _outputs(files: tuple[str, ...], output: str | None) -> list[str | None]:
     return [output] if output is not None else [None] * len(files)
 
 
-def _emit(reports: list[dict[str, Any]], as_json: bool, text: Callable[[dict[str, Any]], str]) -> None:
+def _emit(
+    reports: list[dict[str, Any]], as_json: bool, text: Callable[[dict[str, Any]], str]
+) -> None:
     for r in reports:
         click.echo(json.dumps(r, sort_keys=True) if as_json else text(r))
 
@@ -189,7 +188,9 @@ def _compress_text(r: dict[str, Any], verbose: bool) -> str:
 
 @cli.command()
 @click.argument("files", nargs=-1, required=True, type=click.Path())
-@click.option("-o", "--output", type=click.Path(), help="Output file: .step (default), .igs, .brep.")
+@click.option(
+    "-o", "--output", type=click.Path(), help="Output file: .step (default), .igs, .brep."
+)
 @click.option("-f", "--force", is_flag=True, help="Overwrite existing outputs.")
 @click.option("--json", "as_json", is_flag=True, help="One JSON report per file on stdout.")
 @click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
@@ -206,14 +207,17 @@ def decompress(
 ) -> None:
     """Decode .nzc FILES back to STEP (or IGES/BREP by the -o extension)."""
     reports = []
-    with _progress(list(zip(files, _outputs(files, output))), quiet or as_json, "decompress") as bar:
+    with _progress(
+        list(zip(files, _outputs(files, output))), quiet or as_json, "decompress"
+    ) as bar:
         for f, o in bar:
             r = _run(state, f, lambda f=f, o=o: pipeline.decompress_file(f, o, force=force))
             if r is None:
                 continue
             reports.append(r)
             if not as_json and not quiet:
-                line = f"{r['input']} -> {r['output']}: {r['format']} in {r['unit']}, {r['seconds']:.2f} s"
+                line = f"{r['input']} -> {r['output']}: {r['format']} in {r['unit']}"
+                line += f", {r['seconds']:.2f} s"
                 if verbose:
                     line += f"\n  {_fmt_counts(r['counts'])}"
                 click.echo(line)
@@ -239,7 +243,8 @@ def info(state: _State, file: str, as_json: bool) -> None:
         f"file:        {r['input']} ({r['file_bytes']} bytes)",
         f"format:      .nzc {r['format_version']}, body coded with {r['coder']}",
         f"mode:        {mode}",
-        f"source:      {r['source_name']} ({r['source_format']}, {r['source_bytes']} bytes, unit {r['unit']})",
+        f"source:      {r['source_name']} ({r['source_format']}, "
+        f"{r['source_bytes']} bytes, unit {r['unit']})",
         f"ratio:       {r['source_bytes'] / r['file_bytes']:.1f}x",
         f"shapes:      {_fmt_counts(r['shapes'])}",
         "faces:       " + ", ".join(f"{v} {k}" for k, v in r["faces_by_type"].items()),

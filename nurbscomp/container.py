@@ -108,7 +108,9 @@ def unpack(data: bytes) -> Container:
     if crc != zlib.crc32(data[: _HEADER.size]):
         raise ChecksumError("header checksum mismatch at offset 12")
     if major != MAJOR:
-        raise VersionError(f"format version {major}.{minor} is not supported (this reads {MAJOR}.x)")
+        raise VersionError(
+            f"format version {major}.{minor} is not supported (this reads {MAJOR}.x)"
+        )
     if flags & ~_KNOWN_FLAGS or reserved:
         raise FormatError("reserved header bits are set at offset 6")
     pos = _HEADER.size + 4
@@ -124,11 +126,15 @@ def unpack(data: bytes) -> Container:
             f"body at offset {start} declares {stored_len} bytes, {len(data) - start} remain"
         )
     if start + stored_len != len(data):
-        raise CorruptError(f"{len(data) - start - stored_len} unexpected bytes at offset {start + stored_len}")
+        raise CorruptError(
+            f"{len(data) - start - stored_len} unexpected bytes at offset {start + stored_len}"
+        )
     stored = data[start:]
     d = data[pos:dir_end]
     if crc != zlib.crc32(stored, zlib.crc32(data[body_at : body_at + _BODY.size], zlib.crc32(d))):
-        raise ChecksumError(f"body checksum mismatch (directory at offset {pos}, body at {body_at})")
+        raise ChecksumError(
+            f"body checksum mismatch (directory at offset {pos}, body at {body_at})"
+        )
     if res != b"\0\0\0":
         raise FormatError(f"reserved body bytes are set at offset {body_at + 1}")
     entries = [_ENTRY.unpack_from(data, pos + i * _ENTRY.size) for i in range(nsec)]
@@ -143,7 +149,9 @@ def unpack(data: bytes) -> Container:
         raw = body[at : at + n]
         at += n
         if zlib.crc32(raw) != scrc:
-            raise ChecksumError(f"section {i} checksum mismatch (entry at offset {pos + i * _ENTRY.size})")
+            raise ChecksumError(
+                f"section {i} checksum mismatch (entry at offset {pos + i * _ENTRY.size})"
+            )
         try:
             tag = tb.decode("ascii")
         except UnicodeDecodeError:

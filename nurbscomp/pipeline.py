@@ -108,7 +108,9 @@ def build(m: BRepModel) -> Any:
     except NurbscompError:
         raise
     except Exception as e:  # OCCT raises Standard_Failure subclasses on bad data
-        raise FormatError(f"container does not rebuild into a shape ({type(e).__name__}: {e})")
+        raise FormatError(
+            f"container does not rebuild into a shape ({type(e).__name__}: {e})"
+        ) from None
 
 
 def decode_file(path: str | os.PathLike[str]) -> tuple[Any, BRepModel, dict[str, Any]]:

@@ -146,7 +146,9 @@ class _Cursor:
 def _read_geometry(data: bytes, tag: str, dim: int) -> list[Geometry]:
     r = BlockReader(data, tag)
     kinds = r.ints()
-    copies, hdr, basis, mults = (_Cursor(r.ints(), f"{tag} {n}") for n in ("copy", "hdr", "basis", "mults"))
+    copies, hdr, basis, mults = (
+        _Cursor(r.ints(), f"{tag} {n}") for n in ("copy", "hdr", "basis", "mults")
+    )
     frames, params, poles, weights, knots = (
         _Cursor(r.floats(), f"{tag} {n}") for n in ("frame", "param", "pole", "weight", "knot")
     )
@@ -195,7 +197,9 @@ def _read_geometry(data: bytes, tag: str, dim: int) -> list[Geometry]:
             p = poles.take(nu * nv * 3).reshape(nu, nv, 3)
             wts = weights.take(nu * nv).reshape(nu, nv) if flags & 1 else None
             out.append(
-                BSplineSurface(p, wts, uk, vk, um, vm, ud, vd, bool(flags & 2), bool(flags & 4), bez)
+                BSplineSurface(
+                    p, wts, uk, vk, um, vm, ud, vd, bool(flags & 2), bool(flags & 4), bez
+                )
             )
         else:  # BSPLINE_CURVE / BEZIER_CURVE
             n, flags = hdr.one(), hdr.one()

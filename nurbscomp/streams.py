@@ -106,4 +106,6 @@ class BlockReader:
 
     def done(self) -> None:
         if self._pos != len(self._data):
-            raise CorruptError(f"section {self._name} has {len(self._data) - self._pos} extra bytes")
+            raise CorruptError(
+                f"section {self._name} has {len(self._data) - self._pos} extra bytes"
+            )

@@ -75,9 +75,7 @@ from OCP.TopTools import TopTools_IndexedMapOfShape
 SAMPLES_DIR = Path(__file__).resolve().parent
 
 #: Default location of the Newell teapot patch file (outside the repository).
-DEFAULT_TEAPOT_BPT = (
-    SAMPLES_DIR.parent / ".." / "shared" / "corpus" / "teapot-mrep__teapot.bpt"
-)
+DEFAULT_TEAPOT_BPT = SAMPLES_DIR.parent / ".." / "shared" / "corpus" / "teapot-mrep__teapot.bpt"
 
 #: Fixed STEP header time stamp so that the output is reproducible.
 FIXED_TIMESTAMP = "2000-01-01T00:00:00"
@@ -327,9 +325,7 @@ def _section(
         a = 2.0 * math.pi * k / n_points
         r = 1.0 + amp * math.cos(lobes * a + phase)
         points.append(
-            cq.Vector(
-                centre[0] + rx * r * math.cos(a), centre[1] + ry * r * math.sin(a), z
-            )
+            cq.Vector(centre[0] + rx * r * math.cos(a), centre[1] + ry * r * math.sin(a), z)
         )
     return cq.Wire.assembleEdges([cq.Edge.makeSpline(points, periodic=True)])
 
@@ -394,9 +390,7 @@ def make_bracket() -> TopoDS_Shape:
     )
     part = base.union(web)
     # Blend the inner corner between plate and web.
-    part = part.edges(
-        cq.selectors.BoxSelector((-28.5, -30, 4.0), (-27.5, 30, 6.0))
-    ).fillet(3.0)
+    part = part.edges(cq.selectors.BoxSelector((-28.5, -30, 4.0), (-27.5, 30, 6.0))).fillet(3.0)
     # Counterbored holes through the plate (workplane origin at (0, 0, 5)).
     part = (
         part.faces(">Z[-2]")
@@ -406,9 +400,7 @@ def make_bracket() -> TopoDS_Shape:
     )
     # Horizontal hole through the web.
     part = (
-        part.faces("<X")
-        .workplane(centerOption="ProjectedOrigin", origin=(0, 0, 28.0))
-        .hole(10.0)
+        part.faces("<X").workplane(centerOption="ProjectedOrigin", origin=(0, 0, 28.0)).hole(10.0)
     )
     # Rounded rectangular pocket in the underside of the plate.
     pocket = (
@@ -596,9 +588,7 @@ def blob_global_surface(poles: np.ndarray) -> Geom_BSplineSurface:
     for k in range(n_v + 1):
         v_knots.SetValue(k + 1, float(k))
         v_mults.SetValue(k + 1, 4 if k in (0, n_v) else 1)
-    return Geom_BSplineSurface(
-        array, u_knots, v_knots, u_mults, v_mults, 3, 3, True, False
-    )
+    return Geom_BSplineSurface(array, u_knots, v_knots, u_mults, v_mults, 3, 3, True, False)
 
 
 def blob_bezier_net(global_surface: Geom_BSplineSurface) -> np.ndarray:
@@ -721,10 +711,7 @@ def report(path: Path) -> bool:
     valid = BRepCheck_Analyzer(shape).IsValid()
     print(f"{path.name}: {path.stat().st_size} bytes")
     print("  " + ", ".join(f"{k}={v}" for k, v in counts.items()))
-    print(
-        "  surface types: "
-        + ", ".join(f"{k}={v}" for k, v in face_surface_types(shape).items())
-    )
+    print("  surface types: " + ", ".join(f"{k}={v}" for k, v in face_surface_types(shape).items()))
     print(f"  valid (BRepCheck_Analyzer): {valid}")
     return valid
 

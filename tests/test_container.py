@@ -28,7 +28,12 @@ def test_round_trip_is_byte_exact() -> None:
     assert container.pack([(s.tag, s.raw) for s in c.sections], c.flags) == data
 
 
-@given(st.lists(st.tuples(st.text("ABCDEFGHIJ", min_size=4, max_size=4), st.binary(max_size=300)), max_size=5))
+@given(
+    st.lists(
+        st.tuples(st.text("ABCDEFGHIJ", min_size=4, max_size=4), st.binary(max_size=300)),
+        max_size=5,
+    )
+)
 @settings(max_examples=50, deadline=None)
 def test_round_trip_any_sections(sections: list[tuple[str, bytes]]) -> None:
     c = container.unpack(container.pack(sections))

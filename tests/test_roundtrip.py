@@ -29,7 +29,9 @@ def test_model_round_trip_is_exact(path: Path) -> None:
     rebuilt = occ.model_to_shape(m)
     again, _ = occ.shape_to_model(rebuilt)
     again.unit, again.source_format = m.unit, m.source_format
-    assert differences(m, again) == [] or all(d.startswith(("surfaces", "curves")) for d in differences(m, again))
+    assert differences(m, again) == [] or all(
+        d.startswith(("surfaces", "curves")) for d in differences(m, again)
+    )
     assert occ.counts(rebuilt) == occ.counts(cad.shape)
     assert occ.is_valid(rebuilt)
 

@@ -46,7 +46,16 @@ from ..errors import UnsupportedError
 from ..model import BRepModel, Location, PointRepKind, RepKind, ShapeType
 from .geometry import GeometryBuilder, GeometryReader
 
-_FLAG_NAMES = ("Free", "Modified", "Checked", "Orientable", "Closed", "Infinite", "Convex", "Locked")
+_FLAG_NAMES = (
+    "Free",
+    "Modified",
+    "Checked",
+    "Orientable",
+    "Closed",
+    "Infinite",
+    "Convex",
+    "Locked",
+)
 _ORIENT = [TopAbs_Orientation(i) for i in range(4)]
 _CONT = [GeomAbs_Shape(i) for i in range(7)]
 
@@ -111,10 +120,8 @@ class _Reader:
         items = []
         while not loc.IsIdentity():
             d = loc.FirstDatum()
-            for k, obj in enumerate(self.datum_objs):
-                if obj is d:
-                    break
-            else:
+            k = next((i for i, o in enumerate(self.datum_objs) if o is d), -1)
+            if k < 0:
                 k = len(self.datum_objs)
                 self.datum_objs.append(d)
                 t = d.Transformation()
@@ -126,9 +133,7 @@ class _Reader:
         i = self.loc_index.get(key)
         if i is None:
             i = self.loc_index[key] = len(self.locations)
-            self.locations.append(
-                Location(tuple(k for k, _ in items), tuple(p for _, p in items))
-            )
+            self.locations.append(Location(tuple(k for k, _ in items), tuple(p for _, p in items)))
         return i
 
     def shape(self, s: Any) -> int:
@@ -354,9 +359,7 @@ def model_to_shape(m: BRepModel) -> Any:
                     pts.Append(BRep_PointOnCurve(u, geo.curve3d(g), locs[loc]))
                 elif kind == PointRepKind.ON_CURVE_ON_SURFACE:
                     pts.Append(
-                        BRep_PointOnCurveOnSurface(
-                            u, geo.curve2d(g), geo.surface(surf), locs[loc]
-                        )
+                        BRep_PointOnCurveOnSurface(u, geo.curve2d(g), geo.surface(surf), locs[loc])
                     )
                 else:
                     pts.Append(BRep_PointOnSurface(u, v, geo.surface(surf), locs[loc]))

@@ -1,0 +1,158 @@
+"""The command line, through click's CliRunner: outputs, errors, exit codes."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+
+from nurbscomp.cli import cli
+
+from .conftest import SAMPLES
+
+
+@pytest.fixture()
+def work(tmp_path: Path) -> Path:
+    shutil.copy(SAMPLES / "loft.step", tmp_path / "part.step")
+    return tmp_path
+
+
+def run(*args: str) -> tuple[int, str, str]:
+    r = CliRunner().invoke(cli, list(args))
+    return r.exit_code, r.stdout, r.stderr
+
+
+def test_compress_decompress_default_names(work: Path) -> None:
+    code, out, err = run("compress", str(work / "part.step"))
+    assert code == 0, err
+    assert "tolerance 0.01 mm (default" in err
+    assert (work / "part.step.nzc").exists()
+    assert (work / "part.step").exists()  # the input is kept
+    (work / "part.step").rename(work / "orig.step")
+    code, out, err = run("decompress", str(work / "part.step.nzc"))
+    assert code == 0, err
+    assert (work / "part.step").read_bytes().startswith(b"ISO-10303-21;")
+    assert sorted(p.name for p in work.iterdir()) == ["orig.step", "part.step", "part.step.nzc"]
+
+
+def test_existing_output_needs_force(work: Path) -> None:
+    out = work / "x.nzc"
+    out.write_bytes(b"keep me")
+    code, _, err = run("compress", str(work / "part.step"), "-o", str(out))
+    assert code == 1
+    last = err.strip().splitlines()[-1]
+    assert last.startswith(f"error: {work / 'part.step'}: ") and "--force" in last
+    assert out.read_bytes() == b"keep me"
+    code, _, err = run("compress", str(work / "part.step"), "-o", str(out), "--force", "-q")
+    assert code == 0, err
+    assert out.read_bytes()[:4] == b"\x89NZC"
+
+
+def test_json_info_and_test(work: Path) -> None:
+    code, out, err = run("compress", "--lossless", "--json", str(work / "part.step"))
+    assert code == 0, err
+    rep = json.loads(out)
+    assert rep["mode"] == "lossless" and rep["verified"] and rep["counts"]["faces"] == 3
+    code, out, _ = run("info", "--json", str(work / "part.step.nzc"))
+    assert code == 0
+    info = json.loads(out)
+    assert info["lossless"] and info["unit"] == "MM" and info["shapes"]["face"] == 3
+    assert set(info["section_raw_bytes"]) >= {"META", "SURF", "SHAP", "EDGE"}
+    code, out, _ = run("info", str(work / "part.step.nzc"))
+    assert code == 0 and "format:      .nzc 0." in out
+    code, out, _ = run("test", str(work / "part.step.nzc"))
+    assert code == 0 and "OK" in out
+
+
+def test_tol_with_unit_suffix(work: Path) -> None:
+    code, out, err = run("compress", "--tol", "5um", "--json", str(work / "part.step"))
+    assert code == 0, err
+    assert json.loads(out)["tolerance_mm"] == pytest.approx(0.005)
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["compress"],
+        ["compress", "--tol", "fast", "x"],
+        ["compress", "--lossless", "--tol", "1", "x"],
+        ["frobnicate"],
+    ],
+)
+def test_usage_errors_exit_2(args: list[str]) -> None:
+    assert run(*args)[0] == 2
+
+
+def test_output_with_several_inputs_is_usage_error(work: Path) -> None:
+    p = str(work / "part.step")
+    assert run("compress", p, p, "-o", str(work / "a.nzc"))[0] == 2
+
+
+def _assert_clean_failure(work: Path, code: int, err: str, name: str) -> None:
+    assert code == 1
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"error: {name}: "), err
+    assert "Traceback" not in err
+    assert not list(work.glob("*.tmp")) and not list(work.glob(".*.tmp"))
+
+
+@pytest.mark.parametrize(
+    "content, name",
+    [
+        (b"", "empty.step"),
+        (b"garbage\n" * 10, "garbage.step"),
+        (bytes(range(256)) * 8, "noise.igs"),
+        (b"ISO-10303-21;\nHEADER;\nFILE_DESCRIPTION((''),'2;1');\n", "truncated.step"),
+    ],
+)
+def test_bad_cad_input(work: Path, content: bytes, name: str) -> None:
+    (work / name).write_bytes(content)
+    code, _, err = run("compress", "-q", str(work / name))
+    _assert_clean_failure(work, code, err, str(work / name))
+    assert not (work / (name + ".nzc")).exists()
+
+
+def test_missing_file_and_directory(work: Path) -> None:
+    code, _, err = run("compress", "-q", str(work / "nope.step"))
+    _assert_clean_failure(work, code, err, str(work / "nope.step"))
+    code, _, err = run("compress", "-q", str(work))
+    _assert_clean_failure(work, code, err, str(work))
+
+
+def test_damaged_container(work: Path) -> None:
+    assert run("compress", "-q", str(work / "part.step"))[0] == 0
+    data = bytearray((work / "part.step.nzc").read_bytes())
+    for name, bad in [
+        ("trunc.nzc", data[: len(data) // 2]),
+        ("flip.nzc", data[:40] + bytes([data[40] ^ 4]) + data[41:]),
+    ]:
+        (work / name).write_bytes(bytes(bad))
+        for cmd in ("decompress", "test", "info"):
+            code, _, err = run(cmd, str(work / name))
+            _assert_clean_failure(work, code, err, str(work / name))
+        assert not (work / name.replace(".nzc", ".step")).exists()
+
+
+def test_missing_output_folder(work: Path) -> None:
+    code, _, err = run("compress", "-q", str(work / "part.step"), "-o", str(work / "no" / "x.nzc"))
+    _assert_clean_failure(work, code, err, str(work / "part.step"))
+
+
+def test_decompress_to_iges_and_brep(work: Path) -> None:
+    assert run("compress", "-q", str(work / "part.step"))[0] == 0
+    for ext in ("igs", "brep"):
+        code, out, err = run(
+            "decompress", str(work / "part.step.nzc"), "-o", str(work / f"o.{ext}")
+        )
+        assert code == 0, err
+        assert (work / f"o.{ext}").stat().st_size > 0
+
+
+def test_version_and_help() -> None:
+    code, out, _ = run("--version")
+    assert code == 0 and "nurbscomp" in out
+    code, out, _ = run("--help")
+    assert code == 0 and "Exit codes" in out
