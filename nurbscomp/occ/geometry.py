@@ -8,6 +8,8 @@ building each index once.
 
 from __future__ import annotations
 
+import itertools
+import math
 from typing import Any
 
 import numpy as np
@@ -171,8 +173,45 @@ def _ax3_rows(a: Any) -> np.ndarray:
     )
 
 
+def _ulps(x: float, radius: int) -> list[float]:
+    """``x`` and its neighbouring floats up to ``radius`` ulps away, nearest first."""
+    out, lo, hi = [x], x, x
+    for _ in range(radius):
+        lo, hi = math.nextafter(lo, -math.inf), math.nextafter(hi, math.inf)
+        out += [lo, hi]
+    return out
+
+
+def _fixed_point(target: tuple[float, ...], make: Any, read: Any) -> Any:
+    """An object built by ``make(c)`` whose ``read()`` is exactly ``target``.
+
+    OCCT's ``gp`` constructors re-normalise directions, so ``make(target)`` may
+    come back a few ulps off.  Inputs up to 2 ulps away from ``target`` are
+    tried; if none is a pre-image, ``make(target)`` is returned (docs/format.md §3).
+    """
+    obj = make(target)
+    if read(obj) == target:
+        return obj
+    for cand in itertools.product(*(_ulps(x, 2) for x in target)):
+        o = make(cand)
+        if read(o) == target:
+            return o
+    return obj
+
+
+def _dir(t: np.ndarray) -> gp_Dir:
+    return _fixed_point(tuple(t.tolist()), lambda c: gp_Dir(*c), _xyz)
+
+
+def _dir2d(t: np.ndarray) -> gp_Dir2d:
+    return _fixed_point(tuple(t.tolist()), lambda c: gp_Dir2d(*c), _xy)
+
+
 def _ax3(f: np.ndarray) -> gp_Ax3:
-    a = gp_Ax3(gp_Pnt(*f[0]), gp_Dir(*f[1]), gp_Dir(*f[2]))
+    p, n = gp_Pnt(*f[0]), _dir(f[1])
+    a = _fixed_point(
+        tuple(f[2].tolist()), lambda c: gp_Ax3(p, n, gp_Dir(*c)), lambda a: _xyz(a.XDirection())
+    )
     if np.dot(np.cross(f[1], f[2]), f[3]) < 0:
         a.YReverse()
     return a
@@ -183,7 +222,10 @@ def _ax2_rows(a: Any) -> np.ndarray:
 
 
 def _ax2(f: np.ndarray) -> gp_Ax2:
-    return gp_Ax2(gp_Pnt(*f[0]), gp_Dir(*f[1]), gp_Dir(*f[2]))
+    p, n = gp_Pnt(*f[0]), _dir(f[1])
+    return _fixed_point(
+        tuple(f[2].tolist()), lambda c: gp_Ax2(p, n, gp_Dir(*c)), lambda a: _xyz(a.XDirection())
+    )
 
 
 def _ax22d_rows(a: Any) -> np.ndarray:
@@ -191,7 +233,7 @@ def _ax22d_rows(a: Any) -> np.ndarray:
 
 
 def _ax22d(f: np.ndarray) -> gp_Ax22d:
-    return gp_Ax22d(gp_Pnt2d(*f[0]), gp_Dir2d(*f[1]), gp_Dir2d(*f[2]))
+    return gp_Ax22d(gp_Pnt2d(*f[0]), _dir2d(f[1]), _dir2d(f[2]))
 
 
 _EMPTY = np.zeros(0)
@@ -461,10 +503,10 @@ class GeometryBuilder:
         if isinstance(r, Derived):
             p = r.params.tolist()
             if k == Kind.REVOLUTION:
-                ax = gp_Ax1(gp_Pnt(*r.frame[0]), gp_Dir(*r.frame[1]))
+                ax = gp_Ax1(gp_Pnt(*r.frame[0]), _dir(r.frame[1]))
                 return Geom_SurfaceOfRevolution(self.curve3d(r.basis), ax)
             if k == Kind.EXTRUSION:
-                return Geom_SurfaceOfLinearExtrusion(self.curve3d(r.basis), gp_Dir(*r.frame[0]))
+                return Geom_SurfaceOfLinearExtrusion(self.curve3d(r.basis), _dir(r.frame[0]))
             if k == Kind.OFFSET_SURFACE:
                 return Geom_OffsetSurface(self.surface(r.basis), p[0], True)
             if k == Kind.TRIMMED_SURFACE:
@@ -499,8 +541,8 @@ class GeometryBuilder:
             f, p = r.frame, r.params.tolist()
             if k == Kind.LINE:
                 if three:
-                    return Geom_Line(gp_Ax1(gp_Pnt(*f[0]), gp_Dir(*f[1])))
-                return Geom2d_Line(gp_Ax2d(gp_Pnt2d(*f[0]), gp_Dir2d(*f[1])))
+                    return Geom_Line(gp_Ax1(gp_Pnt(*f[0]), _dir(f[1])))
+                return Geom2d_Line(gp_Ax2d(gp_Pnt2d(*f[0]), _dir2d(f[1])))
             ax = _ax2(f) if three else _ax22d(f)
             if k == Kind.CIRCLE:
                 return (Geom_Circle if three else Geom2d_Circle)(ax, p[0])
@@ -530,6 +572,6 @@ class GeometryBuilder:
                 return cls(basis, p[0], p[1], True, False)
             if k == Kind.OFFSET_CURVE:
                 if three:
-                    return Geom_OffsetCurve(basis, p[0], gp_Dir(*r.frame[0]), True)
+                    return Geom_OffsetCurve(basis, p[0], _dir(r.frame[0]), True)
                 return Geom2d_OffsetCurve(basis, p[0], True)
         raise UnsupportedError(f"not a {dim}-D curve record: {k!r}")
