@@ -114,6 +114,53 @@ class _NoBar:
         return None
 
 
+def _batch_options(verbose_help: str) -> Callable[[Any], Any]:
+    """The options every file-converting command shares, like xz and zstd."""
+
+    def wrap(f: Any) -> Any:
+        for opt in reversed(
+            [
+                click.option("-f", "--force", is_flag=True, help="Overwrite existing outputs."),
+                click.option(
+                    "--json", "as_json", is_flag=True, help="One JSON report per file on stdout."
+                ),
+                click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors."),
+                click.option("-v", "--verbose", is_flag=True, help=verbose_help),
+            ]
+        ):
+            f = opt(f)
+        return f
+
+    return wrap
+
+
+def _batch(
+    state: _State,
+    files: tuple[str, ...],
+    output: str | None,
+    label: str,
+    work: Callable[[str, str | None], dict[str, Any]],
+    text: Callable[[dict[str, Any]], str],
+    as_json: bool,
+    quiet: bool,
+) -> None:
+    """Run ``work`` on each file, report each result, exit 1 if any file failed."""
+    reports = []
+    with _progress(list(zip(files, _outputs(files, output))), quiet or as_json, label) as bar:
+        for f, o in bar:
+            r = _run(state, f, lambda f=f, o=o: work(f, o))
+            if r is None:
+                continue
+            reports.append(r)
+            if not as_json and not quiet:
+                click.echo(text(r))
+            for w in r.get("warnings", []) if not (quiet or as_json) else []:
+                click.echo(f"warning: {f}: {w}", err=True)
+    if as_json:
+        _emit(reports, True, str)
+    sys.exit(1 if state.failed else 0)
+
+
 @cli.command()
 @click.argument("files", nargs=-1, required=True, type=click.Path())
 @click.option("-o", "--output", type=click.Path(), help="Output file (one input only).")
@@ -124,11 +171,8 @@ class _NoBar:
     default=None,
     help=f"Tolerance, mm unless suffixed (um, in, mil...). Default {pipeline.DEFAULT_TOL_MM} mm.",
 )
-@click.option("-f", "--force", is_flag=True, help="Overwrite existing outputs.")
 @click.option("--no-verify", is_flag=True, help="Skip decoding the output to check it.")
-@click.option("--json", "as_json", is_flag=True, help="One JSON report per file on stdout.")
-@click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
-@click.option("-v", "--verbose", is_flag=True, help="Print counts and warnings.")
+@_batch_options("Print counts and faces by type.")
 @click.pass_obj
 def compress(
     state: _State,
@@ -136,8 +180,8 @@ def compress(
     output: str | None,
     lossless: bool,
     tol: float | None,
-    force: bool,
     no_verify: bool,
+    force: bool,
     as_json: bool,
     quiet: bool,
     verbose: bool,
@@ -148,29 +192,15 @@ def compress(
     if tol is None and not lossless and not quiet and not as_json:
         click.echo(f"tolerance {pipeline.DEFAULT_TOL_MM} mm (default; --tol to change)", err=True)
     tol_mm = tol if tol is not None else pipeline.DEFAULT_TOL_MM
-    reports = []
-    with _progress(list(zip(files, _outputs(files, output))), quiet or as_json, "compress") as bar:
-        for f, o in bar:
-            r = _run(
-                state,
-                f,
-                lambda f=f, o=o: pipeline.compress_file(
-                    f, o, tol=tol_mm, lossless=lossless, force=force, verify=not no_verify
-                ),
-            )
-            if r is None:
-                continue
-            reports.append(r)
-            if not as_json and not quiet:
-                click.echo(_compress_text(r, verbose))
-            if verbose and not as_json:
-                for w in r["warnings"]:
-                    click.echo(f"warning: {f}: {w}", err=True)
-            elif r["warnings"] and not quiet and not as_json:
-                click.echo(f"warning: {f}: {'; '.join(r['warnings'])}", err=True)
-    if as_json:
-        _emit(reports, True, str)
-    sys.exit(1 if state.failed else 0)
+
+    def work(f: str, o: str | None) -> dict[str, Any]:
+        return pipeline.compress_file(
+            f, o, tol=tol_mm, lossless=lossless, force=force, verify=not no_verify
+        )
+
+    _batch(
+        state, files, output, "compress", work, lambda r: _compress_text(r, verbose), as_json, quiet
+    )
 
 
 def _compress_text(r: dict[str, Any], verbose: bool) -> str:
@@ -191,10 +221,7 @@ def _compress_text(r: dict[str, Any], verbose: bool) -> str:
 @click.option(
     "-o", "--output", type=click.Path(), help="Output file: .step (default), .igs, .brep."
 )
-@click.option("-f", "--force", is_flag=True, help="Overwrite existing outputs.")
-@click.option("--json", "as_json", is_flag=True, help="One JSON report per file on stdout.")
-@click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
-@click.option("-v", "--verbose", is_flag=True, help="Print topology counts.")
+@_batch_options("Print topology counts.")
 @click.pass_obj
 def decompress(
     state: _State,
@@ -206,24 +233,22 @@ def decompress(
     verbose: bool,
 ) -> None:
     """Decode .nzc FILES back to STEP (or IGES/BREP by the -o extension)."""
-    reports = []
-    with _progress(
-        list(zip(files, _outputs(files, output))), quiet or as_json, "decompress"
-    ) as bar:
-        for f, o in bar:
-            r = _run(state, f, lambda f=f, o=o: pipeline.decompress_file(f, o, force=force))
-            if r is None:
-                continue
-            reports.append(r)
-            if not as_json and not quiet:
-                line = f"{r['input']} -> {r['output']}: {r['format']} in {r['unit']}"
-                line += f", {r['seconds']:.2f} s"
-                if verbose:
-                    line += f"\n  {_fmt_counts(r['counts'])}"
-                click.echo(line)
-    if as_json:
-        _emit(reports, True, str)
-    sys.exit(1 if state.failed else 0)
+
+    def text(r: dict[str, Any]) -> str:
+        line = f"{r['input']} -> {r['output']}: {r['format']} in {r['unit']}"
+        line += f", {r['seconds']:.2f} s"
+        return line + (f"\n  {_fmt_counts(r['counts'])}" if verbose else "")
+
+    _batch(
+        state,
+        files,
+        output,
+        "decompress",
+        lambda f, o: pipeline.decompress_file(f, o, force=force),
+        text,
+        as_json,
+        quiet,
+    )
 
 
 @cli.command()
