@@ -1,0 +1,85 @@
+"""Discrete cosine transforms and quantizers of the paper (eq. 8-10, 26-27).
+
+The paper writes the DCT of a length-N sequence with ``n-2`` where N = n-1 is
+meant (a typo, DESIGN §4); we use scipy's orthonormal DCT-II, which is
+eq. 8-9 with that correction, and its inverse (DCT-III).  All functions work
+on numpy arrays and transform along the leading axes, so xyz sits in the last.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import fft
+
+
+def dct1(v: np.ndarray) -> np.ndarray:
+    """Orthonormal DCT-II along axis 0 (eq. 8-9, N = n-1).
+
+    Parameters
+    ----------
+    v : ndarray, shape (N, ...)
+    """
+    return fft.dct(v, type=2, norm="ortho", axis=0)
+
+
+def idct1(d: np.ndarray) -> np.ndarray:
+    """Inverse of :func:`dct1`."""
+    return fft.idct(d, type=2, norm="ortho", axis=0)
+
+
+def dct2(v: np.ndarray) -> np.ndarray:
+    """Orthonormal 2-D DCT-II over axes 0 and 1 (eq. 26).
+
+    Parameters
+    ----------
+    v : ndarray, shape (N, M, ...)
+    """
+    return fft.dctn(v, type=2, norm="ortho", axes=(0, 1))
+
+
+def idct2(d: np.ndarray) -> np.ndarray:
+    """Inverse of :func:`dct2`."""
+    return fft.idctn(d, type=2, norm="ortho", axes=(0, 1))
+
+
+def paper_steps(shape: tuple[int, ...], dc: np.ndarray, a: int) -> np.ndarray:
+    """The paper's quantizer steps, Q_k = (1+k)·D0/2^a (eq. 10), Q_kl = (1+k+l)·D00/2^a (eq. 27).
+
+    Parameters
+    ----------
+    shape : tuple
+        ``(N,)`` for a curve, ``(N, M)`` for a map.
+    dc : ndarray, shape (c,)
+        The DC coefficient of each channel (x, y, z or d).  It must be sent,
+        since round(D00/Q00) is always 2^a.  Where it is 0 the step collapses;
+        the caller then has to use :func:`tol_steps`.
+    a : int
+        Bits of the quantizer.
+
+    Returns
+    -------
+    ndarray, shape (*shape, c)
+    """
+    idx = np.indices(shape).sum(axis=0)
+    return (1.0 + idx)[..., None] * np.abs(dc) / 2.0**a
+
+
+def tol_steps(shape: tuple[int, ...], delta: float, slope: float) -> np.ndarray:
+    """Tolerance-driven steps, Q = (1 + slope·(k+l))·Δ, shape ``shape + (1,)``.
+
+    Δ is chosen by the tolerance search; ``slope`` > 0 quantizes high
+    frequencies more coarsely, as the paper's (1+k+l) does.
+    """
+    idx = np.indices(shape).sum(axis=0)
+    return ((1.0 + slope * idx) * delta)[..., None]
+
+
+def quantize(d: np.ndarray, steps: np.ndarray) -> np.ndarray:
+    """Round(D/Q) as int64 (eq. 10, 27).  Zero steps give zero."""
+    safe = np.where(steps > 0, steps, 1.0)
+    return np.where(steps > 0, np.rint(d / safe), 0).astype(np.int64)
+
+
+def dequantize(q: np.ndarray, steps: np.ndarray) -> np.ndarray:
+    """The decoder's D' = q·Q."""
+    return q * steps

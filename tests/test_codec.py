@@ -1,0 +1,143 @@
+"""The surface codec on numpy nets: transforms, Coons nets, and the certified bound."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy.interpolate import BSpline
+
+from nurbscomp import codec, coons, dct, spatial
+
+
+@given(st.integers(1, 12), st.integers(1, 12), st.integers(0, 2**31))
+def test_dct_round_trips(n: int, m: int, seed: int) -> None:
+    x = np.random.default_rng(seed).normal(size=(n, m, 3))
+    assert np.allclose(dct.idct1(dct.dct1(x)), x)
+    assert np.allclose(dct.idct2(dct.dct2(x)), x)
+    # orthonormal: energy is kept (Parseval), as eq. 8-9 with N = n-1 intends
+    assert np.isclose((dct.dct2(x) ** 2).sum(), (x**2).sum())
+
+
+@given(st.integers(1, 9), st.floats(1e-4, 1.0), st.integers(0, 2**31))
+def test_quantizer_error_is_half_a_step(n: int, delta: float, seed: int) -> None:
+    d = np.random.default_rng(seed).normal(size=(n, 3)) * 10
+    steps = dct.tol_steps((n,), delta, 1.0)
+    back = dct.dequantize(dct.quantize(d, steps), steps)
+    assert np.all(np.abs(back - d) <= steps / 2 + 1e-12)
+
+
+def test_paper_steps_follow_eq_27() -> None:
+    q = dct.paper_steps((3, 2), np.array([8.0, -4.0, 0.0]), a=2)
+    assert q.shape == (3, 2, 3)
+    assert q[0, 0, 0] == 2.0 and q[2, 1, 0] == 8.0  # (1+k+l)·|D00|/2^a
+    assert q[1, 1, 1] == 3.0 and np.all(q[..., 2] == 0)
+
+
+def test_greville_eq_17() -> None:
+    g = coons.greville(np.array([0.0, 0.5, 1.0]), np.array([3, 1, 3]), 2, 4)
+    assert np.allclose(g, [0.0, 0.25, 0.75, 1.0])
+
+
+def test_coons_net_reproduces_bilinear_patches_and_boundaries() -> None:
+    rng = np.random.default_rng(1)
+    s, t = np.sort(rng.random(6)), np.sort(rng.random(5))
+    s[[0, -1]] = 0, 1
+    t[[0, -1]] = 0, 1
+    c = rng.normal(size=(2, 2, 3))
+    S, T = s[:, None, None], t[None, :, None]
+    bil = (1 - S) * ((1 - T) * c[0, 0] + T * c[0, 1]) + S * ((1 - T) * c[1, 0] + T * c[1, 1])
+    net = coons.coons_net(bil[0], bil[-1], bil[:, 0], bil[:, -1], s, t)
+    assert np.allclose(net, bil)
+    p = rng.normal(size=(6, 5, 3))
+    net = coons.coons_net(p[0], p[-1], p[:, 0], p[:, -1], s, t)
+    for a, b in ((net[0], p[0]), (net[-1], p[-1]), (net[:, 0], p[:, 0]), (net[:, -1], p[:, -1])):
+        assert np.allclose(a, b)
+
+
+def test_spatial_is_exact_integer_prediction() -> None:
+    p = np.random.default_rng(2).normal(size=(5, 7, 3)) * 100
+    h = 0.01
+    r = spatial.encode(p, h)
+    assert np.array_equal(spatial.integrate(r), spatial.snap(p, h))
+    assert np.abs(spatial.decode(r, h) - p).max() <= h / 2 + 1e-9
+
+
+# ---------------------------------------------------------------- random B-spline surfaces
+
+
+def _knots(rng: np.random.Generator, n: int, deg: int) -> tuple[np.ndarray, np.ndarray]:
+    inner = n - deg - 1
+    ks = np.concatenate([[0.0], np.sort(rng.uniform(0.05, 0.95, inner)), [1.0]]) * rng.uniform(
+        0.5, 20
+    )
+    ks = np.unique(ks)
+    mults = np.ones(len(ks), int)
+    mults[[0, -1]] = deg + 1
+    return ks, mults
+
+
+def _evaluate(p: np.ndarray, w: np.ndarray, uk, um, ud, vk, vm, vd, uv: np.ndarray) -> np.ndarray:
+    tu, tv = coons.full_knots(uk, um), coons.full_knots(vk, vm)
+    bu = BSpline.design_matrix(uv[:, 0], tu, ud).toarray()
+    bv = BSpline.design_matrix(uv[:, 1], tv, vd).toarray()
+    basis = bu[:, :, None] * bv[:, None, :] * w[None]
+    return np.einsum("kij,ijc->kc", basis, p) / basis.sum(axis=(1, 2))[:, None]
+
+
+surfaces = st.tuples(
+    st.integers(2, 9),
+    st.integers(2, 9),
+    st.integers(1, 3),
+    st.integers(1, 3),
+    st.booleans(),
+    st.sampled_from([1e-3, 1e-2, 1e-1, 1.0]),
+    st.integers(0, 2**31),
+)
+
+
+@settings(max_examples=60, deadline=None)
+@given(surfaces)
+def test_decoded_surface_within_tol_and_bound_covers_sampled_error(args) -> None:
+    nu, nv, ud, vd, rational, tol, seed = args
+    ud, vd = min(ud, nu - 1), min(vd, nv - 1)
+    rng = np.random.default_rng(seed)
+    uk, um = _knots(rng, nu, ud)
+    vk, vm = _knots(rng, nv, vd)
+    p = np.cumsum(np.cumsum(rng.normal(size=(nu, nv, 3)), 0), 1) * rng.uniform(0.1, 100)
+    p += rng.uniform(-1000, 1000, 3)
+    w = rng.uniform(0.5, 2.0, (nu, nv)) if rational else np.ones((nu, nv))
+    s = coons.unit_abscissae(coons.greville(uk, um, ud, nu))
+    t = coons.unit_abscissae(coons.greville(vk, vm, vd, nv))
+    prev = rng.uniform(-1000, 1000, 3)
+    code = codec.encode_net(p, s, t, tol, origin=prev, paper=bool(seed % 2))
+    dec = codec.decode_net(code, p.shape, s, t, tol, prev)
+    moved = np.sqrt(((dec - p) ** 2).sum(-1)).max()
+    assert moved == pytest.approx(code.bound, abs=1e-12)
+    assert code.bound <= tol
+    uv = np.column_stack([rng.uniform(uk[0], uk[-1], 200), rng.uniform(vk[0], vk[-1], 200)])
+    err = np.sqrt(
+        (
+            (
+                _evaluate(dec, w, uk, um, ud, vk, vm, vd, uv)
+                - _evaluate(p, w, uk, um, ud, vk, vm, vd, uv)
+            )
+            ** 2
+        ).sum(-1)
+    ).max()
+    assert err <= code.bound * (1 + 1e-9) + 1e-12
+
+
+def test_every_method_round_trips() -> None:
+    rng = np.random.default_rng(5)
+    s, t = np.linspace(0, 1, 6), np.linspace(0, 1, 5)
+    c = rng.normal(size=(2, 2, 3)) * 10
+    S, T = s[:, None, None], t[None, :, None]
+    p = (1 - S) * ((1 - T) * c[0, 0] + T * c[0, 1]) + S * ((1 - T) * c[1, 0] + T * c[1, 1])
+    p += rng.normal(size=p.shape) * 1e-4  # a near-bilinear net: every method can code it
+    for method in codec.Method:
+        code = codec.encode_net(p, s, t, 0.01, methods=(method,), paper=True)
+        assert code.method == method
+        dec = codec.decode_net(code, p.shape, s, t, 0.01)
+        assert np.sqrt(((dec - p) ** 2).sum(-1)).max() == pytest.approx(code.bound)
