@@ -145,7 +145,8 @@ class _Writer:
         return out
 
     def grid(self, p: np.ndarray, origin: np.ndarray) -> np.ndarray:
-        """Snap points (k, 3) to the grid; code the first against ``origin``, the rest against it."""
+        """Snap points (k, 3) to the grid; code the first against ``origin``, the rest
+        against the first."""
         h = self.st.grid
         if not np.all(np.abs(p) <= MAX_INT * h):
             raise _Unusable
@@ -173,6 +174,8 @@ class _Reader:
         shape, c = like.shape[:-1], like.shape[-1]
         if self.st.quant == Quant.PAPER:
             dc = self.dcs[self.dpos : self.dpos + c]
+            if len(dc) != c:
+                raise ValueError("net code is missing DC coefficients")
             self.dpos += c
             steps = self.st.steps(shape, dc)
             q = np.concatenate([np.zeros(c, np.int64), self._take(like.size - c)])
@@ -257,23 +260,31 @@ def decode_net(
     t: np.ndarray,
     tol: float,
     origin: np.ndarray | None = None,
-) -> np.ndarray:
-    """The decoded net of a code (the decoder's only entry point).
+) -> tuple[np.ndarray, int]:
+    """The decoded net of a code (the decoder's only entry point), and the DCs it used.
 
     ``origin`` must be the point the encoder was given (the previous net's
-    decoded first pole, or None).
+    decoded first pole, or None).  ``code.dcs`` may run past what the net
+    needs; the count used is returned.
+
+    Raises
+    ------
+    ValueError
+        The code's integers do not fit the net's shape.
     """
     o = np.zeros(shape[-1]) if origin is None else origin
     if code.method == Method.SPATIAL:
         h = tol * 2.0 ** (code.level / 4)
+        if code.ints.size != int(np.prod(shape)):
+            raise ValueError("net code does not fit the net")
         r = code.ints.reshape(shape).copy()
         r[0, 0] += spatial.snap(o, h)
-        return spatial.decode(r, h)
+        return spatial.decode(r, h), 0
     rd = _Reader(_Stepper(code.quant, code.level, code.slope, tol), code.ints, code.dcs)
     net = _coons_code(rd, np.empty(shape), s, t, code.method == Method.DDMAP, o)
-    if rd.ipos != len(code.ints) or rd.dpos != len(code.dcs):
+    if rd.ipos != len(code.ints):
         raise ValueError("net code has unread values")
-    return net
+    return net, rd.dpos
 
 
 def _try(

@@ -7,6 +7,7 @@ array-by-array layout of each):
 META  JSON: unit, source format, mode, tolerance, source name/size
 LOCS  datums (3x4 matrices) and locations (datum, power chains)
 SURF  surface table
+SNET  coded B-spline control nets (tolerance mode; empty when lossless)
 CRV3  3-D curve table
 CRV2  2-D curve table (pcurves)
 SHAP  shape types, flags, and sub-shape references
@@ -23,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from . import codec, coons
 from .errors import CorruptError
 from .model import (
     Analytic,
@@ -66,8 +68,14 @@ _SWEPT = (Kind.REVOLUTION, Kind.EXTRUSION)
 # ---------------------------------------------------------------- geometry tables
 
 
-def _write_geometry(records: list[Geometry], dim: int) -> bytes:
-    """Write one geometry table.  ``dim`` is 3 for surfaces and 3-D curves, 2 for pcurves."""
+def _write_geometry(
+    records: list[Geometry], dim: int, coded: frozenset[int] = frozenset()
+) -> bytes:
+    """Write one geometry table.  ``dim`` is 3 for surfaces and 3-D curves, 2 for pcurves.
+
+    B-spline rows whose record id is in ``coded`` carry flag bit 3 and no
+    poles: those are in the SNET section.
+    """
     kinds, copies, hdr, basis, mults = [], [], [], [], []
     frames: list[np.ndarray] = []
     params: list[np.ndarray] = []
@@ -94,12 +102,14 @@ def _write_geometry(records: list[Geometry], dim: int) -> bytes:
         elif isinstance(r, BSplineSurface):
             nu, nv = r.poles.shape[:2]
             flags = int(r.weights is not None) | int(r.uperiodic) << 1 | int(r.vperiodic) << 2
+            flags |= int(id(r) in coded) << 3
             hdr += [nu, nv, flags]
             if not r.bezier:
                 hdr += [r.udegree, r.vdegree, len(r.uknots), len(r.vknots)]
                 knots += [r.uknots, r.vknots]
                 mults += [*r.umults.tolist(), *r.vmults.tolist()]
-            poles.append(r.poles.reshape(-1))
+            if id(r) not in coded:
+                poles.append(r.poles.reshape(-1))
             if r.weights is not None:
                 weights.append(r.weights.reshape(-1))
         elif isinstance(r, BSplineCurve):
@@ -194,7 +204,10 @@ def _read_geometry(data: bytes, tag: str, dim: int) -> list[Geometry]:
             else:
                 uk, vk = knots.take(ku), knots.take(kv)
                 um, vm = mults.take(ku).copy(), mults.take(kv).copy()
-            p = poles.take(nu * nv * 3).reshape(nu, nv, 3)
+            if flags & 8:  # coded net: filled in from SNET
+                p = np.full((nu, nv, 3), np.nan)
+            else:
+                p = poles.take(nu * nv * 3).reshape(nu, nv, 3)
             wts = weights.take(nu * nv).reshape(nu, nv) if flags & 1 else None
             out.append(
                 BSplineSurface(
@@ -395,16 +408,113 @@ def _read_faces(data: bytes, m: BRepModel) -> None:
     r.done()
 
 
+# ---------------------------------------------------------------- coded nets
+
+
+def coded_rows(surfaces: list[Geometry]) -> list[int]:
+    """Rows of the first occurrence of each coded B-spline surface (NaN poles after reading)."""
+    seen: set[int] = set()
+    out = []
+    for i, g in enumerate(surfaces):
+        if isinstance(g, BSplineSurface) and id(g) not in seen:
+            seen.add(id(g))
+            if np.isnan(g.poles.flat[0]):
+                out.append(i)
+    return out
+
+
+def net_abscissae(g: BSplineSurface) -> tuple[np.ndarray, np.ndarray]:
+    """Normalised Greville abscissae of a surface's net, the Coons blending abscissae."""
+    nu, nv = g.poles.shape[:2]
+    s = coons.unit_abscissae(coons.greville(g.uknots, g.umults, g.udegree, nu))
+    t = coons.unit_abscissae(coons.greville(g.vknots, g.vmults, g.vdegree, nv))
+    return s, t
+
+
+def _write_nets(codes: list[codec.NetCode]) -> bytes:
+    w = BlockWriter()
+    for field in ("method", "quant", "level", "slope"):
+        w.ints([int(getattr(c, field)) for c in codes])
+    w.ints([len(c.ints) for c in codes])
+    w.ints(np.concatenate([c.ints for c in codes]) if codes else [])
+    w.floats(np.concatenate([c.dcs for c in codes]) if codes else [])
+    return bytes(w)
+
+
+def _read_nets(data: bytes, surfaces: list[Geometry], tol: float) -> None:
+    """Decode the SNET section into the poles of the coded surface rows, in row order."""
+    rows = coded_rows(surfaces)
+    r = BlockReader(data, "SNET")
+    n = len(rows)
+    method, quant, level, slope, counts = (r.ints(n) for _ in range(5))
+    ints = _Cursor(r.ints(), "SNET ints")
+    dcs = r.floats()
+    r.done()
+    if (counts < 0).any() or not (0 <= method.min(initial=0) and method.max(initial=0) <= 2):
+        raise CorruptError("SNET: bad net header")
+    if (quant < 0).any() or (quant > 1).any() or (slope < 0).any() or (slope > 1).any():
+        raise CorruptError("SNET: bad quantizer")
+    if not tol > 0 and n:
+        raise CorruptError("SNET: coded nets need a positive tolerance")
+    origin = None
+    dpos = 0
+    for k, row in enumerate(rows):
+        g = surfaces[row]
+        assert isinstance(g, BSplineSurface)
+        if g.uperiodic or g.vperiodic:
+            if method[k] != codec.Method.SPATIAL:
+                raise CorruptError(f"SNET: row {row} is periodic but not spatially coded")
+        nd = 0
+        if quant[k] == codec.Quant.PAPER:
+            nd = int(dcs.size - dpos)  # the reader takes what it needs
+        code = codec.NetCode(
+            codec.Method(int(method[k])),
+            codec.Quant(int(quant[k])),
+            int(level[k]),
+            int(slope[k]),
+            ints.take(int(counts[k])),
+            dcs[dpos : dpos + nd],
+            0.0,
+            0.0,
+        )
+        s, t = net_abscissae(g)
+        try:
+            net, used = codec.decode_net(code, g.poles.shape, s, t, tol, origin)
+        except ValueError as e:
+            raise CorruptError(f"SNET: row {row}: {e}") from None
+        dpos += used
+        g.poles[...] = net
+        origin = net[0, 0]
+    ints.done()
+    if dpos != len(dcs):
+        raise CorruptError("SNET: unread DC coefficients")
+
+
 # ---------------------------------------------------------------- whole model
 
 
-def model_to_sections(m: BRepModel, meta: dict[str, Any]) -> list[tuple[str, bytes]]:
-    """The sections of a container holding ``m`` exactly."""
+def model_to_sections(
+    m: BRepModel, meta: dict[str, Any], codes: dict[int, codec.NetCode] | None = None
+) -> list[tuple[str, bytes]]:
+    """The sections of a container holding ``m``.
+
+    ``codes`` maps the ids of B-spline surface records to their net codes
+    (tolerance mode); those nets go into SNET, and ``m`` must already hold
+    their *decoded* poles, so that what the decoder rebuilds is ``m``.
+    """
     meta = {**meta, "unit": m.unit, "source_format": m.source_format}
+    codes = codes or {}
+    order = []
+    seen: set[int] = set()
+    for g in m.surfaces:
+        if id(g) in codes and id(g) not in seen:
+            seen.add(id(g))
+            order.append(codes[id(g)])
     return [
         ("META", json.dumps(meta, sort_keys=True, separators=(",", ":")).encode()),
         ("LOCS", _write_locations(m)),
-        ("SURF", _write_geometry(m.surfaces, 3)),
+        ("SURF", _write_geometry(m.surfaces, 3, frozenset(codes))),
+        ("SNET", _write_nets(order)),
         ("CRV3", _write_geometry(m.curves3d, 3)),
         ("CRV2", _write_geometry(m.curves2d, 2)),
         ("SHAP", _write_shapes(m)),
@@ -432,6 +542,8 @@ def sections_to_model(get: Any) -> tuple[BRepModel, dict[str, Any]]:
     m.source_format = str(meta.get("source_format", "STEP"))
     _read_locations(get("LOCS"), m)
     m.surfaces = _read_geometry(get("SURF"), "SURF", 3)
+    tol = meta.get("tolerance_mm")
+    _read_nets(get("SNET"), m.surfaces, float(tol) if isinstance(tol, (int, float)) else 0.0)
     m.curves3d = _read_geometry(get("CRV3"), "CRV3", 3)
     m.curves2d = _read_geometry(get("CRV2"), "CRV2", 2)
     _read_shapes(get("SHAP"), m)

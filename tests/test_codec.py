@@ -112,7 +112,7 @@ def test_decoded_surface_within_tol_and_bound_covers_sampled_error(args) -> None
     t = coons.unit_abscissae(coons.greville(vk, vm, vd, nv))
     prev = rng.uniform(-1000, 1000, 3)
     code = codec.encode_net(p, s, t, tol, origin=prev, paper=bool(seed % 2))
-    dec = codec.decode_net(code, p.shape, s, t, tol, prev)
+    dec, _ = codec.decode_net(code, p.shape, s, t, tol, prev)
     moved = np.sqrt(((dec - p) ** 2).sum(-1)).max()
     assert moved == pytest.approx(code.bound, abs=1e-12)
     assert code.bound <= tol
@@ -139,5 +139,5 @@ def test_every_method_round_trips() -> None:
     for method in codec.Method:
         code = codec.encode_net(p, s, t, 0.01, methods=(method,), paper=True)
         assert code.method == method
-        dec = codec.decode_net(code, p.shape, s, t, 0.01)
+        dec, _ = codec.decode_net(code, p.shape, s, t, 0.01)
         assert np.sqrt(((dec - p) ** 2).sum(-1)).max() == pytest.approx(code.bound)
