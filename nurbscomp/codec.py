@@ -33,11 +33,17 @@ from . import coons, dct, spatial
 
 
 class Method(IntEnum):
-    """Per-face coding method.  Values are stored: never renumber."""
+    """Per-net coding method.  Values are stored: never renumber."""
 
-    SPATIAL = 0
-    BOUNDARY = 1
-    DDMAP = 2
+    SPATIAL = 0  # surfaces: parallelogram rule on the grid
+    BOUNDARY = 1  # surfaces: boundary curves + Coons, no difference data
+    DDMAP = 2  # surfaces: boundary curves + Coons + DD-map
+    DELTA = 3  # curves: linear extrapolation (second differences) on the grid
+    CHORD = 4  # curves: ends on the grid, chord differences + DCT (eq. 5-10)
+
+
+SURFACE_METHODS = (Method.SPATIAL, Method.BOUNDARY, Method.DDMAP)
+CURVE_METHODS = (Method.DELTA, Method.CHORD)
 
 
 class Quant(IntEnum):
@@ -144,6 +150,17 @@ class _Writer:
             self.ints.append(q.reshape(-1))
         return out
 
+    def predicted(self, p: np.ndarray, origin: np.ndarray) -> np.ndarray:
+        """Grid snap + closed-loop prediction (parallelogram for nets, line for curves)."""
+        h = self.st.grid
+        if not np.all(np.abs(p) <= MAX_INT * h):
+            raise _Unusable
+        q = spatial.snap(p, h)
+        r = _residuals(q)
+        r.reshape(-1, p.shape[-1])[0] -= spatial.snap(origin, h)
+        self.ints.append(r.reshape(-1))
+        return q * h
+
     def grid(self, p: np.ndarray, origin: np.ndarray) -> np.ndarray:
         """Snap points (k, 3) to the grid; code the first against ``origin``, the rest
         against the first."""
@@ -189,6 +206,12 @@ class _Reader:
         h = self.st.grid
         d = self._take(like.size).reshape(like.shape)
         return _unagainst(d, spatial.snap(origin, h)) * h
+
+    def predicted(self, like: np.ndarray, origin: np.ndarray) -> np.ndarray:
+        h = self.st.grid
+        r = self._take(like.size).reshape(like.shape).copy()
+        r.reshape(-1, like.shape[-1])[0] += spatial.snap(origin, h)
+        return _integrate(r) * h
 
 
 def _against(q: np.ndarray, qo: np.ndarray) -> np.ndarray:
@@ -250,19 +273,57 @@ def _coons_code(
     return net
 
 
+def _residuals(q: np.ndarray) -> np.ndarray:
+    """Prediction residuals of grid integers: parallelogram rule on a net (nu, nv, 3),
+    linear extrapolation 2·P[i-1] - P[i-2] on a curve (n, 3)."""
+    if q.ndim == 3:
+        return spatial.residuals(q)
+    return np.diff(q, n=2, axis=0, prepend=np.zeros((2, q.shape[1]), np.int64))
+
+
+def _integrate(r: np.ndarray) -> np.ndarray:
+    if r.ndim == 3:
+        return spatial.integrate(r)
+    return np.cumsum(np.cumsum(r, axis=0), axis=0)
+
+
+def _code(
+    io: _Writer | _Reader,
+    p: np.ndarray,
+    method: Method,
+    s: np.ndarray | None,
+    t: np.ndarray | None,
+    origin: np.ndarray,
+) -> np.ndarray:
+    """Run one method through the writer (encode) or the reader (decode); return the net.
+
+    The encoder and the decoder share this function, so what the encoder
+    measures is exactly what the decoder will rebuild (closed loop).
+    """
+    if method in (Method.SPATIAL, Method.DELTA):
+        return io.predicted(p, origin)
+    if method == Method.CHORD:
+        ends = p[[0, -1]]
+        c = io.grid(ends if isinstance(io, _Writer) else np.empty_like(ends), origin)
+        return _curve(io, p, c[0], c[1])
+    assert s is not None and t is not None
+    return _coons_code(io, p, s, t, method == Method.DDMAP, origin)
+
+
 # ---------------------------------------------------------------- encode / decode
 
 
 def decode_net(
     code: NetCode,
-    shape: tuple[int, int, int],
-    s: np.ndarray,
-    t: np.ndarray,
+    shape: tuple[int, ...],
+    s: np.ndarray | None,
+    t: np.ndarray | None,
     tol: float,
     origin: np.ndarray | None = None,
 ) -> tuple[np.ndarray, int]:
     """The decoded net of a code (the decoder's only entry point), and the DCs it used.
 
+    ``shape`` is (nu, nv, 3) for a surface net, (n, dim) for a curve.
     ``origin`` must be the point the encoder was given (the previous net's
     decoded first pole, or None).  ``code.dcs`` may run past what the net
     needs; the count used is returned.
@@ -270,18 +331,14 @@ def decode_net(
     Raises
     ------
     ValueError
-        The code's integers do not fit the net's shape.
+        The code's integers do not fit the net's shape, or the method does not.
     """
+    curve = len(shape) == 2
+    if (code.method in CURVE_METHODS) != curve:
+        raise ValueError(f"method {code.method.name} does not apply to this net")
     o = np.zeros(shape[-1]) if origin is None else origin
-    if code.method == Method.SPATIAL:
-        h = tol * 2.0 ** (code.level / 4)
-        if code.ints.size != int(np.prod(shape)):
-            raise ValueError("net code does not fit the net")
-        r = code.ints.reshape(shape).copy()
-        r[0, 0] += spatial.snap(o, h)
-        return spatial.decode(r, h), 0
     rd = _Reader(_Stepper(code.quant, code.level, code.slope, tol), code.ints, code.dcs)
-    net = _coons_code(rd, np.empty(shape), s, t, code.method == Method.DDMAP, o)
+    net = _code(rd, np.empty(shape), code.method, s, t, o)
     if rd.ipos != len(code.ints):
         raise ValueError("net code has unread values")
     return net, rd.dpos
@@ -289,28 +346,20 @@ def decode_net(
 
 def _try(
     p: np.ndarray,
-    s: np.ndarray,
-    t: np.ndarray,
+    s: np.ndarray | None,
+    t: np.ndarray | None,
     tol: float,
     method: Method,
     st: _Stepper,
     origin: np.ndarray,
 ) -> NetCode | None:
-    if method == Method.SPATIAL:
-        if not np.all(np.abs(p) <= MAX_INT * st.grid):
-            return None
-        r = spatial.encode(p, st.grid)
-        dec = spatial.decode(r, st.grid)
-        r[0, 0] -= spatial.snap(origin, st.grid)
-        ints, dcs = r.reshape(-1), np.zeros(0)
-    else:
-        w = _Writer(st)
-        try:
-            dec = _coons_code(w, p, s, t, method == Method.DDMAP, origin)
-        except _Unusable:
-            return None
-        ints = np.concatenate(w.ints) if w.ints else np.zeros(0, np.int64)
-        dcs = np.concatenate(w.dcs) if w.dcs else np.zeros(0)
+    w = _Writer(st)
+    try:
+        dec = _code(w, p, method, s, t, origin)
+    except _Unusable:
+        return None
+    ints = np.concatenate(w.ints) if w.ints else np.zeros(0, np.int64)
+    dcs = np.concatenate(w.dcs) if w.dcs else np.zeros(0)
     bound = float(np.sqrt(((dec - p) ** 2).sum(-1)).max())
     bits = cost_bits(ints) + 64 * len(dcs)
     return NetCode(method, st.quant, st.level, st.slope, ints, dcs, bound, bits)
@@ -318,8 +367,8 @@ def _try(
 
 def _passing(
     p: np.ndarray,
-    s: np.ndarray,
-    t: np.ndarray,
+    s: np.ndarray | None,
+    t: np.ndarray | None,
     tol: float,
     method: Method,
     ladder: list[_Stepper],
@@ -360,10 +409,10 @@ def _passing(
 
 def encode_net(
     p: np.ndarray,
-    s: np.ndarray,
-    t: np.ndarray,
+    s: np.ndarray | None,
+    t: np.ndarray | None,
     tol: float,
-    methods: tuple[Method, ...] = tuple(Method),
+    methods: tuple[Method, ...] = SURFACE_METHODS,
     paper: bool = False,
     origin: np.ndarray | None = None,
 ) -> NetCode:
@@ -371,12 +420,13 @@ def encode_net(
 
     Parameters
     ----------
-    p : ndarray, shape (nu, nv, 3)
-    s, t : ndarray, shapes (nu,), (nv,)
-        Normalised Greville abscissae (:func:`coons.unit_abscissae`).
+    p : ndarray, shape (nu, nv, 3), or (n, dim) for a curve
+    s, t : ndarray, shapes (nu,), (nv,), or None for a curve
+        Normalised Greville abscissae (:func:`coons.unit_abscissae`), the
+        Coons blending abscissae.
     tol : float
     methods : tuple of Method
-        Coons methods need a clamped (non-periodic) net of at least 2x2.
+        ``SURFACE_METHODS`` for nets, ``CURVE_METHODS`` for curves.
     paper : bool
         Also try the paper's quantizer (eq. 10, 27).  Off by default: on the
         corpus it was never the cheapest at 0.001, 0.01 or 0.1 mm, and it
@@ -389,14 +439,14 @@ def encode_net(
     -----
     For each method and quantizer setting, steps are tried from coarse to fine
     and the first few within tolerance are kept; the cheapest of all wins.
-    ``SPATIAL`` with e ≤ 0 always passes (|P - P'| ≤ tol·√3/2), so a code is
-    always found.
+    ``SPATIAL``/``DELTA`` with e ≤ 0 always pass (|P - P'| ≤ tol·√3/2), so a
+    code is always found when they are among ``methods``.
     """
     o = np.zeros(p.shape[-1]) if origin is None else origin
     best: NetCode | None = None
     for method in methods:
         ladders: list[list[_Stepper]] = []
-        if method == Method.SPATIAL:
+        if method in (Method.SPATIAL, Method.DELTA):
             ladders.append([_Stepper(Quant.TOL, e, 0, tol) for e in E_LADDER])
         else:
             for k in range(len(SLOPES)):

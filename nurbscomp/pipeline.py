@@ -21,7 +21,7 @@ import numpy as np
 
 from . import __version__, container, lossy, occ, serialize
 from .errors import FormatError, InputError, NurbscompError, OutputError, VerifyError
-from .model import BRepModel, BSplineSurface, Derived, Kind, differences
+from .model import BRepModel, BSplineCurve, BSplineSurface, Derived, Kind, differences
 
 DEFAULT_TOL_MM = 0.01
 SUFFIX = ".nzc"
@@ -149,9 +149,9 @@ def compress_file(
     Parameters
     ----------
     tol : float
-        Tolerance in mm: every B-spline surface's control net is coded so that
-        no pole, hence no point of the surface, moves further (certified).
-        Curves, pcurves, vertices and analytic surfaces are still exact.
+        Tolerance in mm: every B-spline surface net and 3-D B-spline curve is
+        coded so that no pole, hence no point, moves further (certified).
+        Pcurves, vertices and analytic geometry are still exact.
     lossless : bool
         Store every number bit for bit (the container says so).
     verify : bool
@@ -211,9 +211,14 @@ def compress_file(
         "ratio": meta["source_bytes"] / len(data),
         "mode": meta["mode"],
         "tolerance_mm": meta["tolerance_mm"],
-        "geometry": "exact" if lossless else "B-spline surface nets coded; the rest exact",
+        "geometry": "exact"
+        if lossless
+        else "B-spline surfaces and 3-D curves coded; pcurves, vertices, analytic exact",
         "faces_by_method": lossy_report.method_counts() if lossy_report else {},
         "max_bound_mm": float(lossy_report.face_bound.max(initial=0.0)) if lossy_report else 0.0,
+        "max_curve_bound_mm": float(lossy_report.edge_bound.max(initial=0.0))
+        if lossy_report
+        else 0.0,
         "certified_faces": int((lossy_report.face_bound > 0).sum()) if lossy_report else 0,
         "sampled_faces": 0,
         "unit": m.unit,
@@ -228,14 +233,15 @@ def compress_file(
 
 
 def max_net_displacement(a: BRepModel, b: BRepModel) -> float:
-    """Largest pole displacement between the B-spline surfaces of two models.
+    """Largest pole displacement between the B-spline surfaces and 3-D curves of two models.
 
     The certified bound of DESIGN §4: knots, degrees and weights are equal, so
-    no point of a surface moves further than its farthest pole.
+    no point of a surface or curve moves further than its farthest pole.
     """
     worst = 0.0
-    for x, y in zip(a.surfaces, b.surfaces):
-        if isinstance(x, BSplineSurface) and isinstance(y, BSplineSurface):
+    pairs = [*zip(a.surfaces, b.surfaces), *zip(a.curves3d, b.curves3d)]
+    for x, y in pairs:
+        if isinstance(x, (BSplineSurface, BSplineCurve)) and type(x) is type(y):
             if x.poles.shape != y.poles.shape:
                 return float("inf")
             worst = max(worst, float(np.sqrt(((x.poles - y.poles) ** 2).sum(-1)).max()))

@@ -7,8 +7,9 @@ array-by-array layout of each):
 META  JSON: unit, source format, mode, tolerance, source name/size
 LOCS  datums (3x4 matrices) and locations (datum, power chains)
 SURF  surface table
-SNET  coded B-spline control nets (tolerance mode; empty when lossless)
+SNET  coded B-spline surface nets (tolerance mode; empty when lossless)
 CRV3  3-D curve table
+CNET  coded B-spline 3-D curve poles (tolerance mode; empty when lossless)
 CRV2  2-D curve table (pcurves)
 SHAP  shape types, flags, and sub-shape references
 VERT  vertex points, tolerances, point representations
@@ -73,8 +74,8 @@ def _write_geometry(
 ) -> bytes:
     """Write one geometry table.  ``dim`` is 3 for surfaces and 3-D curves, 2 for pcurves.
 
-    B-spline rows whose record id is in ``coded`` carry flag bit 3 and no
-    poles: those are in the SNET section.
+    B-spline rows whose record id is in ``coded`` carry a flag (bit 3 for
+    surfaces, bit 2 for curves) and no poles: those are in SNET / CNET.
     """
     kinds, copies, hdr, basis, mults = [], [], [], [], []
     frames: list[np.ndarray] = []
@@ -113,12 +114,14 @@ def _write_geometry(
             if r.weights is not None:
                 weights.append(r.weights.reshape(-1))
         elif isinstance(r, BSplineCurve):
-            hdr += [len(r.poles), int(r.weights is not None) | int(r.periodic) << 1]
+            flags = int(r.weights is not None) | int(r.periodic) << 1 | int(id(r) in coded) << 2
+            hdr += [len(r.poles), flags]
             if not r.bezier:
                 hdr += [r.degree, len(r.knots)]
                 knots.append(r.knots)
                 mults += r.mults.tolist()
-            poles.append(r.poles.reshape(-1))
+            if id(r) not in coded:
+                poles.append(r.poles.reshape(-1))
             if r.weights is not None:
                 weights.append(r.weights)
     w = BlockWriter()
@@ -222,7 +225,10 @@ def _read_geometry(data: bytes, tag: str, dim: int) -> list[Geometry]:
                 raise CorruptError(f"{tag}: row {i} has a bad B-spline header")
             kn = np.array([0.0, 1.0]) if bez else knots.take(nk)
             mu = np.array([n, n]) if bez else mults.take(nk).copy()
-            p = poles.take(n * dim).reshape(n, dim)
+            if flags & 4:  # coded net: filled in from CNET
+                p = np.full((n, dim), np.nan)
+            else:
+                p = poles.take(n * dim).reshape(n, dim)
             wts = weights.take(n) if flags & 1 else None
             out.append(BSplineCurve(p, wts, kn, mu, deg, bool(flags & 2), bez))
     for c in (copies, hdr, basis, mults, frames, params, poles, weights, knots):
@@ -411,83 +417,89 @@ def _read_faces(data: bytes, m: BRepModel) -> None:
 # ---------------------------------------------------------------- coded nets
 
 
-def coded_rows(surfaces: list[Geometry]) -> list[int]:
-    """Rows of the first occurrence of each coded B-spline surface (NaN poles after reading)."""
+def coded_rows(records: list[Geometry]) -> list[int]:
+    """Rows of the first occurrence of each coded B-spline record (NaN poles after reading)."""
     seen: set[int] = set()
     out = []
-    for i, g in enumerate(surfaces):
-        if isinstance(g, BSplineSurface) and id(g) not in seen:
+    for i, g in enumerate(records):
+        if isinstance(g, (BSplineSurface, BSplineCurve)) and id(g) not in seen:
             seen.add(id(g))
             if np.isnan(g.poles.flat[0]):
                 out.append(i)
     return out
 
 
-def net_abscissae(g: BSplineSurface) -> tuple[np.ndarray, np.ndarray]:
-    """Normalised Greville abscissae of a surface's net, the Coons blending abscissae."""
+def net_abscissae(g: Geometry) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """Normalised Greville abscissae of a surface's net (Coons blending); None for curves."""
+    if not isinstance(g, BSplineSurface):
+        return None, None
     nu, nv = g.poles.shape[:2]
     s = coons.unit_abscissae(coons.greville(g.uknots, g.umults, g.udegree, nu))
     t = coons.unit_abscissae(coons.greville(g.vknots, g.vmults, g.vdegree, nv))
     return s, t
 
 
-def _write_nets(codes: list[codec.NetCode]) -> bytes:
+def _write_nets(records: list[Geometry], codes: dict[int, codec.NetCode]) -> bytes:
+    """The codes of a table's coded records, in the order of their first rows."""
+    order = []
+    seen: set[int] = set()
+    for g in records:
+        if id(g) in codes and id(g) not in seen:
+            seen.add(id(g))
+            order.append(codes[id(g)])
     w = BlockWriter()
     for field in ("method", "quant", "level", "slope"):
-        w.ints([int(getattr(c, field)) for c in codes])
-    w.ints([len(c.ints) for c in codes])
-    w.ints(np.concatenate([c.ints for c in codes]) if codes else [])
-    w.floats(np.concatenate([c.dcs for c in codes]) if codes else [])
+        w.ints([int(getattr(c, field)) for c in order])
+    w.ints([len(c.ints) for c in order])
+    w.ints(np.concatenate([c.ints for c in order]) if order else [])
+    w.floats(np.concatenate([c.dcs for c in order]) if order else [])
     return bytes(w)
 
 
-def _read_nets(data: bytes, surfaces: list[Geometry], tol: float) -> None:
-    """Decode the SNET section into the poles of the coded surface rows, in row order."""
-    rows = coded_rows(surfaces)
-    r = BlockReader(data, "SNET")
+def _read_nets(data: bytes, records: list[Geometry], tol: float, tag: str) -> None:
+    """Decode a SNET/CNET section into the poles of the coded rows, in row order.
+
+    Each net's first pole is coded against the previous net's decoded first
+    pole (the origin chain of :func:`codec.encode_net`).
+    """
+    rows = coded_rows(records)
+    r = BlockReader(data, tag)
     n = len(rows)
     method, quant, level, slope, counts = (r.ints(n) for _ in range(5))
-    ints = _Cursor(r.ints(), "SNET ints")
+    ints = _Cursor(r.ints(), f"{tag} ints")
     dcs = r.floats()
     r.done()
-    if (counts < 0).any() or not (0 <= method.min(initial=0) and method.max(initial=0) <= 2):
-        raise CorruptError("SNET: bad net header")
-    if (quant < 0).any() or (quant > 1).any() or (slope < 0).any() or (slope > 1).any():
-        raise CorruptError("SNET: bad quantizer")
-    if not tol > 0 and n:
-        raise CorruptError("SNET: coded nets need a positive tolerance")
+    if n and not tol > 0:
+        raise CorruptError(f"{tag}: coded nets need a positive tolerance")
+    if (counts < 0).any() or (quant < 0).any() or (quant > 1).any():
+        raise CorruptError(f"{tag}: bad net header")
+    if (slope < 0).any() or (slope >= len(codec.SLOPES)).any():
+        raise CorruptError(f"{tag}: bad quantizer slope")
     origin = None
     dpos = 0
     for k, row in enumerate(rows):
-        g = surfaces[row]
-        assert isinstance(g, BSplineSurface)
-        if g.uperiodic or g.vperiodic:
-            if method[k] != codec.Method.SPATIAL:
-                raise CorruptError(f"SNET: row {row} is periodic but not spatially coded")
-        nd = 0
-        if quant[k] == codec.Quant.PAPER:
-            nd = int(dcs.size - dpos)  # the reader takes what it needs
-        code = codec.NetCode(
-            codec.Method(int(method[k])),
-            codec.Quant(int(quant[k])),
-            int(level[k]),
-            int(slope[k]),
-            ints.take(int(counts[k])),
-            dcs[dpos : dpos + nd],
-            0.0,
-            0.0,
-        )
-        s, t = net_abscissae(g)
+        g = records[row]
         try:
+            code = codec.NetCode(
+                codec.Method(int(method[k])),
+                codec.Quant(int(quant[k])),
+                int(level[k]),
+                int(slope[k]),
+                ints.take(int(counts[k])),
+                dcs[dpos:],
+                0.0,
+                0.0,
+            )
+            s, t = net_abscissae(g)
             net, used = codec.decode_net(code, g.poles.shape, s, t, tol, origin)
         except ValueError as e:
-            raise CorruptError(f"SNET: row {row}: {e}") from None
+            raise CorruptError(f"{tag}: row {row}: {e}") from None
         dpos += used
         g.poles[...] = net
-        origin = net[0, 0]
+        origin = net.reshape(-1, net.shape[-1])[0]
     ints.done()
     if dpos != len(dcs):
-        raise CorruptError("SNET: unread DC coefficients")
+        raise CorruptError(f"{tag}: unread DC coefficients")
 
 
 # ---------------------------------------------------------------- whole model
@@ -504,18 +516,13 @@ def model_to_sections(
     """
     meta = {**meta, "unit": m.unit, "source_format": m.source_format}
     codes = codes or {}
-    order = []
-    seen: set[int] = set()
-    for g in m.surfaces:
-        if id(g) in codes and id(g) not in seen:
-            seen.add(id(g))
-            order.append(codes[id(g)])
     return [
         ("META", json.dumps(meta, sort_keys=True, separators=(",", ":")).encode()),
         ("LOCS", _write_locations(m)),
         ("SURF", _write_geometry(m.surfaces, 3, frozenset(codes))),
-        ("SNET", _write_nets(order)),
-        ("CRV3", _write_geometry(m.curves3d, 3)),
+        ("SNET", _write_nets(m.surfaces, codes)),
+        ("CRV3", _write_geometry(m.curves3d, 3, frozenset(codes))),
+        ("CNET", _write_nets(m.curves3d, codes)),
         ("CRV2", _write_geometry(m.curves2d, 2)),
         ("SHAP", _write_shapes(m)),
         ("VERT", _write_vertices(m)),
@@ -542,9 +549,11 @@ def sections_to_model(get: Any) -> tuple[BRepModel, dict[str, Any]]:
     m.source_format = str(meta.get("source_format", "STEP"))
     _read_locations(get("LOCS"), m)
     m.surfaces = _read_geometry(get("SURF"), "SURF", 3)
-    tol = meta.get("tolerance_mm")
-    _read_nets(get("SNET"), m.surfaces, float(tol) if isinstance(tol, (int, float)) else 0.0)
+    tol_mm = meta.get("tolerance_mm")
+    tol = float(tol_mm) if isinstance(tol_mm, (int, float)) else 0.0
+    _read_nets(get("SNET"), m.surfaces, tol, "SNET")
     m.curves3d = _read_geometry(get("CRV3"), "CRV3", 3)
+    _read_nets(get("CNET"), m.curves3d, tol, "CNET")
     m.curves2d = _read_geometry(get("CRV2"), "CRV2", 2)
     _read_shapes(get("SHAP"), m)
     _read_vertices(get("VERT"), m)

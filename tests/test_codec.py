@@ -136,8 +136,34 @@ def test_every_method_round_trips() -> None:
     S, T = s[:, None, None], t[None, :, None]
     p = (1 - S) * ((1 - T) * c[0, 0] + T * c[0, 1]) + S * ((1 - T) * c[1, 0] + T * c[1, 1])
     p += rng.normal(size=p.shape) * 1e-4  # a near-bilinear net: every method can code it
-    for method in codec.Method:
+    for method in codec.SURFACE_METHODS:
         code = codec.encode_net(p, s, t, 0.01, methods=(method,), paper=True)
         assert code.method == method
         dec, _ = codec.decode_net(code, p.shape, s, t, 0.01)
         assert np.sqrt(((dec - p) ** 2).sum(-1)).max() == pytest.approx(code.bound)
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.integers(2, 15),
+    st.sampled_from([2, 3]),
+    st.sampled_from([1e-3, 1e-2, 1.0]),
+    st.integers(0, 2**31),
+)
+def test_curves_within_tol(n: int, dim: int, tol: float, seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    p = np.cumsum(rng.normal(size=(n, dim)), 0) * rng.uniform(0.1, 50) + rng.uniform(-500, 500)
+    prev = rng.uniform(-500, 500, dim)
+    for methods in ((codec.Method.DELTA,), codec.CURVE_METHODS):
+        code = codec.encode_net(p, None, None, tol, methods=methods, origin=prev, paper=True)
+        dec, used = codec.decode_net(code, p.shape, None, None, tol, prev)
+        assert used == len(code.dcs)
+        assert np.sqrt(((dec - p) ** 2).sum(-1)).max() == pytest.approx(code.bound, abs=1e-12)
+        assert code.bound <= tol
+
+
+def test_method_must_fit_the_net() -> None:
+    p = np.zeros((4, 3))
+    code = codec.encode_net(p, None, None, 0.1, methods=codec.CURVE_METHODS)
+    with pytest.raises(ValueError):
+        codec.decode_net(code, (2, 2, 3), None, None, 0.1)
