@@ -294,6 +294,41 @@ def test_cmd(state: _State, files: tuple[str, ...], quiet: bool) -> None:
     sys.exit(1 if state.failed else 0)
 
 
+@cli.command("eval")
+@click.argument("original", type=click.Path())
+@click.argument("reconstructed", type=click.Path())
+@click.option("--json", "as_json", is_flag=True, help="Print the report as JSON.")
+@click.pass_obj
+def eval_cmd(state: _State, original: str, reconstructed: str, as_json: bool) -> None:
+    """Compare two CAD files (STEP, IGES or .nzc): deviation, topology, validity.
+
+    Faces are paired by index; points sampled inside each ORIGINAL face are
+    measured against the RECONSTRUCTED face of the same index.
+    """
+    r = _run(state, reconstructed, lambda: pipeline.evaluate(original, reconstructed))
+    if r is None:
+        sys.exit(1)
+    if as_json:
+        click.echo(json.dumps(r, sort_keys=True))
+        return
+    lines = [
+        f"topology:    {_fmt_counts(r['counts']['original'])}",
+        f"             {_fmt_counts(r['counts']['reconstructed'])}"
+        + ("" if r["same_topology"] else "  (differs)"),
+        f"valid:       {r['valid']['original']} -> {r['valid']['reconstructed']}",
+        f"free edges:  {r['free_edges']['original']} -> {r['free_edges']['reconstructed']}",
+    ]
+    if "max_deviation_mm" in r:
+        lines.append(
+            f"deviation:   max {r['max_deviation_mm']:.3g} mm, mean {r['mean_deviation_mm']:.3g} mm"
+        )
+        lines.append(
+            "worst faces: "
+            + ", ".join(f"#{w['face']} {w['max_mm']:.3g} mm" for w in r["worst_faces"])
+        )
+    click.echo("\n".join(lines))
+
+
 def main() -> None:
     """Console-script entry point."""
     cli(prog_name="nurbscomp")

@@ -24,7 +24,7 @@ Everything here is numpy on plain arrays: nets are (nu, nv, 3).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from enum import IntEnum
 
 import numpy as np
@@ -85,6 +85,8 @@ class NetCode:
         Certified max pole displacement.
     bits : float
         Estimated coded size (Exp-Golomb length of the integers + 64 per float).
+    origin : ndarray or None
+        The point the first pole was coded against (see :func:`reorigin`).
     """
 
     method: Method
@@ -95,6 +97,28 @@ class NetCode:
     dcs: np.ndarray
     bound: float
     bits: float
+    origin: np.ndarray | None = None
+
+    @property
+    def grid(self) -> float:
+        """Step of the grid the first pole is snapped to, as a multiple of tol."""
+        return 2.0 ** (self.level / 4) if self.quant == Quant.TOL else 1.0
+
+
+def reorigin(code: NetCode, origin: np.ndarray | None, tol: float) -> NetCode:
+    """The same code with its first pole coded against ``origin`` instead.
+
+    Every method codes its first grid point as "grid point - grid(origin)" in
+    its first ``dim`` integers, and the decoded net does not depend on the
+    origin, so only those integers change.
+    """
+    dim = 3 if code.origin is None else len(code.origin)
+    old = np.zeros(dim) if code.origin is None else code.origin
+    new = np.zeros(dim) if origin is None else origin
+    h = tol * code.grid
+    ints = code.ints.copy()
+    ints[:dim] += spatial.snap(old, h) - spatial.snap(new, h)
+    return replace(code, ints=ints, origin=None if origin is None else origin.copy())
 
 
 def cost_bits(q: np.ndarray) -> float:
@@ -362,7 +386,7 @@ def _try(
     dcs = np.concatenate(w.dcs) if w.dcs else np.zeros(0)
     bound = float(np.sqrt(((dec - p) ** 2).sum(-1)).max())
     bits = cost_bits(ints) + 64 * len(dcs)
-    return NetCode(method, st.quant, st.level, st.slope, ints, dcs, bound, bits)
+    return NetCode(method, st.quant, st.level, st.slope, ints, dcs, bound, bits, origin.copy())
 
 
 def _passing(

@@ -23,6 +23,7 @@ import numpy as np
 
 from . import codec
 from .model import (
+    REBUILD,
     BRepModel,
     BSplineCurve,
     BSplineSurface,
@@ -104,84 +105,131 @@ def below(m: BRepModel, s: int, kind: ShapeType) -> set[int]:
     return out
 
 
+@dataclass
+class Coded:
+    """Every codable record of a model, coded once: ``id(original) -> (code, decoded)``."""
+
+    surfaces: dict[int, tuple[codec.NetCode, Geometry]]
+    curves: dict[int, tuple[codec.NetCode, Geometry]]
+
+
 def _code_table(
     table: list[Geometry],
     tol: float,
     keep: set[int],
-    methods_for: Any,
+    methods: tuple[codec.Method, ...],
     paper: bool,
-    codes: dict[int, codec.NetCode],
-) -> tuple[list[Geometry], dict[int, codec.NetCode]]:
-    """Code every B-spline record of a table not in ``keep``; return the decoded table.
-
-    Returns the new table and ``id(new record) -> code``.
-    """
-    new: dict[int, Geometry] = {}
-    out: dict[int, codec.NetCode] = {}
+) -> dict[int, tuple[codec.NetCode, Geometry]]:
+    out: dict[int, tuple[codec.NetCode, Geometry]] = {}
     origin = None
     for g in table:
-        if id(g) in new or id(g) in keep or not isinstance(g, (BSplineSurface, BSplineCurve)):
+        if id(g) in out or id(g) in keep or not isinstance(g, (BSplineSurface, BSplineCurve)):
             continue
         s, t = net_abscissae(g)
-        code = codec.encode_net(g.poles, s, t, tol, methods_for(g), paper=paper, origin=origin)
+        code = codec.encode_net(g.poles, s, t, tol, methods, paper=paper, origin=origin)
         net, _ = codec.decode_net(code, g.poles.shape, s, t, tol, origin)
         origin = net.reshape(-1, net.shape[-1])[0]
-        rec = replace(g, poles=net)
-        new[id(g)] = rec
-        out[id(rec)] = code
-    codes.update(out)
-    return [new.get(id(g), g) for g in table], out
+        out[id(g)] = (code, replace(g, poles=net))
+    return out
 
 
 _TRIM_S = (Kind.TRIMMED_SURFACE,)
 _TRIM_C = (Kind.TRIMMED_CURVE,)
 
 
-def encode_model(
-    m: BRepModel, tol: float, paper: bool = False
+def code_model(m: BRepModel, tol: float, paper: bool = False) -> Coded:
+    """Run the per-net search (:func:`codec.encode_net`) on every B-spline surface
+    and 3-D curve of ``m`` that may move (not under an offset)."""
+    return Coded(
+        _code_table(
+            m.surfaces,
+            tol,
+            _offset_bases(m.surfaces, Kind.OFFSET_SURFACE, _TRIM_S),
+            codec.SURFACE_METHODS,
+            paper,
+        ),
+        _code_table(
+            m.curves3d,
+            tol,
+            _offset_bases(m.curves3d, Kind.OFFSET_CURVE, _TRIM_C),
+            codec.CURVE_METHODS,
+            paper,
+        ),
+    )
+
+
+def face_records(m: BRepModel) -> list[int]:
+    """Per face, the id of the surface record it moves with (trimmed -> basis)."""
+    return [id(_resolve(m.surfaces, r, _TRIM_S)) for r in m.face_surface.tolist()]
+
+
+def edge_records(m: BRepModel) -> list[int]:
+    """Per edge, the id of its 3-D curve record (trimmed -> basis), or 0."""
+    out = [0] * len(m.edge_tol)
+    reps = m.edge_reps
+    for q in np.flatnonzero(reps[:, 1] == RepKind.CURVE3D).tolist():
+        if reps[q, 2] >= 0:
+            out[reps[q, 0]] = id(_resolve(m.curves3d, int(reps[q, 2]), _TRIM_C))
+    return out
+
+
+def edge_faces(m: BRepModel) -> list[list[int]]:
+    """Per edge, the faces it bounds (indices in model order)."""
+    tidx = m.type_index()
+    out: list[list[int]] = [[] for _ in range(len(m.edge_tol))]
+    for f, s in enumerate(np.flatnonzero(m.shape_type == ShapeType.FACE).tolist()):
+        for e in below(m, s, ShapeType.EDGE):
+            out[tidx[e]].append(f)
+    return out
+
+
+def assemble(
+    m: BRepModel,
+    coded: Coded,
+    exact: set[int] = frozenset(),  # type: ignore[assignment]
 ) -> tuple[BRepModel, dict[int, codec.NetCode], LossyReport]:
-    """Code the model's B-spline surface nets and 3-D curve poles within ``tol``.
+    """The model the decoder will rebuild when every coded record but ``exact`` is used.
 
     Returns
     -------
     decoded : BRepModel
-        What the decoder will rebuild (shares unchanged tables with ``m``).
+        Shares unchanged tables with ``m``; tolerances widened.
     codes : dict
         ``id(record in decoded) -> NetCode`` for the container.
     report : LossyReport
     """
     codes: dict[int, codec.NetCode] = {}
-    surfaces, scodes = _code_table(
-        m.surfaces,
-        tol,
-        _offset_bases(m.surfaces, Kind.OFFSET_SURFACE, _TRIM_S),
-        lambda g: codec.SURFACE_METHODS,
-        paper,
-        codes,
-    )
-    curves, ccodes = _code_table(
-        m.curves3d,
-        tol,
-        _offset_bases(m.curves3d, Kind.OFFSET_CURVE, _TRIM_C),
-        lambda g: codec.CURVE_METHODS,
-        paper,
-        codes,
-    )
+
+    def swap(
+        table: list[Geometry], done: dict[int, tuple[codec.NetCode, Geometry]]
+    ) -> list[Geometry]:
+        out = []
+        for g in table:
+            hit = done.get(id(g)) if id(g) not in exact else None
+            if hit is None:
+                out.append(g)
+            else:
+                codes[id(hit[1])] = hit[0]
+                out.append(hit[1])
+        return out
+
+    surfaces, curves = swap(m.surfaces, coded.surfaces), swap(m.curves3d, coded.curves)
+    bound_of = {
+        id(rec): c.bound
+        for c, rec in [*coded.surfaces.values(), *coded.curves.values()]
+        if id(rec) in codes
+    }
 
     def curve_bound(i: int) -> float:
-        if i < 0:
-            return 0.0
-        c = ccodes.get(id(_resolve(curves, i, _TRIM_C)))
-        return c.bound if c else 0.0
+        return 0.0 if i < 0 else bound_of.get(id(_resolve(curves, i, _TRIM_C)), 0.0)
 
     face_bound = np.zeros(len(m.face_surface))
     face_method = []
     for f, row in enumerate(m.face_surface.tolist()):
         b = _resolve(surfaces, row, _TRIM_S)
-        c = scodes.get(id(b))
-        if c is not None:
-            face_bound[f] = c.bound
-            face_method.append(c.method.name.lower())
+        if id(b) in codes:
+            face_bound[f] = codes[id(b)].bound
+            face_method.append(codes[id(b)].method.name.lower())
         elif isinstance(b, Derived) and b.kind in (Kind.REVOLUTION, Kind.EXTRUSION):
             # sweeping is an isometry of each curve point: the surface moves as the curve
             face_bound[f] = curve_bound(b.basis)
@@ -194,17 +242,25 @@ def encode_model(
         edge_bound[reps[q, 0]] = max(edge_bound[reps[q, 0]], curve_bound(int(reps[q, 2])))
     out = _widen_tolerances(m, face_bound, edge_bound)
     out.surfaces, out.curves3d = surfaces, curves
-    npoles = sum(int(np.prod(g.poles.shape[:-1])) for g in surfaces if id(g) in scodes)
+    sc = [codes[id(g)] for g in {id(g): g for g in surfaces if id(g) in codes}.values()]
+    cc = [codes[id(g)] for g in {id(g): g for g in curves if id(g) in codes}.values()]
     report = LossyReport(
         face_method,
         face_bound,
         edge_bound,
-        sum(c.bits for c in scodes.values()),
-        npoles,
-        sum(c.bits for c in ccodes.values()),
-        sum(len(g.poles) for g in curves if id(g) in ccodes),
+        sum(c.bits for c in sc),
+        sum(int(np.prod(g.poles.shape[:-1])) for g in surfaces if id(g) in codes),
+        sum(c.bits for c in cc),
+        sum(len(g.poles) for g in curves if id(g) in codes),
     )
     return out, codes, report
+
+
+def encode_model(
+    m: BRepModel, tol: float, paper: bool = False
+) -> tuple[BRepModel, dict[int, codec.NetCode], LossyReport]:
+    """Code the model's B-spline surface nets and 3-D curve poles within ``tol``."""
+    return assemble(m, code_model(m, tol, paper))
 
 
 #: BRepCheck measures an edge's distance to its surfaces with a 5% margin
@@ -240,4 +296,77 @@ def _widen_tolerances(m: BRepModel, face_bound: np.ndarray, edge_bound: np.ndarr
     out: Any = replace(m)
     out.edge_tol = m.edge_tol + MARGIN * extra_e
     out.vertex_tol = m.vertex_tol + MARGIN * extra_v
+    return out
+
+
+def drop_pcurves(m: BRepModel, keep_edges: set[int], keep_faces: set[int]) -> BRepModel:
+    """A copy of ``m`` whose pcurves are left for the decoder to compute, where it can.
+
+    A pcurve is dropped (its curve index set to ``REBUILD``) when its edge is
+    not degenerated, has a 3-D curve, is not in ``keep_edges``, and every face
+    on its surface is outside ``keep_faces``.  Pcurves no longer referenced
+    leave the 2-D curve table.  The caller checks the rebuilt B-rep and keeps
+    what fails (:func:`nurbscomp.pipeline.compress_file`).
+    """
+    reps = m.edge_reps.copy()
+    kind = reps[:, 1]
+    has3d = np.zeros(len(m.edge_tol), bool)
+    c3 = kind == RepKind.CURVE3D
+    has3d[reps[c3, 0]] = reps[c3, 2] >= 0
+    faces_on: dict[tuple[int, int], list[int]] = collections.defaultdict(list)
+    for f, key in enumerate(zip(m.face_surface.tolist(), m.face_loc.tolist())):
+        faces_on[key].append(f)
+    degenerated = (m.edge_flags & 1).astype(bool)
+    pc = (kind == RepKind.ON_SURFACE) | (kind == RepKind.ON_CLOSED_SURFACE)
+    for q in np.flatnonzero(pc).tolist():
+        e = int(reps[q, 0])
+        if degenerated[e] or not has3d[e] or e in keep_edges:
+            continue
+        on = faces_on.get((int(reps[q, 4]), int(reps[q, 6])), [])
+        if not on or any(f in keep_faces for f in on):
+            continue
+        reps[q, 2] = REBUILD
+        if kind[q] == RepKind.ON_CLOSED_SURFACE:
+            reps[q, 3] = REBUILD
+    out: Any = replace(m)
+    out.edge_reps = reps
+    dropped = reps[:, 2] == REBUILD
+    out.edge_rep_range = np.where(dropped[:, None], 0.0, m.edge_rep_range)
+    out.edge_rep_uv = np.where(dropped[:, None], 0.0, m.edge_rep_uv)
+    return prune_curves2d(out)
+
+
+def prune_curves2d(m: BRepModel) -> BRepModel:
+    """Drop 2-D curves nothing refers to, renumbering the references."""
+    used = np.zeros(len(m.curves2d), bool)
+    reps = m.edge_reps
+    pc = (reps[:, 1] == RepKind.ON_SURFACE) | (reps[:, 1] == RepKind.ON_CLOSED_SURFACE)
+    for col in (2, 3):
+        idx = reps[pc, col]
+        used[idx[idx >= 0]] = True
+    vr = m.vertex_reps
+    idx = vr[vr[:, 1] == 1, 2]
+    used[idx[idx >= 0]] = True
+    for i in range(len(m.curves2d) - 1, -1, -1):  # bases precede their curves
+        g = m.curves2d[i]
+        if used[i] and isinstance(g, Derived):
+            used[g.basis] = True
+    new_index = np.cumsum(used) - 1
+    table: list[Geometry] = []
+    for i, g in enumerate(m.curves2d):
+        if used[i]:
+            if isinstance(g, Derived):
+                g = replace(g, basis=int(new_index[g.basis]))
+            table.append(g)
+    out: Any = replace(m)
+    out.curves2d = table
+    reps = reps.copy()
+    for col in (2, 3):
+        sel = pc & (reps[:, col] >= 0)
+        reps[sel, col] = new_index[reps[sel, col]]
+    out.edge_reps = reps
+    vr = vr.copy()
+    sel = (vr[:, 1] == 1) & (vr[:, 2] >= 0)
+    vr[sel, 2] = new_index[vr[sel, 2]]
+    out.vertex_reps = vr
     return out

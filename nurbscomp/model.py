@@ -69,6 +69,11 @@ class RepKind(IntEnum):
     ON_TWO_SURFACES = 3  # regularity: surface, surface2, location, location2, continuity
 
 
+#: Curve index of a pcurve representation that the decoder computes itself
+#: (projection of the edge's 3-D curve onto the face's surface).
+REBUILD = -2
+
+
 class PointRepKind(IntEnum):
     """Point representations on a vertex (``BRep_PointRepresentation`` subclasses)."""
 

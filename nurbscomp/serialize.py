@@ -28,6 +28,7 @@ import numpy as np
 from . import codec, coons
 from .errors import CorruptError
 from .model import (
+    REBUILD,
     Analytic,
     BRepModel,
     BSplineCurve,
@@ -439,14 +440,20 @@ def net_abscissae(g: Geometry) -> tuple[np.ndarray | None, np.ndarray | None]:
     return s, t
 
 
-def _write_nets(records: list[Geometry], codes: dict[int, codec.NetCode]) -> bytes:
-    """The codes of a table's coded records, in the order of their first rows."""
+def _write_nets(records: list[Geometry], codes: dict[int, codec.NetCode], tol: float) -> bytes:
+    """The codes of a table's coded records, in the order of their first rows.
+
+    Each code is re-based on the origin the decoder will use: the previous
+    coded row's decoded first pole (:func:`codec.reorigin`).
+    """
     order = []
     seen: set[int] = set()
+    origin = None
     for g in records:
         if id(g) in codes and id(g) not in seen:
             seen.add(id(g))
-            order.append(codes[id(g)])
+            order.append(codec.reorigin(codes[id(g)], origin, tol))
+            origin = g.poles.reshape(-1, g.poles.shape[-1])[0]
     w = BlockWriter()
     for field in ("method", "quant", "level", "slope"):
         w.ints([int(getattr(c, field)) for c in order])
@@ -516,13 +523,14 @@ def model_to_sections(
     """
     meta = {**meta, "unit": m.unit, "source_format": m.source_format}
     codes = codes or {}
+    tol = float(meta.get("tolerance_mm") or 0.0)
     return [
         ("META", json.dumps(meta, sort_keys=True, separators=(",", ":")).encode()),
         ("LOCS", _write_locations(m)),
         ("SURF", _write_geometry(m.surfaces, 3, frozenset(codes))),
-        ("SNET", _write_nets(m.surfaces, codes)),
+        ("SNET", _write_nets(m.surfaces, codes, tol)),
         ("CRV3", _write_geometry(m.curves3d, 3, frozenset(codes))),
-        ("CNET", _write_nets(m.curves3d, codes)),
+        ("CNET", _write_nets(m.curves3d, codes, tol)),
         ("CRV2", _write_geometry(m.curves2d, 2)),
         ("SHAP", _write_shapes(m)),
         ("VERT", _write_vertices(m)),
@@ -593,8 +601,10 @@ def check_references(m: BRepModel) -> None:
     two = kind == RepKind.ON_TWO_SURFACES
     c3 = kind == RepKind.CURVE3D
     within(reps[c3, 2], -1, n3, "an edge curve")
-    within(reps[~two & ~c3, 2], 0, n2, "an edge pcurve")
-    within(reps[kind == RepKind.ON_CLOSED_SURFACE, 3], 0, n2, "a seam pcurve")
+    within(reps[~two & ~c3, 2], REBUILD, n2, "an edge pcurve")
+    within(reps[kind == RepKind.ON_CLOSED_SURFACE, 3], REBUILD, n2, "a seam pcurve")
+    if (reps[~two & ~c3, 2] == -1).any():
+        raise CorruptError("an edge pcurve refers to a missing entry")
     within(reps[~c3, 4], 0, ns, "an edge surface")
     within(reps[two, 5], 0, ns, "an edge surface")
     within(reps[:, 6], 0, nl, "an edge location")

@@ -5,7 +5,7 @@ on the plain numpy data of :mod:`nurbscomp.model`.
 """
 
 from .files import UNITS_MM, CadFile, bintools_bytes, output_format, read_cad, write_shape
-from .measure import counts, deviation, faces, free_edges, is_valid
+from .measure import counts, deviation, deviation_stats, faces, failures, free_edges, is_valid
 from .topology import model_to_shape, shape_to_model
 
 __all__ = [
@@ -14,7 +14,9 @@ __all__ = [
     "bintools_bytes",
     "counts",
     "deviation",
+    "deviation_stats",
     "faces",
+    "failures",
     "free_edges",
     "is_valid",
     "model_to_shape",

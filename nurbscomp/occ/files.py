@@ -221,6 +221,9 @@ def write_shape(shape: Any, path: str | os.PathLike[str], fmt: str, unit: str = 
         return
     Interface_Static.SetCVal_s("write.step.unit", unit)
     Interface_Static.SetCVal_s("write.step.schema", "AP214IS")
+    # the file's uncertainty = the largest tolerance, so that a reader does not
+    # "repair" gaps that the B-rep's own tolerances already cover
+    Interface_Static.SetIVal_s("write.precision.mode", 1)
     sw = STEPControl_Writer()
     status = sw.Transfer(shape, STEPControl_AsIs)
     if status != IFSelect_ReturnStatus.IFSelect_RetDone:

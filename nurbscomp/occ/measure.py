@@ -15,7 +15,7 @@ from OCP.BRepCheck import BRepCheck_Analyzer
 from OCP.BRepTools import BRepTools
 from OCP.BRepTopAdaptor import BRepTopAdaptor_FClass2d
 from OCP.GeomAPI import GeomAPI_ProjectPointOnSurf
-from OCP.gp import gp_Pnt2d
+from OCP.gp import gp_Pnt, gp_Pnt2d
 from OCP.ShapeAnalysis import ShapeAnalysis_FreeBounds
 from OCP.TopAbs import (
     TopAbs_COMPOUND,
@@ -26,6 +26,7 @@ from OCP.TopAbs import (
     TopAbs_SHELL,
     TopAbs_SOLID,
     TopAbs_VERTEX,
+    TopAbs_WIRE,
 )
 from OCP.TopExp import TopExp, TopExp_Explorer
 from OCP.TopoDS import TopoDS
@@ -108,8 +109,8 @@ def sample_face(face: Any, n: int = 7) -> tuple[np.ndarray, np.ndarray]:
     return np.array(uv), np.array(xyz)
 
 
-def face_deviation(original: Any, decoded: Any, n: int = 7, tol: float = 0.0) -> float:
-    """Largest distance from points inside ``original`` to the surface of ``decoded``.
+def face_distances(original: Any, decoded: Any, n: int = 7, tol: float = 0.0) -> np.ndarray:
+    """Distances from points inside ``original`` to the surface of ``decoded``.
 
     Each sample is first compared with the decoded surface at the same (u, v),
     which bounds the distance from above; only where that exceeds ``tol`` is the
@@ -119,18 +120,16 @@ def face_deviation(original: Any, decoded: Any, n: int = 7, tol: float = 0.0) ->
     surf = BRep_Tool.Surface_s(decoded)
     trsf = decoded.Location().Transformation()
     inv = trsf.Inverted()
-    worst = 0.0
+    out = []
     for (u, v), p in zip(uv, xyz):
         q = surf.Value(u, v).Transformed(trsf)
         d = float(np.sqrt((q.X() - p[0]) ** 2 + (q.Y() - p[1]) ** 2 + (q.Z() - p[2]) ** 2))
         if d > tol:
-            from OCP.gp import gp_Pnt
-
             proj = GeomAPI_ProjectPointOnSurf(gp_Pnt(*p).Transformed(inv), surf)
             if proj.NbPoints():
                 d = min(d, proj.LowerDistance())
-        worst = max(worst, d)
-    return worst
+        out.append(d)
+    return np.array(out)
 
 
 def deviation(original: Any, decoded: Any, n: int = 7, tol: float = 0.0) -> np.ndarray:
@@ -138,8 +137,77 @@ def deviation(original: Any, decoded: Any, n: int = 7, tol: float = 0.0) -> np.n
     fa, fb = faces(original), faces(decoded)
     if len(fa) != len(fb):
         raise ValueError(f"face counts differ: {len(fa)} != {len(fb)}")
-    return np.array([face_deviation(a, b, n, tol) for a, b in zip(fa, fb)])
+    return np.array([face_distances(a, b, n, tol).max() for a, b in zip(fa, fb)])
+
+
+def deviation_stats(original: Any, decoded: Any, n: int = 7) -> tuple[np.ndarray, np.ndarray]:
+    """Per-face maximum and mean sampled distance, shapes (F,), (F,)."""
+    fa, fb = faces(original), faces(decoded)
+    if len(fa) != len(fb):
+        raise ValueError(f"face counts differ: {len(fa)} != {len(fb)}")
+    d = [face_distances(a, b, n) for a, b in zip(fa, fb)]
+    return np.array([x.max() for x in d]), np.array([x.mean() for x in d])
 
 
 def is_compound(shape: Any) -> bool:
     return shape.ShapeType() == TopAbs_COMPOUND
+
+
+def failures(shape: Any) -> tuple[set[int], set[int]]:
+    """Where BRepCheck finds fault: (edge indices, face indices), 0-based in
+    ``TopExp.MapShapes`` order (the model's own order).
+
+    A fault on a vertex counts against its edges; one on a wire, or on an edge
+    in the context of a face, counts against that face too.
+    """
+    from OCP.TopTools import TopTools_IndexedDataMapOfShapeListOfShape
+
+    a = BRepCheck_Analyzer(shape)
+    em, fm, vm = _map(shape, TopAbs_EDGE), _map(shape, TopAbs_FACE), _map(shape, TopAbs_VERTEX)
+    bad_e: set[int] = set()
+    bad_f: set[int] = set()
+
+    def faulty(r: Any) -> tuple[bool, list[Any]]:
+        own = any(x.name != "BRepCheck_NoError" for x in r.Status())
+        ctx = []
+        r.InitContextIterator()
+        while r.MoreShapeInContext():
+            if any(x.name != "BRepCheck_NoError" for x in r.StatusOnShape()):
+                ctx.append(r.ContextualShape())
+            r.NextShapeInContext()
+        return own, ctx
+
+    def mark_context(ctx: list[Any]) -> None:
+        for c in ctx:
+            if c.ShapeType() == TopAbs_FACE:
+                bad_f.add(fm.FindIndex(c) - 1)
+            elif c.ShapeType() == TopAbs_EDGE:
+                bad_e.add(em.FindIndex(c) - 1)
+
+    for i in range(1, em.Extent() + 1):
+        r = a.Result(em.FindKey(i))
+        if r is not None:
+            own, ctx = faulty(r)
+            if own or ctx:
+                bad_e.add(i - 1)
+            mark_context(ctx)
+    for i in range(1, fm.Extent() + 1):
+        f = fm.FindKey(i)
+        r = a.Result(f)
+        if r is not None and any(faulty(r)):
+            bad_f.add(i - 1)
+        exp = TopExp_Explorer(f, TopAbs_WIRE)
+        while exp.More():
+            r = a.Result(exp.Current())
+            if r is not None and any(faulty(r)):
+                bad_f.add(i - 1)
+            exp.Next()
+    v2e = TopTools_IndexedDataMapOfShapeListOfShape()
+    TopExp.MapShapesAndAncestors_s(shape, TopAbs_VERTEX, TopAbs_EDGE, v2e)
+    for i in range(1, vm.Extent() + 1):
+        v = vm.FindKey(i)
+        r = a.Result(v)
+        if r is not None and any(faulty(r)):
+            for e in v2e.FindFromKey(v):
+                bad_e.add(em.FindIndex(e) - 1)
+    return bad_e, bad_f

@@ -24,12 +24,15 @@ from OCP.BRep import (
     BRep_PointOnCurve,
     BRep_PointOnCurveOnSurface,
     BRep_PointOnSurface,
+    BRep_Tool,
 )
 from OCP.GeomAbs import GeomAbs_Shape
 from OCP.gp import gp_Pnt, gp_Pnt2d, gp_Trsf, gp_TrsfForm, gp_Vec
-from OCP.TopAbs import TopAbs_FORWARD, TopAbs_Orientation
+from OCP.ShapeFix import ShapeFix_Edge, ShapeFix_Wire
+from OCP.TopAbs import TopAbs_FORWARD, TopAbs_Orientation, TopAbs_WIRE
 from OCP.TopLoc import TopLoc_Datum3D, TopLoc_Location
 from OCP.TopoDS import (
+    TopoDS,
     TopoDS_Compound,
     TopoDS_CompSolid,
     TopoDS_Edge,
@@ -43,7 +46,7 @@ from OCP.TopoDS import (
 from OCP.TopTools import TopTools_IndexedMapOfShape
 
 from ..errors import UnsupportedError
-from ..model import BRepModel, Location, PointRepKind, RepKind, ShapeType
+from ..model import REBUILD, BRepModel, Location, PointRepKind, RepKind, ShapeType
 from .geometry import GeometryBuilder, GeometryReader
 
 _FLAG_NAMES = (
@@ -342,6 +345,7 @@ def model_to_shape(m: BRepModel) -> Any:
 
     tidx = m.type_index()
     vreps = _group(m.vertex_reps[:, 0], len(m.vertex_tol))
+    pending: list[tuple[Any, int, int, bool]] = []
     ereps = _group(m.edge_reps[:, 0], len(m.edge_tol))
     built: list[Any] = []
     for s, t in enumerate(m.shape_type.tolist()):
@@ -374,7 +378,17 @@ def model_to_shape(m: BRepModel) -> Any:
             te.SameRange(bool(f & 4))
             curves = te.ChangeCurves()
             for q in ereps[k]:
-                curves.Append(_edge_rep(m, q, geo, locs))
+                if m.edge_reps[q, 2] == REBUILD:
+                    pending.append(
+                        (
+                            sh,
+                            int(m.edge_reps[q, 4]),
+                            int(m.edge_reps[q, 6]),
+                            m.edge_reps[q, 1] == RepKind.ON_CLOSED_SURFACE,
+                        )
+                    )
+                else:
+                    curves.Append(_edge_rep(m, q, geo, locs))
         elif t == ShapeType.FACE:
             sh = TopoDS_Face()
             b.MakeFace(
@@ -391,10 +405,45 @@ def model_to_shape(m: BRepModel) -> Any:
             child = built[m.child_shape[c]]
             b.Add(sh, child.Oriented(_ORIENT[m.child_orient[c]]).Located(locs[m.child_loc[c]]))
         built.append(sh)
+    if pending:
+        faces = [sh for sh, t in zip(built, m.shape_type.tolist()) if t == ShapeType.FACE]
+        rows = list(zip(m.face_surface.tolist(), m.face_loc.tolist()))
+        rebuild_pcurves(pending, faces, rows)
     for sh, fl in zip(built, m.shape_flags.tolist()):
         _set_flags(sh.TShape(), fl)
     root = built[m.root_shape]
     return root.Oriented(_ORIENT[m.root_orient]).Located(locs[m.root_loc])
+
+
+def rebuild_pcurves(
+    pending: list[tuple[Any, int, int, bool]], faces: list[Any], rows: list[tuple[int, int]]
+) -> None:
+    """Compute the pcurves a model left out, on the faces whose surface they name.
+
+    Each pending item is (edge, surface row, location, seam).  The 3-D curve
+    is projected onto the face's surface (``ShapeFix_Edge.FixAddPCurve``, two
+    pcurves for a seam), then each touched face's wires are shifted by whole
+    periods where they ended up on another sheet (``ShapeFix_Wire.FixShifted``),
+    as OCCT's own STEP reader does.  Deterministic: the same model gives the
+    same pcurves.
+    """
+    by_row: dict[tuple[int, int], list[Any]] = {}
+    for f, key in zip(faces, rows):
+        by_row.setdefault(key, []).append(f)
+    fix = ShapeFix_Edge()
+    touched: dict[int, Any] = {}
+    for edge, srow, loc, seam in pending:
+        for face in by_row.get((srow, loc), []):
+            fix.FixAddPCurve(edge, TopoDS.Face_s(face), seam, BRep_Tool.Tolerance_s(edge))
+            touched[id(face)] = face
+    for face in touched.values():
+        f = TopoDS.Face_s(face)
+        it = TopoDS_Iterator(face, False, False)
+        while it.More():
+            w = it.Value()
+            if w.ShapeType() == TopAbs_WIRE:
+                ShapeFix_Wire(TopoDS.Wire_s(w), f, 1e-7).FixShifted()
+            it.Next()
 
 
 def _group(owner: np.ndarray, n: int) -> list[list[int]]:
