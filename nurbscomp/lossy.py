@@ -173,6 +173,24 @@ def edge_records(m: BRepModel) -> list[int]:
     return out
 
 
+def kinked_records(m: BRepModel) -> set[int]:
+    """Ids of B-splines with an interior knot of multiplicity ≥ degree.
+
+    Such a knot is only C0 by its knots; the original's poles around it are
+    usually aligned (G1).  Coding breaks the alignment, and a STEP reader then
+    splits the edge or face there, changing the topology.
+    """
+    out = set()
+    for g in [*m.surfaces, *m.curves3d]:
+        if isinstance(g, BSplineCurve) and not g.bezier:
+            if (g.mults[1:-1] >= g.degree).any():
+                out.add(id(g))
+        elif isinstance(g, BSplineSurface) and not g.bezier:
+            if (g.umults[1:-1] >= g.udegree).any() or (g.vmults[1:-1] >= g.vdegree).any():
+                out.add(id(g))
+    return out
+
+
 def edge_faces(m: BRepModel) -> list[list[int]]:
     """Per edge, the faces it bounds (indices in model order)."""
     tidx = m.type_index()

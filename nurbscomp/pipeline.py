@@ -193,7 +193,7 @@ def compress_file(
         flags = container.FLAG_LOSSLESS
     else:
         assert tol is not None and tol > 0
-        target, codes, lossy_report, rebuilt = _lossy_target(m, cad.shape, tol)
+        target, codes, lossy_report, rebuilt = _lossy_target(m, cad.shape, tol, verify)
         flags = 0
     data = container.pack(serialize.model_to_sections(target, meta, codes), flags)
     verified = False
@@ -243,7 +243,7 @@ def compress_file(
 
 
 def _lossy_target(
-    m: BRepModel, source: Any, tol: float
+    m: BRepModel, source: Any, tol: float, step_check: bool = True
 ) -> tuple[BRepModel, dict[int, Any], lossy.LossyReport, int]:
     """The cheapest decodable model that is as valid as the source.
 
@@ -255,7 +255,17 @@ def _lossy_target(
     its stored pcurves come back; where they were already there, its curve
     (then its faces' surfaces) or its surface (then its edges' curves) is kept
     exact.  Six rounds at most; then everything is exact.
+
+    With ``step_check``, the candidate must also survive OCCT's STEP write and
+    read with the topology OCCT's own round trip of the source keeps; faces
+    that come back with extra edges (a reader "repairing" a gap) are kept
+    exact with their edges; if faces come back split, B-splines with C0 knots
+    are kept exact (:func:`lossy.kinked_records`).
     """
+    floor = None
+    if step_check:
+        back = occ.step_round_trip(source, m.unit)
+        floor = (occ.counts(back), occ.edges_per_face(back))
     coded = lossy.code_model(m, tol)
     faces_rec, edges_rec = lossy.face_records(m), lossy.edge_records(m)
     faces_of = lossy.edge_faces(m)
@@ -272,6 +282,27 @@ def _lossy_target(
         cand = lossy.drop_pcurves(target, keep_e, keep_f)
         bad_e, bad_f = occ.failures(build(cand))
         new_e, new_f = bad_e - old_e, bad_f - old_f
+        if not new_e and not new_f and floor is not None:
+            back = occ.step_round_trip(build(cand), m.unit)
+            if occ.counts(back) != floor[0]:
+                per = occ.edges_per_face(back)
+                if len(per) != len(floor[1]):  # the reader split faces: at kinks?
+                    kinked = lossy.kinked_records(m)
+                    if kinked <= exact:
+                        break
+                    exact |= kinked
+                    continue
+                new_f = {f for f, (a, b) in enumerate(zip(per, floor[1])) if a != b}
+                if not new_f:
+                    break
+                if new_f <= keep_f:  # already exact: the cause is next door
+                    new_f = {g for f in new_f for e in edges_of[f] for g in faces_of[e]}
+                for f in new_f:
+                    exact.add(faces_rec[f])
+                    exact |= {edges_rec[e] for e in edges_of[f]}
+                    keep_e |= set(edges_of[f])
+                keep_f |= new_f
+                continue
         if not new_e and not new_f:
             return cand, codes, report, int((cand.edge_reps[:, 2] == REBUILD).sum())
         for e in new_e & keep_e:  # pcurves already stored: its curve, then its faces

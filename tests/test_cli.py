@@ -156,3 +156,17 @@ def test_version_and_help() -> None:
     assert code == 0 and "nurbscomp" in out
     code, out, _ = run("--help")
     assert code == 0 and "Exit codes" in out
+
+
+def test_eval_reports_deviation_and_topology(work: Path) -> None:
+    assert run("compress", "-q", "--tol", "0.05", str(work / "part.step"))[0] == 0
+    code, out, err = run("eval", "--json", str(work / "part.step"), str(work / "part.step.nzc"))
+    assert code == 0, err
+    r = json.loads(out)
+    assert r["same_topology"] and r["valid"]["reconstructed"]
+    assert 0 < r["max_deviation_mm"] <= 0.05
+    assert r["mean_deviation_mm"] <= r["max_deviation_mm"]
+    code, out, _ = run("eval", str(work / "part.step"), str(work / "part.step.nzc"))
+    assert code == 0 and "deviation:" in out and "worst faces:" in out
+    code, _, err = run("eval", str(work / "part.step"), str(work / "missing.step"))
+    assert code == 1 and err.startswith("error: ")

@@ -167,3 +167,17 @@ def test_method_must_fit_the_net() -> None:
     code = codec.encode_net(p, None, None, 0.1, methods=codec.CURVE_METHODS)
     with pytest.raises(ValueError):
         codec.decode_net(code, (2, 2, 3), None, None, 0.1)
+
+
+@given(st.integers(0, 2**31))
+@settings(max_examples=30, deadline=None)
+def test_reorigin_keeps_the_decoded_net(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    p = np.cumsum(rng.normal(size=(5, 4, 3)), 0) * 10 + rng.uniform(-900, 900, 3)
+    s, t = np.linspace(0, 1, 5), np.linspace(0, 1, 4)
+    a, b = rng.uniform(-900, 900, 3), rng.uniform(-900, 900, 3)
+    code = codec.encode_net(p, s, t, 0.01, origin=a)
+    net_a, _ = codec.decode_net(code, p.shape, s, t, 0.01, a)
+    moved = codec.reorigin(code, b, 0.01)
+    net_b, _ = codec.decode_net(moved, p.shape, s, t, 0.01, b)
+    assert np.array_equal(net_a, net_b)

@@ -4,8 +4,25 @@ Everything that touches OCCT lives in this package; the rest of nurbscomp works
 on the plain numpy data of :mod:`nurbscomp.model`.
 """
 
-from .files import UNITS_MM, CadFile, bintools_bytes, output_format, read_cad, write_shape
-from .measure import counts, deviation, deviation_stats, faces, failures, free_edges, is_valid
+from .files import (
+    UNITS_MM,
+    CadFile,
+    bintools_bytes,
+    output_format,
+    read_cad,
+    step_round_trip,
+    write_shape,
+)
+from .measure import (
+    counts,
+    deviation,
+    deviation_stats,
+    edges_per_face,
+    faces,
+    failures,
+    free_edges,
+    is_valid,
+)
 from .topology import model_to_shape, shape_to_model
 
 __all__ = [
@@ -15,6 +32,7 @@ __all__ = [
     "counts",
     "deviation",
     "deviation_stats",
+    "edges_per_face",
     "faces",
     "failures",
     "free_edges",
@@ -23,5 +41,6 @@ __all__ = [
     "output_format",
     "read_cad",
     "shape_to_model",
+    "step_round_trip",
     "write_shape",
 ]

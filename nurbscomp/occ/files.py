@@ -221,9 +221,6 @@ def write_shape(shape: Any, path: str | os.PathLike[str], fmt: str, unit: str = 
         return
     Interface_Static.SetCVal_s("write.step.unit", unit)
     Interface_Static.SetCVal_s("write.step.schema", "AP214IS")
-    # the file's uncertainty = the largest tolerance, so that a reader does not
-    # "repair" gaps that the B-rep's own tolerances already cover
-    Interface_Static.SetIVal_s("write.precision.mode", 1)
     sw = STEPControl_Writer()
     status = sw.Transfer(shape, STEPControl_AsIs)
     if status != IFSelect_ReturnStatus.IFSelect_RetDone:
@@ -241,3 +238,13 @@ def bintools_bytes(shape: Any) -> bytes:
         f = os.path.join(d, "s.bin")
         BinTools.Write_s(shape, f)
         return Path(f).read_bytes()
+
+
+def step_round_trip(shape: Any, unit: str = "MM") -> Any:
+    """The shape as OCCT reads it back after writing it to STEP (in a temporary file)."""
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as d:
+        f = Path(d) / "rt.step"
+        write_shape(shape, f, "STEP", unit)
+        return read_cad(f).shape

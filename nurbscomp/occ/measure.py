@@ -211,3 +211,8 @@ def failures(shape: Any) -> tuple[set[int], set[int]]:
             for e in v2e.FindFromKey(v):
                 bad_e.add(em.FindIndex(e) - 1)
     return bad_e, bad_f
+
+
+def edges_per_face(shape: Any) -> list[int]:
+    """Number of distinct edges of each face, in face order."""
+    return [_map(f, TopAbs_EDGE).Extent() for f in faces(shape)]
