@@ -224,6 +224,7 @@ def compress_file(
         if lossless
         else "B-spline surfaces and 3-D curves coded; pcurves, vertices, analytic exact",
         "faces_by_method": lossy_report.method_counts() if lossy_report else {},
+        "face_method_list": lossy_report.face_method if lossy_report else [],
         "max_bound_mm": float(lossy_report.face_bound.max(initial=0.0)) if lossy_report else 0.0,
         "max_curve_bound_mm": float(lossy_report.edge_bound.max(initial=0.0))
         if lossy_report
