@@ -312,9 +312,17 @@ def _widen_tolerances(m: BRepModel, face_bound: np.ndarray, edge_bound: np.ndarr
             for v in below(m, s, ShapeType.VERTEX):
                 extra_v[tidx[v]] = max(extra_v[tidx[v]], reach)
     out: Any = replace(m)
-    out.edge_tol = m.edge_tol + MARGIN * extra_e
-    out.vertex_tol = m.vertex_tol + MARGIN * extra_v
+    out.edge_tol = np.where(extra_e > 0, round_up(m.edge_tol + MARGIN * extra_e), m.edge_tol)
+    out.vertex_tol = np.where(extra_v > 0, round_up(m.vertex_tol + MARGIN * extra_v), m.vertex_tol)
     return out
+
+
+def round_up(x: np.ndarray) -> np.ndarray:
+    """The smallest power of 2^(1/4) ≥ x (x > 0): a widened tolerance needs no
+    more precision than that, and a few distinct values cost next to nothing."""
+    k = np.ceil(4 * np.log2(x))
+    y = np.exp2(k / 4)
+    return np.where(y >= x, y, np.exp2((k + 1) / 4))
 
 
 def drop_pcurves(m: BRepModel, keep_edges: set[int], keep_faces: set[int]) -> BRepModel:
