@@ -172,6 +172,14 @@ def _batch(
     help=f"Tolerance, mm unless suffixed (um, in, mil...). Default {pipeline.DEFAULT_TOL_MM} mm.",
 )
 @click.option("--no-verify", is_flag=True, help="Skip decoding the output to check it.")
+@click.option(
+    "--step-safe/--no-step-safe",
+    default=True,
+    show_default=True,
+    help="Keep exact what OCCT's STEP reader would 'repair' when reading the "
+    "decompressed STEP back (same topology as OCCT's own round trip). "
+    "--no-step-safe: smaller files; the decoded B-rep is still valid and within tol.",
+)
 @_batch_options("Print counts and faces by type.")
 @click.pass_obj
 def compress(
@@ -181,6 +189,7 @@ def compress(
     lossless: bool,
     tol: float | None,
     no_verify: bool,
+    step_safe: bool,
     force: bool,
     as_json: bool,
     quiet: bool,
@@ -195,7 +204,13 @@ def compress(
 
     def work(f: str, o: str | None) -> dict[str, Any]:
         return pipeline.compress_file(
-            f, o, tol=tol_mm, lossless=lossless, force=force, verify=not no_verify
+            f,
+            o,
+            tol=tol_mm,
+            lossless=lossless,
+            force=force,
+            verify=not no_verify,
+            step_safe=step_safe,
         )
 
     _batch(

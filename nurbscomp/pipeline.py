@@ -151,6 +151,7 @@ def compress_file(
     lossless: bool = False,
     force: bool = False,
     verify: bool = True,
+    step_safe: bool = True,
 ) -> dict[str, Any]:
     """Compress a STEP/IGES file into a ``.nzc`` container.
 
@@ -165,6 +166,11 @@ def compress_file(
     verify : bool
         Decode what was written and check it against what was encoded before
         renaming the output into place.
+    step_safe : bool
+        Keep exact whatever OCCT's STEP reader would "repair" (new edges or
+        faces) when the decompressed STEP is read back, so the STEP output
+        keeps what OCCT's own round trip keeps.  Off, files are smaller and
+        the in-memory / BREP result is still valid and within tol.
     """
     t0 = time.perf_counter()
     src_p = Path(src)
@@ -193,7 +199,7 @@ def compress_file(
         flags = container.FLAG_LOSSLESS
     else:
         assert tol is not None and tol > 0
-        target, codes, lossy_report, rebuilt = _lossy_target(m, cad.shape, tol, verify)
+        target, codes, lossy_report, rebuilt = _lossy_target(m, cad.shape, tol, step_safe)
         flags = 0
     data = container.pack(serialize.model_to_sections(target, meta, codes), flags)
     verified = False
@@ -232,6 +238,7 @@ def compress_file(
         "certified_faces": int((lossy_report.face_bound > 0).sum()) if lossy_report else 0,
         "sampled_faces": 0,
         "pcurves_rebuilt": rebuilt,
+        "step_safe": step_safe and not lossless,
         "unit": m.unit,
         "source_format": m.source_format,
         "counts": occ.counts(cad.shape),

@@ -11,10 +11,10 @@ from nurbscomp import occ, pipeline
 from .conftest import corpus_files, sample_files
 
 
-def _check(path: Path, tmp_path: Path, tol: float) -> dict:
+def _check(path: Path, tmp_path: Path, tol: float, step: bool = False, **kw) -> dict:
     cad = occ.read_cad(path)
     nzc = tmp_path / "x.nzc"
-    rep = pipeline.compress_file(path, nzc, tol=tol)
+    rep = pipeline.compress_file(path, nzc, tol=tol, **kw)
     assert rep["verified"] and rep["max_bound_mm"] <= tol
     shape, _, meta = pipeline.decode_file(nzc)
     assert meta["tolerance_mm"] == tol
@@ -23,6 +23,14 @@ def _check(path: Path, tmp_path: Path, tol: float) -> dict:
     assert dev.max() <= tol, f"face {dev.argmax()} deviates {dev.max()} > {tol}"
     if occ.is_valid(cad.shape):
         assert occ.is_valid(shape)
+    if step:  # decompressed STEP keeps what OCCT's own STEP round trip keeps
+        floor = occ.step_round_trip(cad.shape, cad.unit)
+        out = tmp_path / "out.step"
+        pipeline.decompress_file(nzc, out)
+        back = occ.read_cad(out).shape
+        assert occ.counts(back) == occ.counts(floor)
+        if occ.is_valid(floor):
+            assert occ.is_valid(back)
     return rep
 
 
@@ -39,7 +47,13 @@ def test_samples_within_tol(path: Path, tmp_path: Path, tol: float) -> None:
 @pytest.mark.slow
 @pytest.mark.parametrize("path", corpus_files(), ids=lambda p: p.name)
 def test_corpus_within_tol(path: Path, tmp_path: Path) -> None:
-    _check(path, tmp_path, 0.01)
+    _check(path, tmp_path, 0.01, step=True)
+
+
+@pytest.mark.parametrize("path", sample_files(), ids=lambda p: p.name)
+def test_samples_without_step_safety(path: Path, tmp_path: Path) -> None:
+    rep = _check(path, tmp_path, 0.05, step_safe=False)
+    assert not rep["step_safe"]
 
 
 def test_lossy_is_smaller_than_lossless(tmp_path: Path) -> None:
