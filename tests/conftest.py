@@ -26,6 +26,22 @@ def sample_files() -> list[Path]:
     return files
 
 
+def assert_step_keeps_floor(cad, nzc: Path, tmp_path: Path):
+    """Decompress ``nzc`` to STEP, read it back, and compare with OCCT's own
+    STEP round trip of the source (the floor): same counts, valid where the
+    floor is.  Returns the re-read shape."""
+    from nurbscomp import occ, pipeline
+
+    floor = occ.step_round_trip(cad.shape, cad.unit)
+    out = tmp_path / "out.step"
+    pipeline.decompress_file(nzc, out, force=True)
+    back = occ.read_cad(out).shape
+    assert occ.counts(back) == occ.counts(floor)
+    if occ.is_valid(floor):
+        assert occ.is_valid(back)
+    return back
+
+
 @pytest.fixture(scope="session")
 def small_step() -> Path:
     return SAMPLES / "bracket.step"

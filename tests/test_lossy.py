@@ -8,7 +8,7 @@ import pytest
 
 from nurbscomp import occ, pipeline
 
-from .conftest import corpus_files, sample_files
+from .conftest import assert_step_keeps_floor, corpus_files, sample_files
 
 
 def _check(path: Path, tmp_path: Path, tol: float, step: bool = False, **kw) -> dict:
@@ -23,14 +23,8 @@ def _check(path: Path, tmp_path: Path, tol: float, step: bool = False, **kw) -> 
     assert dev.max() <= tol, f"face {dev.argmax()} deviates {dev.max()} > {tol}"
     if occ.is_valid(cad.shape):
         assert occ.is_valid(shape)
-    if step:  # decompressed STEP keeps what OCCT's own STEP round trip keeps
-        floor = occ.step_round_trip(cad.shape, cad.unit)
-        out = tmp_path / "out.step"
-        pipeline.decompress_file(nzc, out)
-        back = occ.read_cad(out).shape
-        assert occ.counts(back) == occ.counts(floor)
-        if occ.is_valid(floor):
-            assert occ.is_valid(back)
+    if step:
+        assert_step_keeps_floor(cad, nzc, tmp_path)
     return rep
 
 

@@ -13,7 +13,7 @@ import pytest
 from nurbscomp import container, occ, pipeline, serialize
 from nurbscomp.model import differences
 
-from .conftest import corpus_files, sample_files
+from .conftest import assert_step_keeps_floor, corpus_files, sample_files
 
 
 def _model(path: Path):
@@ -91,17 +91,9 @@ def test_lossless_corpus(path: Path, tmp_path: Path) -> None:
 def test_step_output_keeps_what_occt_keeps(path: Path, tmp_path: Path) -> None:
     """Decompressed to STEP and read back, the file keeps what OCCT's own round trip keeps."""
     cad = occ.read_cad(path)
-    floor_file = tmp_path / "floor.step"
-    occ.write_shape(cad.shape, floor_file, "STEP", cad.unit)
-    floor = occ.read_cad(floor_file).shape
     nzc = tmp_path / "x.nzc"
     pipeline.compress_file(path, nzc, lossless=True)
-    out = tmp_path / "out.step"
-    pipeline.decompress_file(nzc, out)
-    ours = occ.read_cad(out).shape
-    assert occ.counts(ours) == occ.counts(floor)
-    if occ.is_valid(floor):
-        assert occ.is_valid(ours)
+    ours = assert_step_keeps_floor(cad, nzc, tmp_path)
     if occ.counts(ours) == occ.counts(cad.shape):
         dev = occ.deviation(cad.shape, ours, n=4, tol=1e-9)
         assert dev.max() <= 1e-9, f"max deviation {dev.max()}"
