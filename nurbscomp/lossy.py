@@ -1,15 +1,16 @@
-"""Tolerance mode on a whole model: code every B-spline surface net, keep the B-rep valid.
+"""Tolerance mode on a whole model: code every B-spline net and curve, keep the B-rep valid.
 
-:func:`encode_model` runs the per-net search of :mod:`nurbscomp.codec` on each
-distinct B-spline or Bezier surface, and returns the model the decoder will
-rebuild: the same tables with the *decoded* nets, and with edge and vertex
-tolerances widened by the coding error of the faces around them (the curves
-and pcurves are still exact, so an edge's distance to its moved surface grows
-by at most that face's bound).
+:func:`code_model` runs the per-net search of :mod:`nurbscomp.codec` once on
+each distinct B-spline surface and 3-D B-spline curve.  :func:`assemble`
+builds the model the decoder will rebuild from those codes, leaving a chosen
+set of records exact: the same tables with the *decoded* poles, and edge and
+vertex tolerances widened by the coding error of the curves and faces around
+them.  :func:`drop_pcurves` leaves pcurves for the decoder to compute.  The
+loop that decides what stays exact, checking the rebuilt B-rep with OCCT, is
+``pipeline._lossy_target``.
 
-3-D B-spline curves are coded the same way (:data:`codec.CURVE_METHODS`).
-What this version does not code yet (it stays exact): pcurves, vertices,
-analytic geometry, and B-splines under an offset (an offset of a moved
+Still exact in this version: vertices, analytic geometry, the pcurves the
+decoder cannot rebuild, and B-splines under an offset (an offset of a moved
 geometry can move by more than its poles did).
 """
 
@@ -272,13 +273,6 @@ def assemble(
         sum(len(g.poles) for g in curves if id(g) in codes),
     )
     return out, codes, report
-
-
-def encode_model(
-    m: BRepModel, tol: float, paper: bool = False
-) -> tuple[BRepModel, dict[int, codec.NetCode], LossyReport]:
-    """Code the model's B-spline surface nets and 3-D curve poles within ``tol``."""
-    return assemble(m, code_model(m, tol, paper))
 
 
 #: BRepCheck measures an edge's distance to its surfaces with a 5% margin

@@ -18,7 +18,6 @@ from OCP.GeomAPI import GeomAPI_ProjectPointOnSurf
 from OCP.gp import gp_Pnt, gp_Pnt2d
 from OCP.ShapeAnalysis import ShapeAnalysis_FreeBounds
 from OCP.TopAbs import (
-    TopAbs_COMPOUND,
     TopAbs_EDGE,
     TopAbs_FACE,
     TopAbs_IN,
@@ -147,10 +146,6 @@ def deviation_stats(original: Any, decoded: Any, n: int = 7) -> tuple[np.ndarray
         raise ValueError(f"face counts differ: {len(fa)} != {len(fb)}")
     d = [face_distances(a, b, n) for a, b in zip(fa, fb)]
     return np.array([x.max() for x in d]), np.array([x.mean() for x in d])
-
-
-def is_compound(shape: Any) -> bool:
-    return shape.ShapeType() == TopAbs_COMPOUND
 
 
 def failures(shape: Any) -> tuple[set[int], set[int]]:
