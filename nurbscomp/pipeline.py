@@ -262,7 +262,8 @@ def _lossy_target(
     BRepCheck.  For every edge or face with a fault the source does not have,
     its stored pcurves come back; where they were already there, its curve
     (then its faces' surfaces) or its surface (then its edges' curves) is kept
-    exact.  Six rounds at most; then everything is exact.
+    exact.  Six rounds at most; then the coded geometry with every pcurve
+    stored is tried, and failing that everything is exact.
 
     With ``step_check``, the candidate must also survive OCCT's STEP write and
     read with the topology OCCT's own round trip of the source keeps; faces
@@ -323,8 +324,21 @@ def _lossy_target(
             exact.add(faces_rec[f])
         keep_e |= new_e
         keep_f |= new_f
+    # second tier: coded geometry with every pcurve stored, if that passes
+    target, codes, report = lossy.assemble(m, coded, exact)
+    if _passes(target, old_e, old_f, floor):
+        return target, codes, report, 0
     target, codes, report = lossy.assemble(m, coded, set(coded.surfaces) | set(coded.curves))
     return target, codes, report, 0
+
+
+def _passes(m: BRepModel, old_e: set[int], old_f: set[int], floor: tuple[Any, Any] | None) -> bool:
+    """No BRepCheck fault the source lacks, and (with ``floor``) the STEP round trip's counts."""
+    shape = build(m)
+    bad_e, bad_f = occ.failures(shape)
+    if bad_e - old_e or bad_f - old_f:
+        return False
+    return floor is None or occ.counts(occ.step_round_trip(shape, m.unit)) == floor[0]
 
 
 def max_net_displacement(a: BRepModel, b: BRepModel) -> float:
