@@ -289,10 +289,11 @@ def _lossy_target(
     for _ in range(6):
         target, codes, report = lossy.assemble(m, coded, exact)
         cand = lossy.drop_pcurves(target, keep_e, keep_f)
-        bad_e, bad_f = occ.failures(build(cand))
+        shape = build(cand)
+        bad_e, bad_f = occ.failures(shape)
         new_e, new_f = bad_e - old_e, bad_f - old_f
         if not new_e and not new_f and floor is not None:
-            back = occ.step_round_trip(build(cand), m.unit)
+            back = occ.step_round_trip(shape, m.unit)
             if occ.counts(back) != floor[0]:
                 per = occ.edges_per_face(back)
                 if len(per) != len(floor[1]):  # the reader split faces: at kinks?
