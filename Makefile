@@ -3,7 +3,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 PIP    := $(VENV)/bin/pip
 
-.PHONY: install test test-fast lint samples clean
+.PHONY: install test test-fast lint samples bench clean
 
 install: $(VENV)/bin/nurbscomp
 
@@ -27,6 +27,14 @@ lint: install
 
 samples: install
 	$(PY) samples/make_samples.py
+
+# Benchmarks against the lossless peers, a naive quantizer and OCCT (issue 4):
+# rewrites docs/benchmarks.md, docs/benchmarks.png and the README's "How small,
+# how fast" figures, all from one run over ../shared/corpus.  Minutes, not part
+# of `make test`.  matplotlib (the `bench` extra) draws the plot.
+bench: install
+	@$(PY) -c "import matplotlib" 2>/dev/null || $(PIP) install --quiet -e '.[bench]'
+	$(PY) benchmarks/bench.py
 
 clean:
 	rm -rf $(VENV) build *.egg-info .pytest_cache
