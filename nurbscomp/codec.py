@@ -87,6 +87,10 @@ class NetCode:
         Estimated coded size (Exp-Golomb length of the integers + 64 per float).
     origin : ndarray or None
         The point the first pole was coded against (see :func:`reorigin`).
+    first : ndarray or None
+        The decoded first pole, the origin of the next net in its table.  Set
+        by the caller; the decoded net may change afterwards (curve ends are
+        pinned to vertices, :mod:`nurbscomp.joins`) but the chain uses this.
     """
 
     method: Method
@@ -98,6 +102,7 @@ class NetCode:
     bound: float
     bits: float
     origin: np.ndarray | None = None
+    first: np.ndarray | None = None
 
     @property
     def grid(self) -> float:

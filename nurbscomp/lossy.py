@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from . import codec
+from . import codec, joins
 from .model import (
     REBUILD,
     BRepModel,
@@ -112,6 +112,7 @@ class Coded:
 
     surfaces: dict[int, tuple[codec.NetCode, Geometry]]
     curves: dict[int, tuple[codec.NetCode, Geometry]]
+    tol: float
 
 
 def _code_table(
@@ -130,7 +131,7 @@ def _code_table(
         code = codec.encode_net(g.poles, s, t, tol, methods, paper=paper, origin=origin)
         net, _ = codec.decode_net(code, g.poles.shape, s, t, tol, origin)
         origin = net.reshape(-1, net.shape[-1])[0]
-        out[id(g)] = (code, replace(g, poles=net))
+        out[id(g)] = (replace(code, first=origin), replace(g, poles=net))
     return out
 
 
@@ -140,8 +141,12 @@ _TRIM_C = (Kind.TRIMMED_CURVE,)
 
 def code_model(m: BRepModel, tol: float, paper: bool = False) -> Coded:
     """Run the per-net search (:func:`codec.encode_net`) on every B-spline surface
-    and 3-D curve of ``m`` that may move (not under an offset)."""
-    return Coded(
+    and 3-D curve of ``m`` that may move (not under an offset).
+
+    A curve whose ends the decoder would pin to vertices too far from the
+    original ends (:func:`joins.overreaching`) is left exact.
+    """
+    coded = Coded(
         _code_table(
             m.surfaces,
             tol,
@@ -156,12 +161,28 @@ def code_model(m: BRepModel, tol: float, paper: bool = False) -> Coded:
             codec.CURVE_METHODS,
             paper,
         ),
+        tol,
     )
+    decoded = [coded.curves[id(g)][1] if id(g) in coded.curves else g for g in m.curves3d]
+    rows = {i for i, g in enumerate(m.curves3d) if id(g) in coded.curves}
+    for c in joins.overreaching(m, decoded, rows, tol):
+        coded.curves.pop(id(m.curves3d[c]), None)
+    return coded
+
+
+_SWEPT = (Kind.REVOLUTION, Kind.EXTRUSION)
 
 
 def face_records(m: BRepModel) -> list[int]:
-    """Per face, the id of the surface record it moves with (trimmed -> basis)."""
-    return [id(_resolve(m.surfaces, r, _TRIM_S)) for r in m.face_surface.tolist()]
+    """Per face, the id of the record it moves with: its surface (trimmed ->
+    basis), or for a swept surface the swept curve (trimmed -> basis)."""
+    out = []
+    for r in m.face_surface.tolist():
+        g = _resolve(m.surfaces, r, _TRIM_S)
+        if isinstance(g, Derived) and g.kind in _SWEPT:
+            g = _resolve(m.curves3d, g.basis, _TRIM_C)
+        out.append(id(g))
+    return out
 
 
 def edge_records(m: BRepModel) -> list[int]:
@@ -233,11 +254,8 @@ def assemble(
         return out
 
     surfaces, curves = swap(m.surfaces, coded.surfaces), swap(m.curves3d, coded.curves)
-    bound_of = {
-        id(rec): c.bound
-        for c, rec in [*coded.surfaces.values(), *coded.curves.values()]
-        if id(rec) in codes
-    }
+    _pin_curves(m, curves, codes, coded.tol)
+    bound_of = {k: c.bound for k, c in codes.items()}
 
     def curve_bound(i: int) -> float:
         return 0.0 if i < 0 else bound_of.get(id(_resolve(curves, i, _TRIM_C)), 0.0)
@@ -249,7 +267,7 @@ def assemble(
         if id(b) in codes:
             face_bound[f] = codes[id(b)].bound
             face_method.append(codes[id(b)].method.name.lower())
-        elif isinstance(b, Derived) and b.kind in (Kind.REVOLUTION, Kind.EXTRUSION):
+        elif isinstance(b, Derived) and b.kind in _SWEPT:
             # sweeping is an isometry of each curve point: the surface moves as the curve
             face_bound[f] = curve_bound(b.basis)
             face_method.append("swept" if face_bound[f] > 0 else "exact")
@@ -273,6 +291,29 @@ def assemble(
         sum(len(g.poles) for g in curves if id(g) in codes),
     )
     return out, codes, report
+
+
+def _pin_curves(
+    m: BRepModel, curves: list[Geometry], codes: dict[int, codec.NetCode], tol: float
+) -> None:
+    """Apply :func:`joins.curve_end_pins` as the decoder will, raising each pinned curve's bound."""
+    first: dict[int, int] = {}
+    for i, g in enumerate(curves):
+        if id(g) in codes:
+            first.setdefault(id(g), i)
+    pins = joins.curve_end_pins(m, curves, set(first.values()), tol)
+    for c, rows in pins.items():
+        old = curves[c]
+        assert isinstance(old, BSplineCurve)
+        new = replace(old, poles=joins.pinned_poles(m, old, rows))
+        original = m.curves3d[c]
+        assert isinstance(original, BSplineCurve)
+        moved = float(np.sqrt(((new.poles - original.poles) ** 2).sum(-1)).max())
+        code = codes.pop(id(old))
+        codes[id(new)] = replace(code, bound=max(code.bound, moved))
+        for i, g in enumerate(curves):
+            if g is old:
+                curves[i] = new
 
 
 #: BRepCheck measures an edge's distance to its surfaces with a 5% margin

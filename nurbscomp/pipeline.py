@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import collections
 import contextlib
+import logging
 import os
 import tempfile
 import time
@@ -30,6 +31,8 @@ from .model import (
     Kind,
     differences,
 )
+
+log = logging.getLogger(__name__)
 
 DEFAULT_TOL_MM = 0.01
 SUFFIX = ".nzc"
@@ -273,8 +276,10 @@ def _lossy_target(
     """
     floor = None
     if step_check:
-        back = occ.step_round_trip(source, m.unit)
-        floor = (occ.counts(back), occ.edges_per_face(back))
+        floor_shape = occ.step_round_trip(source, m.unit)
+        src_sig, floor_sig = occ.face_signatures(source), occ.face_signatures(floor_shape)
+        floor, src_counts = occ.counts(floor_shape), occ.counts(source)
+        kept = set(range(len(src_sig))) - set(unpaired(src_sig, floor_sig, 1e-4))
     coded = lossy.code_model(m, tol)
     faces_rec, edges_rec = lossy.face_records(m), lossy.edge_records(m)
     faces_of = lossy.edge_faces(m)
@@ -292,19 +297,27 @@ def _lossy_target(
         shape = build(cand)
         bad_e, bad_f = occ.failures(shape)
         new_e, new_f = bad_e - old_e, bad_f - old_f
+        log.debug(
+            "validity round: %d exact records, pcurves kept on %d faces; "
+            "new faults: %d edges, %d faces",
+            len(exact),
+            len(keep_f),
+            len(new_e),
+            len(new_f),
+        )
         if not new_e and not new_f and floor is not None:
             back = occ.step_round_trip(shape, m.unit)
-            if occ.counts(back) != floor[0]:
-                per = occ.edges_per_face(back)
-                if len(per) != len(floor[1]):  # the reader split faces: at kinks?
+            if not step_keeps(src_counts, floor, occ.counts(back)):
+                new_f = _step_losses(src_sig, floor_sig, occ.face_signatures(back), kept, tol)
+                log.debug(
+                    "STEP round trip %s != %s: faces %s", occ.counts(back), floor, sorted(new_f)
+                )
+                if not new_f:
                     kinked = lossy.kinked_records(m)
                     if kinked <= exact:
                         break
                     exact |= kinked
                     continue
-                new_f = {f for f, (a, b) in enumerate(zip(per, floor[1])) if a != b}
-                if not new_f:
-                    break
                 if new_f <= keep_f:  # already exact: the cause is next door
                     new_f = {g for f in new_f for e in edges_of[f] for g in faces_of[e]}
                 for f in new_f:
@@ -327,19 +340,81 @@ def _lossy_target(
         keep_f |= new_f
     # second tier: coded geometry with every pcurve stored, if that passes
     target, codes, report = lossy.assemble(m, coded, exact)
-    if _passes(target, old_e, old_f, floor):
+    if _passes(target, source, old_e, old_f, floor):
         return target, codes, report, 0
     target, codes, report = lossy.assemble(m, coded, set(coded.surfaces) | set(coded.curves))
     return target, codes, report, 0
 
 
-def _passes(m: BRepModel, old_e: set[int], old_f: set[int], floor: tuple[Any, Any] | None) -> bool:
+def _passes(
+    m: BRepModel, source: Any, old_e: set[int], old_f: set[int], floor: dict[str, int] | None
+) -> bool:
     """No BRepCheck fault the source lacks, and (with ``floor``) the STEP round trip's counts."""
     shape = build(m)
     bad_e, bad_f = occ.failures(shape)
     if bad_e - old_e or bad_f - old_f:
         return False
-    return floor is None or occ.counts(occ.step_round_trip(shape, m.unit)) == floor[0]
+    return floor is None or step_keeps(
+        occ.counts(source), floor, occ.counts(occ.step_round_trip(shape, m.unit))
+    )
+
+
+def step_keeps(source: dict[str, int], floor: dict[str, int], back: dict[str, int]) -> bool:
+    """Whether a STEP re-read keeps at least what OCCT's own round trip keeps:
+    each count is at least as close to the source's as the floor's is."""
+    return all(abs(back[k] - source[k]) <= abs(floor[k] - source[k]) for k in source)
+
+
+def _partners(x: np.ndarray, y: np.ndarray, tol: float, topology: bool = True) -> np.ndarray:
+    """Whether face signatures ``x[i]`` and ``y[i]`` (:func:`occ.face_signatures`)
+    may be one face: the same numbers of edges, shared edges and vertices, centroids
+    within 3·tol, areas within 5 % plus a strip of width 10·tol around the face
+    (or both areas below tol²)."""
+    slack = 0.05 * np.abs(x[:, 0]) + 10 * tol * np.sqrt(np.abs(x[:, 0]))
+    near = np.sqrt(((x[:, 1:4] - y[:, 1:4]) ** 2).sum(-1)) <= 3 * tol + 1e-9
+    near &= np.abs(x[:, 0] - y[:, 0]) <= slack
+    # OCCT gives faces with a degenerate domain no area (and a centroid at the
+    # origin); below tol² a face has no measurable place at this tolerance
+    tiny = (np.abs(x[:, 0]) < tol**2) & (np.abs(y[:, 0]) < tol**2)
+    return ((x[:, 4:] == y[:, 4:]).all(-1) | (not topology)) & (near | tiny)
+
+
+def unpaired(a: np.ndarray, b: np.ndarray, tol: float) -> list[int]:
+    """Rows of face signatures ``a`` with no partner (:func:`_partners`) anywhere in ``b``."""
+    from scipy.spatial import cKDTree
+
+    if not len(b):
+        return list(range(len(a)))
+    tree = cKDTree(b[:, 1:4])
+    out = []
+    for i, hits in enumerate(tree.query_ball_point(a[:, 1:4], 3 * tol + 1e-9)):
+        if not hits or not _partners(a[[i] * len(hits)], b[hits], tol).any():
+            out.append(i)
+    return out
+
+
+def _step_losses(
+    src: np.ndarray, floor: np.ndarray, back: np.ndarray, kept: set[int], tol: float
+) -> set[int]:
+    """Source faces that OCCT's STEP round trip of a candidate changes and of the source does not.
+
+    When the reader kept the face order (nine faces in ten sit where they
+    were, at the same index), the faces ``kept`` by the source's own round trip whose partner
+    at the same index differs.  Otherwise faces are paired by signature,
+    wherever they are: the ``kept`` faces with no partner in ``back``, and,
+    for each face of ``back`` with no partner in the source's round trip (a
+    split piece, a new sliver), the source face nearest to it.
+    """
+    from scipy.spatial import cKDTree
+
+    if len(back) == len(src) and _partners(src, back, tol, topology=False).mean() >= 0.9:
+        return {int(i) for i in np.flatnonzero(~_partners(src, back, tol))} & kept
+    lost = set(unpaired(src, back, tol)) & kept
+    extra = unpaired(back, floor, tol)
+    if extra and len(src):
+        _, near = cKDTree(src[:, 1:4]).query(back[extra, 1:4])
+        lost |= {int(i) for i in np.atleast_1d(near)}
+    return lost
 
 
 def max_net_displacement(a: BRepModel, b: BRepModel) -> float:

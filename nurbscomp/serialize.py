@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from . import codec, coons
+from . import codec, coons, joins
 from .errors import CorruptError
 from .model import (
     REBUILD,
@@ -452,8 +452,9 @@ def _write_nets(records: list[Geometry], codes: dict[int, codec.NetCode], tol: f
     for g in records:
         if id(g) in codes and id(g) not in seen:
             seen.add(id(g))
-            order.append(codec.reorigin(codes[id(g)], origin, tol))
-            origin = g.poles.reshape(-1, g.poles.shape[-1])[0]
+            code = codes[id(g)]
+            order.append(codec.reorigin(code, origin, tol))
+            origin = g.poles.reshape(-1, g.poles.shape[-1])[0] if code.first is None else code.first
     w = BlockWriter()
     for field in ("method", "quant", "level", "slope"):
         w.ints([int(getattr(c, field)) for c in order])
@@ -561,6 +562,7 @@ def sections_to_model(get: Any) -> tuple[BRepModel, dict[str, Any]]:
     tol = float(tol_mm) if isinstance(tol_mm, (int, float)) else 0.0
     _read_nets(get("SNET"), m.surfaces, tol, "SNET")
     m.curves3d = _read_geometry(get("CRV3"), "CRV3", 3)
+    coded_curves = set(coded_rows(m.curves3d))
     _read_nets(get("CNET"), m.curves3d, tol, "CNET")
     m.curves2d = _read_geometry(get("CRV2"), "CRV2", 2)
     _read_shapes(get("SHAP"), m)
@@ -568,6 +570,9 @@ def sections_to_model(get: Any) -> tuple[BRepModel, dict[str, Any]]:
     _read_edges(get("EDGE"), m)
     _read_faces(get("FACE"), m)
     check_references(m)
+    for c, pins in joins.curve_end_pins(m, m.curves3d, coded_curves, tol).items():
+        g = m.curves3d[c]
+        g.poles[...] = joins.pinned_poles(m, g, pins)
     return m, meta
 
 

@@ -28,15 +28,18 @@ def sample_files() -> list[Path]:
 
 def assert_step_keeps_floor(cad, nzc: Path, tmp_path: Path):
     """Decompress ``nzc`` to STEP, read it back, and compare with OCCT's own
-    STEP round trip of the source (the floor): same counts, valid where the
-    floor is.  Returns the re-read shape."""
+    STEP round trip of the source (the floor): each topology count at least
+    as close to the source's as the floor's, valid where the floor is.
+    Returns the re-read shape."""
     from nurbscomp import occ, pipeline
 
     floor = occ.step_round_trip(cad.shape, cad.unit)
     out = tmp_path / "out.step"
     pipeline.decompress_file(nzc, out, force=True)
     back = occ.read_cad(out).shape
-    assert occ.counts(back) == occ.counts(floor)
+    src, lo, got = occ.counts(cad.shape), occ.counts(floor), occ.counts(back)
+    worse = {k: (src[k], lo[k], got[k]) for k in src if abs(got[k] - src[k]) > abs(lo[k] - src[k])}
+    assert not worse, f"(source, floor, ours) {worse}"
     if occ.is_valid(floor):
         assert occ.is_valid(back)
     return back

@@ -211,3 +211,32 @@ def failures(shape: Any) -> tuple[set[int], set[int]]:
 def edges_per_face(shape: Any) -> list[int]:
     """Number of distinct edges of each face, in face order."""
     return [_map(f, TopAbs_EDGE).Extent() for f in faces(shape)]
+
+
+def face_signatures(shape: Any) -> np.ndarray:
+    """Per face, in face order: area, centroid x, y, z, number of edges,
+    number of those edges shared with another face, number of vertices;
+    shape (F, 7).
+
+    Faces of two versions of a model can be paired by these when their order
+    differs (OCCT's STEP reader may reorder a shell's faces as it repairs it).
+    """
+    from OCP.BRepGProp import BRepGProp
+    from OCP.GProp import GProp_GProps
+    from OCP.TopTools import TopTools_IndexedDataMapOfShapeListOfShape
+
+    e2f = TopTools_IndexedDataMapOfShapeListOfShape()
+    TopExp.MapShapesAndAncestors_s(shape, TopAbs_EDGE, TopAbs_FACE, e2f)
+    rows = []
+    for f in faces(shape):
+        g = GProp_GProps()
+        BRepGProp.SurfaceProperties_s(f, g)
+        c = g.CentreOfMass()
+        em = _map(f, TopAbs_EDGE)
+        shared = 0
+        for i in range(1, em.Extent() + 1):
+            around = e2f.FindFromKey(em.FindKey(i))
+            shared += any(not x.IsSame(f) for x in around)
+        nv = _map(f, TopAbs_VERTEX).Extent()
+        rows.append((g.Mass(), c.X(), c.Y(), c.Z(), em.Extent(), shared, nv))
+    return np.array(rows, float).reshape(-1, 7)
