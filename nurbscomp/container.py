@@ -36,7 +36,7 @@ from .errors import (
 
 MAGIC = b"\x89NZC"
 MAJOR = 0
-MINOR = 2
+MINOR = 3
 FLAG_LOSSLESS = 1
 _KNOWN_FLAGS = FLAG_LOSSLESS
 _HEADER = struct.Struct("<4sBBHHH")

@@ -57,3 +57,31 @@ def test_lossy_is_smaller_than_lossless(tmp_path: Path) -> None:
     a = pipeline.compress_file(p, tmp_path / "a.nzc", lossless=True)
     b = pipeline.compress_file(p, tmp_path / "b.nzc", tol=0.01)
     assert b["output_bytes"] < a["output_bytes"]
+
+
+@pytest.mark.parametrize("name", ["blob.step", "loft.step"])
+def test_coded_curve_ends_meet_their_vertices(name: str, tmp_path: Path) -> None:
+    """Decoded neighbours meet exactly: pinned ends sit on their vertices, bit for bit."""
+    import numpy as np
+
+    from nurbscomp import joins, serialize
+    from nurbscomp.model import BSplineCurve
+
+    from .conftest import SAMPLES
+
+    nzc = tmp_path / "x.nzc"
+    pipeline.compress_file(SAMPLES / name, nzc, tol=0.05, step_safe=False)
+    m, _ = pipeline.decode(pipeline.read_container(nzc))
+    cad = occ.read_cad(SAMPLES / name)
+    src, _ = occ.shape_to_model(cad.shape)
+    coded = {
+        i
+        for i, (a, b) in enumerate(zip(src.curves3d, m.curves3d))
+        if isinstance(a, BSplineCurve) and not np.array_equal(a.poles, b.poles)
+    }
+    pins = joins.curve_end_pins(m, m.curves3d, coded | set(serialize.coded_rows(m.curves3d)), 0.05)
+    assert pins, "no coded curve was pinned: the test would prove nothing"
+    for c, ends in pins.items():
+        for i, v in ends:
+            assert (m.curves3d[c].poles[i] == m.vertex_point[v]).all()
+    assert pipeline.max_net_displacement(src, m) <= 0.05
