@@ -279,7 +279,6 @@ def _lossy_target(
         floor_shape = occ.step_round_trip(source, m.unit)
         src_sig, floor_sig = occ.face_signatures(source), occ.face_signatures(floor_shape)
         floor, src_counts = occ.counts(floor_shape), occ.counts(source)
-        kept = set(range(len(src_sig))) - set(unpaired(src_sig, floor_sig, 1e-4))
     coded = lossy.code_model(m, tol)
     faces_rec, edges_rec = lossy.face_records(m), lossy.edge_records(m)
     faces_of = lossy.edge_faces(m)
@@ -308,7 +307,7 @@ def _lossy_target(
         if not new_e and not new_f and floor is not None:
             back = occ.step_round_trip(shape, m.unit)
             if not step_keeps(src_counts, floor, occ.counts(back)):
-                new_f = _step_losses(src_sig, floor_sig, occ.face_signatures(back), kept, tol)
+                new_f = _step_losses(src_sig, floor_sig, occ.face_signatures(back), tol)
                 log.debug(
                     "STEP round trip %s != %s: faces %s", occ.counts(back), floor, sorted(new_f)
                 )
@@ -393,26 +392,35 @@ def unpaired(a: np.ndarray, b: np.ndarray, tol: float) -> list[int]:
     return out
 
 
-def _step_losses(
-    src: np.ndarray, floor: np.ndarray, back: np.ndarray, kept: set[int], tol: float
-) -> set[int]:
-    """Source faces that OCCT's STEP round trip of a candidate changes and of the source does not.
+def _step_losses(src: np.ndarray, floor: np.ndarray, back: np.ndarray, tol: float) -> set[int]:
+    """Source faces that come back from a candidate's STEP round trip like
+    neither the source face nor OCCT's own round trip of it (``floor``).
 
-    When the reader kept the face order (nine faces in ten sit where they
-    were, at the same index), the faces ``kept`` by the source's own round trip whose partner
-    at the same index differs.  Otherwise faces are paired by signature,
-    wherever they are: the ``kept`` faces with no partner in ``back``, and,
-    for each face of ``back`` with no partner in the source's round trip (a
-    split piece, a new sliver), the source face nearest to it.
+    Arguments are face signatures (:func:`occ.face_signatures`).  When the
+    reader kept the face order (nine faces in ten sit at the same index with
+    the same area and centroid), faces are compared index by index.
+    Otherwise they are paired by signature wherever they are: the source
+    faces whose partner is in neither place, and for each face of ``back``
+    that is like no face of the source or the floor (a split piece, a new
+    sliver), the source face nearest to it.
     """
     from scipy.spatial import cKDTree
 
-    if len(back) == len(src) and _partners(src, back, tol, topology=False).mean() >= 0.9:
-        return {int(i) for i in np.flatnonzero(~_partners(src, back, tol))} & kept
-    lost = set(unpaired(src, back, tol)) & kept
-    extra = unpaired(back, floor, tol)
-    if extra and len(src):
-        _, near = cKDTree(src[:, 1:4]).query(back[extra, 1:4])
+    same_order = len(back) == len(src) == len(floor)
+    if same_order and _partners(src, back, tol, topology=False).mean() >= 0.9:
+        ok = _partners(back, src, tol) | _partners(back, floor, tol)
+        return {int(i) for i in np.flatnonzero(~ok)}
+    if not len(src):
+        return set()
+    to_src = cKDTree(src[:, 1:4])
+    to_floor = cKDTree(floor[:, 1:4]) if len(floor) else None
+    lost = set()
+    for i in unpaired(src, back, tol):
+        if to_floor is None or unpaired(floor[[to_floor.query(src[i, 1:4])[1]]], back, tol):
+            lost.add(i)
+    extra = sorted(set(unpaired(back, floor, tol)) & set(unpaired(back, src, tol)))
+    if extra:
+        _, near = to_src.query(back[extra, 1:4])
         lost |= {int(i) for i in np.atleast_1d(near)}
     return lost
 
