@@ -344,22 +344,27 @@ def _write_edges(m: BRepModel) -> bytes:
     kind = reps[:, 1]
     w.ints(kind)
     # each column only where the representation kind uses it
-    w.ints(reps[kind != RepKind.ON_TWO_SURFACES, 2])  # curve / pcurve
+    w.deltas(reps[kind == RepKind.CURVE3D, 2])  # 3-D curve
+    w.deltas(reps[(kind == RepKind.ON_SURFACE) | (kind == RepKind.ON_CLOSED_SURFACE), 2])  # pcurve
     w.ints(reps[kind == RepKind.ON_CLOSED_SURFACE, 3])  # second pcurve
-    w.ints(reps[kind != RepKind.CURVE3D, 4])  # surface
-    w.ints(reps[kind == RepKind.ON_TWO_SURFACES, 5])  # second surface
+    w.deltas(reps[kind != RepKind.CURVE3D, 4])  # surface
+    w.deltas(reps[kind == RepKind.ON_TWO_SURFACES, 5])  # second surface
     w.ints(reps[:, 6])  # location
     w.ints(reps[kind == RepKind.ON_TWO_SURFACES, 7])  # second location
     cont = (kind == RepKind.ON_CLOSED_SURFACE) | (kind == RepKind.ON_TWO_SURFACES)
     w.ints(m.edge_rep_cont[cont])
-    w.floats(m.edge_rep_range[kind != RepKind.ON_TWO_SURFACES].reshape(-1))
+    ranged = kind != RepKind.ON_TWO_SURFACES
+    how = range_kinds(m)
+    w.ints(how[ranged])
+    w.floats(m.edge_rep_range[ranged & (how == RANGE_STORED)].reshape(-1))
     on = (kind == RepKind.ON_SURFACE) | (kind == RepKind.ON_CLOSED_SURFACE)
     w.floats(m.edge_rep_uv[on, :4].reshape(-1))
     w.floats(m.edge_rep_uv[kind == RepKind.ON_CLOSED_SURFACE, 4:].reshape(-1))
     return bytes(w)
 
 
-def _read_edges(data: bytes, m: BRepModel) -> None:
+def _read_edges(data: bytes, m: BRepModel) -> np.ndarray:
+    """Fill ``m``'s edge tables; return the range kinds (see :func:`range_kinds`)."""
     r = BlockReader(data, "EDGE")
     m.edge_tol = r.floats()
     ne = len(m.edge_tol)
@@ -376,29 +381,104 @@ def _read_edges(data: bytes, m: BRepModel) -> None:
     reps[:, 1] = kind
     two = kind == RepKind.ON_TWO_SURFACES
     closed = kind == RepKind.ON_CLOSED_SURFACE
-    reps[~two, 2] = r.ints(int((~two).sum()))
-    reps[closed, 3] = r.ints(int(closed.sum()))
     c3 = kind == RepKind.CURVE3D
-    reps[~c3, 4] = r.ints(int((~c3).sum()))
-    reps[two, 5] = r.ints(int(two.sum()))
+    pc = ~two & ~c3
+    reps[c3, 2] = r.deltas(int(c3.sum()))
+    reps[pc, 2] = r.deltas(int(pc.sum()))
+    reps[closed, 3] = r.ints(int(closed.sum()))
+    reps[~c3, 4] = r.deltas(int((~c3).sum()))
+    reps[two, 5] = r.deltas(int(two.sum()))
     reps[:, 6] = r.ints(q)
     reps[:, 7] = 0
     reps[two, 7] = r.ints(int(two.sum()))
     m.edge_reps = reps
     m.edge_rep_cont = np.zeros(q, np.uint8)
     m.edge_rep_cont[closed | two] = r.ints(int((closed | two).sum()))
+    how = np.full(q, RANGE_ZERO, np.int64)  # kind 3 reps have no range
+    how[~two] = r.ints(int((~two).sum()))
+    if ((how < 0) | (how > RANGE_ZERO)).any():
+        raise CorruptError("EDGE: unknown range kind")
     m.edge_rep_range = np.zeros((q, 2))
-    m.edge_rep_range[~two] = r.floats(2 * int((~two).sum())).reshape(-1, 2)
+    stored = how == RANGE_STORED
+    m.edge_rep_range[stored] = r.floats(2 * int(stored.sum())).reshape(-1, 2)
     m.edge_rep_uv = np.zeros((q, 8))
     on = (kind == RepKind.ON_SURFACE) | closed
     m.edge_rep_uv[on, :4] = r.floats(4 * int(on.sum())).reshape(-1, 4)
     m.edge_rep_uv[closed, 4:] = r.floats(4 * int(closed.sum())).reshape(-1, 4)
     r.done()
+    return how
+
+
+#: How an edge representation's range is stored (EDGE, format 0.3).
+RANGE_STORED, RANGE_NATURAL, RANGE_OF_3D, RANGE_ZERO = 0, 1, 2, 3
+
+
+def _natural_range(g: Geometry | None) -> tuple[float, float] | None:
+    """The parameter range a curve record carries in itself, if any."""
+    if isinstance(g, BSplineCurve):
+        return (0.0, 1.0) if g.bezier else (float(g.knots[0]), float(g.knots[-1]))
+    if isinstance(g, Derived) and g.kind == Kind.TRIMMED_CURVE:
+        return float(g.params[0]), float(g.params[1])
+    return None
+
+
+def _curve_of(m: BRepModel, q: int) -> Geometry | None:
+    kind, c = int(m.edge_reps[q, 1]), int(m.edge_reps[q, 2])
+    table = m.curves3d if kind == RepKind.CURVE3D else m.curves2d
+    return table[c] if 0 <= c < len(table) else None
+
+
+def _range_of_3d(m: BRepModel) -> dict[int, int]:
+    """Per edge, its first 3-D curve representation's row."""
+    out: dict[int, int] = {}
+    for q in np.flatnonzero(m.edge_reps[:, 1] == RepKind.CURVE3D).tolist():
+        out.setdefault(int(m.edge_reps[q, 0]), q)
+    return out
+
+
+def range_kinds(m: BRepModel) -> np.ndarray:
+    """Per representation, how its range is stored: the curve's own range
+    (``RANGE_NATURAL``), the same as the edge's 3-D curve (``RANGE_OF_3D``),
+    zeros (a pcurve the decoder computes), or the two floats.  Only a bit
+    for bit equal prediction is used, so the format stays lossless."""
+    reps, rng = m.edge_reps, m.edge_rep_range
+    bits = rng.view(np.int64)
+    of3d = _range_of_3d(m)
+    out = np.full(len(reps), RANGE_STORED, np.int64)
+    for q in range(len(reps)):
+        if reps[q, 1] == RepKind.ON_TWO_SURFACES:
+            continue
+        if not bits[q].any():
+            out[q] = RANGE_ZERO
+            continue
+        nat = _natural_range(_curve_of(m, q))
+        if nat is not None and (np.array(nat).view(np.int64) == bits[q]).all():
+            out[q] = RANGE_NATURAL
+            continue
+        r3 = of3d.get(int(reps[q, 0]))
+        if reps[q, 1] != RepKind.CURVE3D and r3 is not None and (bits[r3] == bits[q]).all():
+            out[q] = RANGE_OF_3D
+    return out
+
+
+def _resolve_ranges(m: BRepModel, how: np.ndarray) -> None:
+    """Fill the ranges :func:`range_kinds` left out (needs the curve tables)."""
+    for q in np.flatnonzero(how == RANGE_NATURAL).tolist():
+        nat = _natural_range(_curve_of(m, q))
+        if nat is None:
+            raise CorruptError("EDGE: a curve without a range of its own")
+        m.edge_rep_range[q] = nat
+    of3d = _range_of_3d(m)
+    for q in np.flatnonzero(how == RANGE_OF_3D).tolist():
+        r3 = of3d.get(int(m.edge_reps[q, 0]))
+        if r3 is None or how[r3] == RANGE_OF_3D:
+            raise CorruptError("EDGE: a range refers to a missing 3-D curve")
+        m.edge_rep_range[q] = m.edge_rep_range[r3]
 
 
 def _write_faces(m: BRepModel) -> bytes:
     w = BlockWriter()
-    w.ints(m.face_surface)
+    w.deltas(m.face_surface)
     w.ints(m.face_loc)
     w.floats(m.face_tol)
     w.ints(m.face_natural.astype(np.int64))
@@ -407,7 +487,7 @@ def _write_faces(m: BRepModel) -> bytes:
 
 def _read_faces(data: bytes, m: BRepModel) -> None:
     r = BlockReader(data, "FACE")
-    m.face_surface = r.ints()
+    m.face_surface = r.deltas()
     nf = len(m.face_surface)
     m.face_loc = r.ints(nf)
     m.face_tol = r.floats(nf)
@@ -567,9 +647,10 @@ def sections_to_model(get: Any) -> tuple[BRepModel, dict[str, Any]]:
     m.curves2d = _read_geometry(get("CRV2"), "CRV2", 2)
     _read_shapes(get("SHAP"), m)
     _read_vertices(get("VERT"), m)
-    _read_edges(get("EDGE"), m)
+    range_how = _read_edges(get("EDGE"), m)
     _read_faces(get("FACE"), m)
     check_references(m)
+    _resolve_ranges(m, range_how)
     for c, pins in joins.curve_end_pins(m, m.curves3d, coded_curves, tol).items():
         g = m.curves3d[c]
         g.poles[...] = joins.pinned_poles(m, g, pins)

@@ -60,6 +60,11 @@ class BlockWriter:
         b = u.astype(f"<u{width}").view(np.uint8)
         self._parts.append(_HEAD.pack(INT, width, len(u)) + _shuffle(b, width))
 
+    def deltas(self, x: np.ndarray | list[int]) -> None:
+        """An index array as differences from the previous entry (first from 0):
+        indices that mostly step by one cost a byte of zeros-and-ones each."""
+        self.ints(np.diff(np.asarray(x, np.int64).reshape(-1), prepend=0))
+
     def floats(self, x: np.ndarray | list[float]) -> None:
         f = np.ascontiguousarray(np.asarray(x, "<f8").reshape(-1))
         self._parts.append(_HEAD.pack(FLOAT, 8, len(f)) + f.tobytes())
@@ -97,6 +102,10 @@ class BlockReader:
             raise CorruptError(f"section {self._name}: expected {count} integers, found {n}")
         u = _unshuffle(raw, width, n).view(f"<u{width}").reshape(-1)
         return unzigzag(u)
+
+    def deltas(self, count: int | None = None) -> np.ndarray:
+        """Inverse of :meth:`BlockWriter.deltas`."""
+        return np.cumsum(self.ints(count), dtype=np.int64)
 
     def floats(self, count: int | None = None) -> np.ndarray:
         _, n, raw = self._next(FLOAT)
