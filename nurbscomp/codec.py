@@ -117,13 +117,19 @@ def reorigin(code: NetCode, origin: np.ndarray | None, tol: float) -> NetCode:
     its first ``dim`` integers, and the decoded net does not depend on the
     origin, so only those integers change.
     """
-    dim = 3 if code.origin is None else len(code.origin)
-    old = np.zeros(dim) if code.origin is None else code.origin
-    new = np.zeros(dim) if origin is None else origin
+    old = np.zeros(3) if code.origin is None else _first(code.origin)
+    new = np.zeros(len(old)) if origin is None else _first(origin)
+    dim = len(old)
     h = tol * code.grid
     ints = code.ints.copy()
     ints[:dim] += spatial.snap(old, h) - spatial.snap(new, h)
     return replace(code, ints=ints, origin=None if origin is None else origin.copy())
+
+
+def _first(origin: np.ndarray) -> np.ndarray:
+    """The point a net's first pole is coded against (an origin may also carry
+    the anchor of a curve's last pole, as a second row)."""
+    return origin if origin.ndim == 1 else origin[0]
 
 
 def cost_bits(q: np.ndarray) -> float:
@@ -186,13 +192,13 @@ class _Writer:
             raise _Unusable
         q = spatial.snap(p, h)
         r = _residuals(q)
-        r.reshape(-1, p.shape[-1])[0] -= spatial.snap(origin, h)
+        r.reshape(-1, p.shape[-1])[0] -= spatial.snap(_first(origin), h)
         self.ints.append(r.reshape(-1))
         return q * h
 
     def grid(self, p: np.ndarray, origin: np.ndarray) -> np.ndarray:
-        """Snap points (k, 3) to the grid; code the first against ``origin``, the rest
-        against the first."""
+        """Snap points (k, 3) to the grid; code the first against ``origin`` (the
+        first two against its rows if it has two), the rest against the first."""
         h = self.st.grid
         if not np.all(np.abs(p) <= MAX_INT * h):
             raise _Unusable
@@ -239,18 +245,22 @@ class _Reader:
     def predicted(self, like: np.ndarray, origin: np.ndarray) -> np.ndarray:
         h = self.st.grid
         r = self._take(like.size).reshape(like.shape).copy()
-        r.reshape(-1, like.shape[-1])[0] += spatial.snap(origin, h)
+        r.reshape(-1, like.shape[-1])[0] += spatial.snap(_first(origin), h)
         return _integrate(r) * h
 
 
 def _against(q: np.ndarray, qo: np.ndarray) -> np.ndarray:
-    """Grid points (k, 3) as: first minus ``qo``, the others minus the first."""
-    return np.concatenate([q[:1] - qo, q[1:] - q[:1]])
+    """Grid points (k, 3) as: the first len(qo) minus the rows of ``qo``, the
+    others minus the first."""
+    qo = np.atleast_2d(qo)
+    n = len(qo)
+    return np.concatenate([q[:n] - qo, q[n:] - q[:1]])
 
 
 def _unagainst(d: np.ndarray, qo: np.ndarray) -> np.ndarray:
-    first = d[:1] + qo
-    return np.concatenate([first, d[1:] + first])
+    qo = np.atleast_2d(qo)
+    head = d[: len(qo)] + qo
+    return np.concatenate([head, d[len(qo) :] + head[:1]])
 
 
 # ---------------------------------------------------------------- boundary + Coons
@@ -460,9 +470,11 @@ def encode_net(
         Also try the paper's quantizer (eq. 10, 27).  Off by default: on the
         corpus it was never the cheapest at 0.001, 0.01 or 0.1 mm, and it
         costs a third of the search time.
-    origin : ndarray, shape (3,), optional
-        A point the decoder knows (the previous net's decoded first pole):
-        the net's first pole is coded against it.
+    origin : ndarray, shape (dim,) or (2, dim), optional
+        A point the decoder knows (the previous net's decoded first pole, or
+        the vertex a curve's first pole is pinned to): the net's first pole is
+        coded against it.  A second row (a curve's other vertex) is what the
+        chord method codes the last pole against.
 
     Notes
     -----

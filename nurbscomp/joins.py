@@ -33,7 +33,7 @@ def _clamped(g: BSplineCurve) -> bool:
 
 
 def curve_end_pins(
-    m: BRepModel, curves: list[Geometry], coded_rows: set[int], tol: float
+    m: BRepModel, curves: list[Geometry], coded_rows: set[int], tol: float | None
 ) -> dict[int, list[tuple[int, int]]]:
     """Per coded row of ``curves`` (``m``'s 3-D curve table, decoded), the
     ``(pole index, vertex row)`` pairs to pin.
@@ -45,6 +45,7 @@ def curve_end_pins(
     a vertex far from its curve's end (a gap the source closes with a large
     vertex tolerance) stays where it is.  The encoder keeps such a curve exact
     if pinning would move a pole further than ``tol`` from the original.
+    With ``tol`` None, the poles are not looked at (they may not be decoded yet).
     """
     tidx = m.type_index()
     edge_shapes = np.flatnonzero(m.shape_type == ShapeType.EDGE)
@@ -70,7 +71,7 @@ def curve_end_pins(
             if o not in (FORWARD, REVERSED):
                 continue
             i, row = (0 if o == FORWARD else len(g.poles) - 1), int(tidx[v])
-            if np.sqrt(((g.poles[i] - m.vertex_point[row]) ** 2).sum()) <= tol:
+            if tol is None or np.sqrt(((g.poles[i] - m.vertex_point[row]) ** 2).sum()) <= tol:
                 pins.append((i, row))
         if pins:
             out[c] = pins
@@ -95,4 +96,24 @@ def overreaching(
         assert isinstance(g, BSplineCurve)
         if any(np.sqrt(((g.poles[i] - m.vertex_point[v]) ** 2).sum()) > tol for i, v in pins):
             out.add(c)
+    return out
+
+
+def anchors(m: BRepModel, curves: list[Geometry], coded_rows: set[int]) -> dict[int, np.ndarray]:
+    """Per coded curve row whose first pole may be pinned: that vertex's point,
+    shape (3,), or with the last pole's vertex too, shape (2, 3).
+
+    The first pole of such a net is coded against the first point instead of
+    the previous net's first pole (the SNET/CNET origin chain), and the chord
+    method codes the last pole against the second: the poles are within the
+    vertex tolerance of them, so the grid residuals are almost always zero.
+    """
+    out = {}
+    for c, pins in curve_end_pins(m, curves, coded_rows, None).items():
+        ends = dict(pins)
+        last = len(curves[c].poles) - 1  # type: ignore[union-attr]
+        if 0 in ends and last in ends and last > 0:
+            out[c] = m.vertex_point[[ends[0], ends[last]]]
+        elif 0 in ends:
+            out[c] = m.vertex_point[ends[0]]
     return out

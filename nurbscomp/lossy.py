@@ -121,15 +121,19 @@ def _code_table(
     keep: set[int],
     methods: tuple[codec.Method, ...],
     paper: bool,
+    anchors: dict[int, np.ndarray] | None = None,
 ) -> dict[int, tuple[codec.NetCode, Geometry]]:
+    """Code each distinct B-spline record of ``table`` (see :func:`code_model`);
+    ``anchors`` maps record ids to :func:`joins.anchors` points."""
     out: dict[int, tuple[codec.NetCode, Geometry]] = {}
     origin = None
     for g in table:
         if id(g) in out or id(g) in keep or not isinstance(g, (BSplineSurface, BSplineCurve)):
             continue
         s, t = net_abscissae(g)
-        code = codec.encode_net(g.poles, s, t, tol, methods, paper=paper, origin=origin)
-        net, _ = codec.decode_net(code, g.poles.shape, s, t, tol, origin)
+        at = (anchors or {}).get(id(g), origin)
+        code = codec.encode_net(g.poles, s, t, tol, methods, paper=paper, origin=at)
+        net, _ = codec.decode_net(code, g.poles.shape, s, t, tol, at)
         origin = net.reshape(-1, net.shape[-1])[0]
         out[id(g)] = (replace(code, first=origin), replace(g, poles=net))
     return out
@@ -146,6 +150,12 @@ def code_model(m: BRepModel, tol: float, paper: bool = False) -> Coded:
     A curve whose ends the decoder would pin to vertices too far from the
     original ends (:func:`joins.overreaching`) is left exact.
     """
+    keep_c = _offset_bases(m.curves3d, Kind.OFFSET_CURVE, _TRIM_C)
+    first: dict[int, int] = {}
+    for i, g in enumerate(m.curves3d):
+        if isinstance(g, BSplineCurve) and id(g) not in keep_c:
+            first.setdefault(id(g), i)
+    at = joins.anchors(m, m.curves3d, set(first.values()))
     coded = Coded(
         _code_table(
             m.surfaces,
@@ -157,9 +167,10 @@ def code_model(m: BRepModel, tol: float, paper: bool = False) -> Coded:
         _code_table(
             m.curves3d,
             tol,
-            _offset_bases(m.curves3d, Kind.OFFSET_CURVE, _TRIM_C),
+            keep_c,
             codec.CURVE_METHODS,
             paper,
+            {id(m.curves3d[r]): a for r, a in at.items()},
         ),
         tol,
     )

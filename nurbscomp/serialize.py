@@ -520,20 +520,27 @@ def net_abscissae(g: Geometry) -> tuple[np.ndarray | None, np.ndarray | None]:
     return s, t
 
 
-def _write_nets(records: list[Geometry], codes: dict[int, codec.NetCode], tol: float) -> bytes:
+def _write_nets(
+    records: list[Geometry],
+    codes: dict[int, codec.NetCode],
+    tol: float,
+    anchors: dict[int, np.ndarray] | None = None,
+) -> bytes:
     """The codes of a table's coded records, in the order of their first rows.
 
     Each code is re-based on the origin the decoder will use: the previous
-    coded row's decoded first pole (:func:`codec.reorigin`).
+    coded row's decoded first pole (:func:`codec.reorigin`), or the row's
+    anchor point where it has one (:func:`joins.anchors`).
     """
+    anchors = anchors or {}
     order = []
     seen: set[int] = set()
     origin = None
-    for g in records:
+    for row, g in enumerate(records):
         if id(g) in codes and id(g) not in seen:
             seen.add(id(g))
             code = codes[id(g)]
-            order.append(codec.reorigin(code, origin, tol))
+            order.append(codec.reorigin(code, anchors.get(row, origin), tol))
             origin = g.poles.reshape(-1, g.poles.shape[-1])[0] if code.first is None else code.first
     w = BlockWriter()
     for field in ("method", "quant", "level", "slope"):
@@ -544,7 +551,13 @@ def _write_nets(records: list[Geometry], codes: dict[int, codec.NetCode], tol: f
     return bytes(w)
 
 
-def _read_nets(data: bytes, records: list[Geometry], tol: float, tag: str) -> None:
+def _read_nets(
+    data: bytes,
+    records: list[Geometry],
+    tol: float,
+    tag: str,
+    anchors: dict[int, np.ndarray] | None = None,
+) -> None:
     """Decode a SNET/CNET section into the poles of the coded rows, in row order.
 
     Each net's first pole is coded against the previous net's decoded first
@@ -579,7 +592,8 @@ def _read_nets(data: bytes, records: list[Geometry], tol: float, tag: str) -> No
                 0.0,
             )
             s, t = net_abscissae(g)
-            net, used = codec.decode_net(code, g.poles.shape, s, t, tol, origin)
+            at = (anchors or {}).get(row, origin)
+            net, used = codec.decode_net(code, g.poles.shape, s, t, tol, at)
         except ValueError as e:
             raise CorruptError(f"{tag}: row {row}: {e}") from None
         dpos += used
@@ -611,13 +625,21 @@ def model_to_sections(
         ("SURF", _write_geometry(m.surfaces, 3, frozenset(codes))),
         ("SNET", _write_nets(m.surfaces, codes, tol)),
         ("CRV3", _write_geometry(m.curves3d, 3, frozenset(codes))),
-        ("CNET", _write_nets(m.curves3d, codes, tol)),
+        ("CNET", _write_nets(m.curves3d, codes, tol, _curve_anchors(m, codes))),
         ("CRV2", _write_geometry(m.curves2d, 2)),
         ("SHAP", _write_shapes(m)),
         ("VERT", _write_vertices(m)),
         ("EDGE", _write_edges(m)),
         ("FACE", _write_faces(m)),
     ]
+
+
+def _curve_anchors(m: BRepModel, codes: dict[int, codec.NetCode]) -> dict[int, np.ndarray]:
+    rows = {}
+    for i, g in enumerate(m.curves3d):
+        if id(g) in codes:
+            rows.setdefault(id(g), i)
+    return joins.anchors(m, m.curves3d, set(rows.values()))
 
 
 def read_meta(raw: bytes) -> dict[str, Any]:
@@ -636,14 +658,12 @@ def sections_to_model(get: Any) -> tuple[BRepModel, dict[str, Any]]:
     m = BRepModel()
     m.unit = str(meta.get("unit", "MM"))
     m.source_format = str(meta.get("source_format", "STEP"))
-    _read_locations(get("LOCS"), m)
-    m.surfaces = _read_geometry(get("SURF"), "SURF", 3)
     tol_mm = meta.get("tolerance_mm")
     tol = float(tol_mm) if isinstance(tol_mm, (int, float)) else 0.0
-    _read_nets(get("SNET"), m.surfaces, tol, "SNET")
+    # the tables first, coded poles last: nets are coded against vertices
+    _read_locations(get("LOCS"), m)
+    m.surfaces = _read_geometry(get("SURF"), "SURF", 3)
     m.curves3d = _read_geometry(get("CRV3"), "CRV3", 3)
-    coded_curves = set(coded_rows(m.curves3d))
-    _read_nets(get("CNET"), m.curves3d, tol, "CNET")
     m.curves2d = _read_geometry(get("CRV2"), "CRV2", 2)
     _read_shapes(get("SHAP"), m)
     _read_vertices(get("VERT"), m)
@@ -651,6 +671,10 @@ def sections_to_model(get: Any) -> tuple[BRepModel, dict[str, Any]]:
     _read_faces(get("FACE"), m)
     check_references(m)
     _resolve_ranges(m, range_how)
+    _read_nets(get("SNET"), m.surfaces, tol, "SNET")
+    coded_curves = set(coded_rows(m.curves3d))
+    anchors = joins.anchors(m, m.curves3d, coded_curves)
+    _read_nets(get("CNET"), m.curves3d, tol, "CNET", anchors)
     for c, pins in joins.curve_end_pins(m, m.curves3d, coded_curves, tol).items():
         g = m.curves3d[c]
         g.poles[...] = joins.pinned_poles(m, g, pins)
