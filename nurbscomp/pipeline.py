@@ -265,7 +265,7 @@ def _lossy_target(
     BRepCheck.  For every edge or face with a fault the source does not have,
     its stored pcurves come back; where they were already there, its curve
     (then its faces' surfaces) or its surface (then its edges' curves) is kept
-    exact.  Six rounds at most; then the coded geometry with every pcurve
+    exact.  Eight rounds at most; then the coded geometry with every pcurve
     stored is tried, and failing that everything is exact.
 
     With ``step_check``, the candidate must also survive OCCT's STEP write and
@@ -290,7 +290,8 @@ def _lossy_target(
     exact: set[int] = set()
     keep_e: set[int] = set()
     keep_f: set[int] = set()
-    for _ in range(6):
+    step_exact: set[int] = set()
+    for _ in range(8):
         target, codes, report = lossy.assemble(m, coded, exact)
         cand = lossy.drop_pcurves(target, keep_e, keep_f)
         shape = build(cand)
@@ -307,7 +308,7 @@ def _lossy_target(
         if not new_e and not new_f and floor is not None:
             back = occ.step_round_trip(shape, m.unit)
             if not step_keeps(src_counts, floor, occ.counts(back)):
-                new_f = _step_losses(src_sig, floor_sig, occ.face_signatures(back), tol)
+                new_f = _step_losses(src_sig, floor_sig, occ.face_signatures(back))
                 log.debug(
                     "STEP round trip %s != %s: faces %s", occ.counts(back), floor, sorted(new_f)
                 )
@@ -317,13 +318,20 @@ def _lossy_target(
                         break
                     exact |= kinked
                     continue
-                if new_f <= keep_f:  # already exact: the cause is next door
-                    new_f = {g for f in new_f for e in edges_of[f] for g in faces_of[e]}
+                # first its geometry exact, then its pcurves stored too, then
+                # the same for its neighbours (the cause is next door)
+                if new_f <= keep_f:
+                    wider = {g for f in new_f for e in edges_of[f] for g in faces_of[e]}
+                    if wider <= keep_f:
+                        break  # nothing left to keep here: the tiers below
+                    new_f = wider
                 for f in new_f:
+                    if f in step_exact:
+                        keep_f.add(f)
+                        keep_e |= set(edges_of[f])
+                    step_exact.add(f)
                     exact.add(faces_rec[f])
                     exact |= {edges_rec[e] for e in edges_of[f]}
-                    keep_e |= set(edges_of[f])
-                keep_f |= new_f
                 continue
         if not new_e and not new_f:
             return cand, codes, report, int((cand.edge_reps[:, 2] == REBUILD).sum())
@@ -364,64 +372,49 @@ def step_keeps(source: dict[str, int], floor: dict[str, int], back: dict[str, in
     return all(abs(back[k] - source[k]) <= abs(floor[k] - source[k]) for k in source)
 
 
-def _partners(x: np.ndarray, y: np.ndarray, tol: float, topology: bool = True) -> np.ndarray:
-    """Whether face signatures ``x[i]`` and ``y[i]`` (:func:`occ.face_signatures`)
-    may be one face: the same numbers of edges, shared edges and vertices, centroids
-    within 3·tol, areas within 5 % plus a strip of width 10·tol around the face
-    (or both areas below tol²)."""
-    slack = 0.05 * np.abs(x[:, 0]) + 10 * tol * np.sqrt(np.abs(x[:, 0]))
-    near = np.sqrt(((x[:, 1:4] - y[:, 1:4]) ** 2).sum(-1)) <= 3 * tol + 1e-9
-    near &= np.abs(x[:, 0] - y[:, 0]) <= slack
-    # OCCT gives faces with a degenerate domain no area (and a centroid at the
-    # origin); below tol² a face has no measurable place at this tolerance
-    tiny = (np.abs(x[:, 0]) < tol**2) & (np.abs(y[:, 0]) < tol**2)
-    return ((x[:, 4:] == y[:, 4:]).all(-1) | (not topology)) & (near | tiny)
-
-
-def unpaired(a: np.ndarray, b: np.ndarray, tol: float) -> list[int]:
-    """Rows of face signatures ``a`` with no partner (:func:`_partners`) anywhere in ``b``."""
-    from scipy.spatial import cKDTree
-
-    if not len(b):
-        return list(range(len(a)))
-    tree = cKDTree(b[:, 1:4])
-    out = []
-    for i, hits in enumerate(tree.query_ball_point(a[:, 1:4], 3 * tol + 1e-9)):
-        if not hits or not _partners(a[[i] * len(hits)], b[hits], tol).any():
-            out.append(i)
-    return out
-
-
-def _step_losses(src: np.ndarray, floor: np.ndarray, back: np.ndarray, tol: float) -> set[int]:
+def _step_losses(src: np.ndarray, floor: np.ndarray, back: np.ndarray) -> set[int]:
     """Source faces that come back from a candidate's STEP round trip like
     neither the source face nor OCCT's own round trip of it (``floor``).
 
-    Arguments are face signatures (:func:`occ.face_signatures`).  When the
-    reader kept the face order (nine faces in ten sit at the same index with
-    the same area and centroid), faces are compared index by index.
-    Otherwise they are paired by signature wherever they are: the source
-    faces whose partner is in neither place, and for each face of ``back``
-    that is like no face of the source or the floor (a split piece, a new
-    sliver), the source face nearest to it.
+    Arguments are face signatures (:func:`occ.face_signatures`); a face is
+    compared by its numbers of edges, shared edges and vertices (its outline
+    may move by more than tol where a coded neighbour trims it).  Each source
+    face's version in ``back`` and ``floor`` is the face at the same index when
+    the reader kept the order (for nine faces in ten the nearest centroid is
+    at the same index), else the face with the nearest centroid.  A face of
+    ``back`` that is no source face's version and is not like an extra face
+    of the floor (a split piece, a new sliver) blames the source face nearest
+    to it.
     """
     from scipy.spatial import cKDTree
 
-    same_order = len(back) == len(src) == len(floor)
-    if same_order and _partners(src, back, tol, topology=False).mean() >= 0.9:
-        ok = _partners(back, src, tol) | _partners(back, floor, tol)
-        return {int(i) for i in np.flatnonzero(~ok)}
-    if not len(src):
-        return set()
-    to_src = cKDTree(src[:, 1:4])
-    to_floor = cKDTree(floor[:, 1:4]) if len(floor) else None
-    lost = set()
-    for i in unpaired(src, back, tol):
-        if to_floor is None or unpaired(floor[[to_floor.query(src[i, 1:4])[1]]], back, tol):
-            lost.add(i)
-    extra = sorted(set(unpaired(back, floor, tol)) & set(unpaired(back, src, tol)))
-    if extra:
-        _, near = to_src.query(back[extra, 1:4])
-        lost |= {int(i) for i in np.atleast_1d(near)}
+    if not len(src) or not len(back):
+        return set(range(len(src)))
+    topo = slice(4, None)
+    to_src, to_back = cKDTree(src[:, 1:4]), cKDTree(back[:, 1:4])
+    idx = np.arange(len(src))
+    if len(back) == len(src):
+        # in order where face i of back is (one of) the nearest to source face i
+        near = to_src.query(back[:, 1:4])[0]
+        here = np.sqrt(((back[:, 1:4] - src[:, 1:4]) ** 2).sum(-1))
+        same_order = (here <= near * (1 + 1e-9) + 1e-12).mean() >= 0.9
+    if len(back) == len(src) and same_order:
+        in_back = idx
+    else:
+        in_back = to_back.query(src[:, 1:4])[1]
+    ok = (back[in_back, topo] == src[:, topo]).all(-1)
+    floor_extra = np.zeros((0, back.shape[1]))
+    if len(floor):
+        in_floor = cKDTree(floor[:, 1:4]).query(src[:, 1:4])[1]
+        ok |= (back[in_back, topo] == floor[in_floor, topo]).all(-1)
+        floor_extra = floor[np.setdiff1d(np.arange(len(floor)), in_floor)]
+    lost = {int(i) for i in np.flatnonzero(~ok)}
+    for j in np.setdiff1d(np.arange(len(back)), in_back).tolist():
+        if len(floor_extra):
+            k = cKDTree(floor_extra[:, 1:4]).query(back[j, 1:4])[1]
+            if (floor_extra[k, topo] == back[j, topo]).all():
+                continue
+        lost.add(int(to_src.query(back[j, 1:4])[1]))
     return lost
 
 
