@@ -224,12 +224,12 @@ def kinked_records(m: BRepModel) -> set[int]:
     return out
 
 
-def edge_faces(m: BRepModel) -> list[list[int]]:
-    """Per edge, the faces it bounds (indices in model order)."""
+def faces_around(m: BRepModel, kind: ShapeType) -> list[list[int]]:
+    """Per edge (or vertex), the faces it bounds (indices in model order)."""
     tidx = m.type_index()
-    out: list[list[int]] = [[] for _ in range(len(m.edge_tol))]
+    out: list[list[int]] = [[] for _ in range(int((m.shape_type == kind).sum()))]
     for f, s in enumerate(np.flatnonzero(m.shape_type == ShapeType.FACE).tolist()):
-        for e in below(m, s, ShapeType.EDGE):
+        for e in below(m, s, kind):
             out[tidx[e]].append(f)
     return out
 

@@ -29,6 +29,7 @@ from .model import (
     BSplineSurface,
     Derived,
     Kind,
+    ShapeType,
     differences,
 )
 
@@ -281,7 +282,8 @@ def _lossy_target(
         floor, src_counts = occ.counts(floor_shape), occ.counts(source)
     coded = lossy.code_model(m, tol)
     faces_rec, edges_rec = lossy.face_records(m), lossy.edge_records(m)
-    faces_of = lossy.edge_faces(m)
+    faces_of = lossy.faces_around(m, ShapeType.EDGE)
+    near_faces = _vertex_neighbours(m)
     edges_of: list[list[int]] = [[] for _ in faces_rec]
     for e, fs in enumerate(faces_of):
         for f in fs:
@@ -308,7 +310,7 @@ def _lossy_target(
         if not new_e and not new_f and floor is not None:
             back = occ.step_round_trip(shape, m.unit)
             if not step_keeps(src_counts, floor, occ.counts(back)):
-                new_f = _step_losses(src_sig, floor_sig, occ.face_signatures(back))
+                new_f = _step_losses(src_sig, floor_sig, occ.face_signatures(back), tol)
                 log.debug(
                     "STEP round trip %s != %s: faces %s", occ.counts(back), floor, sorted(new_f)
                 )
@@ -322,6 +324,8 @@ def _lossy_target(
                 # the same for its neighbours (the cause is next door)
                 if new_f <= keep_f:
                     wider = {g for f in new_f for e in edges_of[f] for g in faces_of[e]}
+                    if wider <= keep_f:
+                        wider = {g for f in new_f for g in near_faces[f]}
                     if wider <= keep_f:
                         break  # nothing left to keep here: the tiers below
                     new_f = wider
@@ -353,6 +357,16 @@ def _lossy_target(
     return target, codes, report, 0
 
 
+def _vertex_neighbours(m: BRepModel) -> list[set[int]]:
+    """Per face, the faces that share a vertex with it (itself included)."""
+    around = lossy.faces_around(m, ShapeType.VERTEX)
+    out: list[set[int]] = [set() for _ in range(len(m.face_surface))]
+    for fs in around:
+        for f in fs:
+            out[f].update(fs)
+    return out
+
+
 def _passes(
     m: BRepModel, source: Any, old_e: set[int], old_f: set[int], floor: dict[str, int] | None
 ) -> bool:
@@ -372,7 +386,7 @@ def step_keeps(source: dict[str, int], floor: dict[str, int], back: dict[str, in
     return all(abs(back[k] - source[k]) <= abs(floor[k] - source[k]) for k in source)
 
 
-def _step_losses(src: np.ndarray, floor: np.ndarray, back: np.ndarray) -> set[int]:
+def _step_losses(src: np.ndarray, floor: np.ndarray, back: np.ndarray, tol: float) -> set[int]:
     """Source faces that come back from a candidate's STEP round trip like
     neither the source face nor OCCT's own round trip of it (``floor``).
 
@@ -380,11 +394,11 @@ def _step_losses(src: np.ndarray, floor: np.ndarray, back: np.ndarray) -> set[in
     compared by its numbers of edges, shared edges and vertices (its outline
     may move by more than tol where a coded neighbour trims it).  Each source
     face's version in ``back`` and ``floor`` is the face at the same index when
-    the reader kept the order (for nine faces in ten the nearest centroid is
-    at the same index), else the face with the nearest centroid.  A face of
-    ``back`` that is no source face's version and is not like an extra face
-    of the floor (a split piece, a new sliver) blames the source face nearest
-    to it.
+    the reader kept the order (for nine faces in ten the centroid at the same
+    index is within 3·tol of being the nearest), else the face with the
+    nearest centroid.  A face of ``back`` that is no source face's version and
+    is not like an extra face of the floor (a split piece, a new sliver)
+    blames the source face nearest to it.
     """
     from scipy.spatial import cKDTree
 
@@ -397,7 +411,7 @@ def _step_losses(src: np.ndarray, floor: np.ndarray, back: np.ndarray) -> set[in
         # in order where face i of back is (one of) the nearest to source face i
         near = to_src.query(back[:, 1:4])[0]
         here = np.sqrt(((back[:, 1:4] - src[:, 1:4]) ** 2).sum(-1))
-        same_order = (here <= near * (1 + 1e-9) + 1e-12).mean() >= 0.9
+        same_order = (here <= near + 3 * tol).mean() >= 0.9
     if len(back) == len(src) and same_order:
         in_back = idx
     else:
