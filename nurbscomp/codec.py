@@ -9,7 +9,11 @@ Methods, weighed against each other on every face by :func:`encode_net`:
   by the Coons net of the *decoded* boundaries (eq. 11);
 * ``DDMAP`` — as ``BOUNDARY``, plus the interior differences to the Coons net
   (the DD-map, eq. 12; xyz only, weights exact) through a 2-D DCT and
-  quantization (eq. 26-27).
+  quantization (eq. 26-27);
+* ``DMAP`` — as ``BOUNDARY``, plus one least-squares distance per interior
+  pole along the Coons surface's normal (the D-map, eq. 14-25,
+  :mod:`nurbscomp.dmap`), through the same 2-D DCT and quantization.  It
+  needs the knots (a :class:`dmap.Basis`); clamped, non-periodic nets only.
 
 Two quantizers: the paper's ``(1+k+l)·D00/2^a`` (eq. 10, 27; D00 sent as a
 float) and a tolerance-driven ``(1+slope·(k+l))·Δ`` with Δ = tol·2^(e/4).
@@ -29,7 +33,7 @@ from enum import IntEnum
 
 import numpy as np
 
-from . import coons, dct, spatial
+from . import coons, dct, dmap, spatial
 
 
 class Method(IntEnum):
@@ -40,9 +44,10 @@ class Method(IntEnum):
     DDMAP = 2  # surfaces: boundary curves + Coons + DD-map
     DELTA = 3  # curves: linear extrapolation (second differences) on the grid
     CHORD = 4  # curves: ends on the grid, chord differences + DCT (eq. 5-10)
+    DMAP = 5  # surfaces: boundary curves + Coons + D-map (eq. 14-25)
 
 
-SURFACE_METHODS = (Method.SPATIAL, Method.BOUNDARY, Method.DDMAP)
+SURFACE_METHODS = (Method.SPATIAL, Method.BOUNDARY, Method.DDMAP, Method.DMAP)
 CURVE_METHODS = (Method.DELTA, Method.CHORD)
 
 
@@ -163,10 +168,11 @@ class _Stepper:
 class _Writer:
     """Encoder side: quantize, record integers and DCs, return the decoded values."""
 
-    def __init__(self, stepper: _Stepper) -> None:
+    def __init__(self, stepper: _Stepper, dfit: np.ndarray | None = None) -> None:
         self.st = stepper
         self.ints: list[np.ndarray] = []
         self.dcs: list[np.ndarray] = []
+        self.dfit = dfit  # the D-map fitted once to the exact boundaries' Coons net
 
     def coeffs(self, d: np.ndarray) -> np.ndarray:
         shape = d.shape[:-1]
@@ -290,10 +296,12 @@ def _coons_code(
     p: np.ndarray,
     s: np.ndarray,
     t: np.ndarray,
-    ddmap: bool,
+    method: Method,
     origin: np.ndarray,
+    basis: dmap.Basis | None = None,
 ) -> np.ndarray:
-    """Code a net as corners + boundary curves + (optionally) a DD-map; return the decoded net."""
+    """Code a net as corners + boundary curves + (for DDMAP, DMAP) difference
+    data; return the decoded net."""
     corners = p[[0, 0, -1, -1], [0, -1, 0, -1]]
     c = io.grid(corners if isinstance(io, _Writer) else np.empty_like(corners), origin)
     u0 = _curve(io, p[0], c[0], c[1])
@@ -302,13 +310,22 @@ def _coons_code(
     v1 = _curve(io, p[:, -1], c[1], c[3])
     net = coons.coons_net(u0, u1, v0, v1, s, t)
     nu, nv = p.shape[:2]
-    if ddmap and nu > 2 and nv > 2:
+    if method == Method.DDMAP and nu > 2 and nv > 2:
         inner = net[1:-1, 1:-1]
         if isinstance(io, _Writer):
             w = io.coeffs(dct.dct2(p[1:-1, 1:-1] - inner))
         else:
             w = io.coeffs(np.empty_like(inner))
         net[1:-1, 1:-1] = inner + dct.idct2(w)
+    elif method == Method.DMAP:
+        if basis is None or nu < 3 or nv < 3:
+            raise ValueError("a D-map needs the knots of a net with an interior")
+        if isinstance(io, _Writer):
+            d = io.dfit if io.dfit is not None else dmap.fit(p, net, basis)
+            w = io.coeffs(dct.dct2(d[..., None]))
+        else:
+            w = io.coeffs(np.empty((nu - 2, nv - 2, 1)))
+        net = dmap.apply(net, dct.idct2(w)[..., 0], basis)
     return net
 
 
@@ -333,6 +350,7 @@ def _code(
     s: np.ndarray | None,
     t: np.ndarray | None,
     origin: np.ndarray,
+    basis: dmap.Basis | None = None,
 ) -> np.ndarray:
     """Run one method through the writer (encode) or the reader (decode); return the net.
 
@@ -346,7 +364,7 @@ def _code(
         c = io.grid(ends if isinstance(io, _Writer) else np.empty_like(ends), origin)
         return _curve(io, p, c[0], c[1])
     assert s is not None and t is not None
-    return _coons_code(io, p, s, t, method == Method.DDMAP, origin)
+    return _coons_code(io, p, s, t, method, origin, basis)
 
 
 # ---------------------------------------------------------------- encode / decode
@@ -359,6 +377,7 @@ def decode_net(
     t: np.ndarray | None,
     tol: float,
     origin: np.ndarray | None = None,
+    basis: dmap.Basis | None = None,
 ) -> tuple[np.ndarray, int]:
     """The decoded net of a code (the decoder's only entry point), and the DCs it used.
 
@@ -377,7 +396,7 @@ def decode_net(
         raise ValueError(f"method {code.method.name} does not apply to this net")
     o = np.zeros(shape[-1]) if origin is None else origin
     rd = _Reader(_Stepper(code.quant, code.level, code.slope, tol), code.ints, code.dcs)
-    net = _code(rd, np.empty(shape), code.method, s, t, o)
+    net = _code(rd, np.empty(shape), code.method, s, t, o, basis)
     if rd.ipos != len(code.ints):
         raise ValueError("net code has unread values")
     return net, rd.dpos
@@ -391,10 +410,12 @@ def _try(
     method: Method,
     st: _Stepper,
     origin: np.ndarray,
+    basis: dmap.Basis | None = None,
+    dfit: np.ndarray | None = None,
 ) -> NetCode | None:
-    w = _Writer(st)
+    w = _Writer(st, dfit)
     try:
-        dec = _code(w, p, method, s, t, origin)
+        dec = _code(w, p, method, s, t, origin, basis)
     except _Unusable:
         return None
     ints = np.concatenate(w.ints) if w.ints else np.zeros(0, np.int64)
@@ -413,6 +434,8 @@ def _passing(
     ladder: list[_Stepper],
     origin: np.ndarray,
     keep: int = 3,
+    basis: dmap.Basis | None = None,
+    dfit: np.ndarray | None = None,
 ) -> list[NetCode]:
     """The first ``keep`` codes within tol along a coarse-to-fine ladder.
 
@@ -424,7 +447,7 @@ def _passing(
 
     def ok(i: int) -> bool:
         if i not in cache:
-            cache[i] = _try(p, s, t, tol, method, ladder[i], origin)
+            cache[i] = _try(p, s, t, tol, method, ladder[i], origin, basis, dfit)
         c = cache[i]
         return c is not None and c.bound <= tol
 
@@ -446,6 +469,17 @@ def _passing(
     return out
 
 
+#: Largest interior (poles) the D-map is tried on.
+DMAP_MAX_INTERIOR = 900
+
+
+def _dmap_applies(p: np.ndarray, basis: dmap.Basis | None) -> bool:
+    if basis is None or p.ndim != 3:
+        return False
+    inner = (p.shape[0] - 2) * (p.shape[1] - 2)
+    return 0 < inner <= DMAP_MAX_INTERIOR
+
+
 def encode_net(
     p: np.ndarray,
     s: np.ndarray | None,
@@ -454,6 +488,7 @@ def encode_net(
     methods: tuple[Method, ...] = SURFACE_METHODS,
     paper: bool = False,
     origin: np.ndarray | None = None,
+    basis: dmap.Basis | None = None,
 ) -> NetCode:
     """The cheapest code of a net whose certified bound is ≤ tol.
 
@@ -475,6 +510,10 @@ def encode_net(
         the vertex a curve's first pole is pinned to): the net's first pole is
         coded against it.  A second row (a curve's other vertex) is what the
         chord method codes the last pole against.
+    basis : dmap.Basis, optional
+        Knots, degrees and weights of a clamped, non-periodic surface: with
+        it, the D-map is tried too (nets with an interior of at most
+        ``DMAP_MAX_INTERIOR`` poles; its dense least squares grows fast).
 
     Notes
     -----
@@ -486,6 +525,15 @@ def encode_net(
     o = np.zeros(p.shape[-1]) if origin is None else origin
     best: NetCode | None = None
     for method in methods:
+        dfit = None
+        if method == Method.DMAP:
+            if not _dmap_applies(p, basis):
+                continue
+            assert basis is not None and s is not None and t is not None
+            # fitted once, to the exact boundaries (eq. 18-24); each rung then
+            # applies it along the normals of its own decoded Coons net
+            exact = coons.coons_net(p[0], p[-1], p[:, 0], p[:, -1], s, t)
+            dfit = dmap.fit(p, exact, basis)
         ladders: list[list[_Stepper]] = []
         if method in (Method.SPATIAL, Method.DELTA):
             ladders.append([_Stepper(Quant.TOL, e, 0, tol) for e in E_LADDER])
@@ -495,7 +543,7 @@ def encode_net(
             if paper:
                 ladders.append([_Stepper(Quant.PAPER, a, 0, tol) for a in PAPER_BITS])
         for ladder in ladders:
-            for c in _passing(p, s, t, tol, method, ladder, o):
+            for c in _passing(p, s, t, tol, method, ladder, o, basis=basis, dfit=dfit):
                 if best is None or c.bits < best.bits:
                     best = c
     if best is None:

@@ -34,7 +34,7 @@ from .model import (
     RepKind,
     ShapeType,
 )
-from .serialize import net_abscissae
+from .serialize import net_abscissae, net_basis
 
 
 @dataclass
@@ -132,8 +132,9 @@ def _code_table(
             continue
         s, t = net_abscissae(g)
         at = (anchors or {}).get(id(g), origin)
-        code = codec.encode_net(g.poles, s, t, tol, methods, paper=paper, origin=at)
-        net, _ = codec.decode_net(code, g.poles.shape, s, t, tol, at)
+        basis = net_basis(g)
+        code = codec.encode_net(g.poles, s, t, tol, methods, paper=paper, origin=at, basis=basis)
+        net, _ = codec.decode_net(code, g.poles.shape, s, t, tol, at, basis)
         origin = net.reshape(-1, net.shape[-1])[0]
         out[id(g)] = (replace(code, first=origin), replace(g, poles=net))
     return out

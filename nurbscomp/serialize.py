@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from . import codec, coons, joins
+from . import codec, coons, dmap, joins
 from .errors import CorruptError
 from .model import (
     REBUILD,
@@ -510,6 +510,22 @@ def coded_rows(records: list[Geometry]) -> list[int]:
     return out
 
 
+def net_basis(g: Geometry) -> dmap.Basis | None:
+    """What the D-map needs of a surface record: clamped, non-periodic B-splines only."""
+    if not isinstance(g, BSplineSurface) or g.uperiodic or g.vperiodic:
+        return None
+    if g.bezier:
+        nu, nv = g.poles.shape[:2]
+        ends = np.array([0.0, 1.0])
+        return dmap.Basis.of(ends, [nu, nu], ends, [nv, nv], nu - 1, nv - 1, g.weights)
+    clamped = (g.umults[[0, -1]] == g.udegree + 1).all() and (
+        g.vmults[[0, -1]] == g.vdegree + 1
+    ).all()
+    if not clamped:
+        return None
+    return dmap.Basis.of(g.uknots, g.umults, g.vknots, g.vmults, g.udegree, g.vdegree, g.weights)
+
+
 def net_abscissae(g: Geometry) -> tuple[np.ndarray | None, np.ndarray | None]:
     """Normalised Greville abscissae of a surface's net (Coons blending); None for curves."""
     if not isinstance(g, BSplineSurface):
@@ -593,7 +609,7 @@ def _read_nets(
             )
             s, t = net_abscissae(g)
             at = (anchors or {}).get(row, origin)
-            net, used = codec.decode_net(code, g.poles.shape, s, t, tol, at)
+            net, used = codec.decode_net(code, g.poles.shape, s, t, tol, at, net_basis(g))
         except ValueError as e:
             raise CorruptError(f"{tag}: row {row}: {e}") from None
         dpos += used
