@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.interpolate import BSpline
 
-from nurbscomp import codec, coons, dct, spatial
+from nurbscomp import codec, coons, dct, dmap, spatial
 
 
 @given(st.integers(1, 12), st.integers(1, 12), st.integers(0, 2**31))
@@ -136,10 +136,12 @@ def test_every_method_round_trips() -> None:
     S, T = s[:, None, None], t[None, :, None]
     p = (1 - S) * ((1 - T) * c[0, 0] + T * c[0, 1]) + S * ((1 - T) * c[1, 0] + T * c[1, 1])
     p += rng.normal(size=p.shape) * 1e-4  # a near-bilinear net: every method can code it
+    # degree 1 on uniform knots: the Greville abscissae are s and t
+    basis = dmap.Basis.of(s, [2, 1, 1, 1, 1, 2], t, [2, 1, 1, 1, 2], 1, 1, None)
     for method in codec.SURFACE_METHODS:
-        code = codec.encode_net(p, s, t, 0.01, methods=(method,), paper=True)
+        code = codec.encode_net(p, s, t, 0.01, methods=(method,), paper=True, basis=basis)
         assert code.method == method
-        dec, _ = codec.decode_net(code, p.shape, s, t, 0.01)
+        dec, _ = codec.decode_net(code, p.shape, s, t, 0.01, None, basis)
         assert np.sqrt(((dec - p) ** 2).sum(-1)).max() == pytest.approx(code.bound)
 
 
