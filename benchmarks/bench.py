@@ -994,7 +994,7 @@ def report(
         "STEP safety)."
     )
     w("")
-    keys = []
+    keys = ["boundary", "dmap", "ddmap", "spatial"]  # the paper's columns, and ours
     for n, _ in picks:
         for t in TOLS:
             for k in (f.comp.get((n, mode_label(t))) or {}).get("faces_by_method", {}):
