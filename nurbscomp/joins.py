@@ -21,7 +21,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from .model import BRepModel, BSplineCurve, Geometry, RepKind, ShapeType
+from .model import (
+    BRepModel,
+    BSplineCurve,
+    BSplineSurface,
+    Geometry,
+    RepKind,
+    ShapeType,
+    faces_around,
+)
 
 FORWARD, REVERSED = 0, 1
 
@@ -117,3 +125,154 @@ def anchors(m: BRepModel, curves: list[Geometry], coded_rows: set[int]) -> dict[
         elif 0 in ends:
             out[c] = m.vertex_point[ends[0]]
     return out
+
+
+# ------------------------------------------------------------ surfaces: corners, iso-boundaries
+
+#: The four boundaries of a net (nu, nv): row u=0, row u=1, column v=0, column v=1.
+SIDES = 4
+#: Corner poles (i, j) of a net, in the order P00, P0m, Pn0, Pnm.
+CORNERS = ((0, 0), (0, -1), (-1, 0), (-1, -1))
+
+
+def boundary(poles: np.ndarray, side: int, reverse: bool) -> np.ndarray:
+    """One boundary row or column of a net (see ``SIDES``), optionally reversed."""
+    row = (poles[0], poles[-1], poles[:, 0], poles[:, -1])[side]
+    return row[::-1] if reverse else row
+
+
+def _clamped_surface(g: Geometry) -> bool:
+    if not isinstance(g, BSplineSurface) or g.uperiodic or g.vperiodic:
+        return False
+    if g.bezier:
+        return True
+    return bool(
+        (g.umults[[0, -1]] == g.udegree + 1).all() and (g.vmults[[0, -1]] == g.vdegree + 1).all()
+    )
+
+
+def face_vertices(m: BRepModel) -> list[list[int]]:
+    """Per face, the vertex rows reached from it through unlocated sub-shapes only."""
+    tidx = m.type_index()
+    out = []
+    for f, s in enumerate(np.flatnonzero(m.shape_type == ShapeType.FACE).tolist()):
+        found: list[int] = []
+        stack = [s] if m.face_loc[f] == 0 else []
+        while stack:
+            x = stack.pop()
+            for k in range(m.child_start[x], m.child_start[x + 1]):
+                c = int(m.child_shape[k])
+                if m.child_loc[k] != 0:
+                    continue
+                if m.shape_type[c] == ShapeType.VERTEX:
+                    if int(tidx[c]) not in found:
+                        found.append(int(tidx[c]))
+                elif m.shape_type[c] < ShapeType.VERTEX:
+                    stack.append(c)
+        out.append(sorted(found))
+    return out
+
+
+def surface_corner_pins(
+    m: BRepModel, surfaces: list[Geometry], coded_rows: set[int], tol: float
+) -> dict[int, list[tuple[int, int]]]:
+    """Per coded surface row (``m``'s surface table, decoded), the ``(corner, vertex row)``
+    pairs to pin: each corner pole of a clamped net (a corner of the surface)
+    goes to the nearest vertex of the first face on it, if within ``tol``.
+
+    Pinned corners make the decoded surface pass through its face's
+    vertices, so that edge curves pinned to the same vertices and the iso
+    boundaries copied from it (:func:`iso_sources`) meet it there exactly.
+    """
+    out: dict[int, list[tuple[int, int]]] = {}
+    verts = face_vertices(m)
+    for f, r in enumerate(m.face_surface.tolist()):
+        if r not in coded_rows or r in out or not verts[f] or not _clamped_surface(surfaces[r]):
+            continue
+        g = surfaces[r]
+        assert isinstance(g, BSplineSurface)
+        pts = m.vertex_point[verts[f]]
+        pins = []
+        for k, (i, j) in enumerate(CORNERS):
+            d = np.sqrt(((pts - g.poles[i, j]) ** 2).sum(-1))
+            if d.min() <= tol:
+                pins.append((k, verts[f][int(d.argmin())]))
+        if pins:
+            out[r] = pins
+    return out
+
+
+def pinned_corners(m: BRepModel, g: BSplineSurface, pins: list[tuple[int, int]]) -> np.ndarray:
+    """A copy of ``g``'s poles with the pinned corners set to their vertices."""
+    poles = g.poles.copy()
+    for k, v in pins:
+        poles[CORNERS[k]] = m.vertex_point[v]
+    return poles
+
+
+def iso_sources(
+    m: BRepModel, curve_rows: set[int], surface_rows: set[int]
+) -> dict[int, tuple[int, int, int]]:
+    """Curves that are a boundary of a surface on the same edge, bit for bit.
+
+    Returns ``{curve row: (surface row, side, reversed)}`` for each curve row in
+    ``curve_rows`` that an unlocated edge uses over its whole range, whose
+    degree, knots and weights are those of the boundary, and whose poles are
+    those of ``boundary(surface poles, side, reversed)``, for the surface (in
+    ``surface_rows``, clamped, unlocated face) of a face on that edge.  Such a
+    curve is not coded: the decoder copies it from the decoded surface, so
+    the two meet exactly (DESIGN §4, "shared iso-boundaries coded once").
+    """
+    faces_of = faces_around(m, ShapeType.EDGE)
+    out: dict[int, tuple[int, int, int]] = {}
+    reps = m.edge_reps
+    for q in np.flatnonzero(reps[:, 1] == RepKind.CURVE3D).tolist():
+        c = int(reps[q, 2])
+        if c not in curve_rows or c in out or reps[q, 6] != 0:
+            continue
+        g = m.curves3d[c]
+        if not isinstance(g, BSplineCurve) or not _clamped(g):
+            continue
+        first, last = (0.0, 1.0) if g.bezier else (g.knots[0], g.knots[-1])
+        if (m.edge_rep_range[q] != (first, last)).any():
+            continue
+        e = int(reps[q, 0])
+        for f in faces_of[e]:
+            r = int(m.face_surface[f])
+            hit = _boundary_match(g, m.surfaces[r]) if r in surface_rows else None
+            if hit is not None and m.face_loc[f] == 0:
+                out[c] = (r, *hit)
+                break
+    return out
+
+
+def _boundary_match(g: BSplineCurve, s: Geometry) -> tuple[int, int] | None:
+    """(side, reversed) where curve ``g`` is bit for bit a boundary of ``s``, or None."""
+    if not _clamped_surface(s):
+        return None
+    assert isinstance(s, BSplineSurface)
+    for side in range(SIDES):
+        along_u = side >= 2  # columns run along u
+        deg = s.udegree if along_u else s.vdegree
+        knots = (s.uknots, s.umults) if along_u else (s.vknots, s.vmults)
+        w = s.weights
+        wrow = None if w is None else boundary(w[..., None], side, False)[:, 0]
+        for rev in (0, 1):
+            p = boundary(s.poles, side, bool(rev))
+            if p.shape != g.poles.shape or not np.array_equal(p, g.poles):
+                continue
+            wr = None if wrow is None else (wrow[::-1] if rev else wrow)
+            if (wr is None) != (g.weights is None):
+                continue
+            if wr is not None and not np.array_equal(wr, g.weights):
+                continue
+            if g.bezier != s.bezier or (not g.bezier and g.degree != deg):
+                continue
+            if not g.bezier:
+                kn, mu = knots
+                if rev:
+                    kn, mu = kn[-1] + kn[0] - kn[::-1], mu[::-1]
+                if not (np.array_equal(kn, g.knots) and np.array_equal(mu, g.mults)):
+                    continue
+            return side, rev
+    return None

@@ -33,6 +33,7 @@ from .model import (
     Kind,
     RepKind,
     ShapeType,
+    below,
 )
 from .serialize import net_abscissae, net_basis
 
@@ -90,19 +91,6 @@ def _offset_bases(table: list[Geometry], offset: Kind, through: tuple[Kind, ...]
                     b = table[b.basis]
                 else:
                     break
-    return out
-
-
-def below(m: BRepModel, s: int, kind: ShapeType) -> set[int]:
-    """Shape indices of type ``kind`` reachable below shape ``s``."""
-    out, stack = set(), [s]
-    while stack:
-        x = stack.pop()
-        for c in m.child_shape[m.child_start[x] : m.child_start[x + 1]].tolist():
-            if m.shape_type[c] == kind:
-                out.add(c)
-            elif m.shape_type[c] < kind:
-                stack.append(c)
     return out
 
 
@@ -222,16 +210,6 @@ def kinked_records(m: BRepModel) -> set[int]:
         elif isinstance(g, BSplineSurface) and not g.bezier:
             if (g.umults[1:-1] >= g.udegree).any() or (g.vmults[1:-1] >= g.vdegree).any():
                 out.add(id(g))
-    return out
-
-
-def faces_around(m: BRepModel, kind: ShapeType) -> list[list[int]]:
-    """Per edge (or vertex), the faces it bounds (indices in model order)."""
-    tidx = m.type_index()
-    out: list[list[int]] = [[] for _ in range(int((m.shape_type == kind).sum()))]
-    for f, s in enumerate(np.flatnonzero(m.shape_type == ShapeType.FACE).tolist()):
-        for e in below(m, s, kind):
-            out[tidx[e]].append(f)
     return out
 
 

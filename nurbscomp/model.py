@@ -369,3 +369,26 @@ def differences(a: BRepModel, b: BRepModel) -> list[str]:
         if bad:
             out.append(f"{name}: {len(bad)} records differ (first {bad[0]})")
     return out
+
+
+def below(m: BRepModel, s: int, kind: ShapeType) -> set[int]:
+    """Shape indices of type ``kind`` reachable below shape ``s``."""
+    out, stack = set(), [s]
+    while stack:
+        x = stack.pop()
+        for c in m.child_shape[m.child_start[x] : m.child_start[x + 1]].tolist():
+            if m.shape_type[c] == kind:
+                out.add(c)
+            elif m.shape_type[c] < kind:
+                stack.append(c)
+    return out
+
+
+def faces_around(m: BRepModel, kind: ShapeType) -> list[list[int]]:
+    """Per edge (or vertex), the faces it bounds (indices in model order)."""
+    tidx = m.type_index()
+    out: list[list[int]] = [[] for _ in range(int((m.shape_type == kind).sum()))]
+    for f, s in enumerate(np.flatnonzero(m.shape_type == ShapeType.FACE).tolist()):
+        for e in below(m, s, kind):
+            out[tidx[e]].append(f)
+    return out

@@ -31,6 +31,7 @@ from .model import (
     Kind,
     ShapeType,
     differences,
+    faces_around,
 )
 
 log = logging.getLogger(__name__)
@@ -282,7 +283,7 @@ def _lossy_target(
         floor, src_counts = occ.counts(floor_shape), occ.counts(source)
     coded = lossy.code_model(m, tol)
     faces_rec, edges_rec = lossy.face_records(m), lossy.edge_records(m)
-    faces_of = lossy.faces_around(m, ShapeType.EDGE)
+    faces_of = faces_around(m, ShapeType.EDGE)
     near_faces = _vertex_neighbours(m)
     edges_of: list[list[int]] = [[] for _ in faces_rec]
     for e, fs in enumerate(faces_of):
@@ -359,7 +360,7 @@ def _lossy_target(
 
 def _vertex_neighbours(m: BRepModel) -> list[set[int]]:
     """Per face, the faces that share a vertex with it (itself included)."""
-    around = lossy.faces_around(m, ShapeType.VERTEX)
+    around = faces_around(m, ShapeType.VERTEX)
     out: list[set[int]] = [set() for _ in range(len(m.face_surface))]
     for fs in around:
         for f in fs:
