@@ -45,6 +45,7 @@ class Method(IntEnum):
     DELTA = 3  # curves: linear extrapolation (second differences) on the grid
     CHORD = 4  # curves: ends on the grid, chord differences + DCT (eq. 5-10)
     DMAP = 5  # surfaces: boundary curves + Coons + D-map (eq. 14-25)
+    ISO = 6  # curves: a copy of a decoded surface's boundary (ints: surface row, side, reversed)
 
 
 SURFACE_METHODS = (Method.SPATIAL, Method.BOUNDARY, Method.DDMAP, Method.DMAP)

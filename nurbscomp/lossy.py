@@ -17,7 +17,7 @@ geometry can move by more than its poles did).
 from __future__ import annotations
 
 import collections
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -101,6 +101,8 @@ class Coded:
     surfaces: dict[int, tuple[codec.NetCode, Geometry]]
     curves: dict[int, tuple[codec.NetCode, Geometry]]
     tol: float
+    #: id(curve) -> (surface row, side, reversed): copied from a decoded surface
+    iso: dict[int, tuple[int, int, int]] = field(default_factory=dict)
 
 
 def _code_table(
@@ -139,35 +141,56 @@ def code_model(m: BRepModel, tol: float, paper: bool = False) -> Coded:
     A curve whose ends the decoder would pin to vertices too far from the
     original ends (:func:`joins.overreaching`) is left exact.
     """
+    surfaces = _code_table(
+        m.surfaces,
+        tol,
+        _offset_bases(m.surfaces, Kind.OFFSET_SURFACE, _TRIM_S),
+        codec.SURFACE_METHODS,
+        paper,
+    )
+    decoded_s = [surfaces[id(g)][1] if id(g) in surfaces else g for g in m.surfaces]
+    srows = _first_rows(m.surfaces, surfaces)
+    for r, pins in joins.surface_corner_pins(m, decoded_s, srows, tol).items():
+        g = m.surfaces[r]
+        assert isinstance(g, BSplineSurface)
+        if any(
+            np.sqrt(((g.poles[joins.CORNERS[k]] - m.vertex_point[v]) ** 2).sum()) > tol
+            for k, v in pins
+        ):
+            surfaces.pop(id(g))
     keep_c = _offset_bases(m.curves3d, Kind.OFFSET_CURVE, _TRIM_C)
-    first: dict[int, int] = {}
-    for i, g in enumerate(m.curves3d):
-        if isinstance(g, BSplineCurve) and id(g) not in keep_c:
-            first.setdefault(id(g), i)
-    at = joins.anchors(m, m.curves3d, set(first.values()))
+    candidates = {id(g): g for g in m.curves3d if isinstance(g, BSplineCurve)}
+    crows = _first_rows(m.curves3d, {k: v for k, v in candidates.items() if k not in keep_c})
+    iso = joins.iso_sources(m, crows, _first_rows(m.surfaces, surfaces))
+    iso_ids = {id(m.curves3d[c]): src for c, src in iso.items()}
+    at = joins.anchors(m, m.curves3d, crows)
     coded = Coded(
-        _code_table(
-            m.surfaces,
-            tol,
-            _offset_bases(m.surfaces, Kind.OFFSET_SURFACE, _TRIM_S),
-            codec.SURFACE_METHODS,
-            paper,
-        ),
+        surfaces,
         _code_table(
             m.curves3d,
             tol,
-            keep_c,
+            keep_c | set(iso_ids),
             codec.CURVE_METHODS,
             paper,
             {id(m.curves3d[r]): a for r, a in at.items()},
         ),
         tol,
+        iso_ids,
     )
     decoded = [coded.curves[id(g)][1] if id(g) in coded.curves else g for g in m.curves3d]
     rows = {i for i, g in enumerate(m.curves3d) if id(g) in coded.curves}
     for c in joins.overreaching(m, decoded, rows, tol):
         coded.curves.pop(id(m.curves3d[c]), None)
     return coded
+
+
+def _first_rows(table: list[Geometry], ids: dict[int, Any] | set[int]) -> set[int]:
+    """Rows where records whose id is in ``ids`` first occur."""
+    first: dict[int, int] = {}
+    for i, g in enumerate(table):
+        if id(g) in ids:
+            first.setdefault(id(g), i)
+    return set(first.values())
 
 
 _SWEPT = (Kind.REVOLUTION, Kind.EXTRUSION)
@@ -243,7 +266,10 @@ def assemble(
                 out.append(hit[1])
         return out
 
-    surfaces, curves = swap(m.surfaces, coded.surfaces), swap(m.curves3d, coded.curves)
+    surfaces = swap(m.surfaces, coded.surfaces)
+    _pin_surfaces(m, surfaces, codes, coded.tol)
+    curves = swap(m.curves3d, coded.curves)
+    _copy_iso(m, coded, surfaces, curves, codes, exact)
     _pin_curves(m, curves, codes, coded.tol)
     bound_of = {k: c.bound for k, c in codes.items()}
 
@@ -283,15 +309,62 @@ def assemble(
     return out, codes, report
 
 
+def _replace_all(table: list[Geometry], old: Geometry, new: Geometry) -> None:
+    for i, g in enumerate(table):
+        if g is old:
+            table[i] = new
+
+
+def _moved(a: np.ndarray, b: np.ndarray) -> float:
+    return float(np.sqrt(((a - b) ** 2).sum(-1)).max())
+
+
+def _pin_surfaces(
+    m: BRepModel, surfaces: list[Geometry], codes: dict[int, codec.NetCode], tol: float
+) -> None:
+    """Apply :func:`joins.surface_corner_pins` as the decoder will, raising bounds."""
+    for r, pins in joins.surface_corner_pins(
+        m, surfaces, _first_rows(surfaces, codes), tol
+    ).items():
+        old, original = surfaces[r], m.surfaces[r]
+        assert isinstance(old, BSplineSurface) and isinstance(original, BSplineSurface)
+        new = replace(old, poles=joins.pinned_corners(m, old, pins))
+        code = codes.pop(id(old))
+        codes[id(new)] = replace(code, bound=max(code.bound, _moved(new.poles, original.poles)))
+        _replace_all(surfaces, old, new)
+
+
+def _copy_iso(
+    m: BRepModel,
+    coded: Coded,
+    surfaces: list[Geometry],
+    curves: list[Geometry],
+    codes: dict[int, codec.NetCode],
+    exact: set[int],
+) -> None:
+    """Curves that are a coded surface's boundary become copies of the decoded boundary."""
+    for c, g in enumerate(m.curves3d):
+        src = coded.iso.get(id(g))
+        if src is None or id(g) in exact or curves[c] is not g:
+            continue
+        r, side, rev = src
+        if id(surfaces[r]) not in codes:
+            continue  # the surface is exact, and so is its boundary: the curve as it is
+        assert isinstance(g, BSplineCurve)
+        poles = joins.boundary(surfaces[r].poles, side, bool(rev)).copy()  # type: ignore[union-attr]
+        new = replace(g, poles=poles)
+        ints = np.array([r, side, rev], np.int64)
+        bound = _moved(poles, g.poles)
+        code = codec.NetCode(codec.Method.ISO, codec.Quant.TOL, 0, 0, ints, np.zeros(0), bound, 0.0)
+        codes[id(new)] = replace(code, first=poles[0].copy())
+        _replace_all(curves, g, new)
+
+
 def _pin_curves(
     m: BRepModel, curves: list[Geometry], codes: dict[int, codec.NetCode], tol: float
 ) -> None:
     """Apply :func:`joins.curve_end_pins` as the decoder will, raising each pinned curve's bound."""
-    first: dict[int, int] = {}
-    for i, g in enumerate(curves):
-        if id(g) in codes:
-            first.setdefault(id(g), i)
-    pins = joins.curve_end_pins(m, curves, set(first.values()), tol)
+    pins = joins.curve_end_pins(m, curves, _first_rows(curves, codes), tol)
     for c, rows in pins.items():
         old = curves[c]
         assert isinstance(old, BSplineCurve)
@@ -301,9 +374,7 @@ def _pin_curves(
         moved = float(np.sqrt(((new.poles - original.poles) ** 2).sum(-1)).max())
         code = codes.pop(id(old))
         codes[id(new)] = replace(code, bound=max(code.bound, moved))
-        for i, g in enumerate(curves):
-            if g is old:
-                curves[i] = new
+        _replace_all(curves, old, new)
 
 
 #: BRepCheck measures an edge's distance to its surfaces with a 5% margin

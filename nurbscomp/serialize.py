@@ -556,7 +556,9 @@ def _write_nets(
         if id(g) in codes and id(g) not in seen:
             seen.add(id(g))
             code = codes[id(g)]
-            order.append(codec.reorigin(code, anchors.get(row, origin), tol))
+            if code.method != codec.Method.ISO:  # an ISO code holds references, no point
+                code = codec.reorigin(code, anchors.get(row, origin), tol)
+            order.append(code)
             origin = g.poles.reshape(-1, g.poles.shape[-1])[0] if code.first is None else code.first
     w = BlockWriter()
     for field in ("method", "quant", "level", "slope"):
@@ -573,6 +575,7 @@ def _read_nets(
     tol: float,
     tag: str,
     anchors: dict[int, np.ndarray] | None = None,
+    surfaces: list[Geometry] | None = None,
 ) -> None:
     """Decode a SNET/CNET section into the poles of the coded rows, in row order.
 
@@ -608,8 +611,11 @@ def _read_nets(
                 0.0,
             )
             s, t = net_abscissae(g)
-            at = (anchors or {}).get(row, origin)
-            net, used = codec.decode_net(code, g.poles.shape, s, t, tol, at, net_basis(g))
+            if code.method == codec.Method.ISO:
+                net, used = _iso_copy(code, g, surfaces or []), 0
+            else:
+                at = (anchors or {}).get(row, origin)
+                net, used = codec.decode_net(code, g.poles.shape, s, t, tol, at, net_basis(g))
         except ValueError as e:
             raise CorruptError(f"{tag}: row {row}: {e}") from None
         dpos += used
@@ -650,6 +656,21 @@ def model_to_sections(
     ]
 
 
+def _iso_copy(code: codec.NetCode, g: Geometry, surfaces: list[Geometry]) -> np.ndarray:
+    """The poles of a curve coded as a decoded surface's boundary (``Method.ISO``)."""
+    if len(code.ints) != 3:
+        raise ValueError("an ISO code holds three integers")
+    r, side, rev = (int(x) for x in code.ints)
+    if not 0 <= r < len(surfaces) or not isinstance(surfaces[r], BSplineSurface):
+        raise ValueError("an ISO code refers to a missing B-spline surface")
+    if not 0 <= side < joins.SIDES or rev not in (0, 1):
+        raise ValueError("an ISO code names no boundary")
+    poles = joins.boundary(surfaces[r].poles, side, bool(rev))  # type: ignore[union-attr]
+    if poles.shape != g.poles.shape:  # type: ignore[union-attr]
+        raise ValueError("an ISO code's boundary has another number of poles")
+    return poles.copy()
+
+
 def _curve_anchors(m: BRepModel, codes: dict[int, codec.NetCode]) -> dict[int, np.ndarray]:
     rows = {}
     for i, g in enumerate(m.curves3d):
@@ -687,10 +708,14 @@ def sections_to_model(get: Any) -> tuple[BRepModel, dict[str, Any]]:
     _read_faces(get("FACE"), m)
     check_references(m)
     _resolve_ranges(m, range_how)
+    coded_surfaces = set(coded_rows(m.surfaces))
     _read_nets(get("SNET"), m.surfaces, tol, "SNET")
+    for r, pins in joins.surface_corner_pins(m, m.surfaces, coded_surfaces, tol).items():
+        g = m.surfaces[r]
+        g.poles[...] = joins.pinned_corners(m, g, pins)  # type: ignore[union-attr,arg-type]
     coded_curves = set(coded_rows(m.curves3d))
     anchors = joins.anchors(m, m.curves3d, coded_curves)
-    _read_nets(get("CNET"), m.curves3d, tol, "CNET", anchors)
+    _read_nets(get("CNET"), m.curves3d, tol, "CNET", anchors, m.surfaces)
     for c, pins in joins.curve_end_pins(m, m.curves3d, coded_curves, tol).items():
         g = m.curves3d[c]
         g.poles[...] = joins.pinned_poles(m, g, pins)
