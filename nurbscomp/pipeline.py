@@ -276,11 +276,12 @@ def _lossy_target(
     exact with their edges; if faces come back split, B-splines with C0 knots
     are kept exact (:func:`lossy.kinked_records`).
     """
-    floor = None
+    floor, floor_valid = None, False
     if step_check:
         floor_shape = occ.step_round_trip(source, m.unit)
         src_sig, floor_sig = occ.face_signatures(source), occ.face_signatures(floor_shape)
         floor, src_counts = occ.counts(floor_shape), occ.counts(source)
+        floor_valid = occ.is_valid(floor_shape)
     coded = lossy.code_model(m, tol)
     faces_rec, edges_rec = lossy.face_records(m), lossy.edge_records(m)
     faces_of = faces_around(m, ShapeType.EDGE)
@@ -310,8 +311,10 @@ def _lossy_target(
         )
         if not new_e and not new_f and floor is not None:
             back = occ.step_round_trip(shape, m.unit)
-            if not step_keeps(src_counts, floor, occ.counts(back)):
-                new_f = _step_losses(src_sig, floor_sig, occ.face_signatures(back), tol)
+            # faults the re-read has where OCCT's own round trip is valid
+            faulty = occ.faulty_faces(back) if floor_valid else set()
+            if faulty or not step_keeps(src_counts, floor, occ.counts(back)):
+                new_f = _step_losses(src_sig, floor_sig, occ.face_signatures(back), tol, faulty)
                 log.debug(
                     "STEP round trip %s != %s: faces %s", occ.counts(back), floor, sorted(new_f)
                 )
@@ -352,7 +355,7 @@ def _lossy_target(
         keep_f |= new_f
     # second tier: coded geometry with every pcurve stored, if that passes
     target, codes, report = lossy.assemble(m, coded, exact)
-    if _passes(target, source, old_e, old_f, floor):
+    if _passes(target, source, old_e, old_f, floor, floor_valid):
         return target, codes, report, 0
     target, codes, report = lossy.assemble(m, coded, set(coded.surfaces) | set(coded.curves))
     return target, codes, report, 0
@@ -369,16 +372,24 @@ def _vertex_neighbours(m: BRepModel) -> list[set[int]]:
 
 
 def _passes(
-    m: BRepModel, source: Any, old_e: set[int], old_f: set[int], floor: dict[str, int] | None
+    m: BRepModel,
+    source: Any,
+    old_e: set[int],
+    old_f: set[int],
+    floor: dict[str, int] | None,
+    floor_valid: bool = False,
 ) -> bool:
     """No BRepCheck fault the source lacks, and (with ``floor``) the STEP round trip's counts."""
     shape = build(m)
     bad_e, bad_f = occ.failures(shape)
     if bad_e - old_e or bad_f - old_f:
         return False
-    return floor is None or step_keeps(
-        occ.counts(source), floor, occ.counts(occ.step_round_trip(shape, m.unit))
-    )
+    if floor is None:
+        return True
+    back = occ.step_round_trip(shape, m.unit)
+    if floor_valid and not occ.is_valid(back):
+        return False
+    return step_keeps(occ.counts(source), floor, occ.counts(back))
 
 
 def step_keeps(source: dict[str, int], floor: dict[str, int], back: dict[str, int]) -> bool:
@@ -387,7 +398,9 @@ def step_keeps(source: dict[str, int], floor: dict[str, int], back: dict[str, in
     return all(abs(back[k] - source[k]) <= abs(floor[k] - source[k]) for k in source)
 
 
-def _step_losses(src: np.ndarray, floor: np.ndarray, back: np.ndarray, tol: float) -> set[int]:
+def _step_losses(
+    src: np.ndarray, floor: np.ndarray, back: np.ndarray, tol: float, faulty: set[int] = frozenset()
+) -> set[int]:
     """Source faces that come back from a candidate's STEP round trip like
     neither the source face nor OCCT's own round trip of it (``floor``).
 
@@ -398,8 +411,8 @@ def _step_losses(src: np.ndarray, floor: np.ndarray, back: np.ndarray, tol: floa
     the reader kept the order (for nine faces in ten the centroid at the same
     index is within 3·tol of being the nearest), else the face with the
     nearest centroid.  A face of ``back`` that is no source face's version and
-    is not like an extra face of the floor (a split piece, a new sliver)
-    blames the source face nearest to it.
+    is not like an extra face of the floor (a split piece, a new sliver), or
+    that is in ``faulty`` (BRepCheck faults), blames its source face.
     """
     from scipy.spatial import cKDTree
 
@@ -424,6 +437,9 @@ def _step_losses(src: np.ndarray, floor: np.ndarray, back: np.ndarray, tol: floa
         ok |= (back[in_back, topo] == floor[in_floor, topo]).all(-1)
         floor_extra = floor[np.setdiff1d(np.arange(len(floor)), in_floor)]
     lost = {int(i) for i in np.flatnonzero(~ok)}
+    source_of = {int(j): i for i, j in enumerate(in_back.tolist())}
+    for j in sorted(faulty):
+        lost.add(source_of[j] if j in source_of else int(to_src.query(back[j, 1:4])[1]))
     for j in np.setdiff1d(np.arange(len(back)), in_back).tolist():
         if len(floor_extra):
             k = cKDTree(floor_extra[:, 1:4]).query(back[j, 1:4])[1]

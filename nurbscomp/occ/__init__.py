@@ -21,6 +21,7 @@ from .measure import (
     face_signatures,
     faces,
     failures,
+    faulty_faces,
     free_edges,
     is_valid,
 )
@@ -37,6 +38,7 @@ __all__ = [
     "face_signatures",
     "faces",
     "failures",
+    "faulty_faces",
     "free_edges",
     "is_valid",
     "model_to_shape",

@@ -240,3 +240,18 @@ def face_signatures(shape: Any) -> np.ndarray:
         nv = _map(f, TopAbs_VERTEX).Extent()
         rows.append((g.Mass(), c.X(), c.Y(), c.Z(), em.Extent(), shared, nv))
     return np.array(rows, float).reshape(-1, 7)
+
+
+def faulty_faces(shape: Any) -> set[int]:
+    """Faces (0-based, face order) with a BRepCheck fault of their own or on one of their edges."""
+    from OCP.TopTools import TopTools_IndexedDataMapOfShapeListOfShape
+
+    bad_e, bad_f = failures(shape)
+    if bad_e:
+        em, fm = _map(shape, TopAbs_EDGE), _map(shape, TopAbs_FACE)
+        e2f = TopTools_IndexedDataMapOfShapeListOfShape()
+        TopExp.MapShapesAndAncestors_s(shape, TopAbs_EDGE, TopAbs_FACE, e2f)
+        for e in bad_e:
+            for f in e2f.FindFromKey(em.FindKey(e + 1)):
+                bad_f.add(fm.FindIndex(f) - 1)
+    return bad_f
