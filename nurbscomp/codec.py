@@ -121,14 +121,20 @@ def reorigin(code: NetCode, origin: np.ndarray | None, tol: float) -> NetCode:
 
     Every method codes its first grid point as "grid point - grid(origin)" in
     its first ``dim`` integers, and the decoded net does not depend on the
-    origin, so only those integers change.
+    origin, so only those integers change.  The chord method codes its last
+    pole against a second origin row when there is one: the next ``dim``.
+    Both codes' origins must then have two rows.
     """
-    old = np.zeros(3) if code.origin is None else _first(code.origin)
-    new = np.zeros(len(old)) if origin is None else _first(origin)
-    dim = len(old)
+    old = np.zeros(3) if code.origin is None else code.origin
+    new = np.zeros(_first(old).shape) if origin is None else origin
+    dim = len(_first(old))
     h = tol * code.grid
     ints = code.ints.copy()
-    ints[:dim] += spatial.snap(old, h) - spatial.snap(new, h)
+    ints[:dim] += spatial.snap(_first(old), h) - spatial.snap(_first(new), h)
+    if code.method == Method.CHORD and (old.ndim == 2) != (new.ndim == 2):
+        raise ValueError("a chord code's end anchor cannot be added or dropped")
+    if code.method == Method.CHORD and old.ndim == 2:
+        ints[dim : 2 * dim] += spatial.snap(old[1], h) - spatial.snap(new[1], h)
     return replace(code, ints=ints, origin=None if origin is None else origin.copy())
 
 

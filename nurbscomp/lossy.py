@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from . import codec, joins
+from . import codec, joins, serialize
 from .model import (
     REBUILD,
     BRepModel,
@@ -103,6 +103,8 @@ class Coded:
     tol: float
     #: id(curve) -> (surface row, side, reversed): copied from a decoded surface
     iso: dict[int, tuple[int, int, int]] = field(default_factory=dict)
+    #: every vertex snapped to the vertex grid (used where all its edges' curves are coded)
+    vgrid: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
 
 
 def _code_table(
@@ -148,16 +150,21 @@ def code_model(m: BRepModel, tol: float, paper: bool = False) -> Coded:
         codec.SURFACE_METHODS,
         paper,
     )
+    h = serialize.vertex_grid(tol)
+    vgrid = np.rint(m.vertex_point / h).astype(np.int64) * h  # as the decoder computes it
+    snapped: Any = replace(m)
+    snapped.vertex_point = vgrid
     decoded_s = [surfaces[id(g)][1] if id(g) in surfaces else g for g in m.surfaces]
     srows = _first_rows(m.surfaces, surfaces)
-    for r, pins in joins.surface_corner_pins(m, decoded_s, srows, tol).items():
-        g = m.surfaces[r]
-        assert isinstance(g, BSplineSurface)
-        if any(
-            np.sqrt(((g.poles[joins.CORNERS[k]] - m.vertex_point[v]) ** 2).sum()) > tol
-            for k, v in pins
-        ):
-            surfaces.pop(id(g))
+    for mm in (m, snapped):  # a pin may go to the exact or to the snapped vertex
+        for r, pins in joins.surface_corner_pins(mm, decoded_s, srows, tol).items():
+            g = m.surfaces[r]
+            assert isinstance(g, BSplineSurface)
+            if any(
+                np.sqrt(((g.poles[joins.CORNERS[k]] - mm.vertex_point[v]) ** 2).sum()) > tol
+                for k, v in pins
+            ):
+                surfaces.pop(id(g), None)
     keep_c = _offset_bases(m.curves3d, Kind.OFFSET_CURVE, _TRIM_C)
     candidates = {id(g): g for g in m.curves3d if isinstance(g, BSplineCurve)}
     crows = _first_rows(m.curves3d, {k: v for k, v in candidates.items() if k not in keep_c})
@@ -176,10 +183,13 @@ def code_model(m: BRepModel, tol: float, paper: bool = False) -> Coded:
         ),
         tol,
         iso_ids,
+        vgrid,
     )
     decoded = [coded.curves[id(g)][1] if id(g) in coded.curves else g for g in m.curves3d]
     rows = {i for i, g in enumerate(m.curves3d) if id(g) in coded.curves}
-    for c in joins.overreaching(m, decoded, rows, tol):
+    for c in joins.overreaching(m, decoded, rows, tol) | joins.overreaching(
+        snapped, decoded, rows, tol
+    ):
         coded.curves.pop(id(m.curves3d[c]), None)
     return coded
 
@@ -267,8 +277,9 @@ def assemble(
         return out
 
     surfaces = swap(m.surfaces, coded.surfaces)
-    _pin_surfaces(m, surfaces, codes, coded.tol)
     curves = swap(m.curves3d, coded.curves)
+    m, moved_v = _snap_vertices(m, coded, surfaces, curves, codes, exact)
+    _pin_surfaces(m, surfaces, codes, coded.tol)
     _copy_iso(m, coded, surfaces, curves, codes, exact)
     _pin_curves(m, curves, codes, coded.tol)
     bound_of = {k: c.bound for k, c in codes.items()}
@@ -293,7 +304,7 @@ def assemble(
     edge_bound = np.zeros(len(m.edge_tol))
     for q in np.flatnonzero(reps[:, 1] == RepKind.CURVE3D).tolist():
         edge_bound[reps[q, 0]] = max(edge_bound[reps[q, 0]], curve_bound(int(reps[q, 2])))
-    out = _widen_tolerances(m, face_bound, edge_bound)
+    out = _widen_tolerances(m, face_bound, edge_bound, moved_v)
     out.surfaces, out.curves3d = surfaces, curves
     sc = [codes[id(g)] for g in {id(g): g for g in surfaces if id(g) in codes}.values()]
     cc = [codes[id(g)] for g in {id(g): g for g in curves if id(g) in codes}.values()]
@@ -307,6 +318,48 @@ def assemble(
         sum(len(g.poles) for g in curves if id(g) in codes),
     )
     return out, codes, report
+
+
+def _snap_vertices(
+    m: BRepModel,
+    coded: Coded,
+    surfaces: list[Geometry],
+    curves: list[Geometry],
+    codes: dict[int, codec.NetCode],
+    exact: set[int],
+) -> tuple[BRepModel, np.ndarray]:
+    """``m`` with its vertices on the vertex grid where every edge at the vertex
+    has a coded (or iso-copied) 3-D curve, and how far each vertex moved.
+
+    Those curves are then pinned to the snapped vertex, and so are the corners
+    of the nets around it, so everything that meets there still meets.  A
+    vertex on an exact curve (a line, a circle, a degenerated edge) stays.
+    """
+    if not len(coded.vgrid):
+        return m, np.zeros(len(m.vertex_tol))
+    tidx = m.type_index()
+    curve_of: dict[int, int] = {}
+    reps = m.edge_reps
+    for q in np.flatnonzero(reps[:, 1] == RepKind.CURVE3D).tolist():
+        curve_of[int(reps[q, 0])] = int(reps[q, 2]) if reps[q, 6] == 0 else -1
+    ok = np.ones(len(m.vertex_tol), bool)
+    for e, s in enumerate(np.flatnonzero(m.shape_type == ShapeType.EDGE).tolist()):
+        c = curve_of.get(e, -1)
+        moving = c >= 0 and (
+            id(curves[c]) in codes
+            or (
+                id(m.curves3d[c]) in coded.iso
+                and id(m.curves3d[c]) not in exact
+                and id(surfaces[coded.iso[id(m.curves3d[c])][0]]) in codes
+            )
+        )
+        if not moving:
+            for v in below(m, s, ShapeType.VERTEX):
+                ok[tidx[v]] = False
+    out: Any = replace(m)
+    out.vertex_point = np.where(ok[:, None], coded.vgrid, m.vertex_point)
+    moved = np.sqrt(((out.vertex_point - m.vertex_point) ** 2).sum(-1))
+    return out, moved
 
 
 def _replace_all(table: list[Geometry], old: Geometry, new: Geometry) -> None:
@@ -382,7 +435,9 @@ def _pin_curves(
 MARGIN = 1.1
 
 
-def _widen_tolerances(m: BRepModel, face_bound: np.ndarray, edge_bound: np.ndarray) -> BRepModel:
+def _widen_tolerances(
+    m: BRepModel, face_bound: np.ndarray, edge_bound: np.ndarray, moved_v: np.ndarray
+) -> BRepModel:
     """A copy of ``m`` whose edge and vertex tolerances cover the coding errors.
 
     An edge's 3-D curve moved by its curve's bound and each of its surfaces by
@@ -407,6 +462,7 @@ def _widen_tolerances(m: BRepModel, face_bound: np.ndarray, edge_bound: np.ndarr
         if reach > 0:
             for v in below(m, s, ShapeType.VERTEX):
                 extra_v[tidx[v]] = max(extra_v[tidx[v]], reach)
+    extra_v += moved_v  # a snapped vertex is that much further from what it sat on
     out: Any = replace(m)
     out.edge_tol = np.where(extra_e > 0, round_up(m.edge_tol + MARGIN * extra_e), m.edge_tol)
     out.vertex_tol = np.where(extra_v > 0, round_up(m.vertex_tol + MARGIN * extra_v), m.vertex_tol)

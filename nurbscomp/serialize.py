@@ -305,9 +305,28 @@ def _read_shapes(data: bytes, m: BRepModel) -> None:
         raise CorruptError("SHAP: bad root reference")
 
 
-def _write_vertices(m: BRepModel) -> bytes:
+def vertex_grid(tol: float) -> float:
+    """Step of the grid lossy vertices are snapped to: every coordinate moves by
+    at most h/2, so a vertex by at most tol/2 (``h = tol/√3``)."""
+    return tol / np.sqrt(3.0)
+
+
+def _write_vertices(m: BRepModel, tol: float = 0.0) -> bytes:
+    """Vertices whose point is a grid point (``vertex_grid``) bit for bit are
+    stored as grid integers; the others as floats."""
     w = BlockWriter()
-    w.floats(m.vertex_point.reshape(-1))
+    pts = m.vertex_point
+    on_grid = np.zeros(len(pts), bool)
+    q = np.zeros_like(pts, dtype=np.int64)
+    if tol > 0 and len(pts):
+        h = vertex_grid(tol)
+        small = (np.abs(pts) < 2.0**50 * h).all(-1)
+        q[small] = np.rint(pts[small] / h).astype(np.int64)
+        on_grid = small & ((q * h).view(np.int64) == pts.view(np.int64)).all(-1)  # bit for bit
+    w.ints(on_grid.astype(np.int64))
+    w.floats(pts[~on_grid].reshape(-1))
+    for axis in range(3):
+        w.deltas(q[on_grid, axis])
     w.floats(m.vertex_tol)
     reps = m.vertex_reps
     w.ints(np.bincount(reps[:, 0], minlength=len(m.vertex_tol)) if len(reps) else [])
@@ -317,13 +336,21 @@ def _write_vertices(m: BRepModel) -> bytes:
     return bytes(w)
 
 
-def _read_vertices(data: bytes, m: BRepModel) -> None:
+def _read_vertices(data: bytes, m: BRepModel, tol: float = 0.0) -> None:
     r = BlockReader(data, "VERT")
-    pts = r.floats()
-    if len(pts) % 3:
-        raise CorruptError("VERT: point array length is not a multiple of 3")
-    m.vertex_point = pts.reshape(-1, 3)
-    nv = len(m.vertex_point)
+    kind = r.ints()
+    if len(kind) and (kind.min() < 0 or kind.max() > 1):
+        raise CorruptError("VERT: unknown vertex kind")
+    on_grid = kind.astype(bool)
+    nv, ng = len(on_grid), int(on_grid.sum())
+    pts = np.zeros((nv, 3))
+    pts[~on_grid] = r.floats(3 * (nv - ng)).reshape(-1, 3)
+    q = np.stack([r.deltas(ng) for _ in range(3)], axis=1)
+    if ng and not tol > 0:
+        raise CorruptError("VERT: grid vertices need a positive tolerance")
+    if ng:
+        pts[on_grid] = q * vertex_grid(tol)
+    m.vertex_point = pts
     m.vertex_tol = r.floats(nv)
     per = r.ints()
     if len(per) not in (0, nv) or (len(per) and per.min() < 0):
@@ -650,7 +677,7 @@ def model_to_sections(
         ("CNET", _write_nets(m.curves3d, codes, tol, _curve_anchors(m, codes))),
         ("CRV2", _write_geometry(m.curves2d, 2)),
         ("SHAP", _write_shapes(m)),
-        ("VERT", _write_vertices(m)),
+        ("VERT", _write_vertices(m, tol)),
         ("EDGE", _write_edges(m)),
         ("FACE", _write_faces(m)),
     ]
@@ -703,7 +730,7 @@ def sections_to_model(get: Any) -> tuple[BRepModel, dict[str, Any]]:
     m.curves3d = _read_geometry(get("CRV3"), "CRV3", 3)
     m.curves2d = _read_geometry(get("CRV2"), "CRV2", 2)
     _read_shapes(get("SHAP"), m)
-    _read_vertices(get("VERT"), m)
+    _read_vertices(get("VERT"), m, tol)
     range_how = _read_edges(get("EDGE"), m)
     _read_faces(get("FACE"), m)
     check_references(m)
