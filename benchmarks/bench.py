@@ -4,14 +4,14 @@ the paper's Tables 1-2, speed and memory, and a rate-distortion plot.
 ::
 
     make bench                      # the full run -> docs/benchmarks.md, docs/benchmarks.png
-    .venv/bin/python benchmarks/bench.py --quick --out /tmp/b   # small files, to try changes
+    .venv/bin/python benchmarks/bench.py --quick    # small files only, report in a temp folder
 
 Every figure in the report comes from one run.  The work is split into tasks
-(one per file for the peers, one per file and mode for nurbscomp, one per
-memory measurement) run by a pool of two processes; each task gets a fresh
-process, so the peak RSS it reports is its own.  Each ``.nzc`` is made once
-and reused for its size, its deviation, the baseline and the decode timings.
-Intermediate files go to a temporary folder, removed at the end; the codec
+run in fresh processes (``bench.py --task``), two at a time: a large file gets
+a process per mode, a small file one for all its modes, and every peak-memory
+measurement its own process, so the peak RSS it reports is its own.  Each
+``.nzc`` is made once and reused for its size, its deviation, the baseline and
+the decode timings.  Intermediate files go to a temporary folder, removed at the end; the codec
 (``nurbscomp/``) is copied there first and every task imports that copy, so a
 run measures one version of the code even while the working tree changes.
 
@@ -1464,7 +1464,11 @@ def update_readme(section: str) -> bool:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--out", type=Path, default=ROOT / "docs", help="folder for the report")
+    ap.add_argument(
+        "--out",
+        type=Path,
+        help="folder for the report (default docs/; with --quick, a temp folder)",
+    )
     ap.add_argument("--corpus", type=Path, default=CORPUS)
     ap.add_argument(
         "--quick", action="store_true", help="only corpus files under 400 kB (to try changes)"
@@ -1477,6 +1481,10 @@ def main(argv: list[str] | None = None) -> int:
         "--task-timeout", type=float, default=300.0, help="seconds before a task is killed"
     )
     a = ap.parse_args(argv)
+    if a.out is None:  # a quick run never overwrites the committed report
+        a.out = (
+            Path(tempfile.mkdtemp(prefix="nurbscomp-bench-quick-")) if a.quick else ROOT / "docs"
+        )
     if a.render:
         res, corpus, picked, ctx = pickle.loads(a.render.read_bytes())
         return render(a, res, corpus, picked, ctx, print)
