@@ -250,8 +250,10 @@ def assemble(
     m: BRepModel,
     coded: Coded,
     exact: set[int] = frozenset(),  # type: ignore[assignment]
+    still: set[int] = frozenset(),  # type: ignore[assignment]
 ) -> tuple[BRepModel, dict[int, codec.NetCode], LossyReport]:
-    """The model the decoder will rebuild when every coded record but ``exact`` is used.
+    """The model the decoder will rebuild when every coded record but ``exact`` is used,
+    and every vertex that may move (:func:`_snap_vertices`) but the rows in ``still``.
 
     Returns
     -------
@@ -278,7 +280,7 @@ def assemble(
 
     surfaces = swap(m.surfaces, coded.surfaces)
     curves = swap(m.curves3d, coded.curves)
-    m, moved_v = _snap_vertices(m, coded, surfaces, curves, codes, exact)
+    m, moved_v = _snap_vertices(m, coded, surfaces, curves, codes, exact, still)
     _pin_surfaces(m, surfaces, codes, coded.tol)
     _copy_iso(m, coded, surfaces, curves, codes, exact)
     _pin_curves(m, curves, codes, coded.tol)
@@ -327,6 +329,7 @@ def _snap_vertices(
     curves: list[Geometry],
     codes: dict[int, codec.NetCode],
     exact: set[int],
+    still: set[int],
 ) -> tuple[BRepModel, np.ndarray]:
     """``m`` with its vertices on the vertex grid where every edge at the vertex
     has a coded (or iso-copied) 3-D curve, and how far each vertex moved.
@@ -356,6 +359,7 @@ def _snap_vertices(
         if not moving:
             for v in below(m, s, ShapeType.VERTEX):
                 ok[tidx[v]] = False
+    ok[sorted(still)] = False
     out: Any = replace(m)
     out.vertex_point = np.where(ok[:, None], coded.vgrid, m.vertex_point)
     moved = np.sqrt(((out.vertex_point - m.vertex_point) ** 2).sum(-1))

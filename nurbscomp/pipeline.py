@@ -267,7 +267,7 @@ def _lossy_target(
     BRepCheck.  For every edge or face with a fault the source does not have,
     its stored pcurves come back; where they were already there, its curve
     (then its faces' surfaces) or its surface (then its edges' curves) is kept
-    exact.  Eight rounds at most; then the coded geometry with every pcurve
+    exact.  Ten rounds at most; then the coded geometry with every pcurve
     stored is tried, and failing that everything is exact.
 
     With ``step_check``, the candidate must also survive OCCT's STEP write and
@@ -295,8 +295,14 @@ def _lossy_target(
     keep_e: set[int] = set()
     keep_f: set[int] = set()
     step_exact: set[int] = set()
-    for _ in range(8):
-        target, codes, report = lossy.assemble(m, coded, exact)
+    still_f: set[int] = set()
+    still_v: set[int] = set()
+    verts_of: list[list[int]] = [[] for _ in faces_rec]
+    for v, fs in enumerate(faces_around(m, ShapeType.VERTEX)):
+        for f in fs:
+            verts_of[f].append(v)
+    for _ in range(10):
+        target, codes, report = lossy.assemble(m, coded, exact, still_v)
         cand = lossy.drop_pcurves(target, keep_e, keep_f)
         shape = build(cand)
         bad_e, bad_f = occ.failures(shape)
@@ -324,8 +330,8 @@ def _lossy_target(
                         break
                     exact |= kinked
                     continue
-                # first its geometry exact, then its pcurves stored too, then
-                # the same for its neighbours (the cause is next door)
+                # first its vertices exact, then its geometry, then its pcurves
+                # stored too, then the same for its neighbours (the cause is next door)
                 if new_f <= keep_f:
                     wider = {g for f in new_f for e in edges_of[f] for g in faces_of[e]}
                     if wider <= keep_f:
@@ -334,6 +340,10 @@ def _lossy_target(
                         break  # nothing left to keep here: the tiers below
                     new_f = wider
                 for f in new_f:
+                    if f not in still_f:  # first its vertices stay where they are
+                        still_f.add(f)
+                        still_v |= set(verts_of[f])
+                        continue
                     if f in step_exact:
                         keep_f.add(f)
                         keep_e |= set(edges_of[f])
@@ -354,7 +364,7 @@ def _lossy_target(
         keep_e |= new_e
         keep_f |= new_f
     # second tier: coded geometry with every pcurve stored, if that passes
-    target, codes, report = lossy.assemble(m, coded, exact)
+    target, codes, report = lossy.assemble(m, coded, exact, still_v)
     if _passes(target, source, old_e, old_f, floor, floor_valid):
         return target, codes, report, 0
     target, codes, report = lossy.assemble(m, coded, set(coded.surfaces) | set(coded.curves))
