@@ -19,6 +19,8 @@ This costs no bits: it is a rule both sides apply to the same tables.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from .model import (
@@ -86,12 +88,17 @@ def curve_end_pins(
     return out
 
 
+def _pinned(m: BRepModel, poles: np.ndarray, places: list[tuple[Any, int]]) -> np.ndarray:
+    """A copy of ``poles`` with each ``(index, vertex row)`` place set to the vertex."""
+    out = poles.copy()
+    for index, v in places:
+        out[index] = m.vertex_point[v]
+    return out
+
+
 def pinned_poles(m: BRepModel, g: BSplineCurve, pins: list[tuple[int, int]]) -> np.ndarray:
     """A copy of ``g``'s poles with the pinned ones set to their vertices."""
-    poles = g.poles.copy()
-    for i, v in pins:
-        poles[i] = m.vertex_point[v]
-    return poles
+    return _pinned(m, g.poles, pins)
 
 
 def overreaching(
@@ -204,10 +211,7 @@ def surface_corner_pins(
 
 def pinned_corners(m: BRepModel, g: BSplineSurface, pins: list[tuple[int, int]]) -> np.ndarray:
     """A copy of ``g``'s poles with the pinned corners set to their vertices."""
-    poles = g.poles.copy()
-    for k, v in pins:
-        poles[CORNERS[k]] = m.vertex_point[v]
-    return poles
+    return _pinned(m, g.poles, [(CORNERS[k], v) for k, v in pins])
 
 
 def iso_sources(

@@ -165,7 +165,9 @@ def compress_file(
     tol : float
         Tolerance in mm: every B-spline surface net and 3-D B-spline curve is
         coded so that no pole, hence no point, moves further (certified).
-        Pcurves, vertices and analytic geometry are still exact.
+        Vertices whose edges all have coded curves move by at most tol/2
+        (their curves and net corners with them); pcurves, the other
+        vertices and analytic geometry are exact.
     lossless : bool
         Store every number bit for bit (the container says so).
     verify : bool
@@ -233,7 +235,8 @@ def compress_file(
         "tolerance_mm": meta["tolerance_mm"],
         "geometry": "exact"
         if lossless
-        else "B-spline surfaces and 3-D curves coded; pcurves, vertices, analytic exact",
+        else "B-spline surfaces and 3-D curves coded, vertices on them snapped; "
+        "pcurves and analytic geometry exact",
         "faces_by_method": lossy_report.method_counts() if lossy_report else {},
         "face_method_list": lossy_report.face_method if lossy_report else [],
         "max_bound_mm": float(lossy_report.face_bound.max(initial=0.0)) if lossy_report else 0.0,
