@@ -270,7 +270,7 @@ def _lossy_target(
     BRepCheck.  For every edge or face with a fault the source does not have,
     its stored pcurves come back; where they were already there, its curve
     (then its faces' surfaces) or its surface (then its edges' curves) is kept
-    exact.  Ten rounds at most; then the coded geometry with every pcurve
+    exact.  Sixteen rounds at most; then the coded geometry with every pcurve
     stored is tried, and failing that everything is exact.
 
     With ``step_check``, the candidate must also survive OCCT's STEP write and
@@ -304,7 +304,7 @@ def _lossy_target(
     for v, fs in enumerate(faces_around(m, ShapeType.VERTEX)):
         for f in fs:
             verts_of[f].append(v)
-    for _ in range(10):
+    for _ in range(16):
         target, codes, report = lossy.assemble(m, coded, exact, still_v)
         cand = lossy.drop_pcurves(target, keep_e, keep_f)
         shape = build(cand)
@@ -335,13 +335,14 @@ def _lossy_target(
                     continue
                 # first its vertices exact, then its geometry, then its pcurves
                 # stored too, then the same for its neighbours (the cause is next door)
-                if new_f <= keep_f:
+                spent = still_f & step_exact & keep_f  # every stage already taken
+                if new_f <= spent:
                     wider = {g for f in new_f for e in edges_of[f] for g in faces_of[e]}
-                    if wider <= keep_f:
+                    if wider <= spent:
                         wider = {g for f in new_f for g in near_faces[f]}
-                    if wider <= keep_f:
+                    if wider <= spent:
                         break  # nothing left to keep here: the tiers below
-                    new_f = wider
+                    new_f = wider - spent
                 for f in new_f:
                     if f not in still_f:  # first its vertices stay where they are
                         still_f.add(f)
@@ -446,7 +447,10 @@ def _step_losses(
     ok = (back[in_back, topo] == src[:, topo]).all(-1)
     floor_extra = np.zeros((0, back.shape[1]))
     if len(floor):
-        in_floor = cKDTree(floor[:, 1:4]).query(src[:, 1:4])[1]
+        if len(floor) == len(src) and in_back is idx:  # the order holds there too
+            in_floor = idx
+        else:
+            in_floor = cKDTree(floor[:, 1:4]).query(src[:, 1:4])[1]
         ok |= (back[in_back, topo] == floor[in_floor, topo]).all(-1)
         floor_extra = floor[np.setdiff1d(np.arange(len(floor)), in_floor)]
     lost = {int(i) for i in np.flatnonzero(~ok)}
