@@ -148,7 +148,8 @@ def boundary(poles: np.ndarray, side: int, reverse: bool) -> np.ndarray:
     return row[::-1] if reverse else row
 
 
-def _clamped_surface(g: Geometry) -> bool:
+def clamped_surface(g: Geometry) -> bool:
+    """A non-periodic B-spline (or Bezier) surface whose corner poles are its corners."""
     if not isinstance(g, BSplineSurface) or g.uperiodic or g.vperiodic:
         return False
     if g.bezier:
@@ -194,7 +195,7 @@ def surface_corner_pins(
     out: dict[int, list[tuple[int, int]]] = {}
     verts = face_vertices(m)
     for f, r in enumerate(m.face_surface.tolist()):
-        if r not in coded_rows or r in out or not verts[f] or not _clamped_surface(surfaces[r]):
+        if r not in coded_rows or r in out or not verts[f] or not clamped_surface(surfaces[r]):
             continue
         g = surfaces[r]
         assert isinstance(g, BSplineSurface)
@@ -252,7 +253,7 @@ def iso_sources(
 
 def _boundary_match(g: BSplineCurve, s: Geometry) -> tuple[int, int] | None:
     """(side, reversed) where curve ``g`` is bit for bit a boundary of ``s``, or None."""
-    if not _clamped_surface(s):
+    if not clamped_surface(s):
         return None
     assert isinstance(s, BSplineSurface)
     for side in range(SIDES):

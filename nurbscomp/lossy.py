@@ -35,7 +35,7 @@ from .model import (
     ShapeType,
     below,
 )
-from .serialize import net_abscissae, net_basis
+from .serialize import SWEPT, net_abscissae, net_basis
 
 
 @dataclass
@@ -203,16 +203,13 @@ def _first_rows(table: list[Geometry], ids: dict[int, Any] | set[int]) -> set[in
     return set(first.values())
 
 
-_SWEPT = (Kind.REVOLUTION, Kind.EXTRUSION)
-
-
 def face_records(m: BRepModel) -> list[int]:
     """Per face, the id of the record it moves with: its surface (trimmed ->
     basis), or for a swept surface the swept curve (trimmed -> basis)."""
     out = []
     for r in m.face_surface.tolist():
         g = _resolve(m.surfaces, r, _TRIM_S)
-        if isinstance(g, Derived) and g.kind in _SWEPT:
+        if isinstance(g, Derived) and g.kind in SWEPT:
             g = _resolve(m.curves3d, g.basis, _TRIM_C)
         out.append(id(g))
     return out
@@ -296,7 +293,7 @@ def assemble(
         if id(b) in codes:
             face_bound[f] = codes[id(b)].bound
             face_method.append(codes[id(b)].method.name.lower())
-        elif isinstance(b, Derived) and b.kind in _SWEPT:
+        elif isinstance(b, Derived) and b.kind in SWEPT:
             # sweeping is an isometry of each curve point: the surface moves as the curve
             face_bound[f] = curve_bound(b.basis)
             face_method.append("swept" if face_bound[f] > 0 else "exact")

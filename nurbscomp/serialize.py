@@ -65,7 +65,8 @@ _DERIVED_SHAPE: dict[Kind, tuple[tuple[int, int], tuple[int, int]]] = {
     Kind.TRIMMED_CURVE: ((0, 2), (0, 2)),
     Kind.OFFSET_CURVE: ((1, 1), (0, 1)),
 }
-_SWEPT = (Kind.REVOLUTION, Kind.EXTRUSION)
+#: Surfaces swept from a 3-D curve (their basis is in the 3-D curve table).
+SWEPT = (Kind.REVOLUTION, Kind.EXTRUSION)
 
 # ---------------------------------------------------------------- geometry tables
 
@@ -98,7 +99,7 @@ def _write_geometry(
         elif isinstance(r, Derived):
             # a swept surface's basis is in the 3-D curve table: absolute index;
             # other bases precede their row in the same table: distance back
-            basis.append(r.basis if r.kind in _SWEPT else i - r.basis)
+            basis.append(r.basis if r.kind in SWEPT else i - r.basis)
             frames.append(r.frame.reshape(-1))
             params.append(r.params)
         elif isinstance(r, BSplineSurface):
@@ -188,9 +189,9 @@ def _read_geometry(data: bytes, tag: str, dim: int) -> list[Geometry]:
         elif kind in _DERIVED_SHAPE:
             nf, npar = _DERIVED_SHAPE[kind][dim == 2]
             b = basis.one()
-            if kind not in _SWEPT:
+            if kind not in SWEPT:
                 b = i - b
-            if not (b >= 0 if kind in _SWEPT else 0 <= b < i):
+            if not (b >= 0 if kind in SWEPT else 0 <= b < i):
                 raise CorruptError(f"{tag}: row {i} refers to a missing basis")
             out.append(Derived(kind, b, frames.take(nf * 3).reshape(nf, 3), params.take(npar)))
         elif kind in (Kind.BSPLINE_SURFACE, Kind.BEZIER_SURFACE):
@@ -539,17 +540,13 @@ def coded_rows(records: list[Geometry]) -> list[int]:
 
 def net_basis(g: Geometry) -> dmap.Basis | None:
     """What the D-map needs of a surface record: clamped, non-periodic B-splines only."""
-    if not isinstance(g, BSplineSurface) or g.uperiodic or g.vperiodic:
+    if not joins.clamped_surface(g):
         return None
+    assert isinstance(g, BSplineSurface)
     if g.bezier:
         nu, nv = g.poles.shape[:2]
         ends = np.array([0.0, 1.0])
         return dmap.Basis.of(ends, [nu, nu], ends, [nv, nv], nu - 1, nv - 1, g.weights)
-    clamped = (g.umults[[0, -1]] == g.udegree + 1).all() and (
-        g.vmults[[0, -1]] == g.vdegree + 1
-    ).all()
-    if not clamped:
-        return None
     return dmap.Basis.of(g.uknots, g.umults, g.vknots, g.vmults, g.udegree, g.vdegree, g.weights)
 
 
@@ -760,7 +757,7 @@ def check_references(m: BRepModel) -> None:
 
     for g in m.surfaces:
         if isinstance(g, Derived):
-            if g.kind in _SWEPT:
+            if g.kind in SWEPT:
                 within(np.array([g.basis]), 0, n3, "a swept surface")
     for table, n in ((m.curves3d, n3), (m.curves2d, n2)):
         for g in table:
