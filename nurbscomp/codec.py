@@ -65,8 +65,18 @@ class _Unusable(Exception):
     """A quantizer setting that cannot code this net (its integers would overflow)."""
 
 
-#: Exponents e tried for steps tol·2^(e/4), coarsest first.
+#: Exponents e tried for steps tol·2^(e/4), coarsest first (a net held to a
+#: limit below tol goes on down, :func:`ladder`).
 E_LADDER = tuple(range(8, -13, -1))
+
+
+def ladder(tol: float, limit: float) -> tuple[int, ...]:
+    """Exponents e to try for a net held to ``limit`` ≤ tol: ``E_LADDER``, moved
+    down by the quarter-octaves from tol to limit."""
+    down = max(0, int(np.ceil(4 * np.log2(tol / limit)))) if limit > 0 else 0
+    return tuple(e - down for e in E_LADDER)
+
+
 SLOPES = (0.0, 1.0)
 #: Bit depths a tried with the paper's quantizer, coarsest first.
 PAPER_BITS = tuple(range(1, 31))
@@ -438,27 +448,29 @@ def _passing(
     t: np.ndarray | None,
     tol: float,
     method: Method,
-    ladder: list[_Stepper],
+    settings: list[_Stepper],
     origin: np.ndarray,
     keep: int = 3,
     basis: dmap.Basis | None = None,
     dfit: np.ndarray | None = None,
+    limit: float | None = None,
 ) -> list[NetCode]:
-    """The first ``keep`` codes within tol along a coarse-to-fine ladder.
+    """The first ``keep`` codes within ``limit`` (default tol) along a coarse-to-fine ladder.
 
     The error shrinks (nearly) monotonically along the ladder, so the first
     passing rung is found by bisection; the ``keep`` rungs from there on are
     all returned, since a finer step sometimes codes smaller.
     """
     cache: dict[int, NetCode | None] = {}
+    limit = tol if limit is None else limit
 
     def ok(i: int) -> bool:
         if i not in cache:
-            cache[i] = _try(p, s, t, tol, method, ladder[i], origin, basis, dfit)
+            cache[i] = _try(p, s, t, tol, method, settings[i], origin, basis, dfit)
         c = cache[i]
-        return c is not None and c.bound <= tol
+        return c is not None and c.bound <= limit
 
-    lo, hi = 0, len(ladder) - 1
+    lo, hi = 0, len(settings) - 1
     if not ok(hi):
         return []
     while lo < hi:  # first passing rung in [lo, hi]
@@ -468,7 +480,7 @@ def _passing(
         else:
             lo = mid + 1
     out = []
-    for i in range(lo, min(lo + keep, len(ladder))):
+    for i in range(lo, min(lo + keep, len(settings))):
         if ok(i):
             c = cache[i]
             assert c is not None
@@ -496,8 +508,9 @@ def encode_net(
     paper: bool = False,
     origin: np.ndarray | None = None,
     basis: dmap.Basis | None = None,
+    limit: float | None = None,
 ) -> NetCode:
-    """The cheapest code of a net whose certified bound is ≤ tol.
+    """The cheapest code of a net whose certified bound is ≤ tol (or ``limit``).
 
     Parameters
     ----------
@@ -521,6 +534,10 @@ def encode_net(
         Knots, degrees and weights of a clamped, non-periodic surface: with
         it, the D-map is tried too (nets with an interior of at most
         ``DMAP_MAX_INTERIOR`` poles; its dense least squares grows fast).
+    limit : float, optional
+        A bound below tol this net is held to (a feature smaller than tol,
+        see :func:`nurbscomp.lossy.feature_limit`); steps stay multiples
+        tol·2^(e/4) of the container's tol, with e going further down.
 
     Notes
     -----
@@ -530,6 +547,8 @@ def encode_net(
     code is always found when they are among ``methods``.
     """
     o = np.zeros(p.shape[-1]) if origin is None else origin
+    limit = tol if limit is None else min(limit, tol)
+    rungs = ladder(tol, limit)
     best: NetCode | None = None
     for method in methods:
         dfit = None
@@ -543,16 +562,18 @@ def encode_net(
             dfit = dmap.fit(p, exact, basis)
         ladders: list[list[_Stepper]] = []
         if method in (Method.SPATIAL, Method.DELTA):
-            ladders.append([_Stepper(Quant.TOL, e, 0, tol) for e in E_LADDER])
+            ladders.append([_Stepper(Quant.TOL, e, 0, tol) for e in rungs])
         else:
             for k in range(len(SLOPES)):
-                ladders.append([_Stepper(Quant.TOL, e, k, tol) for e in E_LADDER])
+                ladders.append([_Stepper(Quant.TOL, e, k, tol) for e in rungs])
             if paper:
                 ladders.append([_Stepper(Quant.PAPER, a, 0, tol) for a in PAPER_BITS])
-        for ladder in ladders:
-            for c in _passing(p, s, t, tol, method, ladder, o, basis=basis, dfit=dfit):
+        for settings in ladders:
+            for c in _passing(
+                p, s, t, tol, method, settings, o, basis=basis, dfit=dfit, limit=limit
+            ):
                 if best is None or c.bits < best.bits:
                     best = c
     if best is None:
-        raise ValueError(f"no code within tol {tol} among {[m.name for m in methods]}")
+        raise ValueError(f"no code within {limit} among {[m.name for m in methods]}")
     return best

@@ -183,3 +183,22 @@ def test_reorigin_keeps_the_decoded_net(seed: int) -> None:
     moved = codec.reorigin(code, b, 0.01)
     net_b, _ = codec.decode_net(moved, p.shape, s, t, 0.01, b)
     assert np.array_equal(net_a, net_b)
+
+
+@given(st.sampled_from([0.5, 0.1, 0.01]), st.integers(0, 2**31))
+@settings(max_examples=20, deadline=None)
+def test_a_limit_below_tol_holds_with_tol_steps(frac: float, seed: int) -> None:
+    """A net held to a limit < tol (a feature smaller than tol) is coded within
+    it, with steps that are still multiples of tol (the container's)."""
+    rng = np.random.default_rng(seed)
+    p = np.cumsum(rng.normal(size=(5, 4, 3)), 0) * 0.003 + rng.uniform(-9, 9, 3)
+    s, t = np.linspace(0, 1, 5), np.linspace(0, 1, 4)
+    tol = 0.01
+    limit = frac * tol
+    code = codec.encode_net(p, s, t, tol, limit=limit)
+    assert code.bound <= limit
+    if frac < 0.1:
+        assert code.level < min(codec.E_LADDER)  # below where tol alone goes
+    net, _ = codec.decode_net(code, p.shape, s, t, tol)
+    assert np.sqrt(((net - p) ** 2).sum(-1)).max() == pytest.approx(code.bound, abs=1e-15)
+    assert codec.ladder(tol, tol) == codec.E_LADDER

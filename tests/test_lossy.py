@@ -4,9 +4,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 
-from nurbscomp import occ, pipeline
+from nurbscomp import lossy, occ, pipeline
 
 from .conftest import assert_step_keeps_floor, corpus_files, sample_files
 
@@ -123,3 +124,21 @@ def test_iso_boundary_curves_are_their_surfaces_boundaries(name: str, tmp_path: 
         for k, v in corners:
             assert (m.surfaces[r].poles[joins.CORNERS[k]] == m.vertex_point[v]).all()
     assert pipeline.max_net_displacement(src, m) <= tol
+
+
+def test_feature_limit_holds_small_features_to_a_fraction_of_their_size() -> None:
+    big = np.stack(
+        [*np.meshgrid(np.arange(4.0), np.arange(3.0), indexing="ij"), np.zeros((4, 3))], -1
+    )
+    assert lossy.feature_limit(big, 0.01) == 0.01
+    tiny = big * 0.002  # rows 0.006 and 0.004 long: the shorter of the longest rows
+    assert lossy.feature_limit(tiny, 0.01) == pytest.approx(lossy.FEATURE_FRACTION * 0.004)
+    assert lossy.feature_limit(tiny[:, 0], 0.01) == pytest.approx(lossy.FEATURE_FRACTION * 0.006)
+    assert lossy.feature_limit(np.zeros((3, 3)), 0.01) == 0.01 / 1024  # a point
+
+
+def test_vertices_that_would_merge_stay() -> None:
+    exact = np.array([[0.0, 0, 0], [0.001, 0, 0], [5.0, 0, 0], [5.0, 0, 0], [9.0, 0, 0]])
+    snapped = np.array([[0.0, 0, 0], [0.0, 0, 0], [5.0, 0, 0], [5.0, 0, 0], [9.0, 0, 0]])
+    # 0 and 1 are two places landing on one point; 2 and 3 were one place already
+    assert lossy._merging(exact, snapped).tolist() == [True, True, False, False, False]
