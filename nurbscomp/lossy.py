@@ -610,3 +610,115 @@ def prune_curves2d(m: BRepModel) -> BRepModel:
     vr[sel, 2] = new_index[vr[sel, 2]]
     out.vertex_reps = vr
     return out
+
+
+def _mantissa_bits(x: np.ndarray) -> int:
+    """Significant mantissa bits of float64 values, summed: how dear they are to store."""
+    frac = x.astype(np.float64).view(np.uint64) & np.uint64((1 << 52) - 1)
+    nz = frac[frac != 0]
+    trailing = np.zeros(len(nz), np.int64)
+    for _ in range(52):  # count trailing zero bits
+        even = (nz & np.uint64(1)) == 0
+        if not even.any():
+            break
+        trailing += even & (nz != 0)
+        nz = np.where(even, nz >> np.uint64(1), nz)
+    return int((52 - trailing).sum())
+
+
+def _cheaper(m: BRepModel, maps: dict[int, tuple[float, float]]) -> bool:
+    """Whether the model's knots, surfaces' and curves', compress smaller with
+    ``maps`` applied to the curves' (a curve's knots may repeat a surface's)."""
+    import lzma
+
+    def packed(mapped: bool) -> int:
+        parts = [
+            k
+            for g in m.surfaces
+            if isinstance(g, BSplineSurface) and not g.bezier
+            for k in (g.uknots, g.vknots)
+        ]
+        for g in {id(g): g for g in m.curves3d}.values():
+            if isinstance(g, BSplineCurve) and not g.bezier:
+                ab = maps.get(id(g)) if mapped else None
+                parts.append(g.knots if ab is None else (g.knots - ab[0]) / (ab[1] - ab[0]))
+        return len(lzma.compress(np.concatenate(parts).tobytes() if parts else b""))
+
+    return packed(True) < packed(False)
+
+
+def unit_curves(m: BRepModel, codes: dict[int, codec.NetCode]) -> BRepModel:
+    """``m`` with its free 3-D B-spline curves reparametrized onto [0, 1].
+
+    A curve's knots are only its parametrization when nothing else holds its
+    parameter: t -> (t - a)/(b - a) maps its knots onto [0, 1] (the same
+    curve, point for point) and its edges' ranges with them.  Free means: its
+    edges all run over the whole curve (a partial range, mapped, would cost
+    more than the knots save), none keeps a stored pcurve (a pcurve shares
+    its edge's parameter), no vertex holds a parameter on it, and no other
+    record is built on it.
+    On the corpus most curves have two knots, the ends of an arbitrary
+    parameter range: as 0 and 1 they cost next to nothing.  Knots that are
+    simpler as they are (0, 1, 2, 3 against 0, 1/3, 2/3, 1) stay.  Curve codes do
+    not depend on the knots, so ``codes`` is only re-keyed (in place).
+    """
+    reps = m.edge_reps
+    kind = reps[:, 1]
+    on3d = kind == RepKind.CURVE3D
+    busy: set[int] = set()
+    pc = (kind == RepKind.ON_SURFACE) | (kind == RepKind.ON_CLOSED_SURFACE)
+    kept_pc_edges = set(reps[pc & (reps[:, 2] != REBUILD), 0].tolist())
+    for q in np.flatnonzero(on3d).tolist():
+        if int(reps[q, 0]) in kept_pc_edges:
+            busy.add(int(reps[q, 2]))
+    vr = m.vertex_reps
+    busy |= set(vr[vr[:, 1] == 0, 2].tolist())
+    for g in m.curves3d:
+        if isinstance(g, Derived):
+            busy.add(g.basis)
+    for g in m.surfaces:
+        if isinstance(g, Derived) and g.kind in SWEPT:
+            busy.add(g.basis)
+    busy_ids = {id(m.curves3d[i]) for i in busy if 0 <= i < len(m.curves3d)}
+    maps: dict[int, tuple[float, float]] = {}
+    for g in m.curves3d:
+        if (
+            isinstance(g, BSplineCurve)
+            and not g.bezier
+            and id(g) not in busy_ids
+            and (g.knots[0] != 0.0 or g.knots[-1] != 1.0)
+            and g.knots[-1] > g.knots[0]
+        ):
+            a, b = float(g.knots[0]), float(g.knots[-1])
+            if _mantissa_bits((g.knots - a) / (b - a)) < _mantissa_bits(g.knots):
+                maps[id(g)] = (a, b)
+    rng = m.edge_rep_range.copy()
+    rows = np.flatnonzero(on3d & (reps[:, 2] >= 0)).tolist()
+    for q in rows:
+        ab = maps.get(id(m.curves3d[int(reps[q, 2])]))
+        if ab is not None:
+            if (m.edge_rep_range[q] == ab).all():
+                rng[q] = (0.0, 1.0)
+            else:  # a partial range would cost more as a mapped float than the knots save
+                maps.pop(id(m.curves3d[int(reps[q, 2])]), None)
+    if not maps or not _cheaper(m, maps):
+        return m
+    new: dict[int, Geometry] = {}
+    table: list[Geometry] = []
+    for g in m.curves3d:
+        if id(g) in maps and id(g) not in new:
+            assert isinstance(g, BSplineCurve)
+            a, b = maps[id(g)]
+            k = (g.knots - a) / (b - a)
+            k[0], k[-1] = 0.0, 1.0
+            new[id(g)] = replace(g, knots=k)
+            if id(g) in codes:
+                codes[id(new[id(g)])] = codes.pop(id(g))
+        table.append(new.get(id(g), g))
+    out: Any = replace(m)
+    out.curves3d = table
+    for q in rows:
+        if id(m.curves3d[int(reps[q, 2])]) not in maps:
+            rng[q] = m.edge_rep_range[q]
+    out.edge_rep_range = rng
+    return out

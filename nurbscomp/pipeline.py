@@ -306,7 +306,7 @@ def _lossy_target(
             verts_of[f].append(v)
     for _ in range(16):
         target, codes, report = lossy.assemble(m, coded, exact, still_v)
-        cand = lossy.drop_pcurves(target, keep_e, keep_f)
+        cand = lossy.unit_curves(lossy.drop_pcurves(target, keep_e, keep_f), codes)
         shape = build(cand)
         bad_e, bad_f = occ.failures(shape)
         new_e, new_f = bad_e - old_e, bad_f - old_f

@@ -142,3 +142,49 @@ def test_vertices_that_would_merge_stay() -> None:
     snapped = np.array([[0.0, 0, 0], [0.0, 0, 0], [5.0, 0, 0], [5.0, 0, 0], [9.0, 0, 0]])
     # 0 and 1 are two places landing on one point; 2 and 3 were one place already
     assert lossy._merging(exact, snapped).tolist() == [True, True, False, False, False]
+
+
+def _curve_points(g, t: np.ndarray) -> np.ndarray:
+    """A clamped B-spline curve record evaluated at ``t`` (scipy; rational too)."""
+    from scipy.interpolate import BSpline
+
+    w = np.ones(len(g.poles)) if g.weights is None else g.weights
+    knots = np.repeat(g.knots, g.mults)
+    h = BSpline(knots, np.column_stack([g.poles * w[:, None], w]), g.degree)(t)
+    return h[:, :-1] / h[:, -1:]
+
+
+@pytest.mark.parametrize("name", ["occ22470.igs", "NIST_MBE_PMI_2.stp"])
+def test_unit_curves_keep_every_edge_point_for_point(name: str) -> None:
+    """Free 3-D curves go onto [0, 1]: each edge evaluates to the same points at
+    its mapped range, and curves held by a stored pcurve keep their knots."""
+    from nurbscomp.model import RepKind
+
+    path = next(p for p in corpus_files() if p.name.endswith(name))
+    m, _ = occ.shape_to_model(occ.read_cad(path).shape)
+    keep = set(range(0, len(m.edge_tol), 2))  # every other edge keeps its pcurves
+    d = lossy.drop_pcurves(m, keep, set())
+    u = lossy.unit_curves(d, {})
+    reps = d.edge_reps
+    pc = (reps[:, 1] == RepKind.ON_SURFACE) | (reps[:, 1] == RepKind.ON_CLOSED_SURFACE)
+    stored = set(reps[pc & (reps[:, 2] >= 0), 0].tolist())  # edges with a stored pcurve
+    moved = held = 0
+    for q in np.flatnonzero((reps[:, 1] == RepKind.CURVE3D) & (reps[:, 2] >= 0)).tolist():
+        a, b = d.curves3d[reps[q, 2]], u.curves3d[reps[q, 2]]
+        if a is b:
+            continue
+        assert int(reps[q, 0]) not in stored
+        assert b.knots[0] == 0.0 and b.knots[-1] == 1.0
+        moved += 1
+        if a.periodic:
+            continue
+        t = np.linspace(*d.edge_rep_range[q], 5)
+        s = np.linspace(*u.edge_rep_range[q], 5)
+        scale = 1 + np.abs(a.poles).max()
+        assert np.abs(_curve_points(a, t) - _curve_points(b, s)).max() <= 1e-9 * scale
+    for e in stored:
+        for q in np.flatnonzero((reps[:, 0] == e) & (reps[:, 1] == RepKind.CURVE3D)).tolist():
+            if reps[q, 2] >= 0:
+                held += 1
+                assert u.curves3d[reps[q, 2]] is d.curves3d[reps[q, 2]]
+    assert moved > 0 and held > 0
