@@ -105,8 +105,10 @@ class Coded:
     iso: dict[int, tuple[int, int, int]] = field(default_factory=dict)
     #: every vertex snapped to the vertex grid (used where all its edges' curves are coded)
     vgrid: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
-    #: ids of coded records held to a limit below tol (:func:`feature_limit`)
+    #: ids of coded records held to a limit below tol (:func:`feature_limit`, :func:`tighten`)
     fine: set[int] = field(default_factory=set)
+    #: ids of records coded again, tighter (:func:`tighten`)
+    tight: set[int] = field(default_factory=set)
 
 
 #: A coded net moves by at most this fraction of its size (:func:`feature_limit`).
@@ -135,6 +137,24 @@ def feature_limit(poles: np.ndarray, tol: float) -> float:
     return float(np.clip(FEATURE_FRACTION * size, tol / 1024, tol))
 
 
+def _code_one(
+    g: BSplineSurface | BSplineCurve,
+    tol: float,
+    methods: tuple[codec.Method, ...],
+    paper: bool,
+    origin: np.ndarray | None,
+    limit: float,
+) -> tuple[codec.NetCode, Geometry]:
+    """One record's code (:func:`codec.encode_net`) and the record as decoded."""
+    s, t = net_abscissae(g)
+    basis = net_basis(g)
+    code = codec.encode_net(
+        g.poles, s, t, tol, methods, paper=paper, origin=origin, basis=basis, limit=limit
+    )
+    net, _ = codec.decode_net(code, g.poles.shape, s, t, tol, origin, basis)
+    return replace(code, first=net.reshape(-1, net.shape[-1])[0]), replace(g, poles=net)
+
+
 def _code_table(
     table: list[Geometry],
     tol: float,
@@ -150,17 +170,36 @@ def _code_table(
     for g in table:
         if id(g) in out or id(g) in keep or not isinstance(g, (BSplineSurface, BSplineCurve)):
             continue
-        s, t = net_abscissae(g)
         at = (anchors or {}).get(id(g), origin)
-        basis = net_basis(g)
-        limit = feature_limit(g.poles, tol)
-        code = codec.encode_net(
-            g.poles, s, t, tol, methods, paper=paper, origin=at, basis=basis, limit=limit
-        )
-        net, _ = codec.decode_net(code, g.poles.shape, s, t, tol, at, basis)
-        origin = net.reshape(-1, net.shape[-1])[0]
-        out[id(g)] = (replace(code, first=origin), replace(g, poles=net))
+        out[id(g)] = _code_one(g, tol, methods, paper, at, feature_limit(g.poles, tol))
+        origin = out[id(g)][0].first
     return out
+
+
+#: A record a STEP reader mends (``pipeline._lossy_target``) is coded again,
+#: this many times tighter, before it is kept exact.
+TIGHTER = 8
+
+
+def tighten(coded: Coded, records: list[Geometry]) -> None:
+    """Code ``records`` (originals) again to 1/``TIGHTER`` of their limit, in place.
+
+    Their vertices then stay where they are (``coded.fine``).  A record's
+    first pole is coded against the origin it had; the container re-bases it
+    on the chain as written (:func:`codec.reorigin`).
+    """
+    for g in records:
+        for done, methods in (
+            (coded.surfaces, codec.SURFACE_METHODS),
+            (coded.curves, codec.CURVE_METHODS),
+        ):
+            if id(g) in done and id(g) not in coded.tight:
+                assert isinstance(g, (BSplineSurface, BSplineCurve))
+                code = done[id(g)][0]
+                limit = feature_limit(g.poles, coded.tol) / TIGHTER
+                done[id(g)] = _code_one(g, coded.tol, methods, False, code.origin, limit)
+                coded.fine.add(id(g))
+                coded.tight.add(id(g))
 
 
 _TRIM_S = (Kind.TRIMMED_SURFACE,)

@@ -270,14 +270,16 @@ def _lossy_target(
     BRepCheck.  For every edge or face with a fault the source does not have,
     its stored pcurves come back; where they were already there, its curve
     (then its faces' surfaces) or its surface (then its edges' curves) is kept
-    exact.  Sixteen rounds at most; then the coded geometry with every pcurve
+    exact.  Twenty rounds at most; then the coded geometry with every pcurve
     stored is tried, and failing that everything is exact.
 
     With ``step_check``, the candidate must also survive OCCT's STEP write and
-    read with the topology OCCT's own round trip of the source keeps; faces
-    that come back with extra edges (a reader "repairing" a gap) are kept
-    exact with their edges; if faces come back split, B-splines with C0 knots
-    are kept exact (:func:`lossy.kinked_records`).
+    read with the topology OCCT's own round trip of the source keeps.  A face
+    that comes back otherwise (a reader "repairing" a gap) goes up one stage
+    a round: its vertices stay, then it and its edges are coded tighter
+    (:func:`lossy.tighten`), then kept exact, then with their pcurves; then
+    its neighbours.  If faces come back split, B-splines with C0 knots are
+    kept exact (:func:`lossy.kinked_records`).
     """
     floor, floor_valid = None, False
     if step_check:
@@ -288,7 +290,7 @@ def _lossy_target(
     coded = lossy.code_model(m, tol)
     faces_rec, edges_rec = lossy.face_records(m), lossy.edge_records(m)
     faces_of = faces_around(m, ShapeType.EDGE)
-    near_faces = _vertex_neighbours(m)
+    near_faces = _vertex_neighbours(m, tol)
     edges_of: list[list[int]] = [[] for _ in faces_rec]
     for e, fs in enumerate(faces_of):
         for f in fs:
@@ -300,11 +302,13 @@ def _lossy_target(
     step_exact: set[int] = set()
     still_f: set[int] = set()
     still_v: set[int] = set()
+    tight_f: set[int] = set()
+    originals = {id(g): g for g in [*m.surfaces, *m.curves3d]}
     verts_of: list[list[int]] = [[] for _ in faces_rec]
     for v, fs in enumerate(faces_around(m, ShapeType.VERTEX)):
         for f in fs:
             verts_of[f].append(v)
-    for _ in range(16):
+    for _ in range(20):
         target, codes, report = lossy.assemble(m, coded, exact, still_v)
         cand = lossy.unit_curves(lossy.drop_pcurves(target, keep_e, keep_f), codes)
         shape = build(cand)
@@ -333,9 +337,10 @@ def _lossy_target(
                         break
                     exact |= kinked
                     continue
-                # first its vertices exact, then its geometry, then its pcurves
-                # stored too, then the same for its neighbours (the cause is next door)
-                spent = still_f & step_exact & keep_f  # every stage already taken
+                # first its vertices exact, then its geometry coded tighter, then
+                # exact, then its pcurves stored too, then the same for its
+                # neighbours (the cause is next door)
+                spent = still_f & tight_f & step_exact & keep_f  # every stage already taken
                 if new_f <= spent:
                     wider = {g for f in new_f for e in edges_of[f] for g in faces_of[e]}
                     if wider <= spent:
@@ -347,6 +352,11 @@ def _lossy_target(
                     if f not in still_f:  # first its vertices stay where they are
                         still_f.add(f)
                         still_v |= set(verts_of[f])
+                        continue
+                    if f not in tight_f:  # then it and its edges are coded tighter
+                        tight_f.add(f)
+                        ids = {faces_rec[f], *(edges_rec[e] for e in edges_of[f])}
+                        lossy.tighten(coded, [originals[i] for i in ids if i in originals])
                         continue
                     if f in step_exact:
                         keep_f.add(f)
@@ -375,9 +385,19 @@ def _lossy_target(
     return target, codes, report, 0
 
 
-def _vertex_neighbours(m: BRepModel) -> list[set[int]]:
-    """Per face, the faces that share a vertex with it (itself included)."""
+def _vertex_neighbours(m: BRepModel, tol: float) -> list[set[int]]:
+    """Per face, the faces that share a vertex with it, or have one within tol
+    of one of its vertices (itself included).
+
+    A STEP reader re-projecting the edges at a tiny edge (trj7: 23 nm long,
+    between four faces) mends all four: two of them touch the others only
+    through a vertex of their own.
+    """
+    from scipy.spatial import cKDTree
+
     around = faces_around(m, ShapeType.VERTEX)
+    for a, b in cKDTree(m.vertex_point).query_pairs(tol) if len(m.vertex_point) else ():
+        around[a] = around[b] = sorted({*around[a], *around[b]})
     out: list[set[int]] = [set() for _ in range(len(m.face_surface))]
     for fs in around:
         for f in fs:
