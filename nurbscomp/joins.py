@@ -24,10 +24,12 @@ from typing import Any
 import numpy as np
 
 from .model import (
+    Analytic,
     BRepModel,
     BSplineCurve,
     BSplineSurface,
     Geometry,
+    Kind,
     RepKind,
     ShapeType,
     faces_around,
@@ -85,6 +87,42 @@ def curve_end_pins(
                 pins.append((i, row))
         if pins:
             out[c] = pins
+    return out
+
+
+def line_ranges(m: BRepModel) -> dict[int, tuple[float, float]]:
+    """Per 3-D representation of an edge on a line, the range its vertices give.
+
+    The parameter of a point on a line is its projection on the direction:
+    ``((x - ox)·dx + (y - oy)·dy) + (z - oz)·dz``, written out so that every
+    reader computes the same bits.  Only edges with a FORWARD and a REVERSED
+    vertex, both unlocated, on an unlocated line.
+    """
+    tidx = m.type_index()
+    edge_shapes = np.flatnonzero(m.shape_type == ShapeType.EDGE)
+    reps = m.edge_reps
+    out: dict[int, tuple[float, float]] = {}
+    for q in np.flatnonzero(reps[:, 1] == RepKind.CURVE3D).tolist():
+        c = int(reps[q, 2])
+        if c < 0 or c >= len(m.curves3d) or reps[q, 6] != 0:
+            continue
+        g = m.curves3d[c]
+        if not isinstance(g, Analytic) or g.kind != Kind.LINE:
+            continue
+        s = int(edge_shapes[reps[q, 0]])
+        ends: dict[int, int] = {}
+        for k in range(m.child_start[s], m.child_start[s + 1]):
+            v, o = int(m.child_shape[k]), int(m.child_orient[k])
+            if m.shape_type[v] == ShapeType.VERTEX and m.child_loc[k] == 0 and o in (0, 1):
+                ends.setdefault(o, int(tidx[v]))
+        if len(ends) != 2:
+            continue
+        o, d = g.frame[0], g.frame[1]
+        t = []
+        for end in (FORWARD, REVERSED):
+            p = m.vertex_point[ends[end]] - o
+            t.append(float((p[0] * d[0] + p[1] * d[1]) + p[2] * d[2]))
+        out[q] = (t[0], t[1])
     return out
 
 

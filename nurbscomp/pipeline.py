@@ -310,7 +310,8 @@ def _lossy_target(
             verts_of[f].append(v)
     for _ in range(20):
         target, codes, report = lossy.assemble(m, coded, exact, still_v)
-        cand = lossy.unit_curves(lossy.drop_pcurves(target, keep_e, keep_f), codes)
+        cand = lossy.drop_pcurves(target, keep_e, keep_f)
+        cand = lossy.line_ranges(lossy.unit_curves(cand, codes), tol)
         shape = build(cand)
         bad_e, bad_f = occ.failures(shape)
         new_e, new_f = bad_e - old_e, bad_f - old_f

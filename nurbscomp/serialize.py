@@ -424,7 +424,7 @@ def _read_edges(data: bytes, m: BRepModel) -> np.ndarray:
     m.edge_rep_cont[closed | two] = r.ints(int((closed | two).sum()))
     how = np.full(q, RANGE_ZERO, np.int64)  # kind 3 reps have no range
     how[~two] = r.ints(int((~two).sum()))
-    if ((how < 0) | (how > RANGE_ZERO)).any():
+    if ((how < 0) | (how > RANGE_VERTICES)).any():
         raise CorruptError("EDGE: unknown range kind")
     m.edge_rep_range = np.zeros((q, 2))
     stored = how == RANGE_STORED
@@ -437,8 +437,8 @@ def _read_edges(data: bytes, m: BRepModel) -> np.ndarray:
     return how
 
 
-#: How an edge representation's range is stored (EDGE, format 0.3).
-RANGE_STORED, RANGE_NATURAL, RANGE_OF_3D, RANGE_ZERO = 0, 1, 2, 3
+#: How an edge representation's range is stored (EDGE, format 0.3; VERTICES 0.4).
+RANGE_STORED, RANGE_NATURAL, RANGE_OF_3D, RANGE_ZERO, RANGE_VERTICES = 0, 1, 2, 3, 4
 
 
 def _natural_range(g: Geometry | None) -> tuple[float, float] | None:
@@ -467,11 +467,14 @@ def _range_of_3d(m: BRepModel) -> dict[int, int]:
 def range_kinds(m: BRepModel) -> np.ndarray:
     """Per representation, how its range is stored: the curve's own range
     (``RANGE_NATURAL``), the same as the edge's 3-D curve (``RANGE_OF_3D``),
-    zeros (a pcurve the decoder computes), or the two floats.  Only a bit
-    for bit equal prediction is used, so the format stays lossless."""
+    zeros (a pcurve the decoder computes), the projections of its vertices
+    on its line (``RANGE_VERTICES``, :func:`joins.line_ranges`), or the two
+    floats.  Only a bit for bit equal prediction is used, so the format stays
+    lossless."""
     reps, rng = m.edge_reps, m.edge_rep_range
     bits = rng.view(np.int64)
     of3d = _range_of_3d(m)
+    on_lines = joins.line_ranges(m)
     out = np.full(len(reps), RANGE_STORED, np.int64)
     for q in range(len(reps)):
         if reps[q, 1] == RepKind.ON_TWO_SURFACES:
@@ -486,6 +489,8 @@ def range_kinds(m: BRepModel) -> np.ndarray:
         r3 = of3d.get(int(reps[q, 0]))
         if reps[q, 1] != RepKind.CURVE3D and r3 is not None and (bits[r3] == bits[q]).all():
             out[q] = RANGE_OF_3D
+        elif q in on_lines and (np.array(on_lines[q]).view(np.int64) == bits[q]).all():
+            out[q] = RANGE_VERTICES
     return out
 
 
@@ -496,6 +501,11 @@ def _resolve_ranges(m: BRepModel, how: np.ndarray) -> None:
         if nat is None:
             raise CorruptError("EDGE: a curve without a range of its own")
         m.edge_rep_range[q] = nat
+    on_lines = joins.line_ranges(m) if (how == RANGE_VERTICES).any() else {}
+    for q in np.flatnonzero(how == RANGE_VERTICES).tolist():
+        if q not in on_lines:
+            raise CorruptError("EDGE: a range from vertices on an edge that is no line")
+        m.edge_rep_range[q] = on_lines[q]
     of3d = _range_of_3d(m)
     for q in np.flatnonzero(how == RANGE_OF_3D).tolist():
         r3 = of3d.get(int(m.edge_reps[q, 0]))

@@ -8,9 +8,11 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from nurbscomp import container, occ, pipeline, serialize
+from nurbscomp.errors import CorruptError
 from nurbscomp.model import differences
 
 from .conftest import assert_step_keeps_floor, corpus_files, sample_files
@@ -97,3 +99,18 @@ def test_step_output_keeps_what_occt_keeps(path: Path, tmp_path: Path) -> None:
     if occ.counts(ours) == occ.counts(cad.shape):
         dev = occ.deviation(cad.shape, ours, n=4, tol=1e-9)
         assert dev.max() <= 1e-9, f"max deviation {dev.max()}"
+
+
+def test_line_ranges_come_from_vertices_and_are_checked() -> None:
+    """Edges on lines whose ranges are their vertices' projections, bit for bit,
+    store no floats (RANGE_VERTICES); the rule is refused on an edge that is
+    no line."""
+    cad, m = _model(next(p for p in sample_files() if p.name == "bracket.step"))
+    how = serialize.range_kinds(m)
+    assert (how == serialize.RANGE_VERTICES).sum() > 0
+    back, _ = serialize.sections_to_model(dict(serialize.model_to_sections(m, {})).__getitem__)
+    assert not differences(m, back)
+    # a "from vertices" range on a curve that is no line does not decode
+    assert (how == serialize.RANGE_NATURAL).any() or (how == serialize.RANGE_STORED).any()
+    with pytest.raises(CorruptError, match="no line"):
+        serialize._resolve_ranges(back, np.full(len(how), serialize.RANGE_VERTICES))
