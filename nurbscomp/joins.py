@@ -19,6 +19,7 @@ This costs no bits: it is a rule both sides apply to the same tables.
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -90,13 +91,35 @@ def curve_end_pins(
     return out
 
 
-def line_ranges(m: BRepModel) -> dict[int, tuple[float, float]]:
-    """Per 3-D representation of an edge on a line, the range its vertices give.
+def _dot(p: np.ndarray, d: np.ndarray) -> float:
+    """``p·d`` written out, so that every reader computes the same bits."""
+    return float((p[0] * d[0] + p[1] * d[1]) + p[2] * d[2])
 
-    The parameter of a point on a line is its projection on the direction:
-    ``((x - ox)·dx + (y - oy)·dy) + (z - oz)·dz``, written out so that every
-    reader computes the same bits.  Only edges with a FORWARD and a REVERSED
-    vertex, both unlocated, on an unlocated line.
+
+def _on_line(g: Analytic, p: np.ndarray) -> float:
+    return _dot(p - g.frame[0], g.frame[1])
+
+
+def _on_circle(g: Analytic, p: np.ndarray) -> float:
+    """The angle of ``p`` about a circle's axis (frame: origin, axis, X
+    direction) from its X direction, in [0, 2π); within 1e-9 below 0 is 0."""
+    q, (n, x) = p - g.frame[0], g.frame[1:3]
+    y = np.array([n[1] * x[2] - n[2] * x[1], n[2] * x[0] - n[0] * x[2], n[0] * x[1] - n[1] * x[0]])
+    y = y / math.sqrt(_dot(y, y))  # gp_Ax2's Y direction: N × X, normalised
+    t = math.atan2(_dot(q, y), _dot(q, x))
+    if t < 0:  # just below the X axis is the start of the turn, not its end
+        t = 0.0 if t > -1e-9 else t + 2 * math.pi
+    return t
+
+
+def vertex_ranges(m: BRepModel) -> dict[int, tuple[float, float]]:
+    """Per 3-D representation of an edge on a line or circle, the range its
+    vertices give.
+
+    A line's parameter is the projection on its direction; a circle's, the
+    angle from its X axis in [0, 2π), the end one turn or less after the
+    start (a whole turn when both vertices are one).  Only edges with a
+    FORWARD and a REVERSED vertex, both unlocated, on an unlocated curve.
     """
     tidx = m.type_index()
     edge_shapes = np.flatnonzero(m.shape_type == ShapeType.EDGE)
@@ -107,7 +130,7 @@ def line_ranges(m: BRepModel) -> dict[int, tuple[float, float]]:
         if c < 0 or c >= len(m.curves3d) or reps[q, 6] != 0:
             continue
         g = m.curves3d[c]
-        if not isinstance(g, Analytic) or g.kind != Kind.LINE:
+        if not isinstance(g, Analytic) or g.kind not in (Kind.LINE, Kind.CIRCLE):
             continue
         s = int(edge_shapes[reps[q, 0]])
         ends: dict[int, int] = {}
@@ -117,12 +140,16 @@ def line_ranges(m: BRepModel) -> dict[int, tuple[float, float]]:
                 ends.setdefault(o, int(tidx[v]))
         if len(ends) != 2:
             continue
-        o, d = g.frame[0], g.frame[1]
-        t = []
-        for end in (FORWARD, REVERSED):
-            p = m.vertex_point[ends[end]] - o
-            t.append(float((p[0] * d[0] + p[1] * d[1]) + p[2] * d[2]))
-        out[q] = (t[0], t[1])
+        a, b = (m.vertex_point[ends[e]] for e in (FORWARD, REVERSED))
+        if g.kind == Kind.LINE:
+            out[q] = (_on_line(g, a), _on_line(g, b))
+            continue
+        t0, t1 = _on_circle(g, a), _on_circle(g, b)
+        if ends[FORWARD] == ends[REVERSED] or t1 == t0:
+            t1 = t0 + 2 * math.pi
+        elif t1 < t0:
+            t1 += 2 * math.pi
+        out[q] = (t0, t1)
     return out
 
 

@@ -763,26 +763,29 @@ def unit_curves(m: BRepModel, codes: dict[int, codec.NetCode]) -> BRepModel:
     return out
 
 
-#: A line's edge takes the range its vertices give when that moves its ends
-#: by at most this fraction of tol (:func:`line_ranges`).
-LINE_SLACK = 1e-3
+#: An edge on a line or circle takes the range its vertices give when that
+#: moves its ends by at most this fraction of tol (:func:`vertex_ranges`).
+RANGE_SLACK = 1e-3
 
 
-def line_ranges(m: BRepModel, tol: float) -> BRepModel:
-    """``m`` with the ranges of edges on lines set to their vertices' projections.
+def vertex_ranges(m: BRepModel, tol: float) -> BRepModel:
+    """``m`` with the ranges of edges on lines and circles set to what their
+    vertices give.
 
     Such a range is then stored as a rule, not as two floats
-    (:func:`joins.line_ranges`, ``serialize.RANGE_VERTICES``).  The ends
-    move along the line by at most ``LINE_SLACK``·tol (in the corpus, by
-    the 1e-7 mm a CAD system leaves between a vertex and its line), and
-    each end lands on the point of the line nearest its vertex.  The edge's
-    pcurve ranges that were the same follow (same range).
+    (:func:`joins.vertex_ranges`, ``serialize.RANGE_VERTICES``).  The ends
+    move along the curve by at most ``RANGE_SLACK``·tol (in the corpus, by
+    the 1e-7 mm a CAD system leaves between a vertex and its curve), each to
+    the point of the curve nearest its vertex.  The edge's pcurve ranges that
+    were the same follow (same range).
     """
     rng = m.edge_rep_range
     out_rng = rng.copy()
-    for q, t in joins.line_ranges(m).items():
+    for q, t in joins.vertex_ranges(m).items():
+        g = m.curves3d[int(m.edge_reps[q, 2])]
+        speed = float(g.params[0]) if g.kind == Kind.CIRCLE else 1.0  # type: ignore[union-attr]
         d = np.abs(np.array(t) - rng[q])
-        if (d > 0).any() and d.max() <= LINE_SLACK * tol:
+        if (d > 0).any() and d.max() * speed <= RANGE_SLACK * tol:
             same = (m.edge_reps[:, 0] == m.edge_reps[q, 0]) & (rng == rng[q]).all(-1)
             out_rng[same] = t
     if np.array_equal(out_rng, rng):

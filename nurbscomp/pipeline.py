@@ -311,7 +311,7 @@ def _lossy_target(
     for _ in range(20):
         target, codes, report = lossy.assemble(m, coded, exact, still_v)
         cand = lossy.drop_pcurves(target, keep_e, keep_f)
-        cand = lossy.line_ranges(lossy.unit_curves(cand, codes), tol)
+        cand = lossy.vertex_ranges(lossy.unit_curves(cand, codes), tol)
         shape = build(cand)
         bad_e, bad_f = occ.failures(shape)
         new_e, new_f = bad_e - old_e, bad_f - old_f

@@ -468,13 +468,13 @@ def range_kinds(m: BRepModel) -> np.ndarray:
     """Per representation, how its range is stored: the curve's own range
     (``RANGE_NATURAL``), the same as the edge's 3-D curve (``RANGE_OF_3D``),
     zeros (a pcurve the decoder computes), the projections of its vertices
-    on its line (``RANGE_VERTICES``, :func:`joins.line_ranges`), or the two
+    on its line or circle (``RANGE_VERTICES``, :func:`joins.vertex_ranges`), or the two
     floats.  Only a bit for bit equal prediction is used, so the format stays
     lossless."""
     reps, rng = m.edge_reps, m.edge_rep_range
     bits = rng.view(np.int64)
     of3d = _range_of_3d(m)
-    on_lines = joins.line_ranges(m)
+    by_vertices = joins.vertex_ranges(m)
     out = np.full(len(reps), RANGE_STORED, np.int64)
     for q in range(len(reps)):
         if reps[q, 1] == RepKind.ON_TWO_SURFACES:
@@ -489,7 +489,7 @@ def range_kinds(m: BRepModel) -> np.ndarray:
         r3 = of3d.get(int(reps[q, 0]))
         if reps[q, 1] != RepKind.CURVE3D and r3 is not None and (bits[r3] == bits[q]).all():
             out[q] = RANGE_OF_3D
-        elif q in on_lines and (np.array(on_lines[q]).view(np.int64) == bits[q]).all():
+        elif q in by_vertices and (np.array(by_vertices[q]).view(np.int64) == bits[q]).all():
             out[q] = RANGE_VERTICES
     return out
 
@@ -501,11 +501,11 @@ def _resolve_ranges(m: BRepModel, how: np.ndarray) -> None:
         if nat is None:
             raise CorruptError("EDGE: a curve without a range of its own")
         m.edge_rep_range[q] = nat
-    on_lines = joins.line_ranges(m) if (how == RANGE_VERTICES).any() else {}
+    by_vertices = joins.vertex_ranges(m) if (how == RANGE_VERTICES).any() else {}
     for q in np.flatnonzero(how == RANGE_VERTICES).tolist():
-        if q not in on_lines:
-            raise CorruptError("EDGE: a range from vertices on an edge that is no line")
-        m.edge_rep_range[q] = on_lines[q]
+        if q not in by_vertices:
+            raise CorruptError("EDGE: a range from vertices on an edge on no line or circle")
+        m.edge_rep_range[q] = by_vertices[q]
     of3d = _range_of_3d(m)
     for q in np.flatnonzero(how == RANGE_OF_3D).tolist():
         r3 = of3d.get(int(m.edge_reps[q, 0]))

@@ -101,10 +101,9 @@ def test_step_output_keeps_what_occt_keeps(path: Path, tmp_path: Path) -> None:
         assert dev.max() <= 1e-9, f"max deviation {dev.max()}"
 
 
-def test_line_ranges_come_from_vertices_and_are_checked() -> None:
-    """Edges on lines whose ranges are their vertices' projections, bit for bit,
-    store no floats (RANGE_VERTICES); the rule is refused on an edge that is
-    no line."""
+def test_ranges_from_vertices_are_exact_and_checked() -> None:
+    """Edges on lines and circles whose ranges are what their vertices give, bit
+    for bit, store no floats (RANGE_VERTICES); the rule is refused elsewhere."""
     cad, m = _model(next(p for p in sample_files() if p.name == "bracket.step"))
     how = serialize.range_kinds(m)
     assert (how == serialize.RANGE_VERTICES).sum() > 0
@@ -112,5 +111,5 @@ def test_line_ranges_come_from_vertices_and_are_checked() -> None:
     assert not differences(m, back)
     # a "from vertices" range on a curve that is no line does not decode
     assert (how == serialize.RANGE_NATURAL).any() or (how == serialize.RANGE_STORED).any()
-    with pytest.raises(CorruptError, match="no line"):
+    with pytest.raises(CorruptError, match="no line or circle"):
         serialize._resolve_ranges(back, np.full(len(how), serialize.RANGE_VERTICES))
