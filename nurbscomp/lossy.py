@@ -112,7 +112,7 @@ class Coded:
 
 
 #: A coded net moves by at most this fraction of its size (:func:`feature_limit`).
-FEATURE_FRACTION = 0.1
+FEATURE_FRACTION = 0.25
 
 
 def _polyline(p: np.ndarray) -> np.ndarray:
