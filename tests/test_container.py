@@ -97,3 +97,31 @@ def test_random_bytes_never_crash(noise: bytes) -> None:
     for data in (noise, container.MAGIC + noise):
         with pytest.raises(FormatError):
             container.unpack(data)
+
+
+@given(st.binary(max_size=3000), st.integers(0, 255))
+@settings(max_examples=4, deadline=None)
+def test_every_coder_round_trips(raw: bytes, noise: int) -> None:
+    from nurbscomp import entropy
+
+    data = raw + bytes(range(noise)) * 4  # something with repeats
+    sizes = {}
+    for c in entropy.Coder:
+        out = entropy._compress(c, data)
+        assert entropy.decompress(c, out, len(data)) == data
+        sizes[c] = len(out)
+    coder, out = entropy.compress(data)
+    assert len(out) == min(sizes.values())
+
+
+def test_tuned_lzma_settings_are_checked() -> None:
+    from nurbscomp import entropy
+    from nurbscomp.errors import CorruptError
+
+    data = bytes(range(256)) * 8
+    out = entropy._compress(entropy.Coder.LZMA_TUNED, data)
+    lc, lp, pb = entropy._props(out[0])
+    assert (lc, lp, pb) in entropy._TUNINGS
+    for bad in (bytes([(0 * 5 + 3) * 9 + 3]), bytes([225]), b""):  # lc+lp > 4, pb > 4, nothing
+        with pytest.raises(CorruptError):
+            entropy.decompress(entropy.Coder.LZMA_TUNED, bad + out[1:], len(data))
