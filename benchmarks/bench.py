@@ -669,8 +669,10 @@ def plot(fig_data: Figures, path: Path) -> None:
 
 METHOD_NAMES = {
     "boundary": "none (Coons only)",
+    "boundary3": "none (bicubic Coons)",
     "dmap": "D-map",
     "ddmap": "DD-map",
+    "ddmap3": "DD-map (bicubic Coons)",
     "spatial": "spatial",
     "swept": "swept",
     "exact": "exact",
@@ -991,12 +993,14 @@ def report(
         "ours is always the source file. The first row of each table is `--lossless` (the "
         "paper's \"(Original)\" row). Face counts are nurbscomp's `faces_by_method`: "
         "*none (Coons only)* = boundary curves + Coons patch with no difference data, "
-        "*D-map* / *DD-map* = with difference data, *spatial* = PRC-style grid prediction, "
+        "*D-map* / *DD-map* = with difference data, *(bicubic Coons)* = the paper's "
+        "bicubically blended patch as the predictor instead of the bilinear one, "
+        "*spatial* = PRC-style grid prediction, "
         "*exact* = stored bit for bit (analytic faces, and nets kept exact for validity or "
         "STEP safety)."
     )
     w("")
-    keys = ["boundary", "dmap", "ddmap", "spatial"]  # the paper's columns, and ours
+    keys = ["boundary", "boundary3", "dmap", "ddmap", "ddmap3", "spatial"]  # the paper's, ours
     for n, _ in picks:
         for t in TOLS:
             for k in (f.comp.get((n, mode_label(t))) or {}).get("faces_by_method", {}):

@@ -10,6 +10,9 @@ Methods, weighed against each other on every face by :func:`encode_net`:
 * ``DDMAP`` — as ``BOUNDARY``, plus the interior differences to the Coons net
   (the DD-map, eq. 12; xyz only, weights exact) through a 2-D DCT and
   quantization (eq. 26-27);
+* ``BOUNDARY3``, ``DDMAP3`` — as ``BOUNDARY`` and ``DDMAP`` with the paper's
+  bicubically blended Coons net (eq. 11, :func:`coons.bicubic_net`) as the
+  predictor: the choice between the two blends is made per face;
 * ``DMAP`` — as ``BOUNDARY``, plus one least-squares distance per interior
   pole along the Coons surface's normal (the D-map, eq. 14-25,
   :mod:`nurbscomp.dmap`), through the same 2-D DCT and quantization.  It
@@ -46,9 +49,20 @@ class Method(IntEnum):
     CHORD = 4  # curves: ends on the grid, chord differences + DCT (eq. 5-10)
     DMAP = 5  # surfaces: boundary curves + Coons + D-map (eq. 14-25)
     ISO = 6  # curves: a copy of a decoded surface's boundary (ints: surface row, side, reversed)
+    BOUNDARY3 = 7  # surfaces: as BOUNDARY, with the bicubically blended Coons net
+    DDMAP3 = 8  # surfaces: as DDMAP, with the bicubically blended Coons net
 
 
-SURFACE_METHODS = (Method.SPATIAL, Method.BOUNDARY, Method.DDMAP, Method.DMAP)
+SURFACE_METHODS = (
+    Method.SPATIAL,
+    Method.BOUNDARY,
+    Method.DDMAP,
+    Method.DMAP,
+    Method.BOUNDARY3,
+    Method.DDMAP3,
+)
+#: Methods that predict the interior with the bicubically blended Coons net.
+BICUBIC = (Method.BOUNDARY3, Method.DDMAP3)
 CURVE_METHODS = (Method.DELTA, Method.CHORD)
 
 
@@ -325,9 +339,9 @@ def _coons_code(
     u1 = _curve(io, p[-1], c[2], c[3])
     v0 = _curve(io, p[:, 0], c[0], c[2])
     v1 = _curve(io, p[:, -1], c[1], c[3])
-    net = coons.coons_net(u0, u1, v0, v1, s, t)
+    net = (coons.bicubic_net if method in BICUBIC else coons.coons_net)(u0, u1, v0, v1, s, t)
     nu, nv = p.shape[:2]
-    if method == Method.DDMAP and nu > 2 and nv > 2:
+    if method in (Method.DDMAP, Method.DDMAP3) and nu > 2 and nv > 2:
         inner = net[1:-1, 1:-1]
         if isinstance(io, _Writer):
             w = io.coeffs(dct.dct2(p[1:-1, 1:-1] - inner))

@@ -7,8 +7,11 @@ do so), and its control net is the discrete Coons formula taken at the
 normalised Greville abscissae.  For rational surfaces the same net is used as
 a predictor only; the weights are kept exactly (DESIGN §4).
 
-The paper's bicubically blended variant (eq. 11 with cubic Bezier blends and
-cross-boundary derivatives from corner twists) is not implemented yet.
+The paper's bicubically blended variant (eq. 11: S = S1 + S2 − S3 with cubic
+blends) is :func:`bicubic_net`: cross-boundary derivatives are cubic curves
+between the boundary curves' end slopes (DESIGN §4), the corners' bilinear
+twist as their end slopes.  It is not
+in the spline space, so it is a predictor only, for every net.
 """
 
 from __future__ import annotations
@@ -67,3 +70,54 @@ def coons_net(
         (1 - s) * (1 - t) * u0[0] + (1 - s) * t * u0[-1] + s * (1 - t) * u1[0] + s * t * u1[-1]
     )
     return ruled_u + ruled_v - corners
+
+
+def _hermite(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Cubic Hermite blends H0..H3 at ``x``: values at 0 and 1, then slopes at 0 and 1."""
+    x2, x3 = x * x, x * x * x
+    return 2 * x3 - 3 * x2 + 1, -2 * x3 + 3 * x2, x3 - 2 * x2 + x, x3 - x2
+
+
+def _slope(row: np.ndarray, x: np.ndarray, end: int) -> np.ndarray:
+    """Slope of a boundary (as a polyline over abscissae ``x``) at its first or last pole."""
+    d, h = (row[1] - row[0], x[1] - x[0]) if end == 0 else (row[-1] - row[-2], x[-1] - x[-2])
+    return d / h if h > 0 else np.zeros_like(d)
+
+
+def bicubic_net(
+    u0: np.ndarray, u1: np.ndarray, v0: np.ndarray, v1: np.ndarray, s: np.ndarray, t: np.ndarray
+) -> np.ndarray:
+    """The bicubically blended Coons net (eq. 11: S1 + S2 − S3), at (s_i, t_j).
+
+    Arguments as :func:`coons_net`.  S1 blends the columns v0, v1 along t
+    with Hermite cubics and the cross-boundary derivatives ∂S/∂t along them;
+    S2 the rows u0, u1 along s likewise; S3 is the bicubic Hermite patch of
+    the corners, their slopes and twists.  Each cross-boundary derivative is
+    the cubic Hermite curve between the two corner slopes of the boundaries
+    that meet it, with the twist as its end slopes (the paper's "cubic Bezier
+    curves", twists "from the network of boundary curves": here the bilinear
+    twist P00 − P0m − Pn0 + Pnm of the four corners).  Every boundary is
+    reproduced exactly, and so is a bilinear patch.
+    """
+    hs, ht = _hermite(s), _hermite(t)
+    # corner slopes: along t from the rows, along s from the columns
+    dt = [[_slope(u0, t, 0), _slope(u0, t, 1)], [_slope(u1, t, 0), _slope(u1, t, 1)]]
+    ds = [[_slope(v0, s, 0), _slope(v1, s, 0)], [_slope(v0, s, 1), _slope(v1, s, 1)]]
+    S, T = (h[:, None] for h in hs), (h[:, None] for h in ht)
+    H0s, H1s, H2s, H3s = S
+    H0t, H1t, H2t, H3t = T
+    w = u0[0] - u0[-1] - u1[0] + u1[-1]  # one twist for all four corners: the bilinear one
+    dv0 = H0s * dt[0][0] + H1s * dt[1][0] + (H2s + H3s) * w  # ∂S/∂t along t = 0, over s
+    dv1 = H0s * dt[0][1] + H1s * dt[1][1] + (H2s + H3s) * w  # along t = 1
+    du0 = H0t * ds[0][0] + H1t * ds[0][1] + (H2t + H3t) * w  # ∂S/∂s along s = 0, over t
+    du1 = H0t * ds[1][0] + H1t * ds[1][1] + (H2t + H3t) * w  # along s = 1
+    g0 = H0s * u0[0] + H1s * u1[0] + H2s * ds[0][0] + H3s * ds[1][0]  # S3 at t = 0
+    g1 = H0s * u0[-1] + H1s * u1[-1] + H2s * ds[0][1] + H3s * ds[1][1]  # S3 at t = 1
+
+    def along_t(a: np.ndarray, b: np.ndarray, da: np.ndarray, db: np.ndarray) -> np.ndarray:
+        h0, h1, h2, h3 = (h[None, :, None] for h in ht)
+        return h0 * a[:, None] + h1 * b[:, None] + h2 * da[:, None] + h3 * db[:, None]
+
+    h0, h1, h2, h3 = (h[:, None, None] for h in hs)
+    s2 = h0 * u0[None] + h1 * u1[None] + h2 * du0[None] + h3 * du1[None]
+    return along_t(v0, v1, dv0, dv1) + s2 - along_t(g0, g1, dv0, dv1)

@@ -46,7 +46,8 @@ class LossyReport:
     ----------
     face_method : list of str
         Per face (model order): ``"spatial"``, ``"boundary"`` (the paper's "no
-        difference data"), ``"ddmap"``, ``"swept"`` (a swept surface whose
+        difference data"), ``"ddmap"``, ``"dmap"``, ``"boundary3"`` and
+        ``"ddmap3"`` (with the bicubic Coons net), ``"swept"`` (a swept surface whose
         curve was coded), or ``"exact"``.
     face_bound : ndarray, shape (F,)
         Certified bound per face (0 for exact faces).

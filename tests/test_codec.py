@@ -202,3 +202,18 @@ def test_a_limit_below_tol_holds_with_tol_steps(frac: float, seed: int) -> None:
     net, _ = codec.decode_net(code, p.shape, s, t, tol)
     assert np.sqrt(((net - p) ** 2).sum(-1)).max() == pytest.approx(code.bound, abs=1e-15)
     assert codec.ladder(tol, tol) == codec.E_LADDER
+
+
+def test_bicubic_coons_keeps_boundaries_and_bilinear_patches() -> None:
+    """Eq. 11 with cubic blends: every boundary comes back, and so does a
+    bilinear patch (the corners' twist is the bilinear one)."""
+    rng = np.random.default_rng(5)
+    s, t = np.linspace(0, 1, 6), np.sort(np.r_[0, rng.random(3), 1])
+    p = rng.normal(size=(6, 5, 3))
+    net = coons.bicubic_net(p[0], p[-1], p[:, 0], p[:, -1], s, t)
+    for a, b in ((net[0], p[0]), (net[-1], p[-1]), (net[:, 0], p[:, 0]), (net[:, -1], p[:, -1])):
+        assert np.allclose(a, b, atol=1e-14)
+    c = rng.normal(size=(2, 2, 3))
+    S, T = s[:, None, None], t[None, :, None]
+    bil = (1 - S) * ((1 - T) * c[0, 0] + T * c[0, 1]) + S * ((1 - T) * c[1, 0] + T * c[1, 1])
+    assert np.allclose(coons.bicubic_net(bil[0], bil[-1], bil[:, 0], bil[:, -1], s, t), bil)
