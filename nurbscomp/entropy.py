@@ -26,6 +26,8 @@ class Coder(IntEnum):
     BROTLI = 3  # brotli, quality 11
 
 
+#: Largest zstd window a reader accepts (level 19 uses 8 MiB at most).
+_ZSTD_MAX_WINDOW = 1 << 25
 _LZMA_FILTERS = [{"id": lzma.FILTER_LZMA2, "preset": 9 | lzma.PRESET_EXTREME}]
 
 
@@ -48,22 +50,28 @@ def compress(raw: bytes, coders: tuple[Coder, ...] = tuple(Coder)) -> tuple[Code
 def decompress(coder: int, data: bytes, raw_length: int) -> bytes:
     """Invert :func:`compress`, producing at most ``raw_length`` bytes.
 
+    Every coder is run with a bounded output (a decompression bomb cannot
+    inflate past the declared length): LZMA with ``max_length``, zstd through
+    a stream reader read in bounded pieces, brotli with ``output_buffer_limit``.
+    One byte more than ``raw_length`` is asked for, so that data that would
+    inflate further is refused rather than cut.
+
     Raises
     ------
     CorruptError
         Unknown coder, undecodable data, or a length other than ``raw_length``.
     """
+    limit = raw_length + 1
     try:
         if coder == Coder.STORED:
             out = data
         elif coder == Coder.LZMA:
             d = lzma.LZMADecompressor(format=lzma.FORMAT_RAW, filters=_LZMA_FILTERS)
-            out = d.decompress(data, max_length=raw_length + 1)
+            out = d.decompress(data, max_length=limit)
         elif coder == Coder.ZSTD:
-            dz = zstandard.ZstdDecompressor().decompressobj()
-            out = dz.decompress(data)
+            out = _zstd_bounded(data, limit)
         elif coder == Coder.BROTLI:
-            out = brotli.decompress(data)
+            out = _brotli_bounded(data, limit)
         else:
             raise CorruptError(f"unknown coder id {coder}")
     except CorruptError:
@@ -71,5 +79,28 @@ def decompress(coder: int, data: bytes, raw_length: int) -> bytes:
     except (lzma.LZMAError, zstandard.ZstdError, brotli.error, EOFError) as e:
         raise CorruptError(f"compressed data does not decode ({e})") from None
     if len(out) != raw_length:
-        raise CorruptError(f"section decodes to {len(out)} bytes, header says {raw_length}")
+        raise CorruptError(f"body decodes to {len(out)} bytes, header says {raw_length}")
     return out
+
+
+def _zstd_bounded(data: bytes, limit: int) -> bytes:
+    """At most ``limit`` bytes of a zstd frame (the frame's own size field is not trusted)."""
+    dctx = zstandard.ZstdDecompressor(max_window_size=_ZSTD_MAX_WINDOW)
+    reader = dctx.stream_reader(data, read_across_frames=False)
+    parts, got = [], 0
+    while got < limit:
+        chunk = reader.read(min(limit - got, 1 << 20))
+        if not chunk:
+            break
+        parts.append(chunk)
+        got += len(chunk)
+    return b"".join(parts)
+
+
+def _brotli_bounded(data: bytes, limit: int) -> bytes:
+    """At most ``limit`` bytes of a brotli stream; an unfinished stream is an error."""
+    d = brotli.Decompressor()
+    out = d.process(data, output_buffer_limit=limit)
+    if len(out) < limit and not d.is_finished():
+        raise CorruptError("compressed data ends early")
+    return out[:limit]

@@ -32,6 +32,7 @@ def test_round_trip_is_byte_exact() -> None:
     st.lists(
         st.tuples(st.text("ABCDEFGHIJ", min_size=4, max_size=4), st.binary(max_size=300)),
         max_size=5,
+        unique_by=lambda s: s[0],
     )
 )
 @settings(max_examples=50, deadline=None)
