@@ -39,7 +39,7 @@ def test_model_round_trip_is_exact(path: Path) -> None:
 @pytest.mark.parametrize("path", sample_files(), ids=lambda p: p.name)
 def test_container_round_trip_of_model_is_exact(path: Path) -> None:
     _, m = _model(path)
-    data = container.pack(serialize.model_to_sections(m, {"x": 1}))
+    data = container.pack(serialize.model_to_sections(m, {"x": 1, "mode": "lossless"}))
     back, meta = serialize.sections_to_model(container.unpack(data).get)
     assert differences(m, back) == []
     assert meta["x"] == 1

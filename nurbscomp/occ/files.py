@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from OCP.APIHeaderSection import APIHeaderSection_MakeHeader
 from OCP.BinTools import BinTools
 from OCP.BRepTools import BRepTools
 from OCP.IFSelect import IFSelect_ReturnStatus
@@ -21,26 +22,14 @@ from OCP.IGESControl import IGESControl_Reader, IGESControl_Writer
 from OCP.Interface import Interface_Static
 from OCP.Message import Message
 from OCP.STEPControl import STEPControl_AsIs, STEPControl_Reader, STEPControl_Writer
+from OCP.TCollection import TCollection_HAsciiString
 from OCP.TColStd import TColStd_SequenceOfAsciiString
 
 from ..errors import InputError, OutputError
+from ..units import UNITS_MM
 
 # OCCT prints progress and statistics to stdout; the CLI owns stdout.
 Message.DefaultMessenger_s().ChangePrinters().Clear()
-
-#: Length units the writers know, with their size in millimetres.
-UNITS_MM = {
-    "MM": 1.0,
-    "CM": 10.0,
-    "M": 1000.0,
-    "KM": 1e6,
-    "UM": 1e-3,
-    "INCH": 25.4,
-    "FT": 304.8,
-    "MI": 1609344.0,
-    "MIL": 0.0254,
-    "UIN": 25.4e-6,
-}
 
 _STEP_UNIT_NAMES = {
     "millimetre": "MM",
@@ -193,8 +182,24 @@ def output_format(path: str | os.PathLike[str]) -> str:
     return "STEP"
 
 
-def write_shape(shape: Any, path: str | os.PathLike[str], fmt: str, unit: str = "MM") -> None:
+#: The STEP header's time stamp: fixed, so that the same shape gives the same bytes.
+STEP_TIME_STAMP = "1970-01-01T00:00:00"
+
+
+def write_shape(
+    shape: Any,
+    path: str | os.PathLike[str],
+    fmt: str,
+    unit: str = "MM",
+    name: str = "",
+    system: str = "",
+) -> None:
     """Write a shape to STEP, IGES or BREP.
+
+    STEP output depends on nothing but its arguments: the header's FILE_NAME
+    gets ``name``, ``system`` as the originating system and the fixed
+    ``STEP_TIME_STAMP`` rather than the wall clock, so writing the same shape
+    twice gives the same bytes.
 
     Parameters
     ----------
@@ -205,8 +210,12 @@ def write_shape(shape: Any, path: str | os.PathLike[str], fmt: str, unit: str = 
         ``"STEP"``, ``"IGES"`` or ``"BREP"`` (see ``output_format``).
     unit : str
         A key of ``UNITS_MM``: the length unit written to the file.
+    name, system : str
+        STEP only: FILE_NAME's name and originating system.
     """
     p = Path(path)
+    if unit not in UNITS_MM:
+        raise OutputError(f"unknown length unit {unit!r}")
     if fmt == "BREP":
         if not BRepTools.Write_s(shape, str(p)):
             raise OutputError("cannot write BREP")
@@ -225,6 +234,10 @@ def write_shape(shape: Any, path: str | os.PathLike[str], fmt: str, unit: str = 
     status = sw.Transfer(shape, STEPControl_AsIs)
     if status != IFSelect_ReturnStatus.IFSelect_RetDone:
         raise OutputError(f"the STEP writer refused the shape ({status.name})")
+    header = APIHeaderSection_MakeHeader(sw.Model())
+    header.SetName(TCollection_HAsciiString(name))
+    header.SetTimeStamp(TCollection_HAsciiString(STEP_TIME_STAMP))
+    header.SetOriginatingSystem(TCollection_HAsciiString(system))
     status = sw.Write(str(p))
     if status != IFSelect_ReturnStatus.IFSelect_RetDone:
         raise OutputError(f"cannot write STEP ({status.name})")
