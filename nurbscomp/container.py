@@ -85,8 +85,16 @@ class Container:
         return [s.tag for s in self.sections]
 
 
-def pack(sections: list[tuple[str, bytes]], flags: int = 0) -> bytes:
-    """Build container bytes from ``(tag, raw payload)`` pairs."""
+def pack(
+    sections: list[tuple[str, bytes]],
+    flags: int = 0,
+    coders: tuple[entropy.Coder, ...] = tuple(entropy.Coder),
+) -> bytes:
+    """Build container bytes from ``(tag, raw payload)`` pairs.
+
+    The body is compressed with each of ``coders`` and the smallest kept (tests
+    pass one coder to pack fast).
+    """
     head = _HEADER.pack(MAGIC, MAJOR, MINOR, flags, len(sections), 0)
     if len({tag for tag, _ in sections}) != len(sections):
         raise ValueError("section tags must be distinct")
@@ -97,7 +105,7 @@ def pack(sections: list[tuple[str, bytes]], flags: int = 0) -> bytes:
             raise ValueError(f"section tag must be 4 ASCII bytes: {tag!r}")
         directory.append(_ENTRY.pack(tb, len(raw), zlib.crc32(raw)))
     body = b"".join(raw for _, raw in sections)
-    coder, stored = entropy.compress(body)
+    coder, stored = entropy.compress(body, coders)
     bh = _BODY.pack(coder, b"\0\0\0", len(body), len(stored))
     d = b"".join(directory)
     crc = zlib.crc32(stored, zlib.crc32(bh, zlib.crc32(d)))
