@@ -251,6 +251,8 @@ def compress_file(
     except Exception as e:
         raise InputError(f"OCCT failed to read the file ({type(e).__name__}: {e})") from None
     t_read = time.perf_counter() - t0
+    if occ.counts(cad.shape)["faces"] == 0:
+        raise InputError(f"the {cad.source_format} file holds no B-rep faces (nothing to compress)")
     m, warnings = occ.shape_to_model(cad.shape)
     m.unit, m.source_format = cad.unit, cad.source_format
     meta = {

@@ -133,6 +133,10 @@ def read_cad(path: str | os.PathLike[str]) -> CadFile:
     fmt = sniff_format(p, head)
     if fmt == "STEP":
         reader: Any = STEPControl_Reader()
+        # tessellated entities (AP242) hold no B-rep to store, and OCCT 7.9's
+        # transfer of a malformed one can crash the process: never read them
+        # (set after the reader exists: its controller's first set-up resets it)
+        Interface_Static.SetIVal_s("read.step.tessellated", 0)
     else:
         reader = IGESControl_Reader()
     status = reader.ReadFile(str(p))
