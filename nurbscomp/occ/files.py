@@ -21,7 +21,9 @@ from OCP.IFSelect import IFSelect_ReturnStatus
 from OCP.IGESControl import IGESControl_Reader, IGESControl_Writer
 from OCP.Interface import Interface_Static
 from OCP.Message import Message
+from OCP.StepBasic import StepBasic_Product
 from OCP.STEPControl import STEPControl_AsIs, STEPControl_Reader, STEPControl_Writer
+from OCP.StepRepr import StepRepr_NextAssemblyUsageOccurrence
 from OCP.TCollection import TCollection_HAsciiString
 from OCP.TColStd import TColStd_SequenceOfAsciiString
 
@@ -188,6 +190,8 @@ def output_format(path: str | os.PathLike[str]) -> str:
 
 #: The STEP header's time stamp: fixed, so that the same shape gives the same bytes.
 STEP_TIME_STAMP = "1970-01-01T00:00:00"
+#: The IGES global section's dates, for the same reason.
+IGES_DATE = "19700101.000000"
 
 
 def write_shape(
@@ -202,8 +206,9 @@ def write_shape(
 
     STEP output depends on nothing but its arguments: the header's FILE_NAME
     gets ``name``, ``system`` as the originating system and the fixed
-    ``STEP_TIME_STAMP`` rather than the wall clock, so writing the same shape
-    twice gives the same bytes.
+    ``STEP_TIME_STAMP`` rather than the wall clock, and the PRODUCT is named
+    after ``name`` (without its extension), so writing the same shape twice
+    gives the same bytes.
 
     Parameters
     ----------
@@ -229,6 +234,10 @@ def write_shape(
         if not w.AddShape(shape):
             raise OutputError("the IGES writer refused the shape")
         w.ComputeModel()
+        gs = w.Model().GlobalSection()  # dates fixed, like STEP's time stamp
+        gs.SetDate(TCollection_HAsciiString(IGES_DATE))
+        gs.SetLastChangeDate(TCollection_HAsciiString(IGES_DATE))
+        w.Model().SetGlobalSection(gs)
         if not w.Write(str(p)):
             raise OutputError("cannot write IGES")
         return
@@ -238,6 +247,7 @@ def write_shape(
     status = sw.Transfer(shape, STEPControl_AsIs)
     if status != IFSelect_ReturnStatus.IFSelect_RetDone:
         raise OutputError(f"the STEP writer refused the shape ({status.name})")
+    _name_products(sw.Model(), Path(name).stem or "shape")
     header = APIHeaderSection_MakeHeader(sw.Model())
     header.SetName(TCollection_HAsciiString(name))
     header.SetTimeStamp(TCollection_HAsciiString(STEP_TIME_STAMP))
@@ -245,6 +255,23 @@ def write_shape(
     status = sw.Write(str(p))
     if status != IFSelect_ReturnStatus.IFSelect_RetDone:
         raise OutputError(f"cannot write STEP ({status.name})")
+
+
+def _name_products(model: Any, name: str) -> None:
+    """Name the PRODUCTs of a STEP model after ``name`` (``name``, ``name 2`` …)
+    and number its assembly occurrences 1, 2 … in entity order: OCCT's own
+    names and ids count what was written before in the same process."""
+    products = occurrences = 0
+    for i in range(1, model.NbEntities() + 1):
+        e = model.Value(i)
+        if isinstance(e, StepBasic_Product):
+            products += 1
+            label = TCollection_HAsciiString(name if products == 1 else f"{name} {products}")
+            e.SetName(label)
+            e.SetId(label)
+        elif isinstance(e, StepRepr_NextAssemblyUsageOccurrence):
+            occurrences += 1
+            e.SetId(TCollection_HAsciiString(str(occurrences)))
 
 
 def bintools_bytes(shape: Any) -> bytes:
