@@ -96,6 +96,13 @@ def _finite(a: np.ndarray, where: str, bound: float = np.inf) -> None:
             raise SectionError(f"{where}: a value is not finite or out of range")
 
 
+def _tolerances(a: np.ndarray, where: str) -> None:
+    """Raise ``SectionError`` unless every tolerance is finite and not negative."""
+    _finite(a, where, MAX_COORD)
+    if a.size and a.min() < 0:
+        raise SectionError(f"{where}: a tolerance is negative")
+
+
 def _counts(per: np.ndarray, r: BlockReader, where: str) -> int:
     """The exact total of per-row counts, each checked against the bytes that remain.
 
@@ -125,7 +132,7 @@ def _check_bspline(
         raise SectionError(f"{where}: degree {degree} is out of range")
     if len(knots) < 2 or len(mults) != len(knots):
         raise SectionError(f"{where}: too few knots")
-    _finite(knots, where)
+    _finite(knots, where, MAX_COORD)
     if not (np.diff(knots) > 0).all():
         raise SectionError(f"{where}: knots do not increase")
     inner = mults[1:-1]
@@ -254,7 +261,7 @@ def _read_geometry(data: bytes, tag: str, dim: int) -> list[Geometry]:
     )
     r.done()
     _finite(frames.a, f"{tag} frames", MAX_COORD)
-    _finite(params.a, f"{tag} params")
+    _finite(params.a, f"{tag} params", MAX_COORD)
     _finite(poles.a, f"{tag} poles", MAX_COORD)
     out: list[Geometry] = []
     surface = tag == "SURF"
@@ -490,7 +497,7 @@ def _read_vertices(data: bytes, m: BRepModel, tol: float = 0.0) -> None:
     _finite(pts, "VERT points", MAX_COORD)
     m.vertex_point = pts
     m.vertex_tol = r.floats(nv)
-    _finite(m.vertex_tol, "VERT tolerances", MAX_COORD)
+    _tolerances(m.vertex_tol, "VERT tolerances")
     per = r.ints()
     if len(per) not in (0, nv):
         raise SectionError("VERT: bad representation counts")
@@ -498,7 +505,7 @@ def _read_vertices(data: bytes, m: BRepModel, tol: float = 0.0) -> None:
     cols = [r.ints(nrep) for _ in range(4)]
     m.vertex_rep_params = r.floats(2 * nrep).reshape(-1, 2)
     r.done()
-    _finite(m.vertex_rep_params, "VERT parameters")
+    _finite(m.vertex_rep_params, "VERT parameters", MAX_COORD)
     cols.insert(0, np.repeat(np.arange(len(per)), per))
     m.vertex_reps = np.stack(cols, axis=1).astype(np.int64).reshape(-1, 5)
 
@@ -535,7 +542,7 @@ def _read_edges(data: bytes, m: BRepModel) -> np.ndarray:
     """Fill ``m``'s edge tables; return the range kinds (see :func:`range_kinds`)."""
     r = BlockReader(data, "EDGE")
     m.edge_tol = r.floats()
-    _finite(m.edge_tol, "EDGE tolerances", MAX_COORD)
+    _tolerances(m.edge_tol, "EDGE tolerances")
     ne = len(m.edge_tol)
     flags = r.ints(ne)
     if ne and (flags.min() < 0 or flags.max() > 7):
@@ -581,8 +588,11 @@ def _read_edges(data: bytes, m: BRepModel) -> np.ndarray:
     m.edge_rep_uv[on, :4] = r.floats(4 * int(on.sum())).reshape(-1, 4)
     m.edge_rep_uv[closed, 4:] = r.floats(4 * int(closed.sum())).reshape(-1, 4)
     r.done()
+    # an edge without a 3-D curve (degenerated) has OCCT's default range, ±DBL_MAX
+    curveless = (kind == RepKind.CURVE3D) & (reps[:, 2] == -1)
     _finite(m.edge_rep_range, "EDGE ranges")
-    _finite(m.edge_rep_uv, "EDGE uv points")
+    _finite(m.edge_rep_range[~curveless], "EDGE ranges", MAX_COORD)
+    _finite(m.edge_rep_uv, "EDGE uv points", MAX_COORD)
     return how
 
 
@@ -672,7 +682,7 @@ def _read_faces(data: bytes, m: BRepModel) -> None:
     m.face_tol = r.floats(nf)
     natural = r.ints(nf)
     r.done()
-    _finite(m.face_tol, "FACE tolerances", MAX_COORD)
+    _tolerances(m.face_tol, "FACE tolerances")
     if nf and (natural.min() < 0 or natural.max() > 1):
         raise SectionError("FACE: a natural-restriction flag is neither 0 nor 1")
     m.face_natural = natural.astype(bool)
@@ -1016,6 +1026,9 @@ def check_references(m: BRepModel) -> None:
         reps[kind == RepKind.ON_CLOSED_SURFACE, 3] == -1
     ).any():
         raise BadReferenceError("an edge pcurve refers to a missing entry")
+    seam = reps[kind == RepKind.ON_CLOSED_SURFACE]
+    if ((seam[:, 2] == REBUILD) != (seam[:, 3] == REBUILD)).any():
+        raise BadReferenceError("a seam has one pcurve stored and the other one computed")
     within(reps[~c3, 4], 0, ns, "an edge surface")
     within(reps[two, 5], 0, ns, "an edge surface")
     within(reps[:, 6], 0, nl, "an edge location")
