@@ -253,3 +253,23 @@ def test_eval_reports_deviation_and_topology(work: Path) -> None:
     assert code == 0 and "deviation:" in out and "worst faces:" in out
     code, _, err = run("eval", str(work / "part.step"), str(work / "missing.step"))
     assert code == 1 and err.startswith("error: ")
+
+
+def test_readme_lists_every_error_class() -> None:
+    """README's "Exit codes and errors" names every error class and exit code."""
+    import inspect
+
+    from nurbscomp import errors
+
+    readme = (SAMPLES.parent / "README.md").read_text()
+    section = readme.split("## Exit codes and errors")[1].split("\n## ")[0]
+    classes = [
+        n
+        for n, c in inspect.getmembers(errors, inspect.isclass)
+        if issubclass(c, errors.NurbscompError) and c is not errors.NurbscompError
+    ]
+    assert len(classes) >= 16
+    for name in classes:
+        assert f"`{name}`" in section, name
+    for code in ("| 0 |", "| 1 |", "| 2 |", "| 130 |"):
+        assert code in section
