@@ -8,7 +8,8 @@ The mutations are shared with ``tests/test_fuzz.py``.  Two families:
   the length checks behind them are reached;
 * **sections**: the container is unpacked, its decoded sections are damaged
   (bytes, array headers, integers and floats inside the arrays, section
-  order, duplicates, drops, swaps between samples, META's JSON), and it is
+  order, duplicates, drops, renames, swaps between samples, META's JSON, the
+  lossless flag, a newer minor version), and it is
   packed again with valid CRCs, so the section decoders
   (``serialize.sections_to_model``) and the shape builder see it.
 
@@ -39,6 +40,8 @@ from pathlib import Path
 
 from nurbscomp import container, entropy, pipeline
 from nurbscomp.errors import FormatError, UndiagnosedError
+
+from .golden.make_golden import pack_raw
 
 ROOT = Path(__file__).resolve().parent.parent
 SAMPLES = ROOT / "samples"
@@ -211,8 +214,9 @@ def mutate_sections(data: bytes, rng: random.Random, others: list[bytes]) -> byt
     """Unpack, damage the decoded sections, pack again (every CRC valid)."""
     c = container.unpack(data)
     secs = [(s.tag, s.raw) for s in c.sections]
+    dup = False
     for _ in range(rng.choice([1, 1, 1, 2, 3])):
-        kind = rng.randrange(10)
+        kind = rng.randrange(11)
         i = rng.randrange(len(secs))
         tag, raw = secs[i]
         if kind <= 3:
@@ -226,6 +230,9 @@ def mutate_sections(data: bytes, rng: random.Random, others: list[bytes]) -> byt
             rng.shuffle(secs)
         elif kind == 7 and len(secs) > 1:
             del secs[i]
+        elif kind == 10:  # a section twice (``container.pack`` would refuse it)
+            secs.insert(rng.randrange(len(secs) + 1), secs[i])
+            dup = True
         elif kind == 8:  # a section under another (possibly unknown) tag
             secs[i] = (rng.choice(["ZZZZ", "\x00\x00\x00\x00", *(t for t, _ in secs)]), raw)
             if len({t for t, _ in secs}) != len(secs):
@@ -237,9 +244,12 @@ def mutate_sections(data: bytes, rng: random.Random, others: list[bytes]) -> byt
             except ValueError:
                 pass
     flags = c.flags if rng.random() < 0.9 else c.flags ^ container.FLAG_LOSSLESS
-    # one coder, mostly the fast ones: packing with all four is slow
-    coder = rng.choice([*[entropy.Coder.STORED] * 3, *entropy.Coder])
-    out = container.pack(secs, flags, (coder,))
+    if dup:
+        out = pack_raw(secs, flags)
+    else:
+        # one coder, mostly the fast ones: packing with all four is slow
+        coder = rng.choice([*[entropy.Coder.STORED] * 3, *entropy.Coder])
+        out = container.pack(secs, flags, (coder,))
     if rng.random() < 0.05:  # a newer minor version of this major
         b = bytearray(out)
         b[5] = rng.randint(container.MINOR + 1, 255)
