@@ -7,11 +7,15 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from nurbscomp import container
+from nurbscomp import container, entropy
 from nurbscomp.errors import (
     BadMagicError,
     ChecksumError,
+    CorruptError,
     FormatError,
+    LimitError,
+    ReservedBitsError,
+    TrailingDataError,
     TruncatedError,
     VersionError,
 )
@@ -98,3 +102,57 @@ def test_random_bytes_never_crash(noise: bytes) -> None:
     for data in (noise, container.MAGIC + noise):
         with pytest.raises(FormatError):
             container.unpack(data)
+
+
+@pytest.mark.parametrize("coder", list(entropy.Coder)[1:], ids=lambda c: c.name)
+def test_decompression_bomb_is_not_inflated(coder: entropy.Coder) -> None:
+    """64 MiB of zeros declared as 1000 bytes: refused after at most 1001 bytes of output."""
+    import lzma
+
+    import brotli
+    import zstandard
+
+    zeros = bytes(64 << 20)
+    bomb = {
+        entropy.Coder.LZMA: lambda: lzma.compress(
+            zeros, format=lzma.FORMAT_RAW, filters=[{"id": lzma.FILTER_LZMA2, "preset": 1}]
+        ),
+        entropy.Coder.ZSTD: lambda: zstandard.ZstdCompressor(level=1).compress(zeros),
+        entropy.Coder.BROTLI: lambda: brotli.compress(zeros, quality=1),
+    }[coder]()
+    assert len(bomb) < len(zeros) // 100
+    with pytest.raises(CorruptError, match="1001 bytes, header says 1000"):
+        entropy.decompress(coder, bomb, 1000)
+    # a declared size above the reader's limit is refused before inflating
+    sections = [("BOMB", zeros[:1000])]
+    data = bytearray(container.pack(sections, coders=(coder,)))
+    data[16 + 12 + 4 : 16 + 12 + 8] = struct.pack("<I", container.MAX_RAW + 1)
+    data[16 + 4 : 16 + 8] = struct.pack("<I", container.MAX_RAW + 1)
+    with pytest.raises(LimitError):
+        container.unpack(_fix_crcs(bytes(data)))
+
+
+def _fix_crcs(data: bytes) -> bytes:
+    from .golden.make_golden import fix_crcs
+
+    return fix_crcs(data)
+
+
+def test_duplicate_tags_are_refused() -> None:
+    from .golden.make_golden import pack_raw
+
+    with pytest.raises(ValueError):
+        container.pack([("META", b"a"), ("META", b"b")])
+    with pytest.raises(CorruptError, match="appears twice"):
+        container.unpack(pack_raw([("META", b"a"), ("META", b"b")], 0))
+
+
+def test_reserved_bits_and_trailing_bytes_have_their_own_errors() -> None:
+    from .golden.make_golden import fix_crcs
+
+    data = bytearray(container.pack(SECTIONS))
+    data[6] |= 0x80
+    with pytest.raises(ReservedBitsError, match="offset 6"):
+        container.unpack(fix_crcs(bytes(data)))
+    with pytest.raises(TrailingDataError, match="offset"):
+        container.unpack(container.pack(SECTIONS) + b"xyz")
