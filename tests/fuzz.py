@@ -13,9 +13,9 @@ The mutations are shared with ``tests/test_fuzz.py``.  Two families:
   packed again with valid CRCs, so the section decoders
   (``serialize.sections_to_model``) and the shape builder see it.
 
-The property (:func:`check`): decoding and building either succeed or raise a
-``FormatError`` subclass; anything else is a failure, and so is a case that
-takes longer than the time limit.
+The property (:func:`check`): decoding, building (and in the long run,
+writing STEP) either succeed or raise a ``FormatError`` subclass; anything
+else is a failure, and so is a case that takes longer than the time limit.
 
 Run ``python -m tests.fuzz --cases 10000`` (what ``make fuzz`` does): the cases
 run in worker processes, so that a crash or a hang in OCCT is reported as a
@@ -277,8 +277,11 @@ def _alarm(signum: int, frame: object) -> None:
     raise Hang
 
 
-def check(data: bytes, seconds: float = 20.0) -> str:
+def check(data: bytes, seconds: float = 20.0, write: bool = False) -> str:
     """Decode and build ``data``: ``"ok"`` or the FormatError's class name.
+
+    With ``write``, a shape that builds is also written to STEP (in a temporary
+    folder), as ``nurbscomp decompress`` does.
 
     Raises
     ------
@@ -292,8 +295,11 @@ def check(data: bytes, seconds: float = 20.0) -> str:
     old = signal.signal(signal.SIGALRM, _alarm)
     signal.setitimer(signal.ITIMER_REAL, seconds)
     try:
-        m, _ = pipeline.decode(container.unpack(data))
-        pipeline.build(m)
+        m, meta = pipeline.decode(container.unpack(data))
+        shape = pipeline.build(m)
+        if write:
+            with tempfile.TemporaryDirectory() as d:
+                pipeline.write(shape, Path(d) / "out.step", "STEP", m.unit, meta)
         return "ok"
     except UndiagnosedError:
         raise  # a FormatError, but one that no specific check caught: a failure
@@ -318,7 +324,7 @@ def _worker(seed: int, first: int, count: int, folder: Path) -> None:
             print(f"done {case} FAIL fuzzer {type(e).__name__}: {e}", flush=True)
             continue
         try:
-            result = check(data)
+            result = check(data, write=True)
         except Hang:
             result = "FAIL hang"
         except Exception as e:  # the property is broken: report, go on
