@@ -17,10 +17,12 @@ from click.testing import CliRunner
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from nurbscomp import container
+from nurbscomp import container, entropy, pipeline
 from nurbscomp.cli import cli
+from nurbscomp.errors import RebuildError
 
 from . import fuzz
+from .conftest import SAMPLES
 
 GOLDEN = Path(__file__).resolve().parent / "golden"
 SEEDS = [p.read_bytes() for p in sorted(GOLDEN.glob("*.nzc"))]
@@ -93,3 +95,28 @@ def test_cli_decompress_on_mutations(
     assert len(lines) == 1 and lines[0].startswith(f"error: {src}: "), r.stderr
     assert "internal error" not in lines[0] and "Traceback" not in r.stderr
     assert left == ["case.nzc"]
+
+
+def test_shape_the_step_writer_refuses(tmp_path: Path) -> None:
+    """Found by ``make fuzz`` (seed 1, case 3413): one pcurve end point of the
+    bracket set to -0.0 decodes and builds, but OCCT's STEP writer refuses the
+    shape.  That is a RebuildError (a FormatError), not an OutputError."""
+    from .golden.make_golden import _arrays, _replace, _write_arrays
+
+    src = tmp_path / "bracket.nzc"
+    pipeline.compress_file(SAMPLES / "bracket.step", src, lossless=True, verify=False)
+    c = container.unpack(src.read_bytes())
+    edge = _arrays(c.get("EDGE"), "EDGE")
+    uv = edge[13][1].copy()
+    uv[55] = -0.0
+    edge[13] = ("f", uv)
+    secs = _replace([(s.tag, s.raw) for s in c.sections], "EDGE", _write_arrays(edge))
+    bad = tmp_path / "bad.nzc"
+    bad.write_bytes(container.pack(secs, c.flags, (entropy.Coder.STORED,)))
+    out = tmp_path / "bad.step"
+    with pytest.raises(RebuildError, match="STEP writer refused"):
+        pipeline.decompress_file(bad, out)
+    r = CliRunner().invoke(cli, ["decompress", str(bad), "-o", str(out)])
+    assert r.exit_code == 1
+    assert r.stderr.strip() == f"error: {bad}: the STEP writer refused the shape (IFSelect_RetFail)"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.nzc", "bracket.nzc"]

@@ -27,7 +27,7 @@ from OCP.StepRepr import StepRepr_NextAssemblyUsageOccurrence
 from OCP.TCollection import TCollection_HAsciiString
 from OCP.TColStd import TColStd_SequenceOfAsciiString
 
-from ..errors import InputError, OutputError
+from ..errors import InputError, OutputError, RebuildError
 from ..units import UNITS_MM
 
 # OCCT prints progress and statistics to stdout; the CLI owns stdout.
@@ -221,6 +221,14 @@ def write_shape(
         A key of ``UNITS_MM``: the length unit written to the file.
     name, system : str
         STEP only: FILE_NAME's name and originating system.
+
+    Raises
+    ------
+    RebuildError
+        The STEP or IGES writer refuses the shape (a shape decoded from a
+        damaged container, say).
+    OutputError
+        The file cannot be written.
     """
     p = Path(path)
     if unit not in UNITS_MM:
@@ -232,7 +240,7 @@ def write_shape(
     if fmt == "IGES":
         w = IGESControl_Writer("IN" if unit == "INCH" else unit, 1)
         if not w.AddShape(shape):
-            raise OutputError("the IGES writer refused the shape")
+            raise RebuildError("the IGES writer refused the shape")
         w.ComputeModel()
         gs = w.Model().GlobalSection()  # dates fixed, like STEP's time stamp
         gs.SetDate(TCollection_HAsciiString(IGES_DATE))
@@ -246,7 +254,7 @@ def write_shape(
     sw = STEPControl_Writer()
     status = sw.Transfer(shape, STEPControl_AsIs)
     if status != IFSelect_ReturnStatus.IFSelect_RetDone:
-        raise OutputError(f"the STEP writer refused the shape ({status.name})")
+        raise RebuildError(f"the STEP writer refused the shape ({status.name})")
     _name_products(sw.Model(), Path(name).stem or "shape")
     header = APIHeaderSection_MakeHeader(sw.Model())
     header.SetName(TCollection_HAsciiString(name))
