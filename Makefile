@@ -39,7 +39,7 @@ bench: install
 # The long fuzzing run (issue 5): mutated containers (raw, and re-packed with
 # valid CRCs) must decode or fail with a FormatError; each case in a worker
 # process with a time limit, so a crash or a hang is reported, not fatal.
-# About 10 minutes; not part of `make test` (tests/test_fuzz.py is the short run).
+# About 2 minutes on 2 cores; not part of `make test` (tests/test_fuzz.py is the short run).
 FUZZ_CASES ?= 10000
 FUZZ_SEED  ?= 1
 fuzz: install
