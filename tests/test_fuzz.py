@@ -19,7 +19,7 @@ from hypothesis import strategies as st
 
 from nurbscomp import container, entropy, pipeline
 from nurbscomp.cli import cli
-from nurbscomp.errors import RebuildError
+from nurbscomp.errors import CorruptError, RebuildError
 
 from . import fuzz
 from .conftest import SAMPLES
@@ -56,7 +56,10 @@ def test_raw_mutations(seed: int, which: int) -> None:
 def test_section_mutations_with_valid_crcs(seed: int, which: int) -> None:
     rng = random.Random(seed)
     data = fuzz.mutate_sections(SEEDS[which], rng, SEEDS)
-    container.unpack(data)  # every CRC is valid: the damage is inside the sections
+    try:  # every CRC is valid: the damage is inside the sections (or a duplicated one)
+        container.unpack(data)
+    except CorruptError as e:
+        assert "appears twice" in str(e)
     fuzz.check(data, SECONDS)
 
 
