@@ -39,9 +39,6 @@ def test_compress_is_byte_identical_across_processes(tmp_path: Path, opts: list[
     else:
         pipeline.compress_file(src, here, tol=0.01)
     assert outs[0] == outs[1] == here.read_bytes()
-    # and the golden file made from the same sample and options is these bytes too
-    golden = GOLDEN / f"loft.{'lossless' if opts == ['--lossless'] else 'tol0.01'}.nzc"
-    assert here.read_bytes() == golden.read_bytes()
 
 
 @pytest.mark.parametrize("name", ["loft.lossless", "teapot.tol0.01"])
