@@ -3,7 +3,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 PIP    := $(VENV)/bin/pip
 
-.PHONY: install test test-fast lint samples bench clean
+.PHONY: install test test-fast lint samples bench fuzz clean
 
 install: $(VENV)/bin/nurbscomp
 
@@ -35,6 +35,15 @@ samples: install
 bench: install
 	@$(PY) -c "import matplotlib" 2>/dev/null || $(PIP) install --quiet -e '.[bench]'
 	$(PY) benchmarks/bench.py
+
+# The long fuzzing run (issue 5): mutated containers (raw, and re-packed with
+# valid CRCs) must decode or fail with a FormatError; each case in a worker
+# process with a time limit, so a crash or a hang is reported, not fatal.
+# About 2 minutes on 2 cores; not part of `make test` (tests/test_fuzz.py is the short run).
+FUZZ_CASES ?= 10000
+FUZZ_SEED  ?= 1
+fuzz: install
+	$(PY) -m tests.fuzz --cases $(FUZZ_CASES) --seed $(FUZZ_SEED)
 
 clean:
 	rm -rf $(VENV) build *.egg-info .pytest_cache

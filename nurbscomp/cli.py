@@ -1,8 +1,9 @@
 """The command line.  The only module that prints or exits.
 
 Exit codes: 0 ok; 1 bad input, bad container, output exists, or any other
-failure on a file; 2 usage.  Errors are one line, ``error: FILE: message``, on
-stderr; ``--debug`` adds the traceback.
+failure on a file; 2 usage; 130 interrupted.  Errors are one line,
+``error: FILE: message``, on stderr; ``--debug`` adds the traceback.  README,
+"Exit codes and errors", lists every error class.
 """
 
 from __future__ import annotations
@@ -79,7 +80,7 @@ def cli(ctx: click.Context, debug: bool) -> None:
 
     \b
     Exit codes: 0 ok; 1 bad input, damaged container, output exists or any
-    other failure on a file; 2 bad usage.
+    other failure on a file; 2 bad usage; 130 interrupted (Ctrl-C).
     """
     ctx.obj = _State(debug)
 

@@ -29,22 +29,26 @@ from .errors import (
     BadMagicError,
     ChecksumError,
     CorruptError,
-    FormatError,
+    LimitError,
+    ReservedBitsError,
+    TrailingDataError,
     TruncatedError,
     VersionError,
 )
 
 MAGIC = b"\x89NZC"
-MAJOR = 0
-MINOR = 3
+#: Format 1.0, frozen (docs/format.md): a reader of 1.x reads every 1.y with y ≤ x.
+MAJOR = 1
+MINOR = 0
 FLAG_LOSSLESS = 1
 _KNOWN_FLAGS = FLAG_LOSSLESS
 _HEADER = struct.Struct("<4sBBHHH")
 _ENTRY = struct.Struct("<4sII")
 _BODY = struct.Struct("<B3sII")
 _CRC = struct.Struct("<I")
-#: Largest section a reader will inflate (a decompression-bomb guard).
-MAX_RAW = 1 << 31
+#: Largest body (all sections, decoded) a reader will inflate: a
+#: decompression-bomb guard, checked before anything is inflated.
+MAX_RAW = 1 << 28
 
 
 @dataclass(frozen=True)
@@ -65,6 +69,13 @@ class Container:
     sections: list[Section]
 
     def get(self, tag: str) -> bytes:
+        """The bytes of the section ``tag`` (:func:`unpack` refuses duplicate tags).
+
+        Raises
+        ------
+        CorruptError
+            No section has this tag.
+        """
         for s in self.sections:
             if s.tag == tag:
                 return s.raw
@@ -74,9 +85,19 @@ class Container:
         return [s.tag for s in self.sections]
 
 
-def pack(sections: list[tuple[str, bytes]], flags: int = 0) -> bytes:
-    """Build container bytes from ``(tag, raw payload)`` pairs."""
+def pack(
+    sections: list[tuple[str, bytes]],
+    flags: int = 0,
+    coders: tuple[entropy.Coder, ...] = tuple(entropy.Coder),
+) -> bytes:
+    """Build container bytes from ``(tag, raw payload)`` pairs.
+
+    The body is compressed with each of ``coders`` and the smallest kept (tests
+    pass one coder to pack fast).
+    """
     head = _HEADER.pack(MAGIC, MAJOR, MINOR, flags, len(sections), 0)
+    if len({tag for tag, _ in sections}) != len(sections):
+        raise ValueError("section tags must be distinct")
     directory = []
     for tag, raw in sections:
         tb = tag.encode("ascii")
@@ -84,7 +105,7 @@ def pack(sections: list[tuple[str, bytes]], flags: int = 0) -> bytes:
             raise ValueError(f"section tag must be 4 ASCII bytes: {tag!r}")
         directory.append(_ENTRY.pack(tb, len(raw), zlib.crc32(raw)))
     body = b"".join(raw for _, raw in sections)
-    coder, stored = entropy.compress(body)
+    coder, stored = entropy.compress(body, coders)
     bh = _BODY.pack(coder, b"\0\0\0", len(body), len(stored))
     d = b"".join(directory)
     crc = zlib.crc32(stored, zlib.crc32(bh, zlib.crc32(d)))
@@ -93,6 +114,11 @@ def pack(sections: list[tuple[str, bytes]], flags: int = 0) -> bytes:
 
 def unpack(data: bytes) -> Container:
     """Parse and check container bytes; decompress the body and split it into sections.
+
+    Every declared length is checked against the bytes that remain (or against
+    ``MAX_RAW``) before anything is read or inflated.  Any minor version of
+    ``MAJOR`` is accepted here; what a section holds is checked by
+    :mod:`nurbscomp.serialize`.
 
     Raises
     ------
@@ -109,10 +135,12 @@ def unpack(data: bytes) -> Container:
         raise ChecksumError("header checksum mismatch at offset 12")
     if major != MAJOR:
         raise VersionError(
-            f"format version {major}.{minor} is not supported (this reads {MAJOR}.x)"
+            f"format version {major}.{minor} is not supported (this reads {MAJOR}.x) at offset 4"
         )
-    if flags & ~_KNOWN_FLAGS or reserved:
-        raise FormatError("reserved header bits are set at offset 6")
+    if flags & ~_KNOWN_FLAGS:
+        raise ReservedBitsError(f"reserved flag bits 0x{flags & ~_KNOWN_FLAGS:04x} set at offset 6")
+    if reserved:
+        raise ReservedBitsError("reserved header field is not zero at offset 10")
     pos = _HEADER.size + 4
     dir_end = pos + nsec * _ENTRY.size
     body_at = dir_end
@@ -126,7 +154,7 @@ def unpack(data: bytes) -> Container:
             f"body at offset {start} declares {stored_len} bytes, {len(data) - start} remain"
         )
     if start + stored_len != len(data):
-        raise CorruptError(
+        raise TrailingDataError(
             f"{len(data) - start - stored_len} unexpected bytes at offset {start + stored_len}"
         )
     stored = data[start:]
@@ -136,25 +164,34 @@ def unpack(data: bytes) -> Container:
             f"body checksum mismatch (directory at offset {pos}, body at {body_at})"
         )
     if res != b"\0\0\0":
-        raise FormatError(f"reserved body bytes are set at offset {body_at + 1}")
+        raise ReservedBitsError(f"reserved body bytes are set at offset {body_at + 1}")
+    if raw_len > MAX_RAW:
+        raise LimitError(
+            f"body at offset {body_at} declares {raw_len} bytes, more than the {MAX_RAW} "
+            "a reader inflates"
+        )
     entries = [_ENTRY.unpack_from(data, pos + i * _ENTRY.size) for i in range(nsec)]
     if sum(e[1] for e in entries) != raw_len:
         raise CorruptError(f"section lengths do not add up to the body length at offset {body_at}")
-    if raw_len > MAX_RAW:
-        raise CorruptError(f"body at offset {body_at} declares an implausible size")
+    tags: list[str] = []
+    for i, (tb, _, _) in enumerate(entries):
+        at = pos + i * _ENTRY.size
+        try:
+            tag = tb.decode("ascii")
+        except UnicodeDecodeError:
+            raise CorruptError(f"bad section tag at offset {at}") from None
+        if tag in tags:
+            raise CorruptError(f"section {tag} appears twice (entry at offset {at})")
+        tags.append(tag)
     body = entropy.decompress(coder, stored, raw_len)
     sections = []
     at = 0
-    for i, (tb, n, scrc) in enumerate(entries):
+    for i, ((_, n, scrc), tag) in enumerate(zip(entries, tags)):
         raw = body[at : at + n]
         at += n
         if zlib.crc32(raw) != scrc:
             raise ChecksumError(
-                f"section {i} checksum mismatch (entry at offset {pos + i * _ENTRY.size})"
+                f"section {tag} checksum mismatch (entry at offset {pos + i * _ENTRY.size})"
             )
-        try:
-            tag = tb.decode("ascii")
-        except UnicodeDecodeError:
-            raise CorruptError(f"bad section tag at offset {pos + i * _ENTRY.size}") from None
         sections.append(Section(tag, raw))
     return Container(major, minor, flags, coder, stored_len, sections)

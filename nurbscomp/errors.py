@@ -37,8 +37,45 @@ class ChecksumError(FormatError):
     """A section's CRC32 does not match its bytes."""
 
 
+class ReservedBitsError(FormatError):
+    """A reserved field or flag bit of the container is not zero."""
+
+
+class TrailingDataError(FormatError):
+    """Bytes follow the end of the container's body."""
+
+
+class LimitError(FormatError):
+    """A declared size is beyond what a reader inflates or allocates (a bomb guard)."""
+
+
 class CorruptError(FormatError):
     """The container's bytes pass their checksums but do not decode."""
+
+
+class SectionError(CorruptError):
+    """A section's bytes pass their checksum but do not decode.
+
+    The message names the section's tag and where in it the fault is (a byte
+    offset, or a table row).
+    """
+
+
+class BadReferenceError(CorruptError):
+    """An index in the decoded tables points outside the table it refers to."""
+
+
+class RebuildError(CorruptError):
+    """The decoded tables are consistent but OCCT cannot build (or write) a shape from them."""
+
+
+class UndiagnosedError(CorruptError):
+    """The decoder failed in a way no specific check caught.
+
+    Raised only by the last-resort wrapper in ``pipeline.decode``, which turns
+    an unexpected ``ValueError``, ``IndexError`` … of the section decoders into
+    a ``FormatError``; the fuzzer (``make fuzz``) counts it as a failure to fix.
+    """
 
 
 class OutputError(NurbscompError):

@@ -105,7 +105,10 @@ def _on_circle(g: Analytic, p: np.ndarray) -> float:
     direction) from its X direction, in [0, 2π); within 1e-9 below 0 is 0."""
     q, (n, x) = p - g.frame[0], g.frame[1:3]
     y = np.array([n[1] * x[2] - n[2] * x[1], n[2] * x[0] - n[0] * x[2], n[0] * x[1] - n[1] * x[0]])
-    y = y / math.sqrt(_dot(y, y))  # gp_Ax2's Y direction: N × X, normalised
+    norm = math.sqrt(_dot(y, y))
+    if not norm > 0:  # no frame (only a damaged file has one): no angle
+        return 0.0
+    y = y / norm  # gp_Ax2's Y direction: N × X, normalised
     t = math.atan2(_dot(q, y), _dot(q, x))
     if t < 0:  # just below the X axis is the start of the turn, not its end
         t = 0.0 if t > -1e-9 else t + 2 * math.pi

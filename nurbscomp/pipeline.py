@@ -21,7 +21,15 @@ from typing import Any
 import numpy as np
 
 from . import __version__, container, lossy, occ, serialize
-from .errors import FormatError, InputError, NurbscompError, OutputError, VerifyError
+from .errors import (
+    CorruptError,
+    InputError,
+    NurbscompError,
+    OutputError,
+    RebuildError,
+    UndiagnosedError,
+    VerifyError,
+)
 from .model import (
     REBUILD,
     BRepModel,
@@ -112,19 +120,71 @@ def read_container(path: Path) -> container.Container:
 
 
 def decode(c: container.Container) -> tuple[BRepModel, dict[str, Any]]:
-    """The model and metadata a checked container holds."""
-    return serialize.sections_to_model(c.get)
+    """The model and metadata a checked container holds.
+
+    Raises
+    ------
+    FormatError
+        A subclass: ``CorruptError`` (sections missing, out of order, or
+        disagreeing with the header), ``SectionError``, ``BadReferenceError``,
+        ``LimitError`` (see :func:`serialize.sections_to_model`).
+    UndiagnosedError
+        The last resort: a ``ValueError``, ``IndexError``, ``KeyError``,
+        ``TypeError``, ``ArithmeticError`` or ``RecursionError`` that no
+        specific check caught.  The checks in ``serialize`` are meant to make
+        this unreachable; the fuzzer counts it as a failure.
+    """
+    serialize.check_layout(c.tags(), c.minor, container.MINOR)
+    try:
+        m, meta = serialize.sections_to_model(c.get)
+    except NurbscompError:
+        raise
+    except (ValueError, IndexError, KeyError, TypeError, ArithmeticError, RecursionError) as e:
+        raise UndiagnosedError(
+            f"container does not decode ({type(e).__name__}: {e}); no specific check caught it"
+        ) from None
+    if bool(c.flags & container.FLAG_LOSSLESS) != (meta["mode"] == "lossless"):
+        raise CorruptError("the header's lossless flag (offset 6) disagrees with META's mode")
+    return m, meta
 
 
 def build(m: BRepModel) -> Any:
-    """The OCCT shape of a model, turning any OCCT failure into a ``FormatError``."""
+    """The OCCT shape of a model, turning any OCCT failure into a ``RebuildError``."""
     try:
         return occ.model_to_shape(m)
     except NurbscompError:
         raise
     except Exception as e:  # OCCT raises Standard_Failure subclasses on bad data
-        raise FormatError(
+        raise RebuildError(
             f"container does not rebuild into a shape ({type(e).__name__}: {e})"
+        ) from None
+
+
+def write(shape: Any, path: Path, fmt: str, unit: str, meta: dict[str, Any]) -> None:
+    """Write a decoded shape; the STEP header is taken from the container's META.
+
+    FILE_NAME's name is the source file's name and its originating system the
+    writer named in META; the time stamp is fixed (``occ.files.STEP_TIME_STAMP``),
+    so the same container always gives the same bytes.
+
+    Raises
+    ------
+    OutputError
+        The file cannot be written.
+    RebuildError
+        OCCT fails on the shape while writing it.
+    """
+    name = meta.get("source_name") or ""
+    name = name[: -len(SUFFIX)] if name.endswith(SUFFIX) else name
+    try:
+        occ.write_shape(shape, path, fmt, unit, name=name, system=meta.get("writer") or "")
+    except NurbscompError:
+        raise
+    except OSError as e:
+        raise OutputError(f"cannot write {path.name}: {e.strerror or e}") from None
+    except Exception as e:  # OCCT raises Standard_Failure subclasses on bad shapes
+        raise RebuildError(
+            f"the decoded shape cannot be written ({type(e).__name__}: {e})"
         ) from None
 
 
@@ -191,6 +251,8 @@ def compress_file(
     except Exception as e:
         raise InputError(f"OCCT failed to read the file ({type(e).__name__}: {e})") from None
     t_read = time.perf_counter() - t0
+    if occ.counts(cad.shape)["faces"] == 0:
+        raise InputError(f"the {cad.source_format} file holds no B-rep faces (nothing to compress)")
     m, warnings = occ.shape_to_model(cad.shape)
     m.unit, m.source_format = cad.unit, cad.source_format
     meta = {
@@ -521,7 +583,7 @@ def decompress_file(
     shape, m, meta = decode_file(src_p)
     fmt = occ.output_format(dst_p)
     with atomic_output(dst_p, force) as tmp:
-        occ.write_shape(shape, tmp, fmt, m.unit)
+        write(shape, tmp, fmt, m.unit, meta)
         size = tmp.stat().st_size
     return {
         "command": "decompress",

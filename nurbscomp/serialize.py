@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 
 from . import codec, coons, dmap, joins
-from .errors import CorruptError
+from .errors import BadReferenceError, CorruptError, LimitError, SectionError
 from .model import (
     REBUILD,
     Analytic,
@@ -40,6 +40,7 @@ from .model import (
     RepKind,
 )
 from .streams import BlockReader, BlockWriter
+from .units import UNITS_MM
 
 #: Kind code of a table row that repeats an earlier row's record.
 COPY = 255
@@ -67,6 +68,88 @@ _DERIVED_SHAPE: dict[Kind, tuple[tuple[int, int], tuple[int, int]]] = {
 }
 #: Surfaces swept from a 3-D curve (their basis is in the 3-D curve table).
 SWEPT = (Kind.REVOLUTION, Kind.EXTRUSION)
+
+# ---------------------------------------------------------------- reader limits
+#
+# The reader trusts nothing: every count is checked against the bytes that
+# remain before anything is allocated from it, every index against its table,
+# and every B-spline against OCCT's own rules, so that what reaches OCCT is
+# something OCCT's constructors accept.
+
+#: OCCT's largest B-spline degree (``Geom_BSplineSurface::MaxDegree``).
+MAX_DEGREE = 25
+#: Most poles one coded net may have.  A coded net's poles are not backed by
+#: bytes (a boundary-coded n x m net holds O(n + m) integers), so its size is bounded here.
+MAX_NET_POLES = 1 << 20
+#: Most poles all coded nets of one table may have together.
+MAX_CODED_POLES = 1 << 23
+#: Largest magnitude of a decoded coordinate (OCCT's ``Precision::Infinite()``).
+MAX_COORD = 2e100
+#: Largest |level| of a net code's quantizer (steps tol·2^(level/4)).
+MAX_LEVEL = 96
+
+
+def _finite(a: np.ndarray, where: str, bound: float = np.inf) -> None:
+    """Raise ``SectionError`` unless every value of ``a`` is finite (and below ``bound``)."""
+    with np.errstate(invalid="ignore"):
+        if a.size and not (np.abs(a) < bound).all():
+            raise SectionError(f"{where}: a value is not finite or out of range")
+
+
+def _tolerances(a: np.ndarray, where: str) -> None:
+    """Raise ``SectionError`` unless every tolerance is finite and not negative."""
+    _finite(a, where, MAX_COORD)
+    if a.size and a.min() < 0:
+        raise SectionError(f"{where}: a tolerance is negative")
+
+
+def _counts(per: np.ndarray, r: BlockReader, where: str) -> int:
+    """The exact total of per-row counts, each checked against the bytes that remain.
+
+    Every counted value is read from an array of at least one byte per value, so
+    a total above ``r.remaining`` cannot be right; it is refused before any
+    array of that size is made.
+    """
+    if len(per) and (per.min() < 0 or per.max() > r.remaining):
+        raise SectionError(f"{where}: a count is negative or larger than the section")
+    total = sum(per.tolist())  # Python ints: no wrap-around
+    if total > r.remaining:
+        raise SectionError(f"{where}: counts add up to more than the section holds")
+    return int(total)
+
+
+def _check_bspline(
+    where: str, n: int, degree: int, knots: np.ndarray, mults: np.ndarray, periodic: bool
+) -> None:
+    """OCCT's rules for a B-spline's knots (``BSplCLib::NbPoles``, ``CheckCurveData``).
+
+    Raises
+    ------
+    SectionError
+        The degree, multiplicities or knots do not make a B-spline of ``n`` poles.
+    """
+    if not 1 <= degree <= MAX_DEGREE:
+        raise SectionError(f"{where}: degree {degree} is out of range")
+    if len(knots) < 2 or len(mults) != len(knots):
+        raise SectionError(f"{where}: too few knots")
+    _finite(knots, where, MAX_COORD)
+    if not (np.diff(knots) > 0).all():
+        raise SectionError(f"{where}: knots do not increase")
+    inner = mults[1:-1]
+    ends = mults[[0, -1]]
+    if (mults < 1).any() or (inner > degree).any():
+        raise SectionError(f"{where}: bad knot multiplicity")
+    if periodic:
+        if (ends > degree).any() or ends[0] != ends[1]:
+            raise SectionError(f"{where}: bad end multiplicities of a periodic B-spline")
+        poles = int(mults.sum()) - int(ends[1])
+    else:
+        if (ends > degree + 1).any():
+            raise SectionError(f"{where}: bad end multiplicities")
+        poles = int(mults.sum()) - degree - 1
+    if poles != n:
+        raise SectionError(f"{where}: knots make {poles} poles, the header says {n}")
+
 
 # ---------------------------------------------------------------- geometry tables
 
@@ -145,7 +228,7 @@ class _Cursor:
 
     def take(self, n: int) -> np.ndarray:
         if n < 0 or self.pos + n > len(self.a):
-            raise CorruptError(f"{self.name} stream is too short")
+            raise SectionError(f"{self.name} stream is too short at value {self.pos}")
         out = self.a[self.pos : self.pos + n]
         self.pos += n
         return out
@@ -155,10 +238,19 @@ class _Cursor:
 
     def done(self) -> None:
         if self.pos != len(self.a):
-            raise CorruptError(f"{self.name} stream has unread values")
+            raise SectionError(f"{self.name} stream has unread values from value {self.pos}")
 
 
 def _read_geometry(data: bytes, tag: str, dim: int) -> list[Geometry]:
+    """Read one geometry table (see :func:`_write_geometry`), checking every row.
+
+    Raises
+    ------
+    SectionError
+        A row's kind, header, knots or values do not make a geometry OCCT accepts.
+    LimitError
+        Coded nets declare more poles than a reader allocates.
+    """
     r = BlockReader(data, tag)
     kinds = r.ints()
     copies, hdr, basis, mults = (
@@ -168,21 +260,26 @@ def _read_geometry(data: bytes, tag: str, dim: int) -> list[Geometry]:
         _Cursor(r.floats(), f"{tag} {n}") for n in ("frame", "param", "pole", "weight", "knot")
     )
     r.done()
+    _finite(frames.a, f"{tag} frames", MAX_COORD)
+    _finite(params.a, f"{tag} params", MAX_COORD)
+    _finite(poles.a, f"{tag} poles", MAX_COORD)
     out: list[Geometry] = []
     surface = tag == "SURF"
+    coded_poles = 0
     for i, k in enumerate(kinds.tolist()):
+        where = f"{tag} row {i}"
         if k == COPY:
             j = i - copies.one()
             if not 0 <= j < i:
-                raise CorruptError(f"{tag}: row {i} copies a row that does not exist")
+                raise SectionError(f"{where} copies a row that does not exist")
             out.append(out[j])
             continue
         try:
             kind = Kind(k)
         except ValueError:
-            raise CorruptError(f"{tag}: unknown geometry kind {k} in row {i}") from None
-        if (kind in _ANALYTIC_SHAPE or kind in _DERIVED_SHAPE) and (kind < 16) != surface:
-            raise CorruptError(f"{tag}: kind {kind.name} in the wrong table")
+            raise SectionError(f"{where}: unknown geometry kind {k}") from None
+        if (kind < 16) != surface:
+            raise SectionError(f"{where}: kind {kind.name} in the wrong table")
         if kind in _ANALYTIC_SHAPE:
             nf, npar = _ANALYTIC_SHAPE[kind][dim == 2]
             out.append(Analytic(kind, frames.take(nf * dim).reshape(nf, dim), params.take(npar)))
@@ -192,7 +289,7 @@ def _read_geometry(data: bytes, tag: str, dim: int) -> list[Geometry]:
             if kind not in SWEPT:
                 b = i - b
             if not (b >= 0 if kind in SWEPT else 0 <= b < i):
-                raise CorruptError(f"{tag}: row {i} refers to a missing basis")
+                raise SectionError(f"{where} refers to a missing basis")
             out.append(Derived(kind, b, frames.take(nf * 3).reshape(nf, 3), params.take(npar)))
         elif kind in (Kind.BSPLINE_SURFACE, Kind.BEZIER_SURFACE):
             nu, nv, flags = (hdr.one() for _ in range(3))
@@ -201,19 +298,30 @@ def _read_geometry(data: bytes, tag: str, dim: int) -> list[Geometry]:
                 ud, vd, ku, kv = nu - 1, nv - 1, 2, 2
             else:
                 ud, vd, ku, kv = (hdr.one() for _ in range(4))
-            if min(nu, nv, ku, kv) < 2 or not (1 <= ud and 1 <= vd):
-                raise CorruptError(f"{tag}: row {i} has a bad B-spline header")
+            if min(nu, nv, ku, kv) < 2 or not (1 <= ud and 1 <= vd) or not 0 <= flags < 16:
+                raise SectionError(f"{where} has a bad B-spline header")
+            if nu > ku * (MAX_DEGREE + 1) or nv > kv * (MAX_DEGREE + 1):
+                raise SectionError(f"{where} has more poles than its knots allow")
             if bez:
+                if max(ud, vd) > MAX_DEGREE:
+                    raise SectionError(f"{where}: degree is out of range")
                 uk, vk = np.array([0.0, 1.0]), np.array([0.0, 1.0])
                 um, vm = np.array([nu, nu]), np.array([nv, nv])
             else:
                 uk, vk = knots.take(ku), knots.take(kv)
                 um, vm = mults.take(ku).copy(), mults.take(kv).copy()
+                _check_bspline(f"{where} (u)", nu, ud, uk, um, bool(flags & 2))
+                _check_bspline(f"{where} (v)", nv, vd, vk, vm, bool(flags & 4))
             if flags & 8:  # coded net: filled in from SNET
+                if nu * nv > MAX_NET_POLES or coded_poles + nu * nv > MAX_CODED_POLES:
+                    raise LimitError(f"{where}: a coded net of {nu} x {nv} poles is too large")
+                coded_poles += nu * nv
                 p = np.full((nu, nv, 3), np.nan)
             else:
                 p = poles.take(nu * nv * 3).reshape(nu, nv, 3)
             wts = weights.take(nu * nv).reshape(nu, nv) if flags & 1 else None
+            if wts is not None and not ((wts > 0).all() and _ok(wts)):
+                raise SectionError(f"{where}: weights must be positive and finite")
             out.append(
                 BSplineSurface(
                     p, wts, uk, vk, um, vm, ud, vd, bool(flags & 2), bool(flags & 4), bez
@@ -223,19 +331,33 @@ def _read_geometry(data: bytes, tag: str, dim: int) -> list[Geometry]:
             n, flags = hdr.one(), hdr.one()
             bez = kind == Kind.BEZIER_CURVE
             deg, nk = (n - 1, 2) if bez else (hdr.one(), hdr.one())
-            if n < 2 or nk < 2 or deg < 1:
-                raise CorruptError(f"{tag}: row {i} has a bad B-spline header")
+            if n < 2 or nk < 2 or deg < 1 or not 0 <= flags < 8:
+                raise SectionError(f"{where} has a bad B-spline header")
+            if n > nk * (MAX_DEGREE + 1) or (bez and deg > MAX_DEGREE):
+                raise SectionError(f"{where} has more poles than its knots allow")
             kn = np.array([0.0, 1.0]) if bez else knots.take(nk)
             mu = np.array([n, n]) if bez else mults.take(nk).copy()
+            if not bez:
+                _check_bspline(where, n, deg, kn, mu, bool(flags & 2))
             if flags & 4:  # coded net: filled in from CNET
+                if n > MAX_NET_POLES or coded_poles + n > MAX_CODED_POLES:
+                    raise LimitError(f"{where}: a coded curve of {n} poles is too large")
+                coded_poles += n
                 p = np.full((n, dim), np.nan)
             else:
                 p = poles.take(n * dim).reshape(n, dim)
             wts = weights.take(n) if flags & 1 else None
+            if wts is not None and not ((wts > 0).all() and _ok(wts)):
+                raise SectionError(f"{where}: weights must be positive and finite")
             out.append(BSplineCurve(p, wts, kn, mu, deg, bool(flags & 2), bez))
     for c in (copies, hdr, basis, mults, frames, params, poles, weights, knots):
         c.done()
     return out
+
+
+def _ok(a: np.ndarray) -> bool:
+    """Every value finite."""
+    return bool(np.isfinite(a).all())
 
 
 # ---------------------------------------------------------------- topology
@@ -254,19 +376,32 @@ def _write_locations(m: BRepModel) -> bytes:
 
 def _read_locations(data: bytes, m: BRepModel) -> None:
     r = BlockReader(data, "LOCS")
-    m.datum_forms = r.ints().astype(np.uint8)
+    forms = r.ints()
+    if len(forms) and (forms.min() < 0 or forms.max() > _MAX_TRSF_FORM):
+        raise SectionError("LOCS: unknown transformation form")
+    m.datum_forms = forms.astype(np.uint8)
     nd = len(m.datum_forms)
     m.datums = r.floats(nd * 12).reshape(nd, 3, 4)
+    _finite(m.datums, "LOCS datums", MAX_COORD)
     lengths = r.ints()
-    datums, powers = r.ints(int(lengths.sum())), r.ints(int(lengths.sum()))
+    total = _counts(lengths, r, "LOCS lengths")
+    datums, powers = r.ints(total), r.ints(total)
     r.done()
     if len(datums) and (datums.min() < 0 or datums.max() >= nd):
-        raise CorruptError("LOCS: a location refers to a missing datum")
+        raise BadReferenceError("LOCS: a location refers to a missing datum")
+    if len(powers) and (np.abs(powers).max() > _MAX_POWER or (powers == 0).any()):
+        raise SectionError("LOCS: a location power is zero or out of range")
     ends = np.cumsum(lengths)
     m.locations = [Location((), ())] + [
         Location(tuple(datums[e - n : e].tolist()), tuple(powers[e - n : e].tolist()))
         for n, e in zip(lengths.tolist(), ends.tolist())
     ]
+
+
+#: Largest ``gp_TrsfForm`` value (``gp_Other``).
+_MAX_TRSF_FORM = 8
+#: Largest |power| of a location factor (OCCT stores it as a 32-bit integer).
+_MAX_POWER = 2**31 - 1
 
 
 def _write_shapes(m: BRepModel) -> bytes:
@@ -285,25 +420,32 @@ def _write_shapes(m: BRepModel) -> bytes:
 
 def _read_shapes(data: bytes, m: BRepModel) -> None:
     r = BlockReader(data, "SHAP")
-    m.shape_type = r.ints().astype(np.uint8)
+    types = r.ints()
+    if len(types) and (types.min() < 0 or types.max() > 7):
+        raise SectionError("SHAP: unknown shape type")
+    m.shape_type = types.astype(np.uint8)
     n = len(m.shape_type)
-    m.shape_flags = r.ints(n).astype(np.uint8)
+    flags = r.ints(n)
+    if n and (flags.min() < 0 or flags.max() > 255):
+        raise SectionError("SHAP: unknown shape flags")
+    m.shape_flags = flags.astype(np.uint8)
     nkids = r.ints(n)
-    if len(nkids) and nkids.min() < 0:
-        raise CorruptError("SHAP: negative child count")
-    m.child_start = np.concatenate([[0], np.cumsum(nkids)]).astype(np.int64)
-    c = int(m.child_start[-1])
-    parent = np.repeat(np.arange(n), nkids)
+    c = _counts(nkids, r, "SHAP child counts")
     back = r.ints(c)
-    m.child_shape = parent - back
-    m.child_orient = r.ints(c).astype(np.uint8)
+    orient = r.ints(c)
     m.child_loc = r.ints(c)
     m.root_shape, m.root_orient, m.root_loc = r.ints(3).tolist()
     r.done()
-    if c and ((back < 1).any() or (m.child_orient > 3).any()):
-        raise CorruptError("SHAP: a shape refers to a sub-shape that does not precede it")
-    if not 0 <= m.root_shape < n or m.root_orient > 3:
-        raise CorruptError("SHAP: bad root reference")
+    m.child_start = np.concatenate([[0], np.cumsum(nkids)]).astype(np.int64)
+    parent = np.repeat(np.arange(n), nkids)
+    if c and ((back < 1).any() or (back > parent).any()):
+        raise BadReferenceError("SHAP: a shape refers to a sub-shape that does not precede it")
+    if c and (orient.min() < 0 or orient.max() > 3):
+        raise SectionError("SHAP: unknown orientation")
+    m.child_shape = parent - back
+    m.child_orient = orient.astype(np.uint8)
+    if not 0 <= m.root_shape < n or not 0 <= m.root_orient <= 3:
+        raise BadReferenceError("SHAP: bad root reference")
 
 
 def vertex_grid(tol: float) -> float:
@@ -341,26 +483,31 @@ def _read_vertices(data: bytes, m: BRepModel, tol: float = 0.0) -> None:
     r = BlockReader(data, "VERT")
     kind = r.ints()
     if len(kind) and (kind.min() < 0 or kind.max() > 1):
-        raise CorruptError("VERT: unknown vertex kind")
+        raise SectionError("VERT: unknown vertex kind")
     on_grid = kind.astype(bool)
     nv, ng = len(on_grid), int(on_grid.sum())
     pts = np.zeros((nv, 3))
     pts[~on_grid] = r.floats(3 * (nv - ng)).reshape(-1, 3)
     q = np.stack([r.deltas(ng) for _ in range(3)], axis=1)
     if ng and not tol > 0:
-        raise CorruptError("VERT: grid vertices need a positive tolerance")
+        raise SectionError("VERT: grid vertices need a positive tolerance")
     if ng:
-        pts[on_grid] = q * vertex_grid(tol)
+        with np.errstate(over="ignore"):
+            pts[on_grid] = q * vertex_grid(tol)
+    _finite(pts, "VERT points", MAX_COORD)
     m.vertex_point = pts
     m.vertex_tol = r.floats(nv)
+    _tolerances(m.vertex_tol, "VERT tolerances")
     per = r.ints()
-    if len(per) not in (0, nv) or (len(per) and per.min() < 0):
-        raise CorruptError("VERT: bad representation counts")
-    nrep = int(per.sum()) if len(per) else 0
-    cols = [np.repeat(np.arange(len(per)), per)] + [r.ints(nrep) for _ in range(4)]
-    m.vertex_reps = np.stack(cols, axis=1).astype(np.int64).reshape(-1, 5)
+    if len(per) not in (0, nv):
+        raise SectionError("VERT: bad representation counts")
+    nrep = _counts(per, r, "VERT representation counts")
+    cols = [r.ints(nrep) for _ in range(4)]
     m.vertex_rep_params = r.floats(2 * nrep).reshape(-1, 2)
     r.done()
+    _finite(m.vertex_rep_params, "VERT parameters", MAX_COORD)
+    cols.insert(0, np.repeat(np.arange(len(per)), per))
+    m.vertex_reps = np.stack(cols, axis=1).astype(np.int64).reshape(-1, 5)
 
 
 def _write_edges(m: BRepModel) -> bytes:
@@ -395,15 +542,19 @@ def _read_edges(data: bytes, m: BRepModel) -> np.ndarray:
     """Fill ``m``'s edge tables; return the range kinds (see :func:`range_kinds`)."""
     r = BlockReader(data, "EDGE")
     m.edge_tol = r.floats()
+    _tolerances(m.edge_tol, "EDGE tolerances")
     ne = len(m.edge_tol)
-    m.edge_flags = r.ints(ne).astype(np.uint8)
+    flags = r.ints(ne)
+    if ne and (flags.min() < 0 or flags.max() > 7):
+        raise SectionError("EDGE: unknown edge flags")
+    m.edge_flags = flags.astype(np.uint8)
     per = r.ints()
-    if len(per) not in (0, ne) or (len(per) and per.min() < 0):
-        raise CorruptError("EDGE: bad representation counts")
-    q = int(per.sum()) if len(per) else 0
+    if len(per) not in (0, ne):
+        raise SectionError("EDGE: bad representation counts")
+    q = _counts(per, r, "EDGE representation counts")
     kind = r.ints(q)
     if q and (kind.min() < 0 or kind.max() > 3):
-        raise CorruptError("EDGE: unknown representation kind")
+        raise SectionError("EDGE: unknown representation kind")
     reps = np.full((q, 8), -1, np.int64)
     reps[:, 0] = np.repeat(np.arange(len(per)), per)
     reps[:, 1] = kind
@@ -420,12 +571,15 @@ def _read_edges(data: bytes, m: BRepModel) -> np.ndarray:
     reps[:, 7] = 0
     reps[two, 7] = r.ints(int(two.sum()))
     m.edge_reps = reps
+    cont = r.ints(int((closed | two).sum()))
+    if len(cont) and (cont.min() < 0 or cont.max() > 6):
+        raise SectionError("EDGE: unknown continuity")
     m.edge_rep_cont = np.zeros(q, np.uint8)
-    m.edge_rep_cont[closed | two] = r.ints(int((closed | two).sum()))
+    m.edge_rep_cont[closed | two] = cont
     how = np.full(q, RANGE_ZERO, np.int64)  # kind 3 reps have no range
     how[~two] = r.ints(int((~two).sum()))
     if ((how < 0) | (how > RANGE_VERTICES)).any():
-        raise CorruptError("EDGE: unknown range kind")
+        raise SectionError("EDGE: unknown range kind")
     m.edge_rep_range = np.zeros((q, 2))
     stored = how == RANGE_STORED
     m.edge_rep_range[stored] = r.floats(2 * int(stored.sum())).reshape(-1, 2)
@@ -434,6 +588,11 @@ def _read_edges(data: bytes, m: BRepModel) -> np.ndarray:
     m.edge_rep_uv[on, :4] = r.floats(4 * int(on.sum())).reshape(-1, 4)
     m.edge_rep_uv[closed, 4:] = r.floats(4 * int(closed.sum())).reshape(-1, 4)
     r.done()
+    # an edge without a 3-D curve (degenerated) has OCCT's default range, ±DBL_MAX
+    curveless = (kind == RepKind.CURVE3D) & (reps[:, 2] == -1)
+    _finite(m.edge_rep_range, "EDGE ranges")
+    _finite(m.edge_rep_range[~curveless], "EDGE ranges", MAX_COORD)
+    _finite(m.edge_rep_uv, "EDGE uv points", MAX_COORD)
     return how
 
 
@@ -499,18 +658,21 @@ def _resolve_ranges(m: BRepModel, how: np.ndarray) -> None:
     for q in np.flatnonzero(how == RANGE_NATURAL).tolist():
         nat = _natural_range(_curve_of(m, q))
         if nat is None:
-            raise CorruptError("EDGE: a curve without a range of its own")
+            raise SectionError(f"EDGE: representation {q} has a curve without a range of its own")
         m.edge_rep_range[q] = nat
     by_vertices = joins.vertex_ranges(m) if (how == RANGE_VERTICES).any() else {}
     for q in np.flatnonzero(how == RANGE_VERTICES).tolist():
         if q not in by_vertices:
-            raise CorruptError("EDGE: a range from vertices on an edge on no line or circle")
+            raise BadReferenceError("EDGE: a range from vertices on an edge on no line or circle")
         m.edge_rep_range[q] = by_vertices[q]
+    _finite(m.edge_rep_range[how == RANGE_VERTICES], "EDGE: ranges from vertices", MAX_COORD)
     of3d = _range_of_3d(m)
     for q in np.flatnonzero(how == RANGE_OF_3D).tolist():
         r3 = of3d.get(int(m.edge_reps[q, 0]))
         if r3 is None or how[r3] == RANGE_OF_3D:
-            raise CorruptError("EDGE: a range refers to a missing 3-D curve")
+            raise BadReferenceError(
+                f"EDGE: representation {q}'s range refers to a missing 3-D curve"
+            )
         m.edge_rep_range[q] = m.edge_rep_range[r3]
 
 
@@ -529,8 +691,12 @@ def _read_faces(data: bytes, m: BRepModel) -> None:
     nf = len(m.face_surface)
     m.face_loc = r.ints(nf)
     m.face_tol = r.floats(nf)
-    m.face_natural = r.ints(nf).astype(bool)
+    natural = r.ints(nf)
     r.done()
+    _tolerances(m.face_tol, "FACE tolerances")
+    if nf and (natural.min() < 0 or natural.max() > 1):
+        raise SectionError("FACE: a natural-restriction flag is neither 0 nor 1")
+    m.face_natural = natural.astype(bool)
 
 
 # ---------------------------------------------------------------- coded nets
@@ -623,12 +789,18 @@ def _read_nets(
     ints = _Cursor(r.ints(), f"{tag} ints")
     dcs = r.floats()
     r.done()
-    if n and not tol > 0:
-        raise CorruptError(f"{tag}: coded nets need a positive tolerance")
+    _finite(dcs, f"{tag} DC coefficients", MAX_COORD)
+    if n and not 0 < tol < MAX_COORD:
+        raise SectionError(f"{tag}: coded nets need a positive, finite tolerance")
     if (counts < 0).any() or (quant < 0).any() or (quant > 1).any():
-        raise CorruptError(f"{tag}: bad net header")
+        raise SectionError(f"{tag}: bad net header")
     if (slope < 0).any() or (slope >= len(codec.SLOPES)).any():
-        raise CorruptError(f"{tag}: bad quantizer slope")
+        raise SectionError(f"{tag}: bad quantizer slope")
+    if n and np.abs(level).max() > MAX_LEVEL:
+        raise SectionError(f"{tag}: quantizer level out of range")
+    allowed = codec.SURFACE_METHODS if tag == "SNET" else (*codec.CURVE_METHODS, codec.Method.ISO)
+    if n and not np.isin(method, [int(x) for x in allowed]).all():
+        raise SectionError(f"{tag}: a coding method that does not apply to this table")
     origin = None
     dpos = 0
     for k, row in enumerate(rows):
@@ -650,14 +822,15 @@ def _read_nets(
             else:
                 at = (anchors or {}).get(row, origin)
                 net, used = codec.decode_net(code, g.poles.shape, s, t, tol, at, net_basis(g))
-        except ValueError as e:
-            raise CorruptError(f"{tag}: row {row}: {e}") from None
+        except (ValueError, ArithmeticError) as e:  # LinAlgError is a ValueError
+            raise SectionError(f"{tag}: net {k} (table row {row}): {e}") from None
+        _finite(net, f"{tag}: net {k} (table row {row})", MAX_COORD)
         dpos += used
         g.poles[...] = net
         origin = net.reshape(-1, net.shape[-1])[0]
     ints.done()
     if dpos != len(dcs):
-        raise CorruptError(f"{tag}: unread DC coefficients")
+        raise SectionError(f"{tag}: unread DC coefficients from value {dpos}")
 
 
 # ---------------------------------------------------------------- whole model
@@ -713,24 +886,95 @@ def _curve_anchors(m: BRepModel, codes: dict[int, codec.NetCode]) -> dict[int, n
     return joins.anchors(m, m.curves3d, set(rows.values()))
 
 
+#: The sections of format 1.0, in the order they are written and must be read.
+SECTIONS = ("META", "LOCS", "SURF", "SNET", "CRV3", "CNET", "CRV2", "SHAP", "VERT", "EDGE", "FACE")
+
+
+def check_layout(tags: list[str], minor: int, reader_minor: int) -> None:
+    """Check a container's section tags: every section of ``SECTIONS``, in its order.
+
+    A section this reader does not know is refused in a file of a minor version
+    it knows (``minor <= reader_minor``), and skipped in a newer minor's file
+    (format 1.x adds sections only with a minor bump; docs/format.md, §0).
+
+    Raises
+    ------
+    CorruptError
+        A section is missing, out of order, or unknown.
+    """
+    known = [t for t in tags if t in SECTIONS]
+    for t in tags:
+        if t not in SECTIONS and minor <= reader_minor:
+            raise CorruptError(f"unknown section {t!r} (position {tags.index(t)})")
+    for t in SECTIONS:
+        if t not in known:
+            raise CorruptError(f"missing section {t}")
+    if known != list(SECTIONS):
+        bad = next(i for i, (a, b) in enumerate(zip(known, SECTIONS)) if a != b)
+        raise CorruptError(f"section {known[bad]} out of order (position {tags.index(known[bad])})")
+
+
+def _number(x: Any) -> bool:
+    return isinstance(x, (int, float)) and not isinstance(x, bool)
+
+
 def read_meta(raw: bytes) -> dict[str, Any]:
+    """The META section's JSON object, its fields checked.
+
+    Raises
+    ------
+    SectionError
+        Not a JSON object, or a field of the wrong type or value.
+    """
     try:
         meta = json.loads(raw.decode("utf-8"))
-    except (UnicodeDecodeError, json.JSONDecodeError):
-        raise CorruptError("META section is not valid JSON") from None
+    except (UnicodeDecodeError, json.JSONDecodeError, RecursionError):
+        raise SectionError("META section is not valid JSON") from None
     if not isinstance(meta, dict):
-        raise CorruptError("META section is not a JSON object")
+        raise SectionError("META section is not a JSON object")
+    unit = meta.get("unit", "MM")
+    if not isinstance(unit, str) or unit not in UNITS_MM:
+        raise SectionError(f"META: unknown unit {str(meta.get('unit'))[:20]!r}")
+    if not isinstance(meta.get("source_format", "STEP"), str):
+        raise SectionError("META: source_format is not a string")
+    mode, tol = meta.get("mode"), meta.get("tolerance_mm")
+    if mode not in ("lossless", "tolerance"):
+        raise SectionError(f"META: unknown mode {str(mode)[:20]!r}")
+    if mode == "tolerance" and not (_number(tol) and 0 < tol < MAX_COORD):
+        raise SectionError("META: tolerance_mm is not a positive number")
+    if mode == "lossless" and tol is not None:
+        raise SectionError("META: a lossless container has a tolerance")
+    for key in ("source_name", "writer"):
+        if not isinstance(meta.get(key, ""), str):
+            raise SectionError(f"META: {key} is not a string")
+    if not _number(meta.get("source_bytes", 0)):
+        raise SectionError("META: source_bytes is not a number")
     return meta
 
 
 def sections_to_model(get: Any) -> tuple[BRepModel, dict[str, Any]]:
-    """Rebuild a model from a section lookup ``get(tag) -> bytes``; check every reference."""
+    """Rebuild a model from a section lookup ``get(tag) -> bytes``; check every reference.
+
+    Raises
+    ------
+    CorruptError
+        A section is missing, or a subclass: ``SectionError`` (a section does
+        not decode; its tag and where), ``BadReferenceError`` (an index points
+        outside its table).
+    LimitError
+        Coded nets larger than a reader allocates.
+    """
+    with np.errstate(all="ignore"):  # overflows become non-finite values, refused by name
+        return _sections_to_model(get)
+
+
+def _sections_to_model(get: Any) -> tuple[BRepModel, dict[str, Any]]:
     meta = read_meta(get("META"))
     m = BRepModel()
     m.unit = str(meta.get("unit", "MM"))
     m.source_format = str(meta.get("source_format", "STEP"))
     tol_mm = meta.get("tolerance_mm")
-    tol = float(tol_mm) if isinstance(tol_mm, (int, float)) else 0.0
+    tol = float(tol_mm) if _number(tol_mm) else 0.0
     # the tables first, coded poles last: nets are coded against vertices
     _read_locations(get("LOCS"), m)
     m.surfaces = _read_geometry(get("SURF"), "SURF", 3)
@@ -757,13 +1001,14 @@ def sections_to_model(get: Any) -> tuple[BRepModel, dict[str, Any]]:
 
 
 def check_references(m: BRepModel) -> None:
-    """Raise ``CorruptError`` unless every index in ``m`` points into its table."""
+    """Raise ``BadReferenceError`` unless every index in ``m`` points into its table."""
     ns, n3, n2, nl = len(m.surfaces), len(m.curves3d), len(m.curves2d), len(m.locations)
     counts = m.counts()
 
     def within(a: np.ndarray, lo: int, hi: int, what: str) -> None:
         if len(a) and (a.min() < lo or a.max() >= hi):
-            raise CorruptError(f"{what} refers to a missing entry")
+            at = int(np.flatnonzero((a < lo) | (a >= hi))[0])
+            raise BadReferenceError(f"{what} (entry {at} of its kind) refers to a missing entry")
 
     for g in m.surfaces:
         if isinstance(g, Derived):
@@ -776,9 +1021,9 @@ def check_references(m: BRepModel) -> None:
     within(m.child_loc, 0, nl, "a sub-shape location")
     within(np.array([m.root_loc]), 0, nl, "the root location")
     if len(m.vertex_tol) != counts["vertex"] or len(m.edge_tol) != counts["edge"]:
-        raise CorruptError("vertex or edge table does not match the shapes table")
+        raise BadReferenceError("vertex or edge table does not match the shapes table")
     if len(m.face_surface) != counts["face"]:
-        raise CorruptError("face table does not match the shapes table")
+        raise BadReferenceError("face table does not match the shapes table")
     within(m.face_surface, 0, ns, "a face surface")
     within(m.face_loc, 0, nl, "a face location")
     reps = m.edge_reps
@@ -788,8 +1033,13 @@ def check_references(m: BRepModel) -> None:
     within(reps[c3, 2], -1, n3, "an edge curve")
     within(reps[~two & ~c3, 2], REBUILD, n2, "an edge pcurve")
     within(reps[kind == RepKind.ON_CLOSED_SURFACE, 3], REBUILD, n2, "a seam pcurve")
-    if (reps[~two & ~c3, 2] == -1).any():
-        raise CorruptError("an edge pcurve refers to a missing entry")
+    if (reps[~two & ~c3, 2] == -1).any() or (
+        reps[kind == RepKind.ON_CLOSED_SURFACE, 3] == -1
+    ).any():
+        raise BadReferenceError("an edge pcurve refers to a missing entry")
+    seam = reps[kind == RepKind.ON_CLOSED_SURFACE]
+    if ((seam[:, 2] == REBUILD) != (seam[:, 3] == REBUILD)).any():
+        raise BadReferenceError("a seam has one pcurve stored and the other one computed")
     within(reps[~c3, 4], 0, ns, "an edge surface")
     within(reps[two, 5], 0, ns, "an edge surface")
     within(reps[:, 6], 0, nl, "an edge location")

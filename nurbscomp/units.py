@@ -5,6 +5,21 @@ from __future__ import annotations
 import math
 import re
 
+#: Length units the STEP and IGES writers know (and a container's META may
+#: name), with their size in millimetres.
+UNITS_MM = {
+    "MM": 1.0,
+    "CM": 10.0,
+    "M": 1000.0,
+    "KM": 1e6,
+    "UM": 1e-3,
+    "INCH": 25.4,
+    "FT": 304.8,
+    "MI": 1609344.0,
+    "MIL": 0.0254,
+    "UIN": 25.4e-6,
+}
+
 #: Suffix -> millimetres.  A bare number is in millimetres.
 SUFFIX_MM = {
     "": 1.0,

@@ -62,7 +62,7 @@ def test_json_info_and_test(work: Path) -> None:
     assert info["lossless"] and info["unit"] == "MM" and info["shapes"]["face"] == 3
     assert set(info["section_raw_bytes"]) >= {"META", "SURF", "SHAP", "EDGE"}
     code, out, _ = run("info", str(work / "part.step.nzc"))
-    assert code == 0 and "format:      .nzc 0." in out
+    assert code == 0 and "format:      .nzc 1.0," in out
     code, out, _ = run("test", str(work / "part.step.nzc"))
     assert code == 0 and "OK" in out
 
@@ -113,6 +113,88 @@ def test_bad_cad_input(work: Path, content: bytes, name: str) -> None:
     code, _, err = run("compress", "-q", str(work / name))
     _assert_clean_failure(work, code, err, str(work / name))
     assert not (work / (name + ".nzc")).exists()
+
+
+def _step(data: str) -> bytes:
+    """A STEP file around ``data`` (the entities of its DATA section)."""
+    return (
+        "ISO-10303-21;\nHEADER;\nFILE_DESCRIPTION((''),'2;1');\n"
+        "FILE_NAME('t.step','2026-01-01T00:00:00',(''),(''),'','','');\n"
+        "FILE_SCHEMA(('AP242_MANAGED_MODEL_BASED_3D_ENGINEERING_MIM_LF "
+        "{ 1 0 10303 442 1 1 4 }'));\n"
+        f"ENDSEC;\nDATA;\n{data}ENDSEC;\nEND-ISO-10303-21;\n"
+    ).encode()
+
+
+_PRODUCT = """#1=APPLICATION_PROTOCOL_DEFINITION('international standard','ap242',2014,#2);
+#2=APPLICATION_CONTEXT('managed model based 3d engineering');
+#3=PRODUCT_CONTEXT('',#2,'mechanical');
+#4=PRODUCT('p','p','',(#3));
+#5=PRODUCT_DEFINITION_FORMATION('','',#4);
+#6=PRODUCT_DEFINITION_CONTEXT('part definition',#2,'design');
+#7=PRODUCT_DEFINITION('design','',#5,#6);
+#8=PRODUCT_DEFINITION_SHAPE('','',#7);
+"""
+_CONTEXT = """#11=(GEOMETRIC_REPRESENTATION_CONTEXT(3) GLOBAL_UNCERTAINTY_ASSIGNED_CONTEXT((#15))
+GLOBAL_UNIT_ASSIGNED_CONTEXT((#12,#13,#14)) REPRESENTATION_CONTEXT('',''));
+#12=(LENGTH_UNIT() NAMED_UNIT(*) SI_UNIT(.MILLI.,.METRE.));
+#13=(NAMED_UNIT(*) PLANE_ANGLE_UNIT() SI_UNIT($,.RADIAN.));
+#14=(NAMED_UNIT(*) SI_UNIT($,.STERADIAN.) SOLID_ANGLE_UNIT());
+#15=UNCERTAINTY_MEASURE_WITH_UNIT(LENGTH_MEASURE(1.E-07),#12,'distance_accuracy_value','');
+"""
+#: Only a triangle (AP242 tessellated geometry): no B-rep.
+TESSELLATED = _step(
+    _PRODUCT
+    + _CONTEXT
+    + """#9=SHAPE_DEFINITION_REPRESENTATION(#8,#10);
+#10=TESSELLATED_SHAPE_REPRESENTATION('',(#20),#11);
+#16=COORDINATES_LIST('',3,((0.,0.,0.),(10.,0.,0.),(0.,10.,0.)));
+#20=TRIANGULATED_FACE('',#16,0,(),$,((1,2,3)));
+"""
+)
+#: Only a line segment (a wireframe): it transfers, but holds no face.
+CURVE_ONLY = _step(
+    _PRODUCT
+    + _CONTEXT
+    + """#9=SHAPE_DEFINITION_REPRESENTATION(#8,#10);
+#10=GEOMETRICALLY_BOUNDED_WIREFRAME_SHAPE_REPRESENTATION('',(#30),#11);
+#30=GEOMETRIC_CURVE_SET('',(#31));
+#31=TRIMMED_CURVE('',#32,(#36,PARAMETER_VALUE(0.)),(#37,PARAMETER_VALUE(1.)),.T.,.PARAMETER.);
+#32=LINE('',#33,#34);
+#33=CARTESIAN_POINT('',(0.,0.,0.));
+#34=VECTOR('',#35,1.);
+#35=DIRECTION('',(1.,0.,0.));
+#36=CARTESIAN_POINT('',(0.,0.,0.));
+#37=CARTESIAN_POINT('',(1.,0.,0.));
+"""
+)
+#: A product with no shape at all: nothing transfers.
+NO_SHAPE = _step(_PRODUCT)
+
+
+@pytest.mark.parametrize(
+    "content, name, fragment",
+    [
+        (TESSELLATED, "tessellated.step", "nothing in the STEP file transfers"),
+        (CURVE_ONLY, "curve.step", "no B-rep faces"),
+        (NO_SHAPE, "product.step", "STEP file"),
+    ],
+)
+def test_step_without_brep(work: Path, content: bytes, name: str, fragment: str) -> None:
+    (work / name).write_bytes(content)
+    code, _, err = run("compress", "-q", str(work / name))
+    _assert_clean_failure(work, code, err, str(work / name))
+    assert fragment in err
+    assert not (work / (name + ".nzc")).exists()
+
+
+def test_sample_cut_in_half(work: Path) -> None:
+    for sample in ("loft.step", "bracket.step"):
+        data = (SAMPLES / sample).read_bytes()
+        (work / "half.step").write_bytes(data[: len(data) // 2])
+        code, _, err = run("compress", "-q", "-f", str(work / "half.step"))
+        _assert_clean_failure(work, code, err, str(work / "half.step"))
+        assert not (work / "half.step.nzc").exists()
 
 
 def test_missing_file_and_directory(work: Path) -> None:
@@ -171,3 +253,23 @@ def test_eval_reports_deviation_and_topology(work: Path) -> None:
     assert code == 0 and "deviation:" in out and "worst faces:" in out
     code, _, err = run("eval", str(work / "part.step"), str(work / "missing.step"))
     assert code == 1 and err.startswith("error: ")
+
+
+def test_readme_lists_every_error_class() -> None:
+    """README's "Exit codes and errors" names every error class and exit code."""
+    import inspect
+
+    from nurbscomp import errors
+
+    readme = (SAMPLES.parent / "README.md").read_text()
+    section = readme.split("## Exit codes and errors")[1].split("\n## ")[0]
+    classes = [
+        n
+        for n, c in inspect.getmembers(errors, inspect.isclass)
+        if issubclass(c, errors.NurbscompError) and c is not errors.NurbscompError
+    ]
+    assert len(classes) >= 16
+    for name in classes:
+        assert f"`{name}`" in section, name
+    for code in ("| 0 |", "| 1 |", "| 2 |", "| 130 |"):
+        assert code in section

@@ -7,11 +7,15 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from nurbscomp import container
+from nurbscomp import container, entropy
 from nurbscomp.errors import (
     BadMagicError,
     ChecksumError,
+    CorruptError,
     FormatError,
+    LimitError,
+    ReservedBitsError,
+    TrailingDataError,
     TruncatedError,
     VersionError,
 )
@@ -32,6 +36,7 @@ def test_round_trip_is_byte_exact() -> None:
     st.lists(
         st.tuples(st.text("ABCDEFGHIJ", min_size=4, max_size=4), st.binary(max_size=300)),
         max_size=5,
+        unique_by=lambda s: s[0],
     )
 )
 @settings(max_examples=50, deadline=None)
@@ -102,8 +107,6 @@ def test_random_bytes_never_crash(noise: bytes) -> None:
 @given(st.binary(max_size=3000), st.integers(0, 255))
 @settings(max_examples=4, deadline=None)
 def test_every_coder_round_trips(raw: bytes, noise: int) -> None:
-    from nurbscomp import entropy
-
     data = raw + bytes(range(noise)) * 4  # something with repeats
     sizes = {}
     for c in entropy.Coder:
@@ -114,14 +117,66 @@ def test_every_coder_round_trips(raw: bytes, noise: int) -> None:
     assert len(out) == min(sizes.values())
 
 
-def test_tuned_lzma_settings_are_checked() -> None:
-    from nurbscomp import entropy
-    from nurbscomp.errors import CorruptError
+def test_lzma_tunings_decode_with_the_default_settings() -> None:
+    """The encoder's literal settings travel in the LZMA2 stream: one decoder reads them all."""
+    import lzma
 
-    data = bytes(range(256)) * 8
-    out = entropy._compress(entropy.Coder.LZMA_TUNED, data)
-    lc, lp, pb = entropy._props(out[0])
-    assert (lc, lp, pb) in entropy._TUNINGS
-    for bad in (bytes([(0 * 5 + 3) * 9 + 3]), bytes([225]), b""):  # lc+lp > 4, pb > 4, nothing
-        with pytest.raises(CorruptError):
-            entropy.decompress(entropy.Coder.LZMA_TUNED, bad + out[1:], len(data))
+    data = bytes(range(256)) * 8 + b"nurbscomp" * 50
+    for lc, lp, pb in entropy.LZMA_TUNINGS:
+        f = {"id": lzma.FILTER_LZMA2, "preset": 6, "lc": lc, "lp": lp, "pb": pb}
+        out = lzma.compress(data, format=lzma.FORMAT_RAW, filters=[f])
+        assert entropy.decompress(entropy.Coder.LZMA, out, len(data)) == data
+
+
+@pytest.mark.parametrize("coder", list(entropy.Coder)[1:], ids=lambda c: c.name)
+def test_decompression_bomb_is_not_inflated(coder: entropy.Coder) -> None:
+    """64 MiB of zeros declared as 1000 bytes: refused after at most 1001 bytes of output."""
+    import lzma
+
+    import brotli
+    import zstandard
+
+    zeros = bytes(64 << 20)
+    bomb = {
+        entropy.Coder.LZMA: lambda: lzma.compress(
+            zeros, format=lzma.FORMAT_RAW, filters=[{"id": lzma.FILTER_LZMA2, "preset": 1}]
+        ),
+        entropy.Coder.ZSTD: lambda: zstandard.ZstdCompressor(level=1).compress(zeros),
+        entropy.Coder.BROTLI: lambda: brotli.compress(zeros, quality=1),
+    }[coder]()
+    assert len(bomb) < len(zeros) // 100
+    with pytest.raises(CorruptError, match="1001 bytes, header says 1000"):
+        entropy.decompress(coder, bomb, 1000)
+    # a declared size above the reader's limit is refused before inflating
+    sections = [("BOMB", zeros[:1000])]
+    data = bytearray(container.pack(sections, coders=(coder,)))
+    data[16 + 12 + 4 : 16 + 12 + 8] = struct.pack("<I", container.MAX_RAW + 1)
+    data[16 + 4 : 16 + 8] = struct.pack("<I", container.MAX_RAW + 1)
+    with pytest.raises(LimitError):
+        container.unpack(_fix_crcs(bytes(data)))
+
+
+def _fix_crcs(data: bytes) -> bytes:
+    from .golden.make_golden import fix_crcs
+
+    return fix_crcs(data)
+
+
+def test_duplicate_tags_are_refused() -> None:
+    from .golden.make_golden import pack_raw
+
+    with pytest.raises(ValueError):
+        container.pack([("META", b"a"), ("META", b"b")])
+    with pytest.raises(CorruptError, match="appears twice"):
+        container.unpack(pack_raw([("META", b"a"), ("META", b"b")], 0))
+
+
+def test_reserved_bits_and_trailing_bytes_have_their_own_errors() -> None:
+    from .golden.make_golden import fix_crcs
+
+    data = bytearray(container.pack(SECTIONS))
+    data[6] |= 0x80
+    with pytest.raises(ReservedBitsError, match="offset 6"):
+        container.unpack(fix_crcs(bytes(data)))
+    with pytest.raises(TrailingDataError, match="offset"):
+        container.unpack(container.pack(SECTIONS) + b"xyz")

@@ -14,33 +14,24 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from OCP.APIHeaderSection import APIHeaderSection_MakeHeader
 from OCP.BinTools import BinTools
 from OCP.BRepTools import BRepTools
 from OCP.IFSelect import IFSelect_ReturnStatus
 from OCP.IGESControl import IGESControl_Reader, IGESControl_Writer
 from OCP.Interface import Interface_Static
 from OCP.Message import Message
+from OCP.StepBasic import StepBasic_Product
 from OCP.STEPControl import STEPControl_AsIs, STEPControl_Reader, STEPControl_Writer
+from OCP.StepRepr import StepRepr_NextAssemblyUsageOccurrence
+from OCP.TCollection import TCollection_HAsciiString
 from OCP.TColStd import TColStd_SequenceOfAsciiString
 
-from ..errors import InputError, OutputError
+from ..errors import InputError, OutputError, RebuildError
+from ..units import UNITS_MM
 
 # OCCT prints progress and statistics to stdout; the CLI owns stdout.
 Message.DefaultMessenger_s().ChangePrinters().Clear()
-
-#: Length units the writers know, with their size in millimetres.
-UNITS_MM = {
-    "MM": 1.0,
-    "CM": 10.0,
-    "M": 1000.0,
-    "KM": 1e6,
-    "UM": 1e-3,
-    "INCH": 25.4,
-    "FT": 304.8,
-    "MI": 1609344.0,
-    "MIL": 0.0254,
-    "UIN": 25.4e-6,
-}
 
 _STEP_UNIT_NAMES = {
     "millimetre": "MM",
@@ -144,6 +135,10 @@ def read_cad(path: str | os.PathLike[str]) -> CadFile:
     fmt = sniff_format(p, head)
     if fmt == "STEP":
         reader: Any = STEPControl_Reader()
+        # tessellated entities (AP242) hold no B-rep to store, and OCCT 7.9's
+        # transfer of a malformed one can crash the process: never read them
+        # (set after the reader exists: its controller's first set-up resets it)
+        Interface_Static.SetIVal_s("read.step.tessellated", 0)
     else:
         reader = IGESControl_Reader()
     status = reader.ReadFile(str(p))
@@ -193,8 +188,27 @@ def output_format(path: str | os.PathLike[str]) -> str:
     return "STEP"
 
 
-def write_shape(shape: Any, path: str | os.PathLike[str], fmt: str, unit: str = "MM") -> None:
+#: The STEP header's time stamp: fixed, so that the same shape gives the same bytes.
+STEP_TIME_STAMP = "1970-01-01T00:00:00"
+#: The IGES global section's dates, for the same reason.
+IGES_DATE = "19700101.000000"
+
+
+def write_shape(
+    shape: Any,
+    path: str | os.PathLike[str],
+    fmt: str,
+    unit: str = "MM",
+    name: str = "",
+    system: str = "",
+) -> None:
     """Write a shape to STEP, IGES or BREP.
+
+    STEP output depends on nothing but its arguments: the header's FILE_NAME
+    gets ``name``, ``system`` as the originating system and the fixed
+    ``STEP_TIME_STAMP`` rather than the wall clock, and the PRODUCT is named
+    after ``name`` (without its extension), so writing the same shape twice
+    gives the same bytes.
 
     Parameters
     ----------
@@ -205,8 +219,20 @@ def write_shape(shape: Any, path: str | os.PathLike[str], fmt: str, unit: str = 
         ``"STEP"``, ``"IGES"`` or ``"BREP"`` (see ``output_format``).
     unit : str
         A key of ``UNITS_MM``: the length unit written to the file.
+    name, system : str
+        STEP only: FILE_NAME's name and originating system.
+
+    Raises
+    ------
+    RebuildError
+        The STEP or IGES writer refuses the shape (a shape decoded from a
+        damaged container, say).
+    OutputError
+        The file cannot be written.
     """
     p = Path(path)
+    if unit not in UNITS_MM:
+        raise OutputError(f"unknown length unit {unit!r}")
     if fmt == "BREP":
         if not BRepTools.Write_s(shape, str(p)):
             raise OutputError("cannot write BREP")
@@ -214,8 +240,12 @@ def write_shape(shape: Any, path: str | os.PathLike[str], fmt: str, unit: str = 
     if fmt == "IGES":
         w = IGESControl_Writer("IN" if unit == "INCH" else unit, 1)
         if not w.AddShape(shape):
-            raise OutputError("the IGES writer refused the shape")
+            raise RebuildError("the IGES writer refused the shape")
         w.ComputeModel()
+        gs = w.Model().GlobalSection()  # dates fixed, like STEP's time stamp
+        gs.SetDate(TCollection_HAsciiString(IGES_DATE))
+        gs.SetLastChangeDate(TCollection_HAsciiString(IGES_DATE))
+        w.Model().SetGlobalSection(gs)
         if not w.Write(str(p)):
             raise OutputError("cannot write IGES")
         return
@@ -224,10 +254,32 @@ def write_shape(shape: Any, path: str | os.PathLike[str], fmt: str, unit: str = 
     sw = STEPControl_Writer()
     status = sw.Transfer(shape, STEPControl_AsIs)
     if status != IFSelect_ReturnStatus.IFSelect_RetDone:
-        raise OutputError(f"the STEP writer refused the shape ({status.name})")
+        raise RebuildError(f"the STEP writer refused the shape ({status.name})")
+    _name_products(sw.Model(), Path(name).stem or "shape")
+    header = APIHeaderSection_MakeHeader(sw.Model())
+    header.SetName(TCollection_HAsciiString(name))
+    header.SetTimeStamp(TCollection_HAsciiString(STEP_TIME_STAMP))
+    header.SetOriginatingSystem(TCollection_HAsciiString(system))
     status = sw.Write(str(p))
     if status != IFSelect_ReturnStatus.IFSelect_RetDone:
         raise OutputError(f"cannot write STEP ({status.name})")
+
+
+def _name_products(model: Any, name: str) -> None:
+    """Name the PRODUCTs of a STEP model after ``name`` (``name``, ``name 2`` …)
+    and number its assembly occurrences 1, 2 … in entity order: OCCT's own
+    names and ids count what was written before in the same process."""
+    products = occurrences = 0
+    for i in range(1, model.NbEntities() + 1):
+        e = model.Value(i)
+        if isinstance(e, StepBasic_Product):
+            products += 1
+            label = TCollection_HAsciiString(name if products == 1 else f"{name} {products}")
+            e.SetName(label)
+            e.SetId(label)
+        elif isinstance(e, StepRepr_NextAssemblyUsageOccurrence):
+            occurrences += 1
+            e.SetId(TCollection_HAsciiString(str(occurrences)))
 
 
 def bintools_bytes(shape: Any) -> bytes:

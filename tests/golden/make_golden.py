@@ -1,0 +1,333 @@
+"""Regenerate the golden files of format 1.0: ``python -m tests.golden.make_golden``.
+
+Run it **only when the format's major version changes**.  The golden files are
+the promise that every 1.x reader decodes what 1.0 wrote: a test
+(``tests/test_golden.py``) decodes them with the current code and compares
+with what was stored here when they were made.  Regenerating them to make a
+failing test pass breaks that promise.
+
+Written here:
+
+* ``<sample>.<mode>.nzc``: containers of the samples, lossless and at 0.01 mm;
+* ``expected.json``: per container, the format version, topology counts, a
+  SHA-256 of the decoded integer tables (:func:`int_digest`) and of the
+  decoded floats (:func:`float_digest`, informative only);
+* ``<sample>.<mode>.npz``: the decoded floats (:func:`model_floats`), compared
+  within 1e-12 (relative to max(1, |x|));
+* ``errors/*.nzc`` and ``errors/expected.json``: damaged containers, each with
+  the ``FormatError`` subclass and a fragment of the message it must raise
+  (``None``: it must decode).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import struct
+import zlib
+from pathlib import Path
+
+import numpy as np
+
+from nurbscomp import container, entropy, pipeline
+from nurbscomp.model import BRepModel, BSplineCurve, BSplineSurface
+from nurbscomp.streams import BlockReader, BlockWriter
+
+HERE = Path(__file__).resolve().parent
+SAMPLES = HERE.parent.parent / "samples"
+#: (sample, mode name, compress options)
+GOLDEN = [
+    ("loft.step", "lossless", {"lossless": True}),
+    ("loft.step", "tol0.01", {"tol": 0.01}),
+    ("teapot.step", "lossless", {"lossless": True}),
+    ("teapot.step", "tol0.01", {"tol": 0.01}),
+]
+
+
+def golden_name(sample: str, mode: str) -> str:
+    return f"{Path(sample).stem}.{mode}"
+
+
+# ---------------------------------------------------------------- what is compared
+
+
+def _records(m: BRepModel) -> list:
+    return [*m.surfaces, *m.curves3d, *m.curves2d]
+
+
+def int_arrays(m: BRepModel) -> dict[str, np.ndarray]:
+    """Every integer of a decoded model: topology tables and the geometry's
+    kinds, degrees, multiplicities and flags."""
+    geo = []
+    for g in _records(m):
+        geo.append([int(g.kind)])
+        if isinstance(g, BSplineSurface):
+            geo.append([g.udegree, g.vdegree, *g.poles.shape, g.uperiodic, g.vperiodic])
+            geo.append([*g.umults.tolist(), -1, *g.vmults.tolist(), g.weights is not None])
+        elif isinstance(g, BSplineCurve):
+            geo.append([g.degree, *g.poles.shape, g.periodic, *g.mults.tolist()])
+            geo.append([g.weights is not None])
+        elif hasattr(g, "basis"):
+            geo.append([g.basis])
+    out = {
+        "geometry": np.array([x for row in geo for x in row], np.int64),
+        "datum_forms": m.datum_forms,
+        "locations": np.array([x for loc in m.locations for x in (*loc.datums, *loc.powers)]),
+        "shape_type": m.shape_type,
+        "shape_flags": m.shape_flags,
+        "child_start": m.child_start,
+        "child_shape": m.child_shape,
+        "child_orient": m.child_orient,
+        "child_loc": m.child_loc,
+        "root": np.array([m.root_shape, m.root_orient, m.root_loc]),
+        "vertex_reps": m.vertex_reps,
+        "edge_flags": m.edge_flags,
+        "edge_reps": m.edge_reps,
+        "edge_rep_cont": m.edge_rep_cont,
+        "face_surface": m.face_surface,
+        "face_loc": m.face_loc,
+        "face_natural": m.face_natural,
+    }
+    return {k: np.asarray(v).astype(np.int64) for k, v in out.items()}
+
+
+def int_digest(m: BRepModel) -> str:
+    """SHA-256 of :func:`int_arrays`, in a fixed order and byte layout."""
+    h = hashlib.sha256()
+    for k, a in sorted(int_arrays(m).items()):
+        h.update(k.encode() + struct.pack("<Q", a.size) + a.astype("<i8").tobytes())
+    return h.hexdigest()
+
+
+def model_floats(m: BRepModel) -> dict[str, np.ndarray]:
+    """Every float of a decoded model, one array per kind of value."""
+
+    def cat(parts: list[np.ndarray]) -> np.ndarray:
+        return np.concatenate([np.asarray(p, float).reshape(-1) for p in parts] or [np.zeros(0)])
+
+    recs = _records(m)
+    spl = [g for g in recs if isinstance(g, (BSplineSurface, BSplineCurve))]
+    return {
+        "poles": cat([g.poles for g in spl]),
+        "weights": cat([g.weights for g in spl if g.weights is not None]),
+        "knots": cat([k for g in spl for k in _knots(g)]),
+        "frames": cat([g.frame for g in recs if hasattr(g, "frame")]),
+        "params": cat([g.params for g in recs if hasattr(g, "params")]),
+        "datums": m.datums.reshape(-1),
+        "vertex_point": m.vertex_point.reshape(-1),
+        "vertex_tol": m.vertex_tol,
+        "vertex_rep_params": m.vertex_rep_params.reshape(-1),
+        "edge_tol": m.edge_tol,
+        "edge_rep_range": m.edge_rep_range.reshape(-1),
+        "edge_rep_uv": m.edge_rep_uv.reshape(-1),
+        "face_tol": m.face_tol,
+    }
+
+
+def _knots(g: BSplineSurface | BSplineCurve) -> list[np.ndarray]:
+    return [g.uknots, g.vknots] if isinstance(g, BSplineSurface) else [g.knots]
+
+
+def float_digest(m: BRepModel) -> str:
+    h = hashlib.sha256()
+    for k, a in sorted(model_floats(m).items()):
+        h.update(k.encode() + a.astype("<f8").tobytes())
+    return h.hexdigest()
+
+
+def describe(data: bytes) -> dict:
+    """What the test compares: version, counts, digests."""
+    c = container.unpack(data)
+    m, meta = pipeline.decode(c)
+    return {
+        "format_version": f"{c.major}.{c.minor}",
+        "mode": meta["mode"],
+        "counts": m.counts(),
+        "geometry": [len(m.surfaces), len(m.curves3d), len(m.curves2d)],
+        "int_digest": int_digest(m),
+        "float_digest": float_digest(m),
+    }
+
+
+# ---------------------------------------------------------------- damaged files
+
+
+def fix_crcs(data: bytes) -> bytes:
+    """Recompute the header and body CRCs of (possibly damaged) container bytes."""
+    b = bytearray(data)
+    b[12:16] = struct.pack("<I", zlib.crc32(bytes(b[:12])))
+    body = 16 + 12 * struct.unpack_from("<H", b, 8)[0]
+    crc = zlib.crc32(bytes(b[body : body + 12]), zlib.crc32(bytes(b[16:body])))
+    b[body + 12 : body + 16] = struct.pack("<I", zlib.crc32(bytes(b[body + 16 :]), crc))
+    return bytes(b)
+
+
+def pack_raw(sections: list[tuple[str, bytes]], flags: int, minor: int = container.MINOR) -> bytes:
+    """``container.pack`` without its checks (duplicate tags allowed), any minor."""
+    d = b"".join(
+        struct.pack("<4sII", t.encode("latin-1"), len(r), zlib.crc32(r)) for t, r in sections
+    )
+    body = b"".join(r for _, r in sections)
+    stored = entropy._compress(entropy.Coder.STORED, body)
+    head = struct.pack("<4sBBHHH", container.MAGIC, container.MAJOR, minor, flags, len(sections), 0)
+    bh = struct.pack("<B3sII", 0, b"\0\0\0", len(body), len(stored))
+    return fix_crcs(head + b"\0" * 4 + d + bh + b"\0" * 4 + stored)
+
+
+def _replace(secs: list[tuple[str, bytes]], tag: str, raw: bytes) -> list[tuple[str, bytes]]:
+    return [(t, raw if t == tag else r) for t, r in secs]
+
+
+def _arrays(raw: bytes, tag: str) -> list[tuple[str, np.ndarray]]:
+    """A section's arrays as (kind, values), to edit one and write them back."""
+    r, out = BlockReader(raw, tag), []
+    while r.remaining:
+        kind = raw[len(raw) - r.remaining]
+        out.append(("f", r.floats()) if kind == 1 else ("i", r.ints()))
+    return out
+
+
+def _write_arrays(arrays: list[tuple[str, np.ndarray]]) -> bytes:
+    w = BlockWriter()
+    for kind, a in arrays:
+        (w.floats if kind == "f" else w.ints)(a)
+    return bytes(w)
+
+
+def damaged(base: bytes) -> dict[str, tuple[bytes, str | None, str | None]]:
+    """Damaged versions of ``base`` (a lossless container): name -> (bytes, error, fragment)."""
+    c = container.unpack(base)
+    secs = [(s.tag, s.raw) for s in c.sections]
+    nsec = len(secs)
+    body = 16 + 12 * nsec
+
+    def edit(off: int, value: bytes, crc: bool = True) -> bytes:
+        b = bytearray(base)
+        b[off : off + len(value)] = value
+        return fix_crcs(bytes(b)) if crc else bytes(b)
+
+    out: dict[str, tuple[bytes, str | None, str | None]] = {
+        "bad_magic": (b"ISO-10303-21;\n" + base[14:], "BadMagicError", "bad magic at offset 0"),
+        "empty": (b"", "BadMagicError", "bad magic"),
+        "truncated_header": (base[:10], "TruncatedError", "header truncated at offset 10"),
+        "truncated_body": (base[:-7], "TruncatedError", "remain"),
+        "header_crc": (edit(12, b"\0\0\0\0", crc=False), "ChecksumError", "offset 12"),
+        "body_crc": (
+            edit(len(base) - 3, bytes([base[-3] ^ 1]), crc=False),
+            "ChecksumError",
+            "body",
+        ),
+        "unknown_major": (edit(4, b"\x02"), "VersionError", "version 2.0 is not supported"),
+        "reserved_flags": (edit(6, b"\x03\x00"), "ReservedBitsError", "offset 6"),
+        "reserved_header": (edit(10, b"\x01\x00"), "ReservedBitsError", "offset 10"),
+        "reserved_body": (edit(body + 2, b"\x01"), "ReservedBitsError", f"offset {body + 1}"),
+        "trailing_bytes": (base + b"\0\0", "TrailingDataError", "2 unexpected bytes"),
+        "bomb": (edit(body + 4, struct.pack("<I", 2**32 - 1)), "LimitError", "declares"),
+        "bad_coder": (edit(body, b"\x09"), "CorruptError", "unknown coder id 9"),
+        "section_crc": (edit(16 + 8, b"\0\0\0\0"), "ChecksumError", "section META checksum"),
+        "bad_array_header": (
+            container.pack(_replace(secs, "SHAP", b"\x07" + c.get("SHAP")[1:]), c.flags),
+            "SectionError",
+            "section SHAP: bad array header at offset 0",
+        ),
+        "missing_section": (
+            container.pack([s for s in secs if s[0] != "EDGE"], c.flags),
+            "CorruptError",
+            "missing section EDGE",
+        ),
+        "out_of_order": (
+            container.pack([secs[0], secs[2], secs[1], *secs[3:]], c.flags),
+            "CorruptError",
+            "out of order",
+        ),
+        "duplicate_section": (pack_raw([*secs, secs[1]], c.flags), "CorruptError", "appears twice"),
+        "unknown_section": (
+            pack_raw([*secs, ("ZZZZ", b"")], c.flags),
+            "CorruptError",
+            "unknown section",
+        ),
+        "newer_minor_extra_section": (
+            pack_raw([*secs, ("ZZZZ", b"new")], c.flags, minor=9),
+            None,
+            None,
+        ),
+        "meta_not_json": (
+            container.pack(_replace(secs, "META", b"{not json"), c.flags),
+            "SectionError",
+            "META section is not valid JSON",
+        ),
+        "meta_bad_unit": (
+            container.pack(
+                _replace(secs, "META", c.get("META").replace(b'"MM"', b'"XX"')), c.flags
+            ),
+            "SectionError",
+            "unknown unit",
+        ),
+        "lossless_flag_mismatch": (container.pack(secs, 0), "CorruptError", "lossless flag"),
+    }
+    # a face whose surface index points past the surface table
+    face = _arrays(c.get("FACE"), "FACE")
+    face[0] = ("i", face[0][1].copy())
+    face[0][1][-1] += 10**6
+    out["dangling_reference"] = (
+        container.pack(_replace(secs, "FACE", _write_arrays(face)), c.flags),
+        "BadReferenceError",
+        "a face surface (entry",
+    )
+    # knots that do not increase
+    surf = _arrays(c.get("SURF"), "SURF")
+    knots = surf[-1][1].copy()
+    if len(knots) >= 2:
+        knots[1] = knots[0] - 1.0
+    surf[-1] = ("f", knots)
+    out["bad_knots"] = (
+        container.pack(_replace(secs, "SURF", _write_arrays(surf)), c.flags),
+        "SectionError",
+        "knots do not increase",
+    )
+    # a count inflated far past the section's bytes
+    shap = _arrays(c.get("SHAP"), "SHAP")
+    nk = shap[2][1].copy()
+    nk[0] = 2**40
+    shap[2] = ("i", nk)
+    out["inflated_count"] = (
+        container.pack(_replace(secs, "SHAP", _write_arrays(shap)), c.flags),
+        "SectionError",
+        "SHAP child counts",
+    )
+    # a plane whose frame is all zeros: the tables are consistent, OCCT refuses it
+    surf = _arrays(c.get("SURF"), "SURF")
+    frames = surf[5][1].copy()
+    frames[:12] = 0.0
+    surf[5] = ("f", frames)
+    out["rebuild_fails"] = (
+        container.pack(_replace(secs, "SURF", _write_arrays(surf)), c.flags),
+        "RebuildError",
+        "does not rebuild into a shape",
+    )
+    return out
+
+
+def main() -> None:
+    expected = {}
+    for sample, mode, opts in GOLDEN:
+        name = golden_name(sample, mode)
+        dst = HERE / f"{name}.nzc"
+        pipeline.compress_file(SAMPLES / sample, dst, force=True, **opts)  # type: ignore[arg-type]
+        data = dst.read_bytes()
+        expected[name] = describe(data)
+        m, _ = pipeline.decode(container.unpack(data))
+        np.savez_compressed(HERE / f"{name}.npz", **model_floats(m))
+    (HERE / "expected.json").write_text(json.dumps(expected, indent=1, sort_keys=True) + "\n")
+    errors = HERE / "errors"
+    errors.mkdir(exist_ok=True)
+    table = {}
+    base = (HERE / f"{golden_name('loft.step', 'lossless')}.nzc").read_bytes()
+    for name, (data, err, fragment) in sorted(damaged(base).items()):
+        (errors / f"{name}.nzc").write_bytes(data)
+        table[f"{name}.nzc"] = {"error": err, "message": fragment}
+    (errors / "expected.json").write_text(json.dumps(table, indent=1, sort_keys=True) + "\n")
+
+
+if __name__ == "__main__":
+    main()
