@@ -41,6 +41,8 @@ GOLDEN = [
     ("loft.step", "tol0.01", {"tol": 0.01}),
     ("teapot.step", "lossless", {"lossless": True}),
     ("teapot.step", "tol0.01", {"tol": 0.01}),
+    ("bracket.step", "lossless", {"lossless": True}),  # edge ranges from vertices (kind 4)
+    ("blob.step", "tol0.01", {"tol": 0.01}),  # bicubic Coons nets (methods 7, 8)
 ]
 
 
