@@ -26,6 +26,7 @@ import json
 import struct
 import zlib
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -267,43 +268,38 @@ def damaged(base: bytes) -> dict[str, tuple[bytes, str | None, str | None]]:
         ),
         "lossless_flag_mismatch": (container.pack(secs, 0), "CorruptError", "lossless flag"),
     }
-    # a face whose surface index points past the surface table
-    face = _arrays(c.get("FACE"), "FACE")
-    face[0] = ("i", face[0][1].copy())
-    face[0][1][-1] += 10**6
+
+    def edited(tag: str, index: int, edit: Any) -> bytes:
+        """The container with array ``index`` of section ``tag`` changed by ``edit``."""
+        arrays = _arrays(c.get(tag), tag)
+        kind, values = arrays[index]
+        values = values.copy()
+        edit(values)
+        arrays[index] = (kind, values)
+        return container.pack(_replace(secs, tag, _write_arrays(arrays)), c.flags)
+
+    def past_surfaces(a: np.ndarray) -> None:  # a face's surface index past the table
+        a[-1] += 10**6
+
+    def decreasing(a: np.ndarray) -> None:  # knots that do not increase
+        if len(a) >= 2:
+            a[1] = a[0] - 1.0
+
+    def inflated(a: np.ndarray) -> None:  # a count far past the section's bytes
+        a[0] = 2**40
+
+    def no_frame(a: np.ndarray) -> None:  # a plane with an all-zero frame: OCCT refuses it
+        a[:12] = 0.0
+
     out["dangling_reference"] = (
-        container.pack(_replace(secs, "FACE", _write_arrays(face)), c.flags),
+        edited("FACE", 0, past_surfaces),
         "BadReferenceError",
         "a face surface (entry",
     )
-    # knots that do not increase
-    surf = _arrays(c.get("SURF"), "SURF")
-    knots = surf[-1][1].copy()
-    if len(knots) >= 2:
-        knots[1] = knots[0] - 1.0
-    surf[-1] = ("f", knots)
-    out["bad_knots"] = (
-        container.pack(_replace(secs, "SURF", _write_arrays(surf)), c.flags),
-        "SectionError",
-        "knots do not increase",
-    )
-    # a count inflated far past the section's bytes
-    shap = _arrays(c.get("SHAP"), "SHAP")
-    nk = shap[2][1].copy()
-    nk[0] = 2**40
-    shap[2] = ("i", nk)
-    out["inflated_count"] = (
-        container.pack(_replace(secs, "SHAP", _write_arrays(shap)), c.flags),
-        "SectionError",
-        "SHAP child counts",
-    )
-    # a plane whose frame is all zeros: the tables are consistent, OCCT refuses it
-    surf = _arrays(c.get("SURF"), "SURF")
-    frames = surf[5][1].copy()
-    frames[:12] = 0.0
-    surf[5] = ("f", frames)
+    out["bad_knots"] = (edited("SURF", -1, decreasing), "SectionError", "knots do not increase")
+    out["inflated_count"] = (edited("SHAP", 2, inflated), "SectionError", "SHAP child counts")
     out["rebuild_fails"] = (
-        container.pack(_replace(secs, "SURF", _write_arrays(surf)), c.flags),
+        edited("SURF", 5, no_frame),
         "RebuildError",
         "does not rebuild into a shape",
     )
