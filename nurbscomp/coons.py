@@ -25,13 +25,37 @@ def full_knots(knots: np.ndarray, mults: np.ndarray) -> np.ndarray:
 
 
 def greville(knots: np.ndarray, mults: np.ndarray, degree: int, n: int) -> np.ndarray:
-    """Greville abscissae, û_i = (1/p)·Σ_{k=i+1}^{i+p} u_k (eq. 17, corrected), shape (n,)."""
+    """Greville abscissae, û_i = (1/p)·Σ_{k=i+1}^{i+p} u_k (eq. 17, corrected), shape (n,).
+
+    A periodic B-spline's knots (first and last multiplicities equal, n = Σ
+    mults − mults[0]) do not reach u_{n+p}: the sequence is then continued
+    periodically, u_{k+n} = u_k + (last knot − first knot), as far as the sum
+    needs (:func:`periodic_flat`).  A clamped or non-periodic sequence is long
+    enough and is used as it is.
+    """
     t = full_knots(knots, mults)
+    if len(t) < n + degree:
+        t = periodic_flat(t, int(np.asarray(mults)[0]), n, n + degree)
     if degree == 0:
         return t[:n].copy()
     c = np.concatenate([[0.0], np.cumsum(t)])
     i = np.arange(n)
     return (c[i + degree + 1] - c[i + 1]) / degree
+
+
+def periodic_flat(t: np.ndarray, m0: int, n: int, length: int) -> np.ndarray:
+    """The flat knot sequence ``t`` of a periodic B-spline with ``n`` poles,
+    continued to ``length`` knots by u_{k+n} = u_k + period.
+
+    ``m0`` is the first knot's multiplicity; the knots after the first
+    occurrence of the first knot, shifted by the period, follow the last.
+    """
+    period = t[-1] - t[0]
+    k = np.arange(len(t), length)
+    src = m0 + (k - len(t)) % max(n, 1)
+    turns = 1 + (k - len(t)) // max(n, 1)
+    src = np.minimum(src, len(t) - 1)
+    return np.concatenate([t, t[src] + turns * period])
 
 
 def unit_abscissae(g: np.ndarray) -> np.ndarray:

@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 from OCP.BRep import BRep_Tool
-from OCP.BRepCheck import BRepCheck_Analyzer
+from OCP.BRepCheck import BRepCheck_Analyzer, BRepCheck_NoError
 from OCP.BRepTools import BRepTools
 from OCP.BRepTopAdaptor import BRepTopAdaptor_FClass2d
 from OCP.GeomAPI import GeomAPI_ProjectPointOnSurf
@@ -154,20 +154,28 @@ def failures(shape: Any) -> tuple[set[int], set[int]]:
 
     A fault on a vertex counts against its edges; one on a wire, or on an edge
     in the context of a face, counts against that face too.
+
+    A valid shape is answered by one ``IsValid`` call.  Otherwise only the
+    faces and edges that ``IsValid`` rejects (with their edges and vertices)
+    have their statuses walked: ``IsValid`` of a face covers the statuses of
+    its wires, edges and vertices in its context, and of an edge those of its
+    vertices, so nothing outside them can carry a fault.
     """
     from OCP.TopTools import TopTools_IndexedDataMapOfShapeListOfShape
 
     a = BRepCheck_Analyzer(shape)
+    if a.IsValid():
+        return set(), set()
     em, fm, vm = _map(shape, TopAbs_EDGE), _map(shape, TopAbs_FACE), _map(shape, TopAbs_VERTEX)
     bad_e: set[int] = set()
     bad_f: set[int] = set()
 
     def faulty(r: Any) -> tuple[bool, list[Any]]:
-        own = any(x.name != "BRepCheck_NoError" for x in r.Status())
+        own = any(x != BRepCheck_NoError for x in r.Status())
         ctx = []
         r.InitContextIterator()
         while r.MoreShapeInContext():
-            if any(x.name != "BRepCheck_NoError" for x in r.StatusOnShape()):
+            if any(x != BRepCheck_NoError for x in r.StatusOnShape()):
                 ctx.append(r.ContextualShape())
             r.NextShapeInContext()
         return own, ctx
@@ -179,14 +187,24 @@ def failures(shape: Any) -> tuple[set[int], set[int]]:
             elif c.ShapeType() == TopAbs_EDGE:
                 bad_e.add(em.FindIndex(c) - 1)
 
-    for i in range(1, em.Extent() + 1):
+    suspect_f = [i for i in range(1, fm.Extent() + 1) if not a.IsValid(fm.FindKey(i))]
+    suspect_e = {i for i in range(1, em.Extent() + 1) if not a.IsValid(em.FindKey(i))}
+    for i in suspect_f:
+        sub = _map(fm.FindKey(i), TopAbs_EDGE)
+        suspect_e.update(em.FindIndex(sub.FindKey(k)) for k in range(1, sub.Extent() + 1))
+    suspect_v: set[int] = set()
+    for m, rows in ((em, suspect_e), (fm, suspect_f)):
+        for i in rows:
+            sub = _map(m.FindKey(i), TopAbs_VERTEX)
+            suspect_v.update(vm.FindIndex(sub.FindKey(k)) for k in range(1, sub.Extent() + 1))
+    for i in sorted(suspect_e):
         r = a.Result(em.FindKey(i))
         if r is not None:
             own, ctx = faulty(r)
             if own or ctx:
                 bad_e.add(i - 1)
             mark_context(ctx)
-    for i in range(1, fm.Extent() + 1):
+    for i in suspect_f:
         f = fm.FindKey(i)
         r = a.Result(f)
         if r is not None and any(faulty(r)):
@@ -199,7 +217,7 @@ def failures(shape: Any) -> tuple[set[int], set[int]]:
             exp.Next()
     v2e = TopTools_IndexedDataMapOfShapeListOfShape()
     TopExp.MapShapesAndAncestors_s(shape, TopAbs_VERTEX, TopAbs_EDGE, v2e)
-    for i in range(1, vm.Extent() + 1):
+    for i in sorted(suspect_v):
         v = vm.FindKey(i)
         r = a.Result(v)
         if r is not None and any(faulty(r)):
