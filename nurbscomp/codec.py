@@ -502,6 +502,9 @@ def _passing(
     return out
 
 
+#: Methods that differ from ``BOUNDARY`` only in a net's interior.
+_INTERIOR_METHODS = (Method.DDMAP, Method.DMAP, Method.BOUNDARY3, Method.DDMAP3)
+
 #: Largest interior (poles) the D-map is tried on.
 DMAP_MAX_INTERIOR = 900
 
@@ -564,6 +567,10 @@ def encode_net(
     limit = tol if limit is None else min(limit, tol)
     rungs = ladder(tol, limit)
     best: NetCode | None = None
+    if p.ndim == 3 and min(p.shape[:2]) <= 2:
+        # no interior: every Coons method decodes to the boundary method's net
+        # with the same integers, and the first of equal codes is kept anyway
+        methods = tuple(m for m in methods if m not in _INTERIOR_METHODS)
     for method in methods:
         dfit = None
         if method == Method.DMAP:

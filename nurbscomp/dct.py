@@ -8,8 +8,26 @@ on numpy arrays and transform along the leading axes, so xyz sits in the last.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 from scipy import fft
+
+
+#: Lengths up to this are transformed by a cached matrix product: on the
+#: small nets of real files (most have 2-16 poles a side) a call into
+#: scipy.fft costs far more than the arithmetic.  Longer ones use scipy.fft.
+MATRIX_MAX = 64
+
+
+@functools.lru_cache(maxsize=MATRIX_MAX + 1)
+def _matrix(n: int) -> np.ndarray:
+    """The orthonormal DCT-II matrix C (n, n): dct(v) = C @ v, idct(d) = C.T @ d."""
+    k = np.arange(n)[:, None]
+    c = np.cos(np.pi * k * (2 * np.arange(n)[None, :] + 1) / (2 * n)) * np.sqrt(2.0 / n)
+    c[0] /= np.sqrt(2.0)
+    c.setflags(write=False)
+    return c
 
 
 def dct1(v: np.ndarray) -> np.ndarray:
@@ -19,11 +37,15 @@ def dct1(v: np.ndarray) -> np.ndarray:
     ----------
     v : ndarray, shape (N, ...)
     """
+    if v.ndim == 2 and len(v) <= MATRIX_MAX:
+        return _matrix(len(v)) @ v
     return fft.dct(v, type=2, norm="ortho", axis=0)
 
 
 def idct1(d: np.ndarray) -> np.ndarray:
     """Inverse of :func:`dct1`."""
+    if d.ndim == 2 and len(d) <= MATRIX_MAX:
+        return _matrix(len(d)).T @ d
     return fft.idct(d, type=2, norm="ortho", axis=0)
 
 
@@ -34,11 +56,19 @@ def dct2(v: np.ndarray) -> np.ndarray:
     ----------
     v : ndarray, shape (N, M, ...)
     """
+    if v.ndim == 3 and max(v.shape[:2]) <= MATRIX_MAX:
+        n, m, c = v.shape
+        rows = _matrix(n) @ v.reshape(n, m * c)  # along axis 0
+        return (_matrix(m) @ rows.reshape(n, m, c)).reshape(n, m, c)  # along axis 1
     return fft.dctn(v, type=2, norm="ortho", axes=(0, 1))
 
 
 def idct2(d: np.ndarray) -> np.ndarray:
     """Inverse of :func:`dct2`."""
+    if d.ndim == 3 and max(d.shape[:2]) <= MATRIX_MAX:
+        n, m, c = d.shape
+        rows = _matrix(n).T @ d.reshape(n, m * c)
+        return (_matrix(m).T @ rows.reshape(n, m, c)).reshape(n, m, c)
     return fft.idctn(d, type=2, norm="ortho", axes=(0, 1))
 
 
