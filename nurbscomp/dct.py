@@ -13,7 +13,6 @@ import functools
 import numpy as np
 from scipy import fft
 
-
 #: Lengths up to this are transformed by a cached matrix product: on the
 #: small nets of real files (most have 2-16 poles a side) a call into
 #: scipy.fft costs far more than the arithmetic.  Longer ones use scipy.fft.

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import collections
 import contextlib
+import dataclasses
 import logging
 import os
 import tempfile
@@ -20,7 +21,8 @@ from typing import Any
 
 import numpy as np
 
-from . import __version__, container, lossy, occ, serialize
+from . import __version__, container, occ, serialize
+from .encode import validity
 from .errors import (
     CorruptError,
     InputError,
@@ -31,15 +33,12 @@ from .errors import (
     VerifyError,
 )
 from .model import (
-    REBUILD,
     BRepModel,
     BSplineCurve,
     BSplineSurface,
     Derived,
     Kind,
-    ShapeType,
     differences,
-    faces_around,
 )
 
 log = logging.getLogger(__name__)
@@ -148,16 +147,7 @@ def decode(c: container.Container) -> tuple[BRepModel, dict[str, Any]]:
     return m, meta
 
 
-def build(m: BRepModel) -> Any:
-    """The OCCT shape of a model, turning any OCCT failure into a ``RebuildError``."""
-    try:
-        return occ.model_to_shape(m)
-    except NurbscompError:
-        raise
-    except Exception as e:  # OCCT raises Standard_Failure subclasses on bad data
-        raise RebuildError(
-            f"container does not rebuild into a shape ({type(e).__name__}: {e})"
-        ) from None
+build = validity.build
 
 
 def write(shape: Any, path: Path, fmt: str, unit: str, meta: dict[str, Any]) -> None:
@@ -262,13 +252,15 @@ def compress_file(
         "source_bytes": src_p.stat().st_size,
         "writer": f"nurbscomp {__version__}",
     }
-    rebuilt = 0
+    rebuilt, built, vreport = 0, None, None
     if lossless:
         target, codes, lossy_report = m, {}, None
         flags = container.FLAG_LOSSLESS
     else:
         assert tol is not None and tol > 0
-        target, codes, lossy_report, rebuilt = _lossy_target(m, cad.shape, tol, step_safe)
+        t = validity.lossy_target(m, cad.shape, tol, step_safe)
+        target, codes, lossy_report, rebuilt = t.model, t.codes, t.report, t.pcurves_rebuilt
+        built, vreport = t.shape, t.validity
         flags = 0
     data = container.pack(serialize.model_to_sections(target, meta, codes), flags)
     verified = False
@@ -282,7 +274,9 @@ def compress_file(
             worst = max_net_displacement(m, back)
             if not lossless and worst > tol:
                 raise VerifyError(f"a decoded control net moved {worst:g} mm > tol {tol:g} mm")
-            if occ.counts(build(back)) != occ.counts(cad.shape):
+            # the decoded model is the target bit for bit, so it builds the
+            # shape the validity stage built from it
+            if occ.counts(build(back) if built is None else built) != occ.counts(cad.shape):
                 raise VerifyError("decoded shape has other topology counts than the input")
             verified = True
     seconds = time.perf_counter() - t0
@@ -308,6 +302,7 @@ def compress_file(
         "certified_faces": int((lossy_report.face_bound > 0).sum()) if lossy_report else 0,
         "sampled_faces": 0,
         "pcurves_rebuilt": rebuilt,
+        "validity": dataclasses.asdict(vreport) if vreport else {},
         "step_safe": step_safe and not lossless,
         "unit": m.unit,
         "source_format": m.source_format,
@@ -318,235 +313,6 @@ def compress_file(
         "read_seconds": t_read,
         "warnings": [*cad.warnings, *warnings],
     }
-
-
-def _lossy_target(
-    m: BRepModel, source: Any, tol: float, step_check: bool = True
-) -> tuple[BRepModel, dict[int, Any], lossy.LossyReport, int]:
-    """The cheapest decodable model that is as valid as the source.
-
-    Every B-spline net and curve is coded, and the pcurves left for the
-    decoder to compute (most pcurves in a B-rep read from STEP were computed
-    by OCCT on reading; storing them would cost more than everything else,
-    DESIGN §4a).  The B-rep the decoder will build is then checked with
-    BRepCheck.  For every edge or face with a fault the source does not have,
-    its stored pcurves come back; where they were already there, its curve
-    (then its faces' surfaces) or its surface (then its edges' curves) is kept
-    exact.  Twenty rounds at most; then the coded geometry with every pcurve
-    stored is tried, and failing that everything is exact.
-
-    With ``step_check``, the candidate must also survive OCCT's STEP write and
-    read with the topology OCCT's own round trip of the source keeps.  A face
-    that comes back otherwise (a reader "repairing" a gap) goes up one stage
-    a round: its vertices stay, then it and its edges are coded tighter
-    (:func:`lossy.tighten`), then kept exact, then with their pcurves; then
-    its neighbours.  If faces come back split, B-splines with C0 knots are
-    kept exact (:func:`lossy.kinked_records`).
-    """
-    floor, floor_valid = None, False
-    if step_check:
-        floor_shape = occ.step_round_trip(source, m.unit)
-        src_sig, floor_sig = occ.face_signatures(source), occ.face_signatures(floor_shape)
-        floor, src_counts = occ.counts(floor_shape), occ.counts(source)
-        floor_valid = occ.is_valid(floor_shape)
-    coded = lossy.code_model(m, tol)
-    faces_rec, edges_rec = lossy.face_records(m), lossy.edge_records(m)
-    faces_of = faces_around(m, ShapeType.EDGE)
-    near_faces = _vertex_neighbours(m, tol)
-    edges_of: list[list[int]] = [[] for _ in faces_rec]
-    for e, fs in enumerate(faces_of):
-        for f in fs:
-            edges_of[f].append(e)
-    old_e, old_f = occ.failures(source)
-    exact: set[int] = set()
-    keep_e: set[int] = set()
-    keep_f: set[int] = set()
-    step_exact: set[int] = set()
-    still_f: set[int] = set()
-    still_v: set[int] = set()
-    tight_f: set[int] = set()
-    originals = {id(g): g for g in [*m.surfaces, *m.curves3d]}
-    verts_of: list[list[int]] = [[] for _ in faces_rec]
-    for v, fs in enumerate(faces_around(m, ShapeType.VERTEX)):
-        for f in fs:
-            verts_of[f].append(v)
-    for _ in range(20):
-        target, codes, report = lossy.assemble(m, coded, exact, still_v)
-        cand = lossy.drop_pcurves(target, keep_e, keep_f)
-        cand = lossy.vertex_ranges(lossy.unit_curves(cand, codes), tol)
-        shape = build(cand)
-        bad_e, bad_f = occ.failures(shape)
-        new_e, new_f = bad_e - old_e, bad_f - old_f
-        log.debug(
-            "validity round: %d exact records, pcurves kept on %d faces; "
-            "new faults: %d edges, %d faces",
-            len(exact),
-            len(keep_f),
-            len(new_e),
-            len(new_f),
-        )
-        if not new_e and not new_f and floor is not None:
-            back = occ.step_round_trip(shape, m.unit)
-            # faults the re-read has where OCCT's own round trip is valid
-            faulty = occ.faulty_faces(back) if floor_valid else set()
-            if faulty or not step_keeps(src_counts, floor, occ.counts(back)):
-                new_f = _step_losses(src_sig, floor_sig, occ.face_signatures(back), tol, faulty)
-                log.debug(
-                    "STEP round trip %s != %s: faces %s", occ.counts(back), floor, sorted(new_f)
-                )
-                if not new_f:
-                    kinked = lossy.kinked_records(m)
-                    if kinked <= exact:
-                        break
-                    exact |= kinked
-                    continue
-                # first its vertices exact, then its geometry coded tighter, then
-                # exact, then its pcurves stored too, then the same for its
-                # neighbours (the cause is next door)
-                spent = still_f & tight_f & step_exact & keep_f  # every stage already taken
-                if new_f <= spent:
-                    wider = {g for f in new_f for e in edges_of[f] for g in faces_of[e]}
-                    if wider <= spent:
-                        wider = {g for f in new_f for g in near_faces[f]}
-                    if wider <= spent:
-                        break  # nothing left to keep here: the tiers below
-                    new_f = wider - spent
-                for f in new_f:
-                    if f not in still_f:  # first its vertices stay where they are
-                        still_f.add(f)
-                        still_v |= set(verts_of[f])
-                        continue
-                    if f not in tight_f:  # then it and its edges are coded tighter
-                        tight_f.add(f)
-                        ids = {faces_rec[f], *(edges_rec[e] for e in edges_of[f])}
-                        lossy.tighten(coded, [originals[i] for i in ids if i in originals])
-                        continue
-                    if f in step_exact:
-                        keep_f.add(f)
-                        keep_e |= set(edges_of[f])
-                    step_exact.add(f)
-                    exact.add(faces_rec[f])
-                    exact |= {edges_rec[e] for e in edges_of[f]}
-                continue
-        if not new_e and not new_f:
-            return cand, codes, report, int((cand.edge_reps[:, 2] == REBUILD).sum())
-        for e in new_e & keep_e:  # pcurves already stored: its curve, then its faces
-            if edges_rec[e] in exact:
-                exact |= {faces_rec[f] for f in faces_of[e]}
-            exact.add(edges_rec[e])
-        for f in new_f & keep_f:  # pcurves already stored: its surface, then its edges' curves
-            if faces_rec[f] in exact:
-                exact |= {edges_rec[e] for e in edges_of[f]}
-            exact.add(faces_rec[f])
-        keep_e |= new_e
-        keep_f |= new_f
-    # second tier: coded geometry with every pcurve stored, if that passes
-    target, codes, report = lossy.assemble(m, coded, exact, still_v)
-    if _passes(target, source, old_e, old_f, floor, floor_valid):
-        return target, codes, report, 0
-    target, codes, report = lossy.assemble(m, coded, set(coded.surfaces) | set(coded.curves))
-    return target, codes, report, 0
-
-
-def _vertex_neighbours(m: BRepModel, tol: float) -> list[set[int]]:
-    """Per face, the faces that share a vertex with it, or have one within tol
-    of one of its vertices (itself included).
-
-    A STEP reader re-projecting the edges at a tiny edge (trj7: 23 nm long,
-    between four faces) mends all four: two of them touch the others only
-    through a vertex of their own.
-    """
-    from scipy.spatial import cKDTree
-
-    around = faces_around(m, ShapeType.VERTEX)
-    for a, b in cKDTree(m.vertex_point).query_pairs(tol) if len(m.vertex_point) else ():
-        around[a] = around[b] = sorted({*around[a], *around[b]})
-    out: list[set[int]] = [set() for _ in range(len(m.face_surface))]
-    for fs in around:
-        for f in fs:
-            out[f].update(fs)
-    return out
-
-
-def _passes(
-    m: BRepModel,
-    source: Any,
-    old_e: set[int],
-    old_f: set[int],
-    floor: dict[str, int] | None,
-    floor_valid: bool = False,
-) -> bool:
-    """No BRepCheck fault the source lacks, and (with ``floor``) the STEP round trip's counts."""
-    shape = build(m)
-    bad_e, bad_f = occ.failures(shape)
-    if bad_e - old_e or bad_f - old_f:
-        return False
-    if floor is None:
-        return True
-    back = occ.step_round_trip(shape, m.unit)
-    if floor_valid and not occ.is_valid(back):
-        return False
-    return step_keeps(occ.counts(source), floor, occ.counts(back))
-
-
-def step_keeps(source: dict[str, int], floor: dict[str, int], back: dict[str, int]) -> bool:
-    """Whether a STEP re-read keeps at least what OCCT's own round trip keeps:
-    each count is at least as close to the source's as the floor's is."""
-    return all(abs(back[k] - source[k]) <= abs(floor[k] - source[k]) for k in source)
-
-
-def _step_losses(
-    src: np.ndarray, floor: np.ndarray, back: np.ndarray, tol: float, faulty: set[int] = frozenset()
-) -> set[int]:
-    """Source faces that come back from a candidate's STEP round trip like
-    neither the source face nor OCCT's own round trip of it (``floor``).
-
-    Arguments are face signatures (:func:`occ.face_signatures`); a face is
-    compared by its numbers of edges, shared edges and vertices (its outline
-    may move by more than tol where a coded neighbour trims it).  Each source
-    face's version in ``back`` and ``floor`` is the face at the same index when
-    the reader kept the order (for nine faces in ten the centroid at the same
-    index is within 3·tol of being the nearest), else the face with the
-    nearest centroid.  A face of ``back`` that is no source face's version and
-    is not like an extra face of the floor (a split piece, a new sliver), or
-    that is in ``faulty`` (BRepCheck faults), blames its source face.
-    """
-    from scipy.spatial import cKDTree
-
-    if not len(src) or not len(back):
-        return set(range(len(src)))
-    topo = slice(4, None)
-    to_src, to_back = cKDTree(src[:, 1:4]), cKDTree(back[:, 1:4])
-    idx = np.arange(len(src))
-    if len(back) == len(src):
-        # in order where face i of back is (one of) the nearest to source face i
-        near = to_src.query(back[:, 1:4])[0]
-        here = np.sqrt(((back[:, 1:4] - src[:, 1:4]) ** 2).sum(-1))
-        same_order = (here <= near + 3 * tol).mean() >= 0.9
-    if len(back) == len(src) and same_order:
-        in_back = idx
-    else:
-        in_back = to_back.query(src[:, 1:4])[1]
-    ok = (back[in_back, topo] == src[:, topo]).all(-1)
-    floor_extra = np.zeros((0, back.shape[1]))
-    if len(floor):
-        if len(floor) == len(src) and in_back is idx:  # the order holds there too
-            in_floor = idx
-        else:
-            in_floor = cKDTree(floor[:, 1:4]).query(src[:, 1:4])[1]
-        ok |= (back[in_back, topo] == floor[in_floor, topo]).all(-1)
-        floor_extra = floor[np.setdiff1d(np.arange(len(floor)), in_floor)]
-    lost = {int(i) for i in np.flatnonzero(~ok)}
-    source_of = {int(j): i for i, j in enumerate(in_back.tolist())}
-    for j in sorted(faulty):
-        lost.add(source_of[j] if j in source_of else int(to_src.query(back[j, 1:4])[1]))
-    for j in np.setdiff1d(np.arange(len(back)), in_back).tolist():
-        if len(floor_extra):
-            k = cKDTree(floor_extra[:, 1:4]).query(back[j, 1:4])[1]
-            if (floor_extra[k, topo] == back[j, topo]).all():
-                continue
-        lost.add(int(to_src.query(back[j, 1:4])[1]))
-    return lost
 
 
 def max_net_displacement(a: BRepModel, b: BRepModel) -> float:
