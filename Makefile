@@ -3,7 +3,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 PIP    := $(VENV)/bin/pip
 
-.PHONY: install test test-fast lint samples bench fuzz clean
+.PHONY: install test test-fast lint samples bench fuzz stress clean
 
 install: $(VENV)/bin/nurbscomp
 
@@ -44,6 +44,17 @@ FUZZ_CASES ?= 10000
 FUZZ_SEED  ?= 1
 fuzz: install
 	$(PY) -m tests.fuzz --cases $(FUZZ_CASES) --seed $(FUZZ_SEED)
+
+# The stress corpus (issue 10): ~210 generated shapes (fillets, shells, lofts,
+# sweeps, periodic, rational and degenerate B-spline faces, trimmed faces with
+# holes, instances, sewn shells, analytic faces) written as STEP, IGES BRep and
+# IGES faces, each compressed at 0.001, 0.01 and 0.1 mm, decoded and checked
+# (no crash, same counts, within tol, valid, no new free edges).  Minutes; not
+# part of `make test` (tests/test_stress.py is the short run).  STRESS_ARGS=
+# passes options: `--only periodic`, `--limit 40`, `--jobs 2`, `--out DIR`.
+STRESS_ARGS ?=
+stress: install
+	$(PY) -m tests.stress.run $(STRESS_ARGS)
 
 clean:
 	rm -rf $(VENV) build *.egg-info .pytest_cache
