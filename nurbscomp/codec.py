@@ -51,6 +51,7 @@ class Method(IntEnum):
     ISO = 6  # curves: a copy of a decoded surface's boundary (ints: surface row, side, reversed)
     BOUNDARY3 = 7  # surfaces: as BOUNDARY, with the bicubically blended Coons net
     DDMAP3 = 8  # surfaces: as DDMAP, with the bicubically blended Coons net
+    COPY = 9  # curves: a copy of an earlier decoded curve row (ints: row, reversed); format 1.1
 
 
 SURFACE_METHODS = (
@@ -64,6 +65,8 @@ SURFACE_METHODS = (
 #: Methods that predict the interior with the bicubically blended Coons net.
 BICUBIC = (Method.BOUNDARY3, Method.DDMAP3)
 CURVE_METHODS = (Method.DELTA, Method.CHORD)
+#: Every method a CNET row may hold: the coders, and copies of decoded poles.
+CURVE_COPIES = (*CURVE_METHODS, Method.ISO, Method.COPY)
 
 
 class Quant(IntEnum):

@@ -20,6 +20,7 @@ This costs no bits: it is a rule both sides apply to the same tables.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -349,3 +350,190 @@ def _boundary_match(g: BSplineCurve, s: Geometry) -> tuple[int, int] | None:
                     continue
             return side, rev
     return None
+
+
+# ------------------------------------------------------------ coincident curves and vertices
+
+#: Vertices closer than this (mm; OCCT's Precision::Confusion, the sewing
+#: tolerance of the free-edge measure) are one point to the encoder: they
+#: move together or stay together (:func:`vertex_clusters`).
+TWIN_VERTEX = 1e-7
+
+
+def vertex_clusters(points: np.ndarray, eps: float) -> np.ndarray:
+    """Per point, the first point of its cluster (points linked by distances ≤ eps).
+
+    Separate vertices at one place (the corners of an IGES surface model's
+    faces, of a STEP file's unshared edges) must land at one place again, or
+    the faces part there.
+    """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+
+    n = len(points)
+    if n == 0:
+        return np.zeros(0, np.int64)
+    pairs = cKDTree(points).query_pairs(eps, output_type="ndarray")
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+    _, label = connected_components(graph, directed=False)
+    first = np.full(label.max() + 1, n, np.int64)
+    np.minimum.at(first, label, np.arange(n))
+    return first[label]
+
+
+#: Curves whose poles agree within this (mm) are one boundary, coded once
+#: (:func:`twin_curves`); capped at tol/64 so the copy costs little of tol.
+TWIN_EPS = 1e-6
+
+
+@dataclass(frozen=True)
+class _Run:
+    """A row of poles with what makes it a curve: a B-spline curve, or one side of a net."""
+
+    poles: np.ndarray  # (n, 3)
+    weights: np.ndarray | None  # (n,)
+    knots: np.ndarray  # flat knot vector mapped onto [0, 1]
+    degree: int
+
+
+def _flat_unit(knots: np.ndarray, mults: np.ndarray) -> np.ndarray:
+    """A flat knot vector mapped onto [0, 1]."""
+    k = np.repeat(np.asarray(knots, float), np.asarray(mults, int))
+    span = k[-1] - k[0]
+    return (k - k[0]) / span if span > 0 else k * 0.0
+
+
+def _curve_run(g: BSplineCurve) -> _Run:
+    n = len(g.poles)
+    ends = (np.array([0.0, 1.0]), np.array([n, n])) if g.bezier else (g.knots, g.mults)
+    return _Run(g.poles, g.weights, _flat_unit(*ends), g.degree)
+
+
+def _side_run(g: BSplineSurface, side: int) -> _Run:
+    """Side ``side`` of a clamped net (``SIDES``) as a curve of its own."""
+    nu, nv = g.poles.shape[:2]
+    if side < 2:  # a row: along v
+        n, knots, mults, degree = nv, g.vknots, g.vmults, g.vdegree
+    else:
+        n, knots, mults, degree = nu, g.uknots, g.umults, g.udegree
+    if g.bezier:
+        knots, mults, degree = np.array([0.0, 1.0]), np.array([n, n]), n - 1
+    w = None if g.weights is None else boundary(g.weights[..., None], side, False)[:, 0]
+    return _Run(boundary(g.poles, side, False), w, _flat_unit(knots, mults), degree)
+
+
+def _twins(a: _Run, b: _Run, eps: float) -> tuple[int, float] | None:
+    """(reversed, distance) when ``b`` is ``a``'s point set up to ``eps``: same
+    degree, pole count and weights, knots equal (or mirrored) up to an affine
+    map, poles within ``eps`` in the same (or reversed) order; else None."""
+    if a.degree != b.degree or a.poles.shape != b.poles.shape or len(a.knots) != len(b.knots):
+        return None
+    if (a.weights is None) != (b.weights is None):
+        return None
+    for rev in (0, 1):
+        pb = b.poles[::-1] if rev else b.poles
+        kb = (1.0 - b.knots[::-1]) if rev else b.knots
+        if np.abs(kb - a.knots).max(initial=0.0) > 1e-12:
+            continue
+        if b.weights is not None and not np.array_equal(
+            b.weights[::-1] if rev else b.weights, a.weights
+        ):
+            continue
+        d = float(np.sqrt(((pb - a.poles) ** 2).sum(-1)).max())
+        if d <= eps:
+            return rev, d
+    return None
+
+
+def _pair_up(
+    runs: list[tuple[Any, _Run]],
+    eps: float,
+    leaders_only: set[Any] = frozenset(),  # type: ignore[assignment]
+) -> dict[Any, tuple[Any, int, float]]:
+    """``{member key: (leader key, reversed, distance)}`` over ``runs`` (in key
+    order): each run that is an earlier run up to ``eps`` (:func:`_twins`),
+    the earlier being the first of its kind and no member itself.  Keys in
+    ``leaders_only`` are never members."""
+    from scipy.spatial import cKDTree
+
+    if len(runs) < 2:
+        return {}
+    ends = np.array([np.concatenate([r.poles[0], r.poles[-1]]) for _, r in runs])
+    tree = cKDTree(ends)
+    out: dict[Any, tuple[Any, int, float]] = {}
+    for i, (key, a) in enumerate(runs):
+        if key in out:
+            continue
+        near = set(tree.query_ball_point(ends[i], 2 * eps))
+        near |= set(tree.query_ball_point(np.concatenate([ends[i, 3:], ends[i, :3]]), 2 * eps))
+        for j in sorted(near):
+            other, b = runs[j]
+            if j <= i or other in out or other in leaders_only:
+                continue
+            hit = _twins(a, b, eps)
+            if hit is not None:
+                out[other] = (key, *hit)
+    return out
+
+
+def twin_curves(
+    curves: list[Geometry],
+    rows: set[int],
+    eps: float,
+    iso: set[int] = frozenset(),  # type: ignore[assignment]
+) -> dict[int, tuple[int, int, float]]:
+    """Rows of ``rows`` whose B-spline curve is another row's up to ``eps``.
+
+    Returns ``{member row: (leader row, reversed, distance)}``.  Faces of an
+    IGES surface model (and of many STEP files) meet along separate edges
+    whose curves coincide, often with their poles reversed: coded
+    independently, they would part by up to tol, opening the gap the paper's
+    shared boundaries prevent.  A member is decoded as a copy of its
+    leader's final poles (``Method.COPY``).  Rows in ``iso`` (copies of a
+    surface's boundary, :func:`iso_sources`) lead first and are never members.
+    """
+    order = sorted(rows, key=lambda r: (r not in iso, r))
+    runs = [
+        (r, _curve_run(g))
+        for r in order
+        if isinstance(g := curves[r], BSplineCurve) and not g.periodic and g.poles.shape[1] == 3
+    ]
+    return _pair_up(runs, eps, iso)
+
+
+def joined_sides(g: BSplineSurface, lead: BSplineSurface, join: np.ndarray) -> np.ndarray:
+    """A copy of ``g``'s poles with side ``join[1]`` set to ``lead``'s side
+    ``join[3]`` (reversed if ``join[4]``); one row of ``BRepModel.side_joins``."""
+    _, side, _, lside, rev = (int(x) for x in join)
+    src = boundary(lead.poles, lside, bool(rev))
+    out = g.poles.copy()
+    dst = boundary(out, side, False)
+    if dst.shape != src.shape:
+        raise ValueError("a side join between sides of different lengths")
+    dst[...] = src
+    return out
+
+
+def twin_sides(
+    surfaces: list[Geometry], rows: list[int], eps: float
+) -> dict[tuple[int, int], tuple[tuple[int, int], int, float]]:
+    """Sides of clamped nets in ``rows`` that are an earlier side up to ``eps``.
+
+    Returns ``{(member row, side): ((leader row, side), reversed, distance)}``.
+    Untrimmed patches of a surface model meet along their natural boundaries;
+    each side is then set to its leader's decoded side (the SIDE section), so
+    neighbouring nets, and the iso-boundary curves copied from them, meet
+    exactly.  A degenerate side (all poles at one point) is left alone.
+    """
+    runs = []
+    for r in sorted(rows):
+        g = surfaces[r]
+        if not clamped_surface(g):
+            continue
+        assert isinstance(g, BSplineSurface)
+        for side in range(SIDES):
+            run = _side_run(g, side)
+            if np.ptp(run.poles, axis=0).max() > eps:
+                runs.append(((r, side), run))
+    return _pair_up(runs, eps)

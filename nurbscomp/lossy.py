@@ -104,12 +104,21 @@ class Coded:
     tol: float
     #: id(curve) -> (surface row, side, reversed): copied from a decoded surface
     iso: dict[int, tuple[int, int, int]] = field(default_factory=dict)
-    #: every vertex snapped to the vertex grid (used where all its edges' curves are coded)
+    #: every vertex snapped to the vertex grid (used where all its edges' curves are
+    #: coded): its cluster's first vertex's grid point (:func:`joins.vertex_clusters`)
     vgrid: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     #: ids of coded records held to a limit below tol (:func:`feature_limit`, :func:`tighten`)
     fine: set[int] = field(default_factory=set)
     #: ids of records coded again, tighter (:func:`tighten`)
     tight: set[int] = field(default_factory=set)
+    #: id(curve) -> (leader row, reversed): a copy of a coincident curve
+    #: (:func:`joins.twin_curves`), not coded itself
+    twins: dict[int, tuple[int, int]] = field(default_factory=dict)
+    #: (surface row, side) -> ((leader row, side), reversed): a side set to the
+    #: leader's decoded side (:func:`joins.twin_sides`)
+    sides: dict[tuple[int, int], tuple[tuple[int, int], int]] = field(default_factory=dict)
+    #: per vertex, the first vertex of its cluster
+    vlead: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
 
 
 #: A coded net moves by at most this fraction of its size (:func:`feature_limit`).
@@ -163,16 +172,20 @@ def _code_table(
     methods: tuple[codec.Method, ...],
     paper: bool,
     anchors: dict[int, np.ndarray] | None = None,
+    limits: dict[int, float] | None = None,
 ) -> dict[int, tuple[codec.NetCode, Geometry]]:
     """Code each distinct B-spline record of ``table`` (see :func:`code_model`);
-    ``anchors`` maps record ids to :func:`joins.anchors` points."""
+    ``anchors`` maps record ids to :func:`joins.anchors` points, ``limits``
+    to a limit below :func:`feature_limit`'s."""
     out: dict[int, tuple[codec.NetCode, Geometry]] = {}
     origin = None
     for g in table:
         if id(g) in out or id(g) in keep or not isinstance(g, (BSplineSurface, BSplineCurve)):
             continue
         at = (anchors or {}).get(id(g), origin)
-        out[id(g)] = _code_one(g, tol, methods, paper, at, feature_limit(g.poles, tol))
+        limit = feature_limit(g.poles, tol)
+        limit = min(limit, (limits or {}).get(id(g), limit))
+        out[id(g)] = _code_one(g, tol, methods, paper, at, limit)
         origin = out[id(g)][0].first
     return out
 
@@ -213,16 +226,31 @@ def code_model(m: BRepModel, tol: float, paper: bool = False) -> Coded:
 
     A curve whose ends the decoder would pin to vertices too far from the
     original ends (:func:`joins.overreaching`) is left exact.
+
+    Boundaries that coincide within ``joins.TWIN_EPS`` (or tol/64) are coded
+    once: a side of a net shared with an earlier net's side
+    (:func:`joins.twin_sides`) becomes that side after decoding, and a curve
+    that is an earlier curve (:func:`joins.twin_curves`) a copy of it.  The
+    first of each is coded to a limit that leaves its copies within theirs.
     """
+    eps = min(joins.TWIN_EPS, tol / 64)
+    keep_s = _offset_bases(m.surfaces, Kind.OFFSET_SURFACE, _TRIM_S)
+    srows0 = _first_rows(
+        m.surfaces, {id(g) for g in m.surfaces if isinstance(g, BSplineSurface)} - keep_s
+    )
+    sides = _affordable(m.surfaces, joins.twin_sides(m.surfaces, sorted(srows0), eps), tol)
     surfaces = _code_table(
         m.surfaces,
         tol,
-        _offset_bases(m.surfaces, Kind.OFFSET_SURFACE, _TRIM_S),
+        keep_s,
         codec.SURFACE_METHODS,
         paper,
+        limits=_leader_limits(m.surfaces, sides, tol),
     )
     h = serialize.vertex_grid(tol)
-    vgrid = np.rint(m.vertex_point / h).astype(np.int64) * h  # as the decoder computes it
+    # vertices at one point (within TWIN_VERTEX) snap as one: to their first's grid point
+    lead = joins.vertex_clusters(m.vertex_point, joins.TWIN_VERTEX)
+    vgrid = np.rint(m.vertex_point[lead] / h).astype(np.int64) * h  # as the decoder reads it
     snapped: Any = replace(m)
     snapped.vertex_point = vgrid
     decoded_s = [surfaces[id(g)][1] if id(g) in surfaces else g for g in m.surfaces]
@@ -241,20 +269,37 @@ def code_model(m: BRepModel, tol: float, paper: bool = False) -> Coded:
     crows = _first_rows(m.curves3d, {k: v for k, v in candidates.items() if k not in keep_c})
     iso = joins.iso_sources(m, crows, _first_rows(m.surfaces, surfaces))
     iso_ids = {id(m.curves3d[c]): src for c, src in iso.items()}
+    twins = _affordable(m.curves3d, joins.twin_curves(m.curves3d, crows, eps, set(iso)), tol)
+    twin_ids = {id(m.curves3d[c]): (r, rev) for c, (r, rev, _) in twins.items()}
+    limits = _leader_limits(m.curves3d, twins, tol)
+    for c, (r, _, d) in twins.items():  # a surface whose boundary leads is coded to suit
+        if r in iso:
+            sg = m.surfaces[iso[r][0]]
+            need = feature_limit(m.curves3d[c].poles, tol) - d  # type: ignore[union-attr]
+            code = surfaces[id(sg)][0] if id(sg) in surfaces else None
+            if code is not None and code.bound > need:
+                assert isinstance(sg, BSplineSurface)
+                surfaces[id(sg)] = _code_one(
+                    sg, tol, codec.SURFACE_METHODS, paper, code.origin, need
+                )
     at = joins.anchors(m, m.curves3d, crows)
     coded = Coded(
         surfaces,
         _code_table(
             m.curves3d,
             tol,
-            keep_c | set(iso_ids),
+            keep_c | set(iso_ids) | set(twin_ids),
             codec.CURVE_METHODS,
             paper,
             {id(m.curves3d[r]): a for r, a in at.items()},
+            limits,
         ),
         tol,
         iso_ids,
         vgrid,
+        twins=twin_ids,
+        vlead=lead,
+        sides={k: (lead_side, rev) for k, (lead_side, rev, _) in sides.items()},
     )
     decoded = [coded.curves[id(g)][1] if id(g) in coded.curves else g for g in m.curves3d]
     rows = {i for i, g in enumerate(m.curves3d) if id(g) in coded.curves}
@@ -267,6 +312,31 @@ def code_model(m: BRepModel, tol: float, paper: bool = False) -> Coded:
             if isinstance(g, (BSplineSurface, BSplineCurve)) and feature_limit(g.poles, tol) < tol:
                 coded.fine.add(id(g))
     return coded
+
+
+def _affordable(table: list[Geometry], pairs: dict[Any, Any], tol: float) -> dict[Any, Any]:
+    """The twin pairs (``{member: (leader, reversed, distance)}``, keys a row or
+    (row, side)) whose distance is at most half the member's limit: the
+    leader is coded to the rest (:func:`_leader_limits`)."""
+    out = {}
+    for k, v in pairs.items():
+        row = k[0] if isinstance(k, tuple) else k
+        if v[2] <= feature_limit(table[row].poles, tol) / 2:  # type: ignore[union-attr]
+            out[k] = v
+    return out
+
+
+def _leader_limits(table: list[Geometry], pairs: dict[Any, Any], tol: float) -> dict[int, float]:
+    """``{id(leader): limit}``: a leader coded to this leaves each copy of it,
+    which moves by the leader's bound plus their distance, within the copy's limit."""
+    out: dict[int, float] = {}
+    for k, (lead, _, d) in pairs.items():
+        row = k[0] if isinstance(k, tuple) else k
+        lrow = lead[0] if isinstance(lead, tuple) else lead
+        key = id(table[lrow])
+        own = out.get(key, feature_limit(table[lrow].poles, tol))  # type: ignore[union-attr]
+        out[key] = min(own, feature_limit(table[row].poles, tol) - d)  # type: ignore[union-attr]
+    return out
 
 
 def _first_rows(table: list[Geometry], ids: dict[int, Any] | set[int]) -> set[int]:
@@ -350,12 +420,26 @@ def assemble(
                 out.append(hit[1])
         return out
 
+    # a boundary coded once is exact on every side or on none: an exact copy's
+    # leader is exact too
+    exact = exact | {id(m.curves3d[r]) for k, (r, _) in coded.twins.items() if k in exact}
+    while True:
+        more = {
+            id(m.surfaces[a])
+            for (b, _), ((a, _), _) in coded.sides.items()
+            if id(m.surfaces[b]) in exact
+        } - exact
+        if not more:
+            break
+        exact = exact | more
     surfaces = swap(m.surfaces, coded.surfaces)
     curves = swap(m.curves3d, coded.curves)
     m, moved_v = _snap_vertices(m, coded, surfaces, curves, codes, exact, still)
     _pin_surfaces(m, surfaces, codes, coded.tol)
+    side_joins = _join_sides(m, coded, surfaces, codes)
     _copy_iso(m, coded, surfaces, curves, codes, exact)
     _pin_curves(m, curves, codes, coded.tol)
+    _copy_twins(m, coded, curves, codes, exact)
     bound_of = {k: c.bound for k, c in codes.items()}
 
     def curve_bound(i: int) -> float:
@@ -380,6 +464,7 @@ def assemble(
         edge_bound[reps[q, 0]] = max(edge_bound[reps[q, 0]], curve_bound(int(reps[q, 2])))
     out = _widen_tolerances(m, face_bound, edge_bound, moved_v)
     out.surfaces, out.curves3d = surfaces, curves
+    out.side_joins = side_joins
     sc = [codes[id(g)] for g in {id(g): g for g in surfaces if id(g) in codes}.values()]
     cc = [codes[id(g)] for g in {id(g): g for g in curves if id(g) in codes}.values()]
     report = LossyReport(
@@ -438,7 +523,9 @@ def _snap_vertices(
             for v in below(m, s, ShapeType.VERTEX):
                 ok[tidx[v]] = False
     ok[sorted(still)] = False
-    ok &= ~_merging(m.vertex_point, coded.vgrid)
+    lead = coded.vlead if len(coded.vlead) == len(ok) else np.arange(len(ok))
+    ok &= ~_merging(m.vertex_point[lead], coded.vgrid)
+    ok &= ~np.isin(lead, lead[~ok])  # a cluster moves as one or stays
     out: Any = replace(m)
     out.vertex_point = np.where(ok[:, None], coded.vgrid, m.vertex_point)
     moved = np.sqrt(((out.vertex_point - m.vertex_point) ** 2).sum(-1))
@@ -512,6 +599,61 @@ def _copy_iso(
         bound = _moved(poles, g.poles)
         code = codec.NetCode(codec.Method.ISO, codec.Quant.TOL, 0, 0, ints, np.zeros(0), bound, 0.0)
         codes[id(new)] = replace(code, first=poles[0].copy())
+        _replace_all(curves, g, new)
+
+
+def _join_sides(
+    m: BRepModel, coded: Coded, surfaces: list[Geometry], codes: dict[int, codec.NetCode]
+) -> np.ndarray:
+    """Set each coded net's twin sides to their leaders' (as the decoder does after
+    the corner pins); the rows of ``BRepModel.side_joins``, shape (J, 5)."""
+    rows = []
+    for (b, j), ((a, i), rev) in sorted(coded.sides.items()):
+        old, original = surfaces[b], m.surfaces[b]
+        if id(old) not in codes:
+            continue  # exact: its leader is exact too (see assemble)
+        assert isinstance(old, BSplineSurface) and isinstance(original, BSplineSurface)
+        row = np.array([b, j, a, i, rev], np.int64)
+        new = replace(old, poles=joins.joined_sides(old, surfaces[a], row))  # type: ignore[arg-type]
+        code = codes.pop(id(old))
+        codes[id(new)] = replace(code, bound=max(code.bound, _moved(new.poles, original.poles)))
+        _replace_all(surfaces, old, new)
+        rows.append(row)
+    return np.array(rows, np.int64).reshape(-1, 5)
+
+
+def _copy_twins(
+    m: BRepModel,
+    coded: Coded,
+    curves: list[Geometry],
+    codes: dict[int, codec.NetCode],
+    exact: set[int],
+) -> None:
+    """Curves coincident with a coded curve become copies of its final (decoded
+    and pinned) poles (``Method.COPY``; :func:`joins.twin_curves`), as the
+    decoder makes them after the pins.  A copy is not pinned itself: it
+    coincides with its leader, ends included.  A copy that would move further
+    than its limit (a leader that is a coded surface's boundary, coded to the
+    surface's limit) stays exact."""
+    for c, g in enumerate(m.curves3d):
+        twin = coded.twins.get(id(g))
+        if twin is None or id(g) in exact or curves[c] is not g:
+            continue
+        r, rev = twin
+        if id(curves[r]) not in codes:
+            continue  # the leader is exact: so is this curve, as it is
+        assert isinstance(g, BSplineCurve)
+        lead = curves[r].poles  # type: ignore[union-attr]
+        poles = (lead[::-1] if rev else lead).copy()
+        bound = _moved(poles, g.poles)
+        if bound > feature_limit(g.poles, coded.tol):
+            continue
+        ints = np.array([c - r, rev], np.int64)  # the leader as an offset from this row
+        code = codec.NetCode(
+            codec.Method.COPY, codec.Quant.TOL, 0, 0, ints, np.zeros(0), bound, 0.0
+        )
+        new = replace(g, poles=poles)
+        codes[id(new)] = code
         _replace_all(curves, g, new)
 
 

@@ -257,6 +257,10 @@ class BRepModel:
     face_surface, face_loc : ndarray of int64, shape (F,)
     face_tol : ndarray, shape (F,)
     face_natural : ndarray of bool, shape (F,)
+    side_joins : ndarray of int64, shape (J, 5)
+        Tolerance mode: rows (surface, side, leader surface, leader side,
+        reversed), applied in order after the nets are decoded: that side of
+        the surface's net becomes the leader's side (``joins.twin_sides``).
     root_shape, root_orient, root_loc : int
     unit : str
         The source file's length unit name (``"MM"``, ``"CM"``, ``"INCH"``...).
@@ -290,6 +294,7 @@ class BRepModel:
     face_loc: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     face_tol: np.ndarray = field(default_factory=lambda: np.zeros(0))
     face_natural: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
+    side_joins: np.ndarray = field(default_factory=lambda: np.zeros((0, 5), np.int64))
     root_shape: int = -1
     root_orient: int = 0
     root_loc: int = 0
@@ -336,6 +341,7 @@ _ARRAY_FIELDS = (
     "face_loc",
     "face_tol",
     "face_natural",
+    "side_joins",
 )
 
 

@@ -135,7 +135,7 @@ def decode(c: container.Container) -> tuple[BRepModel, dict[str, Any]]:
     """
     serialize.check_layout(c.tags(), c.minor, container.MINOR)
     try:
-        m, meta = serialize.sections_to_model(c.get)
+        m, meta = serialize.sections_to_model(c.get, min(c.minor, container.MINOR))
     except NurbscompError:
         raise
     except (ValueError, IndexError, KeyError, TypeError, ArithmeticError, RecursionError) as e:

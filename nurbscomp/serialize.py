@@ -756,6 +756,9 @@ def _write_nets(
         if id(g) in codes and id(g) not in seen:
             seen.add(id(g))
             code = codes[id(g)]
+            if code.method == codec.Method.COPY:  # filled last: not on the origin chain
+                order.append(code)
+                continue
             if code.method != codec.Method.ISO:  # an ISO code holds references, no point
                 code = codec.reorigin(code, anchors.get(row, origin), tol)
             order.append(code)
@@ -776,8 +779,11 @@ def _read_nets(
     tag: str,
     anchors: dict[int, np.ndarray] | None = None,
     surfaces: list[Geometry] | None = None,
-) -> None:
+) -> list[tuple[int, int, codec.NetCode]]:
     """Decode a SNET/CNET section into the poles of the coded rows, in row order.
+
+    ``Method.COPY`` rows are left for :func:`_fill_copies` and returned as
+    (net number, row, code).
 
     Each net's first pole is coded against the previous net's decoded first
     pole (the origin chain of :func:`codec.encode_net`).
@@ -798,11 +804,12 @@ def _read_nets(
         raise SectionError(f"{tag}: bad quantizer slope")
     if n and np.abs(level).max() > MAX_LEVEL:
         raise SectionError(f"{tag}: quantizer level out of range")
-    allowed = codec.SURFACE_METHODS if tag == "SNET" else (*codec.CURVE_METHODS, codec.Method.ISO)
+    allowed = codec.SURFACE_METHODS if tag == "SNET" else codec.CURVE_COPIES
     if n and not np.isin(method, [int(x) for x in allowed]).all():
         raise SectionError(f"{tag}: a coding method that does not apply to this table")
     origin = None
     dpos = 0
+    copies: list[tuple[int, int, codec.NetCode]] = []
     for k, row in enumerate(rows):
         g = records[row]
         try:
@@ -817,6 +824,9 @@ def _read_nets(
                 0.0,
             )
             s, t = net_abscissae(g)
+            if code.method == codec.Method.COPY:
+                copies.append((k, row, code))
+                continue
             if code.method == codec.Method.ISO:
                 net, used = _iso_copy(code, g, surfaces or []), 0
             else:
@@ -831,6 +841,19 @@ def _read_nets(
     ints.done()
     if dpos != len(dcs):
         raise SectionError(f"{tag}: unread DC coefficients from value {dpos}")
+    return copies
+
+
+def _fill_copies(copies: list[tuple[int, int, codec.NetCode]], records: list[Geometry]) -> None:
+    """Set the poles of ``Method.COPY`` rows (CNET), after every other row is
+    decoded and pinned: each is its leader row's final poles."""
+    leaders = {row for _, row, _ in copies}
+    for k, row, code in copies:
+        try:
+            net = _twin_copy(code, row, records, leaders)
+        except ValueError as e:
+            raise SectionError(f"CNET: net {k} (table row {row}): {e}") from None
+        records[row].poles[...] = net  # type: ignore[union-attr]
 
 
 # ---------------------------------------------------------------- whole model
@@ -860,7 +883,50 @@ def model_to_sections(
         ("VERT", _write_vertices(m, tol)),
         ("EDGE", _write_edges(m)),
         ("FACE", _write_faces(m)),
+        *([("SIDE", _write_sides(m))] if len(m.side_joins) else []),
     ]
+
+
+def _write_sides(m: BRepModel) -> bytes:
+    """``m.side_joins`` (format 1.1): the count, then per column: the surface
+    rows as deltas (they increase), the sides, each leader row as the surface
+    row minus it, the leader sides, the reversed flags."""
+    w = BlockWriter()
+    j = m.side_joins.reshape(-1, 5)
+    w.ints([len(j)])
+    w.deltas(j[:, 0])
+    w.ints(j[:, 1])
+    w.ints(j[:, 0] - j[:, 2])
+    w.ints(j[:, 3])
+    w.ints(j[:, 4])
+    return bytes(w)
+
+
+def _read_sides(data: bytes, m: BRepModel, coded: set[int]) -> None:
+    """Read SIDE into ``m.side_joins`` and apply each join, in order, to the
+    decoded nets (after SNET and the corner pins, before CNET)."""
+    r = BlockReader(data, "SIDE")
+    (n,) = r.ints(1)
+    if n < 0:
+        raise SectionError("SIDE: negative count")
+    cols = [r.deltas(int(n)), *(r.ints(int(n)) for _ in range(4))]
+    r.done()
+    cols[2] = cols[0] - cols[2]
+    rows = np.stack(cols, axis=1).astype(np.int64).reshape(-1, 5)
+    for k, (b, side, a, lside, rev) in enumerate(rows.tolist()):
+        where = f"SIDE row {k}"
+        if b not in coded or not 0 <= a < len(m.surfaces):
+            raise BadReferenceError(f"{where}: refers to a missing or uncoded surface row")
+        if not (0 <= side < joins.SIDES and 0 <= lside < joins.SIDES and rev in (0, 1)):
+            raise SectionError(f"{where}: no such side")
+        g, lead = m.surfaces[b], m.surfaces[a]
+        if not (joins.clamped_surface(g) and joins.clamped_surface(lead)):
+            raise SectionError(f"{where}: joins a surface that is not a clamped B-spline")
+        try:
+            g.poles[...] = joins.joined_sides(g, lead, np.array([b, side, a, lside, rev]))  # type: ignore[arg-type,union-attr]
+        except ValueError as e:
+            raise SectionError(f"{where}: {e}") from None
+    m.side_joins = rows
 
 
 def _iso_copy(code: codec.NetCode, g: Geometry, surfaces: list[Geometry]) -> np.ndarray:
@@ -878,6 +944,28 @@ def _iso_copy(code: codec.NetCode, g: Geometry, surfaces: list[Geometry]) -> np.
     return poles.copy()
 
 
+def _twin_copy(
+    code: codec.NetCode, row: int, curves: list[Geometry], copies: set[int]
+) -> np.ndarray:
+    """The poles of a curve row coded as a copy of another row's (``Method.COPY``,
+    ints: this row minus the other, reversed flag): the other row's final
+    poles (decoded and pinned), reversed if the flag says so.  The other row
+    is a B-spline curve that is not a copy itself."""
+    g = curves[row]
+    if len(code.ints) != 2:
+        raise ValueError("a COPY code holds two integers")
+    back, rev = (int(x) for x in code.ints)
+    r = row - back
+    if not 0 <= r < len(curves) or r in copies or not isinstance(curves[r], BSplineCurve):
+        raise ValueError("a COPY code refers to no B-spline curve that is not a copy")
+    if rev not in (0, 1):
+        raise ValueError("a COPY code's reversed flag is not 0 or 1")
+    poles = curves[r].poles  # type: ignore[union-attr]
+    if poles.shape != g.poles.shape:  # type: ignore[union-attr]
+        raise ValueError("a COPY code's curve has another number of poles")
+    return (poles[::-1] if rev else poles).copy()
+
+
 def _curve_anchors(m: BRepModel, codes: dict[int, codec.NetCode]) -> dict[int, np.ndarray]:
     rows = {}
     for i, g in enumerate(m.curves3d):
@@ -888,6 +976,13 @@ def _curve_anchors(m: BRepModel, codes: dict[int, codec.NetCode]) -> dict[int, n
 
 #: The sections of format 1.0, in the order they are written and must be read.
 SECTIONS = ("META", "LOCS", "SURF", "SNET", "CRV3", "CNET", "CRV2", "SHAP", "VERT", "EDGE", "FACE")
+#: What each minor version adds, after the sections of the minors before it.
+ADDED = {1: ("SIDE",)}
+
+
+def layout(minor: int) -> tuple[str, ...]:
+    """The sections a file of format 1.``minor`` holds, in order (as far as this reader knows)."""
+    return SECTIONS + tuple(t for k, tags in sorted(ADDED.items()) if k <= minor for t in tags)
 
 
 def check_layout(tags: list[str], minor: int, reader_minor: int) -> None:
@@ -902,15 +997,17 @@ def check_layout(tags: list[str], minor: int, reader_minor: int) -> None:
     CorruptError
         A section is missing, out of order, or unknown.
     """
-    known = [t for t in tags if t in SECTIONS]
+    order = layout(min(minor, reader_minor))
+    known = [t for t in tags if t in order]
     for t in tags:
-        if t not in SECTIONS and minor <= reader_minor:
+        if t not in order and minor <= reader_minor:
             raise CorruptError(f"unknown section {t!r} (position {tags.index(t)})")
     for t in SECTIONS:
         if t not in known:
             raise CorruptError(f"missing section {t}")
-    if known != list(SECTIONS):
-        bad = next(i for i, (a, b) in enumerate(zip(known, SECTIONS)) if a != b)
+    expect = [t for t in order if t in known]  # the sections a later minor added are optional
+    if known != expect:
+        bad = next(i for i, (a, b) in enumerate(zip(known, expect)) if a != b)
         raise CorruptError(f"section {known[bad]} out of order (position {tags.index(known[bad])})")
 
 
@@ -952,8 +1049,11 @@ def read_meta(raw: bytes) -> dict[str, Any]:
     return meta
 
 
-def sections_to_model(get: Any) -> tuple[BRepModel, dict[str, Any]]:
+def sections_to_model(get: Any, minor: int | None = None) -> tuple[BRepModel, dict[str, Any]]:
     """Rebuild a model from a section lookup ``get(tag) -> bytes``; check every reference.
+
+    ``minor`` is the file's minor version, capped at this reader's (default:
+    the newest this reader knows, ``max(ADDED)``): it says which sections there are.
 
     Raises
     ------
@@ -965,10 +1065,19 @@ def sections_to_model(get: Any) -> tuple[BRepModel, dict[str, Any]]:
         Coded nets larger than a reader allocates.
     """
     with np.errstate(all="ignore"):  # overflows become non-finite values, refused by name
-        return _sections_to_model(get)
+        return _sections_to_model(get, max(ADDED) if minor is None else minor)
 
 
-def _sections_to_model(get: Any) -> tuple[BRepModel, dict[str, Any]]:
+def _optional(get: Any, tag: str) -> bytes | None:
+    """A section a later minor added, or None where the file has none
+    (``get`` is a container's, raising ``CorruptError``, or a dict's)."""
+    try:
+        return get(tag)  # type: ignore[no-any-return]
+    except (CorruptError, KeyError):
+        return None
+
+
+def _sections_to_model(get: Any, minor: int) -> tuple[BRepModel, dict[str, Any]]:
     meta = read_meta(get("META"))
     m = BRepModel()
     m.unit = str(meta.get("unit", "MM"))
@@ -991,12 +1100,17 @@ def _sections_to_model(get: Any) -> tuple[BRepModel, dict[str, Any]]:
     for r, pins in joins.surface_corner_pins(m, m.surfaces, coded_surfaces, tol).items():
         g = m.surfaces[r]
         g.poles[...] = joins.pinned_corners(m, g, pins)  # type: ignore[union-attr,arg-type]
+    sides = _optional(get, "SIDE") if "SIDE" in layout(minor) else None
+    if sides is not None:
+        _read_sides(sides, m, coded_surfaces)
     coded_curves = set(coded_rows(m.curves3d))
     anchors = joins.anchors(m, m.curves3d, coded_curves)
-    _read_nets(get("CNET"), m.curves3d, tol, "CNET", anchors, m.surfaces)
-    for c, pins in joins.curve_end_pins(m, m.curves3d, coded_curves, tol).items():
+    copies = _read_nets(get("CNET"), m.curves3d, tol, "CNET", anchors, m.surfaces)
+    pinned = coded_curves - {row for _, row, _ in copies}
+    for c, pins in joins.curve_end_pins(m, m.curves3d, pinned, tol).items():
         g = m.curves3d[c]
         g.poles[...] = joins.pinned_poles(m, g, pins)
+    _fill_copies(copies, m.curves3d)
     return m, meta
 
 

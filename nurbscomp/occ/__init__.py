@@ -23,6 +23,7 @@ from .measure import (
     failures,
     faulty_faces,
     free_edges,
+    free_edges_sewn,
     is_valid,
 )
 from .topology import model_to_shape, shape_to_model
@@ -40,6 +41,7 @@ __all__ = [
     "failures",
     "faulty_faces",
     "free_edges",
+    "free_edges_sewn",
     "is_valid",
     "model_to_shape",
     "output_format",

@@ -78,6 +78,21 @@ def free_edges(shape: Any) -> int:
     return n
 
 
+def free_edges_sewn(shape: Any, tolerance: float = 1e-7) -> int:
+    """Free edges left after sewing at ``tolerance``: edges that no other face
+    meets within it, shared or not (``ShapeAnalysis_FreeBounds(shape, tolerance)``).
+
+    This is the measure of "no new gaps" (issue 10): faces of an IGES surface
+    model meet along separate, coincident edges, and count as closed here.
+    """
+    fb = ShapeAnalysis_FreeBounds(shape, tolerance, False, False)
+    n = 0
+    for comp in (fb.GetClosedWires(), fb.GetOpenWires()):
+        if not comp.IsNull():
+            n += _map(comp, TopAbs_EDGE).Extent()
+    return n
+
+
 def sample_face(face: Any, n: int = 7) -> tuple[np.ndarray, np.ndarray]:
     """Points inside a face: an ``n`` x ``n`` UV grid, kept where inside.
 
