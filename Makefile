@@ -24,6 +24,7 @@ test-fast: install
 lint: install
 	$(VENV)/bin/ruff check nurbscomp tests samples
 	$(VENV)/bin/ruff format --check nurbscomp tests samples
+	$(VENV)/bin/mypy nurbscomp
 
 samples: install
 	$(PY) samples/make_samples.py

@@ -12,6 +12,7 @@ import json
 import sys
 import traceback
 from collections.abc import Callable
+from functools import partial
 from typing import Any
 
 import click
@@ -149,7 +150,7 @@ def _batch(
     reports = []
     with _progress(list(zip(files, _outputs(files, output))), quiet or as_json, label) as bar:
         for f, o in bar:
-            r = _run(state, f, lambda f=f, o=o: work(f, o))
+            r = _run(state, f, partial(work, f, o))
             if r is None:
                 continue
             reports.append(r)
@@ -304,7 +305,7 @@ def info(state: _State, file: str, as_json: bool) -> None:
 def test_cmd(state: _State, files: tuple[str, ...], quiet: bool) -> None:
     """Check .nzc FILES: checksums, references, and a full rebuild (like xz -t)."""
     for f in files:
-        r = _run(state, f, lambda f=f: pipeline.test_file(f))
+        r = _run(state, f, partial(pipeline.test_file, f))
         if r is not None and not quiet:
             click.echo(f"{f}: OK ({r['faces']} faces)")
     sys.exit(1 if state.failed else 0)

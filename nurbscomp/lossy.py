@@ -34,6 +34,7 @@ from .model import (
     RepKind,
     ShapeType,
     below,
+    faces_around,
 )
 from .serialize import SWEPT, net_abscissae, net_basis
 
@@ -109,8 +110,8 @@ class Coded:
     vgrid: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     #: ids of coded records held to a limit below tol (:func:`feature_limit`, :func:`tighten`)
     fine: set[int] = field(default_factory=set)
-    #: ids of records coded again, tighter (:func:`tighten`)
-    tight: set[int] = field(default_factory=set)
+    #: ids of records coded again, tighter, and how many times (:func:`tighten`)
+    tight: dict[int, int] = field(default_factory=dict)
     #: id(curve) -> (leader row, reversed): a copy of a coincident curve
     #: (:func:`joins.twin_curves`), not coded itself
     twins: dict[int, tuple[int, int]] = field(default_factory=dict)
@@ -154,12 +155,23 @@ def _code_one(
     paper: bool,
     origin: np.ndarray | None,
     limit: float,
+    guesses: dict[tuple[codec.Method, int], int] | None = None,
 ) -> tuple[codec.NetCode, Geometry]:
-    """One record's code (:func:`codec.encode_net`) and the record as decoded."""
+    """One record's code (:func:`codec.encode_net`) and the record as decoded;
+    ``guesses`` is the search's memory across the nets of a table."""
     s, t = net_abscissae(g)
     basis = net_basis(g)
     code = codec.encode_net(
-        g.poles, s, t, tol, methods, paper=paper, origin=origin, basis=basis, limit=limit
+        g.poles,
+        s,
+        t,
+        tol,
+        methods,
+        paper=paper,
+        origin=origin,
+        basis=basis,
+        limit=limit,
+        guesses=guesses,
     )
     net, _ = codec.decode_net(code, g.poles.shape, s, t, tol, origin, basis)
     return replace(code, first=net.reshape(-1, net.shape[-1])[0]), replace(g, poles=net)
@@ -179,13 +191,14 @@ def _code_table(
     to a limit below :func:`feature_limit`'s."""
     out: dict[int, tuple[codec.NetCode, Geometry]] = {}
     origin = None
+    guesses: dict[tuple[codec.Method, int], int] = {}
     for g in table:
         if id(g) in out or id(g) in keep or not isinstance(g, (BSplineSurface, BSplineCurve)):
             continue
         at = (anchors or {}).get(id(g), origin)
         limit = feature_limit(g.poles, tol)
         limit = min(limit, (limits or {}).get(id(g), limit))
-        out[id(g)] = _code_one(g, tol, methods, paper, at, limit)
+        out[id(g)] = _code_one(g, tol, methods, paper, at, limit, guesses)
         origin = out[id(g)][0].first
     return out
 
@@ -195,8 +208,9 @@ def _code_table(
 TIGHTER = 8
 
 
-def tighten(coded: Coded, records: list[Geometry]) -> None:
-    """Code ``records`` (originals) again to 1/``TIGHTER`` of their limit, in place.
+def tighten(coded: Coded, records: list[Geometry], level: int = 1) -> None:
+    """Code ``records`` (originals) again to 1/``TIGHTER``^``level`` of their limit,
+    in place (those already that tight are left).
 
     Their vertices then stay where they are (``coded.fine``).  A record's
     first pole is coded against the origin it had; the container re-bases it
@@ -207,13 +221,13 @@ def tighten(coded: Coded, records: list[Geometry]) -> None:
             (coded.surfaces, codec.SURFACE_METHODS),
             (coded.curves, codec.CURVE_METHODS),
         ):
-            if id(g) in done and id(g) not in coded.tight:
+            if id(g) in done and coded.tight.get(id(g), 0) < level:
                 assert isinstance(g, (BSplineSurface, BSplineCurve))
                 code = done[id(g)][0]
-                limit = feature_limit(g.poles, coded.tol) / TIGHTER
+                limit = feature_limit(g.poles, coded.tol) / TIGHTER**level
                 done[id(g)] = _code_one(g, coded.tol, methods, False, code.origin, limit)
                 coded.fine.add(id(g))
-                coded.tight.add(id(g))
+                coded.tight[id(g)] = level
 
 
 _TRIM_S = (Kind.TRIMMED_SURFACE,)
@@ -239,6 +253,10 @@ def code_model(m: BRepModel, tol: float, paper: bool = False) -> Coded:
         m.surfaces, {id(g) for g in m.surfaces if isinstance(g, BSplineSurface)} - keep_s
     )
     sides = _affordable(m.surfaces, joins.twin_sides(m.surfaces, sorted(srows0), eps), tol)
+    # where faces share an edge, its tolerance covers their coding errors: no
+    # side needs joining there (joining would only move them off their other edges)
+    on = _edges_by_surface(m)
+    sides = {k: v for k, v in sides.items() if not on[k[0]] & on[v[0][0]]}
     surfaces = _code_table(
         m.surfaces,
         tol,
@@ -312,6 +330,15 @@ def code_model(m: BRepModel, tol: float, paper: bool = False) -> Coded:
             if isinstance(g, (BSplineSurface, BSplineCurve)) and feature_limit(g.poles, tol) < tol:
                 coded.fine.add(id(g))
     return coded
+
+
+def _edges_by_surface(m: BRepModel) -> dict[int, set[int]]:
+    """Per surface row, the edges of the faces on it."""
+    out: dict[int, set[int]] = collections.defaultdict(set)
+    for e, fs in enumerate(faces_around(m, ShapeType.EDGE)):
+        for f in fs:
+            out[int(m.face_surface[f])].add(e)
+    return out
 
 
 def _affordable(table: list[Geometry], pairs: dict[Any, Any], tol: float) -> dict[Any, Any]:
@@ -661,7 +688,8 @@ def _pin_curves(
     m: BRepModel, curves: list[Geometry], codes: dict[int, codec.NetCode], tol: float
 ) -> None:
     """Apply :func:`joins.curve_end_pins` as the decoder will, raising each pinned curve's bound."""
-    pins = joins.curve_end_pins(m, curves, _first_rows(curves, codes), tol)
+    rows = _first_rows(curves, codes)
+    pins = joins.curve_end_pins(m, curves, rows, tol)
     for c, rows in pins.items():
         old = curves[c]
         assert isinstance(old, BSplineCurve)

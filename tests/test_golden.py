@@ -16,7 +16,7 @@ from click.testing import CliRunner
 from nurbscomp import container, errors, occ, pipeline
 from nurbscomp.cli import cli
 
-from .golden.make_golden import GOLDEN, describe, golden_name, model_floats
+from .golden.make_golden import GOLDEN, VERSION, describe, golden_name, model_floats
 
 GOLDEN_DIR = Path(__file__).resolve().parent / "golden"
 EXPECTED = json.loads((GOLDEN_DIR / "expected.json").read_text())
@@ -36,7 +36,7 @@ def test_golden_file_decodes_as_recorded(name: str) -> None:
     assert len(data) < 8000  # kept small
     want = EXPECTED[name]
     got = describe(data)
-    assert got["format_version"] == want["format_version"] == "1.0"
+    assert got["format_version"] == want["format_version"] == VERSION[name]
     assert got["mode"] == want["mode"]
     assert got["counts"] == want["counts"]
     assert got["geometry"] == want["geometry"]

@@ -53,8 +53,9 @@ class Rung(IntEnum):
 
     STILL = 1  # its vertices stay where they are
     TIGHT = 2  # it and its edges' curves are coded TIGHTER times tighter
-    EXACT = 3  # its surface and its edges' curves stay exact
-    PCURVES = 4  # ... and its pcurves are stored
+    TIGHTER = 3  # ... TIGHTER² times tighter (near what a tenth of tol codes)
+    EXACT = 4  # its surface and its edges' curves stay exact
+    PCURVES = 5  # ... and its pcurves are stored
 
 
 @dataclass
@@ -198,6 +199,23 @@ class _Plan:
         cand = lossy.drop_pcurves(target, self.keep_e, self.keep_f)
         return lossy.vertex_ranges(lossy.unit_curves(cand, codes), self.tol), codes, report
 
+    def with_leaders(self, ids: set[int]) -> set[int]:
+        """``ids`` with the records their copies follow: a copied curve's leader
+        (``Coded.twins``), an iso-boundary's surface (``Coded.iso``), and the
+        leaders of a surface's joined sides (``Coded.sides``): a copy moves
+        only as what it copies does."""
+        m, out = self.m, set(ids)
+        for k, (row, _) in self.coded.twins.items():
+            if k in ids:
+                out.add(id(m.curves3d[row]))
+        for k, (row, _, _) in self.coded.iso.items():  # a boundary copied from its surface
+            if k in out:
+                out.add(id(m.surfaces[row]))
+        for (b, _), ((a, _), _) in self.coded.sides.items():
+            if id(m.surfaces[b]) in out:
+                out.add(id(m.surfaces[a]))
+        return out
+
     def make_exact(self, ids: set[int], why: str) -> None:
         for i in ids - self.exact:
             self.reason.setdefault(i, why)
@@ -227,13 +245,15 @@ class _Plan:
         for f in sorted(blamed):
             r = Rung(self.rung.get(f, 0) + 1)
             self.rung[f] = r
+            ids = self.with_leaders(
+                {self.faces_rec[f], *(self.edges_rec[e] for e in self.edges_of[f])}
+            )
             if r == Rung.STILL:
                 self.still_v |= set(self.verts_of[f])
-            elif r == Rung.TIGHT:
-                ids = {self.faces_rec[f], *(self.edges_rec[e] for e in self.edges_of[f])}
-                lossy.tighten(self.coded, [self.originals[i] for i in ids if i in self.originals])
+            elif r in (Rung.TIGHT, Rung.TIGHTER):
+                records = [self.originals[i] for i in ids if i in self.originals]
+                lossy.tighten(self.coded, records, 1 if r == Rung.TIGHT else 2)
             elif r == Rung.EXACT:
-                ids = {self.faces_rec[f], *(self.edges_rec[e] for e in self.edges_of[f])}
                 self.make_exact(ids, "step")
             else:
                 self.keep_f.add(f)

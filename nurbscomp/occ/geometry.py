@@ -444,8 +444,8 @@ class GeometryReader:
             )
         add = self.curve3d if dim == 3 else self.curve2d
         if name == "Geom_TrimmedCurve":
-            params = np.array([c.FirstParameter(), c.LastParameter()])
-            return Derived(Kind.TRIMMED_CURVE, add(c.BasisCurve()), _EMPTY_FRAME, params)
+            bounds = np.array([c.FirstParameter(), c.LastParameter()])
+            return Derived(Kind.TRIMMED_CURVE, add(c.BasisCurve()), _EMPTY_FRAME, bounds)
         if name == "Geom_OffsetCurve":
             frame = np.array([_xyz(c.Direction())]) if dim == 3 else _EMPTY_FRAME
             return Derived(Kind.OFFSET_CURVE, add(c.BasisCurve()), frame, np.array([c.Offset()]))
@@ -519,19 +519,13 @@ class GeometryBuilder:
                 if r.weights is None:
                     return Geom_BezierSurface(poles)
                 return Geom_BezierSurface(poles, _tcol_reals2(r.weights))
-            args = [
-                _tcol_reals(r.uknots),
-                _tcol_reals(r.vknots),
-                _tcol_ints(r.umults),
-                _tcol_ints(r.vmults),
-                r.udegree,
-                r.vdegree,
-                r.uperiodic,
-                r.vperiodic,
-            ]
+            uk, vk = _tcol_reals(r.uknots), _tcol_reals(r.vknots)
+            um, vm = _tcol_ints(r.umults), _tcol_ints(r.vmults)
+            ud, vd, up, vp = r.udegree, r.vdegree, r.uperiodic, r.vperiodic
             if r.weights is None:
-                return Geom_BSplineSurface(poles, *args)
-            return Geom_BSplineSurface(poles, _tcol_reals2(r.weights), *args)
+                return Geom_BSplineSurface(poles, uk, vk, um, vm, ud, vd, up, vp)
+            w = _tcol_reals2(r.weights)
+            return Geom_BSplineSurface(poles, w, uk, vk, um, vm, ud, vd, up, vp)
         raise UnsupportedError(f"not a surface record: {k!r}")
 
     def _make_curve(self, r: Geometry, dim: int) -> Any:
@@ -543,7 +537,8 @@ class GeometryBuilder:
                 if three:
                     return Geom_Line(gp_Ax1(gp_Pnt(*f[0]), _dir(f[1])))
                 return Geom2d_Line(gp_Ax2d(gp_Pnt2d(*f[0]), _dir2d(f[1])))
-            ax = _ax2(f) if three else _ax22d(f)
+            # gp_Ax2 for the Geom_ classes, gp_Ax22d for the Geom2d_ ones
+            ax: Any = _ax2(f) if three else _ax22d(f)
             if k == Kind.CIRCLE:
                 return (Geom_Circle if three else Geom2d_Circle)(ax, p[0])
             if k == Kind.ELLIPSE:
@@ -555,21 +550,21 @@ class GeometryBuilder:
         if isinstance(r, BSplineCurve):
             poles = _tcol_points1(r.poles)
             if r.bezier:
-                cls = Geom_BezierCurve if three else Geom2d_BezierCurve
+                bezier = Geom_BezierCurve if three else Geom2d_BezierCurve
                 if r.weights is None:
-                    return cls(poles)
-                return cls(poles, _tcol_reals(r.weights))
-            cls = Geom_BSplineCurve if three else Geom2d_BSplineCurve
-            args = [_tcol_reals(r.knots), _tcol_ints(r.mults), r.degree, r.periodic]
+                    return bezier(poles)
+                return bezier(poles, _tcol_reals(r.weights))
+            bspline = Geom_BSplineCurve if three else Geom2d_BSplineCurve
+            knots, mults = _tcol_reals(r.knots), _tcol_ints(r.mults)
             if r.weights is None:
-                return cls(poles, *args)
-            return cls(poles, _tcol_reals(r.weights), *args)
+                return bspline(poles, knots, mults, r.degree, r.periodic)
+            return bspline(poles, _tcol_reals(r.weights), knots, mults, r.degree, r.periodic)
         if isinstance(r, Derived):
             basis = self.curve3d(r.basis) if three else self.curve2d(r.basis)
             p = r.params.tolist()
             if k == Kind.TRIMMED_CURVE:
-                cls = Geom_TrimmedCurve if three else Geom2d_TrimmedCurve
-                return cls(basis, p[0], p[1], True, False)
+                trimmed = Geom_TrimmedCurve if three else Geom2d_TrimmedCurve
+                return trimmed(basis, p[0], p[1], True, False)
             if k == Kind.OFFSET_CURVE:
                 if three:
                     return Geom_OffsetCurve(basis, p[0], _dir(r.frame[0]), True)

@@ -41,7 +41,8 @@ def _map(shape: Any, kind: Any) -> TopTools_IndexedMapOfShape:
 def faces(shape: Any) -> list[Any]:
     """The faces of a shape in ``TopExp.MapShapes(shape, FACE)`` order."""
     m = _map(shape, TopAbs_FACE)
-    return [TopoDS.Face_s(m.FindKey(i)) for i in range(1, m.Extent() + 1)]
+    # TopoDS.Face is TopoDS.Face_s in OCP 7.9; the stubs lack the _s name.
+    return [TopoDS.Face(m.FindKey(i)) for i in range(1, m.Extent() + 1)]
 
 
 def counts(shape: Any) -> dict[str, int]:

@@ -12,7 +12,7 @@ order, same sharing, same flags, same numbers.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from OCP.BRep import (
@@ -24,7 +24,10 @@ from OCP.BRep import (
     BRep_PointOnCurve,
     BRep_PointOnCurveOnSurface,
     BRep_PointOnSurface,
+    BRep_TEdge,
+    BRep_TFace,
     BRep_Tool,
+    BRep_TVertex,
 )
 from OCP.GeomAbs import GeomAbs_Shape
 from OCP.gp import gp_Pnt, gp_Pnt2d, gp_Trsf, gp_TrsfForm, gp_Vec
@@ -38,6 +41,7 @@ from OCP.TopoDS import (
     TopoDS_Edge,
     TopoDS_Face,
     TopoDS_Iterator,
+    TopoDS_Shape,
     TopoDS_Shell,
     TopoDS_Solid,
     TopoDS_Vertex,
@@ -350,10 +354,11 @@ def model_to_shape(m: BRepModel) -> Any:
     built: list[Any] = []
     for s, t in enumerate(m.shape_type.tolist()):
         k = int(tidx[s])
+        sh: TopoDS_Shape
         if t == ShapeType.VERTEX:
             sh = TopoDS_Vertex()
             b.MakeVertex(sh, gp_Pnt(*m.vertex_point[k]), float(m.vertex_tol[k]))
-            tv = sh.TShape()
+            tv = cast(BRep_TVertex, sh.TShape())  # TShape() returns the subclass at run time
             tv.Tolerance(float(m.vertex_tol[k]))
             pts = tv.ChangePoints()
             for q in vreps[k]:
@@ -370,7 +375,7 @@ def model_to_shape(m: BRepModel) -> Any:
         elif t == ShapeType.EDGE:
             sh = TopoDS_Edge()
             b.MakeEdge(sh)
-            te = sh.TShape()
+            te = cast(BRep_TEdge, sh.TShape())
             f = int(m.edge_flags[k])
             te.Tolerance(float(m.edge_tol[k]))
             te.Degenerated(bool(f & 1))
@@ -394,7 +399,7 @@ def model_to_shape(m: BRepModel) -> Any:
             b.MakeFace(
                 sh, geo.surface(int(m.face_surface[k])), locs[m.face_loc[k]], float(m.face_tol[k])
             )
-            tf = sh.TShape()
+            tf = cast(BRep_TFace, sh.TShape())
             tf.Tolerance(float(m.face_tol[k]))
             tf.NaturalRestriction(bool(m.face_natural[k]))
         else:
@@ -431,18 +436,19 @@ def rebuild_pcurves(
     for f, key in zip(faces, rows):
         by_row.setdefault(key, []).append(f)
     fix = ShapeFix_Edge()
+    # TopoDS.Face/Wire are TopoDS.Face_s/Wire_s in OCP 7.9; the stubs lack the _s names.
     touched: dict[int, Any] = {}
     for edge, srow, loc, seam in pending:
         for face in by_row.get((srow, loc), []):
-            fix.FixAddPCurve(edge, TopoDS.Face_s(face), seam, BRep_Tool.Tolerance_s(edge))
+            fix.FixAddPCurve(edge, TopoDS.Face(face), seam, BRep_Tool.Tolerance_s(edge))
             touched[id(face)] = face
     for face in touched.values():
-        f = TopoDS.Face_s(face)
+        f = TopoDS.Face(face)
         it = TopoDS_Iterator(face, False, False)
         while it.More():
             w = it.Value()
             if w.ShapeType() == TopAbs_WIRE:
-                ShapeFix_Wire(TopoDS.Wire_s(w), f, 1e-7).FixShifted()
+                ShapeFix_Wire(TopoDS.Wire(w), f, 1e-7).FixShifted()
             it.Next()
 
 
@@ -458,14 +464,15 @@ def _edge_rep(m: BRepModel, q: int, geo: GeometryBuilder, locs: list[Any]) -> An
     _, kind, c1, c2, s1, s2, l1, l2 = m.edge_reps[q].tolist()
     first, last = m.edge_rep_range[q].tolist()
     if kind == RepKind.CURVE3D:
-        rep = BRep_Curve3D(geo.curve3d(c1), locs[l1])
-        rep.SetRange(first, last)
-        return rep
+        c3d = BRep_Curve3D(geo.curve3d(c1), locs[l1])
+        c3d.SetRange(first, last)
+        return c3d
     if kind == RepKind.ON_TWO_SURFACES:
         return BRep_CurveOn2Surfaces(
             geo.surface(s1), geo.surface(s2), locs[l1], locs[l2], _CONT[m.edge_rep_cont[q]]
         )
     uv = m.edge_rep_uv[q].tolist()
+    rep: BRep_CurveOnSurface
     if kind == RepKind.ON_SURFACE:
         rep = BRep_CurveOnSurface(geo.curve2d(c1), geo.surface(s1), locs[l1])
     else:

@@ -1,6 +1,8 @@
-"""Regenerate the golden files of format 1.0: ``python -m tests.golden.make_golden``.
+"""Write the golden files: ``python -m tests.golden.make_golden``.
 
-Run it **only when the format's major version changes**.  The golden files are
+It writes only the golden files that are missing (a new minor version adds
+its own); ``--every`` rewrites all of them, **only when the format's major
+version changes**.  The golden files are
 the promise that every 1.x reader decodes what 1.0 wrote: a test
 (``tests/test_golden.py``) decodes them with the current code and compares
 with what was stored here when they were made.  Regenerating them to make a
@@ -30,13 +32,15 @@ from typing import Any
 
 import numpy as np
 
-from nurbscomp import container, entropy, pipeline
+from nurbscomp import container, entropy, occ, pipeline
 from nurbscomp.model import BRepModel, BSplineCurve, BSplineSurface
 from nurbscomp.streams import BlockReader, BlockWriter
 
 HERE = Path(__file__).resolve().parent
 SAMPLES = HERE.parent.parent / "samples"
-#: (sample, mode name, compress options)
+#: (sample, mode name, compress options); a mode starting "faces." compresses
+#: the sample written as an IGES surface model (faces mode: every face with
+#: edges of its own), which has coincident boundaries.
 GOLDEN = [
     ("loft.step", "lossless", {"lossless": True}),
     ("loft.step", "tol0.01", {"tol": 0.01}),
@@ -44,7 +48,16 @@ GOLDEN = [
     ("teapot.step", "tol0.01", {"tol": 0.01}),
     ("bracket.step", "lossless", {"lossless": True}),  # edge ranges from vertices (kind 4)
     ("blob.step", "tol0.01", {"tol": 0.01}),  # bicubic Coons nets (methods 7, 8)
+    # format 1.1
+    ("teapot.step", "faces.tol0.01", {"tol": 0.01}),  # SIDE: joined net sides
+    ("loft.step", "faces.tol0.01", {"tol": 0.01}),  # CNET method 9: a copied curve
 ]
+#: The format version each golden file was written in (the files of an older
+#: version are never rewritten: ``main`` only adds missing ones).
+VERSION = {
+    golden: "1.1" if golden.split(".", 1)[1].startswith("faces.") else "1.0"
+    for golden in (f"{Path(s).stem}.{m}" for s, m, _ in GOLDEN)
+}
 
 
 def golden_name(sample: str, mode: str) -> str:
@@ -306,18 +319,43 @@ def damaged(base: bytes) -> dict[str, tuple[bytes, str | None, str | None]]:
     return out
 
 
-def main() -> None:
-    expected = {}
-    for sample, mode, opts in GOLDEN:
-        name = golden_name(sample, mode)
-        dst = HERE / f"{name}.nzc"
-        pipeline.compress_file(SAMPLES / sample, dst, force=True, **opts)  # type: ignore[arg-type]
-        data = dst.read_bytes()
-        expected[name] = describe(data)
-        m, _ = pipeline.decode(container.unpack(data))
-        np.savez_compressed(HERE / f"{name}.npz", **model_floats(m))
-    (HERE / "expected.json").write_text(json.dumps(expected, indent=1, sort_keys=True) + "\n")
+def faces_iges(step: Path, dst: Path) -> Path:
+    """``step`` written as an IGES surface model (faces mode) at ``dst``."""
+    from OCP.IGESControl import IGESControl_Writer
+
+    w = IGESControl_Writer("MM", 0)
+    w.AddShape(occ.read_cad(step).shape)
+    w.ComputeModel()
+    if not w.Write(str(dst)):
+        raise RuntimeError(f"cannot write {dst}")
+    return dst
+
+
+def main(every: bool = False) -> None:
+    """Write the golden files that are missing (with ``every``, all of them:
+    only when the major version changes), then the damaged files."""
+    import tempfile
+
+    path = HERE / "expected.json"
+    expected = json.loads(path.read_text()) if path.exists() and not every else {}
+    with tempfile.TemporaryDirectory() as tmp:
+        for sample, mode, opts in GOLDEN:
+            name = golden_name(sample, mode)
+            dst = HERE / f"{name}.nzc"
+            if name in expected and dst.exists():
+                continue
+            src = SAMPLES / sample
+            if mode.startswith("faces."):
+                src = faces_iges(src, Path(tmp) / f"{Path(sample).stem}.igs")
+            pipeline.compress_file(src, dst, force=True, **opts)  # type: ignore[arg-type]
+            data = dst.read_bytes()
+            expected[name] = describe(data)
+            m, _ = pipeline.decode(container.unpack(data))
+            np.savez_compressed(HERE / f"{name}.npz", **model_floats(m))
+    path.write_text(json.dumps(expected, indent=1, sort_keys=True) + "\n")
     errors = HERE / "errors"
+    if (errors / "expected.json").exists() and not every:
+        return  # the damaged files are those of 1.0: kept as they are
     errors.mkdir(exist_ok=True)
     table = {}
     base = (HERE / f"{golden_name('loft.step', 'lossless')}.nzc").read_bytes()
@@ -328,4 +366,6 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    import sys
+
+    main(every="--every" in sys.argv[1:])

@@ -1,0 +1,124 @@
+"""Coincident boundaries coded once (issue 10, "no new gaps"): twin curves,
+joined net sides, vertex clusters, and the format 1.1 parts that carry them."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from nurbscomp import codec, container, joins, occ, pipeline, serialize
+from nurbscomp.errors import BadReferenceError, SectionError
+from nurbscomp.model import BSplineCurve, BSplineSurface
+
+GOLDEN = Path(__file__).resolve().parent / "golden"
+
+
+def _curve(poles: np.ndarray, knots=(0.0, 1.0), mults=None, degree: int = 3) -> BSplineCurve:
+    mults = np.array(mults if mults is not None else [degree + 1, degree + 1])
+    return BSplineCurve(poles, None, np.array(knots, float), mults, degree, False)
+
+
+def test_vertex_clusters_link_chains_within_eps() -> None:
+    p = np.array([[0, 0, 0], [5e-8, 0, 0], [1e-7, 0, 0], [1, 0, 0], [1, 5e-8, 0]], float)
+    assert joins.vertex_clusters(p, 1e-7).tolist() == [0, 0, 0, 3, 3]
+    assert joins.vertex_clusters(np.zeros((0, 3)), 1e-7).tolist() == []
+
+
+def test_twin_curves_reversed_same_and_not() -> None:
+    rng = np.random.default_rng(0)
+    a = rng.normal(size=(4, 3))
+    curves = [
+        _curve(a),
+        _curve(a[::-1] + 1e-8),  # a, reversed: a twin
+        _curve(a + 1e-3),  # apart by more than eps
+        _curve(a.copy(), knots=(0.0, 0.3, 1.0), mults=[3, 1, 3], degree=2),  # other knots
+        _curve(a.copy()),  # an ISO row: leads, never follows
+    ]
+    got = joins.twin_curves(curves, {0, 1, 2, 3, 4}, 1e-6, iso={4})
+    assert set(got) == {0, 1}  # 4 leads 0 (same order) and 1 (reversed)
+    assert got[0][:2] == (4, 0) and got[1][:2] == (4, 1)
+    assert got[1][2] < 1e-7
+
+
+def test_twin_sides_of_two_patches_and_join() -> None:
+    rng = np.random.default_rng(1)
+    a = rng.normal(size=(4, 5, 3))
+    b = rng.normal(size=(3, 5, 3))
+    b[-1] = a[0, ::-1]  # b's row u=1 is a's row u=0, reversed
+
+    def surf(p: np.ndarray) -> BSplineSurface:
+        nu, nv = p.shape[:2]
+        return BSplineSurface(
+            p, None, np.array([0.0, 1.0]), np.array([0.0, 1.0]), np.array([nu, nu]),
+            np.array([nv, nv]), nu - 1, nv - 1, False, False, True,
+        )  # fmt: skip
+
+    sa, sb = surf(a), surf(b.copy())
+    got = joins.twin_sides([sa, sb], [0, 1], 1e-6)
+    assert got == {(1, 1): ((0, 0), 1, 0.0)}
+    moved = replace(sa, poles=a + 1e-3)
+    joined = joins.joined_sides(sb, moved, np.array([1, 1, 0, 0, 1]))
+    assert np.array_equal(joined[-1], (a + 1e-3)[0, ::-1])
+    assert np.array_equal(joined[:-1], b[:-1])
+
+
+def _faces_iges(step: Path, dst: Path) -> Path:
+    from tests.golden.make_golden import faces_iges
+
+    return faces_iges(step, dst)
+
+
+@pytest.mark.parametrize("sample", ["teapot.step", "blob.step", "loft.step"])
+def test_surface_model_keeps_its_free_edges(sample: str, tmp_path: Path) -> None:
+    """Each face with edges of its own (IGES faces mode): the decoded faces must
+    meet wherever the source's do, counted as free edges sewn at 1e-7."""
+    src = _faces_iges(
+        Path(__file__).resolve().parent.parent / "samples" / sample, tmp_path / "s.igs"
+    )
+    nzc = tmp_path / "s.nzc"
+    pipeline.compress_file(src, nzc, tol=0.1)
+    shape = pipeline.decode_file(nzc)[0]
+    assert occ.free_edges_sewn(shape) <= occ.free_edges_sewn(occ.read_cad(src).shape)
+
+
+def _golden_sections(name: str) -> tuple[int, dict[str, bytes]]:
+    c = container.unpack((GOLDEN / f"{name}.nzc").read_bytes())
+    return c.minor, {s.tag: s.raw for s in c.sections}
+
+
+def _decode(minor: int, secs: dict[str, bytes]):
+    return serialize.sections_to_model(secs.__getitem__, minor)
+
+
+def test_side_section_is_checked() -> None:
+    minor, secs = _golden_sections("teapot.faces.tol0.01")
+    m, _ = _decode(minor, secs)
+    assert len(m.side_joins) > 0
+    bad = m.side_joins.copy()
+    bad[0, 2] = len(m.surfaces) + 5  # a leader outside the table
+    with pytest.raises(BadReferenceError, match="SIDE row 0"):
+        _decode(minor, {**secs, "SIDE": serialize._write_sides(replace(m, side_joins=bad))})
+    bad = m.side_joins.copy()
+    bad[0, 1] = 7  # no such side
+    with pytest.raises(SectionError, match="no such side"):
+        _decode(minor, {**secs, "SIDE": serialize._write_sides(replace(m, side_joins=bad))})
+    # a 1.0 reader's view: without SIDE the nets are not joined, and nothing fails
+    plain, _ = _decode(minor, {k: v for k, v in secs.items() if k != "SIDE"})
+    assert len(plain.side_joins) == 0
+
+
+def test_copy_code_is_checked() -> None:
+    code = codec.NetCode(
+        codec.Method.COPY, codec.Quant.TOL, 0, 0, np.array([3, 0]), np.zeros(0), 0, 0
+    )
+    curves = [_curve(np.zeros((4, 3))) for _ in range(3)]
+    with pytest.raises(ValueError, match="no B-spline curve"):
+        serialize._twin_copy(code, 2, curves, set())  # row 2 - 3 = -1
+    ok = replace(code, ints=np.array([2, 1]))
+    curves[0] = _curve(np.arange(12, dtype=float).reshape(4, 3))
+    assert np.array_equal(serialize._twin_copy(ok, 2, curves, set()), curves[0].poles[::-1])
+    with pytest.raises(ValueError, match="not a copy"):
+        serialize._twin_copy(ok, 2, curves, {0})  # a copy of a copy
