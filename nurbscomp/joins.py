@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -338,7 +338,7 @@ def _boundary_match(g: BSplineCurve, s: Geometry) -> tuple[int, int] | None:
             wr = None if wrow is None else (wrow[::-1] if rev else wrow)
             if (wr is None) != (g.weights is None):
                 continue
-            if wr is not None and not np.array_equal(wr, g.weights):
+            if wr is not None and not np.array_equal(wr, cast(np.ndarray, g.weights)):
                 continue
             if g.bezier != s.bezier or (not g.bezier and g.degree != deg):
                 continue
@@ -440,7 +440,7 @@ def _twins(a: _Run, b: _Run, eps: float) -> tuple[int, float] | None:
         if gap > 1e-8:
             continue
         if b.weights is not None and not np.array_equal(
-            b.weights[::-1] if rev else b.weights, a.weights
+            b.weights[::-1] if rev else b.weights, cast(np.ndarray, a.weights)
         ):
             continue
         d = float(np.sqrt(((pb - a.poles) ** 2).sum(-1)).max())

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import collections
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -293,7 +293,7 @@ def code_model(m: BRepModel, tol: float, paper: bool = False) -> Coded:
     for c, (r, _, d) in twins.items():  # a surface whose boundary leads is coded to suit
         if r in iso:
             sg = m.surfaces[iso[r][0]]
-            need = feature_limit(m.curves3d[c].poles, tol) - d  # type: ignore[union-attr]
+            need = feature_limit(cast(BSplineCurve, m.curves3d[c]).poles, tol) - d
             code = surfaces[id(sg)][0] if id(sg) in surfaces else None
             if code is not None and code.bound > need:
                 assert isinstance(sg, BSplineSurface)
@@ -364,6 +364,11 @@ def _leader_limits(table: list[Geometry], pairs: dict[Any, Any], tol: float) -> 
         own = out.get(key, feature_limit(table[lrow].poles, tol))  # type: ignore[union-attr]
         out[key] = min(own, feature_limit(table[row].poles, tol) - d)  # type: ignore[union-attr]
     return out
+
+
+def _poles(g: Geometry) -> np.ndarray:
+    """The poles of a coded record (a B-spline curve or surface)."""
+    return cast(BSplineCurve | BSplineSurface, g).poles
 
 
 def _first_rows(table: list[Geometry], ids: dict[int, Any] | set[int]) -> set[int]:
@@ -499,9 +504,9 @@ def assemble(
         face_bound,
         edge_bound,
         sum(c.bits for c in sc),
-        sum(int(np.prod(g.poles.shape[:-1])) for g in surfaces if id(g) in codes),
+        sum(int(np.prod(_poles(g).shape[:-1])) for g in surfaces if id(g) in codes),
         sum(c.bits for c in cc),
-        sum(len(g.poles) for g in curves if id(g) in codes),
+        sum(len(_poles(g)) for g in curves if id(g) in codes),
     )
     return out, codes, report
 
@@ -688,12 +693,11 @@ def _pin_curves(
     m: BRepModel, curves: list[Geometry], codes: dict[int, codec.NetCode], tol: float
 ) -> None:
     """Apply :func:`joins.curve_end_pins` as the decoder will, raising each pinned curve's bound."""
-    rows = _first_rows(curves, codes)
-    pins = joins.curve_end_pins(m, curves, rows, tol)
-    for c, rows in pins.items():
+    pins = joins.curve_end_pins(m, curves, _first_rows(curves, codes), tol)
+    for c, places in pins.items():
         old = curves[c]
         assert isinstance(old, BSplineCurve)
-        new = replace(old, poles=joins.pinned_poles(m, old, rows))
+        new = replace(old, poles=joins.pinned_poles(m, old, places))
         original = m.curves3d[c]
         assert isinstance(original, BSplineCurve)
         moved = float(np.sqrt(((new.poles - original.poles) ** 2).sum(-1)).max())

@@ -21,7 +21,7 @@ FACE  face surface, location, tolerance, natural-restriction flag
 from __future__ import annotations
 
 import json
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -343,13 +343,13 @@ def _read_geometry(data: bytes, tag: str, dim: int) -> list[Geometry]:
                 if n > MAX_NET_POLES or coded_poles + n > MAX_CODED_POLES:
                     raise LimitError(f"{where}: a coded curve of {n} poles is too large")
                 coded_poles += n
-                p = np.full((n, dim), np.nan)
+                cp = np.full((n, dim), np.nan)
             else:
-                p = poles.take(n * dim).reshape(n, dim)
+                cp = poles.take(n * dim).reshape(n, dim)
             wts = weights.take(n) if flags & 1 else None
             if wts is not None and not ((wts > 0).all() and _ok(wts)):
                 raise SectionError(f"{where}: weights must be positive and finite")
-            out.append(BSplineCurve(p, wts, kn, mu, deg, bool(flags & 2), bez))
+            out.append(BSplineCurve(cp, wts, kn, mu, deg, bool(flags & 2), bez))
     for c in (copies, hdr, basis, mults, frames, params, poles, weights, knots):
         c.done()
     return out
@@ -722,7 +722,8 @@ def net_basis(g: Geometry) -> dmap.Basis | None:
     if g.bezier:
         nu, nv = g.poles.shape[:2]
         ends = np.array([0.0, 1.0])
-        return dmap.Basis.of(ends, [nu, nu], ends, [nv, nv], nu - 1, nv - 1, g.weights)
+        nus, nvs = np.array([nu, nu]), np.array([nv, nv])
+        return dmap.Basis.of(ends, nus, ends, nvs, nu - 1, nv - 1, g.weights)
     return dmap.Basis.of(g.uknots, g.umults, g.vknots, g.vmults, g.udegree, g.vdegree, g.weights)
 
 
@@ -762,7 +763,8 @@ def _write_nets(
             if code.method != codec.Method.ISO:  # an ISO code holds references, no point
                 code = codec.reorigin(code, anchors.get(row, origin), tol)
             order.append(code)
-            origin = g.poles.reshape(-1, g.poles.shape[-1])[0] if code.first is None else code.first
+            poles = cast(BSplineCurve | BSplineSurface, g).poles
+            origin = poles.reshape(-1, poles.shape[-1])[0] if code.first is None else code.first
     w = BlockWriter()
     for field in ("method", "quant", "level", "slope"):
         w.ints([int(getattr(c, field)) for c in order])
@@ -831,12 +833,13 @@ def _read_nets(
                 net, used = _iso_copy(code, g, surfaces or []), 0
             else:
                 at = (anchors or {}).get(row, origin)
-                net, used = codec.decode_net(code, g.poles.shape, s, t, tol, at, net_basis(g))
+                shape = cast(BSplineCurve | BSplineSurface, g).poles.shape
+                net, used = codec.decode_net(code, shape, s, t, tol, at, net_basis(g))
         except (ValueError, ArithmeticError) as e:  # LinAlgError is a ValueError
             raise SectionError(f"{tag}: net {k} (table row {row}): {e}") from None
         _finite(net, f"{tag}: net {k} (table row {row})", MAX_COORD)
         dpos += used
-        g.poles[...] = net
+        cast(BSplineCurve | BSplineSurface, g).poles[...] = net
         origin = net.reshape(-1, net.shape[-1])[0]
     ints.done()
     if dpos != len(dcs):
@@ -967,7 +970,7 @@ def _twin_copy(
 
 
 def _curve_anchors(m: BRepModel, codes: dict[int, codec.NetCode]) -> dict[int, np.ndarray]:
-    rows = {}
+    rows: dict[int, int] = {}
     for i, g in enumerate(m.curves3d):
         if id(g) in codes:
             rows.setdefault(id(g), i)
@@ -1037,7 +1040,7 @@ def read_meta(raw: bytes) -> dict[str, Any]:
     mode, tol = meta.get("mode"), meta.get("tolerance_mm")
     if mode not in ("lossless", "tolerance"):
         raise SectionError(f"META: unknown mode {str(mode)[:20]!r}")
-    if mode == "tolerance" and not (_number(tol) and 0 < tol < MAX_COORD):
+    if mode == "tolerance" and not (_number(tol) and 0 < cast(float, tol) < MAX_COORD):
         raise SectionError("META: tolerance_mm is not a positive number")
     if mode == "lossless" and tol is not None:
         raise SectionError("META: a lossless container has a tolerance")
@@ -1072,7 +1075,7 @@ def _optional(get: Any, tag: str) -> bytes | None:
     """A section a later minor added, or None where the file has none
     (``get`` is a container's, raising ``CorruptError``, or a dict's)."""
     try:
-        return get(tag)  # type: ignore[no-any-return]
+        return cast(bytes, get(tag))
     except (CorruptError, KeyError):
         return None
 
@@ -1083,7 +1086,7 @@ def _sections_to_model(get: Any, minor: int) -> tuple[BRepModel, dict[str, Any]]
     m.unit = str(meta.get("unit", "MM"))
     m.source_format = str(meta.get("source_format", "STEP"))
     tol_mm = meta.get("tolerance_mm")
-    tol = float(tol_mm) if _number(tol_mm) else 0.0
+    tol = float(cast(float, tol_mm)) if _number(tol_mm) else 0.0
     # the tables first, coded poles last: nets are coded against vertices
     _read_locations(get("LOCS"), m)
     m.surfaces = _read_geometry(get("SURF"), "SURF", 3)
@@ -1108,7 +1111,7 @@ def _sections_to_model(get: Any, minor: int) -> tuple[BRepModel, dict[str, Any]]
     copies = _read_nets(get("CNET"), m.curves3d, tol, "CNET", anchors, m.surfaces)
     pinned = coded_curves - {row for _, row, _ in copies}
     for c, pins in joins.curve_end_pins(m, m.curves3d, pinned, tol).items():
-        g = m.curves3d[c]
+        g = cast(BSplineCurve, m.curves3d[c])
         g.poles[...] = joins.pinned_poles(m, g, pins)
     _fill_copies(copies, m.curves3d)
     return m, meta
