@@ -602,7 +602,10 @@ def encode_net(
         if method in (Method.SPATIAL, Method.DELTA):
             ladders.append([_Stepper(Quant.TOL, e, 0, tol) for e in rungs])
         else:
-            for k in range(len(SLOPES)):
+            # a slope only weighs DCT coefficients: nets whose curves have none
+            # (2 poles a side) code the same with every slope, so only with 0
+            flat = max(p.shape[:-1]) <= 2
+            for k in range(1 if flat else len(SLOPES)):
                 ladders.append([_Stepper(Quant.TOL, e, k, tol) for e in rungs])
             if paper:
                 ladders.append([_Stepper(Quant.PAPER, a, 0, tol) for a in PAPER_BITS])
