@@ -284,6 +284,8 @@ def compress_file(
         t = validity.lossy_target(m, cad.shape, tol, step_safe)
         target, codes, lossy_report, rebuilt = t.model, t.codes, t.report, t.pcurves_rebuilt
         built, vreport = t.shape, t.validity
+        if vreport.step_skipped:
+            warnings.append(f"no STEP check: {vreport.step_skipped}")
         flags = 0
     data = container.pack(serialize.model_to_sections(target, meta, codes), flags)
     verified = False

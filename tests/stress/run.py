@@ -18,8 +18,10 @@ OCCT's own STEP round trip of it (``occ.step_round_trip``):
     points sampled inside each source face (``occ.deviation``) are further
     than tol (+ 1e-9) from the decoded face of the same index;
 ``invalid``
-    the decoded shape fails BRepCheck where OCCT's STEP round trip of the
-    source passes;
+    the decoded shape fails BRepCheck where the source passes, or its STEP
+    file read back fails where OCCT's own STEP round trip of the source
+    passes (a source that is invalid as OCCT reads it may come back as it
+    is: nurbscomp keeps the B-rep it was given);
 ``free_edges``
     more free edges than the source: edges left free when the faces are
     sewn at 1e-7 (``ShapeAnalysis_FreeBounds(shape, 1e-7, False, False)``,
@@ -60,6 +62,7 @@ from OCP.TopExp import TopExp
 from OCP.TopTools import TopTools_IndexedMapOfShape
 
 from nurbscomp import occ, pipeline
+from nurbscomp.encode.validity import step_reader_hangs
 from nurbscomp.errors import NurbscompError
 
 from . import files, shapes
@@ -130,8 +133,10 @@ class Reference:
     """What the source file gives OCCT: shape, counts, free edges, floor validity."""
 
     shape: Any
+    unit: str
     counts: dict[str, int]
     free: int
+    valid: bool
     floor_valid: bool
     notes: list[str]
 
@@ -140,14 +145,23 @@ def reference(path: Path) -> Reference:
     """OCCT's read of ``path`` and its own STEP round trip (raises if unreadable)."""
     cad = occ.read_cad(path)
     notes = []
-    try:
-        floor_valid = occ.is_valid(occ.step_round_trip(cad.shape, cad.unit))
-    except Exception as e:  # OCCT's own round trip fails: no validity to keep
+    hangs = step_reader_hangs(occ.shape_to_model(cad.shape)[0])
+    if hangs:  # OCCT's reader would not come back from its own round trip
         floor_valid = False
-        notes.append(f"OCCT's STEP round trip fails: {_one_line(e)}")
+        notes.append(f"no STEP round trip: {hangs}")
+    else:
+        try:
+            floor_valid = occ.is_valid(occ.step_round_trip(cad.shape, cad.unit))
+        except Exception as e:  # OCCT's own round trip fails: no validity to keep
+            floor_valid = False
+            notes.append(f"OCCT's STEP round trip fails: {_one_line(e)}")
     if not floor_valid and not notes:
         notes.append("OCCT's STEP round trip is invalid")
-    return Reference(cad.shape, occ.counts(cad.shape), free_edges(cad.shape), floor_valid, notes)
+    valid = occ.is_valid(cad.shape)
+    if not valid:
+        notes.append("the source is invalid as OCCT reads it")
+    counts, free = occ.counts(cad.shape), free_edges(cad.shape)
+    return Reference(cad.shape, cad.unit, counts, free, valid, floor_valid, notes)
 
 
 def check_one(path: Path, tol: float, ref: Reference, work: Path) -> Result:
@@ -188,8 +202,10 @@ def compare(r: Result, ref: Reference, shape: Any, tol: float) -> None:
                     f"{dev.max():.3g} mm > tol on face {int(dev.argmax())}"
                     f" ({bad} of {len(dev)} faces over)",
                 )
-        if ref.floor_valid and not occ.is_valid(shape):
+        if ref.valid and not occ.is_valid(shape):
             r.fail("invalid", f"faces {sorted(occ.faulty_faces(shape))[:8]} fail BRepCheck")
+        elif ref.floor_valid and not occ.is_valid(occ.step_round_trip(shape, ref.unit)):
+            r.fail("invalid", "its STEP file read back fails BRepCheck")
         fe = free_edges(shape)
         if fe > ref.free:
             r.fail("free_edges", f"{ref.free}->{fe}")
