@@ -498,29 +498,103 @@ def _pair_up(
     return out
 
 
+def location_matrix(m: BRepModel, loc: int) -> np.ndarray:
+    """The 4 x 4 matrix of location ``loc``: its datums' matrices raised to their
+    powers, multiplied first factor first (OCCT's ``TopLoc_Location``)."""
+    out = np.eye(4)
+    item = m.locations[loc]
+    for d, p in zip(item.datums, item.powers):
+        t = np.eye(4)
+        t[:3] = m.datums[d]
+        out = (
+            out @ np.linalg.matrix_power(t, p)
+            if p >= 0
+            else out @ np.linalg.matrix_power(np.linalg.inv(t), -p)
+        )
+    return out
+
+
+def curve_placements(m: BRepModel) -> dict[int, np.ndarray]:
+    """Per 3-D curve row used in one place only, where: the 4 x 4 matrix that
+    takes its poles into the model's frame (the locations from the root down
+    to its edge, then its representation's).  A curve used under two different
+    placements (an instanced part) has none."""
+    mats = {k: location_matrix(m, k) for k in range(len(m.locations))}
+    at: dict[int, list[np.ndarray]] = {}
+    stack = [(m.root_shape, mats[m.root_loc])]
+    seen: set[tuple[int, bytes]] = set()
+    tidx = m.type_index()
+    edge_at: dict[int, list[np.ndarray]] = {}
+    while stack:
+        s, t = stack.pop()
+        key = (s, t.tobytes())
+        if key in seen:
+            continue
+        seen.add(key)
+        if m.shape_type[s] == ShapeType.EDGE:
+            edge_at.setdefault(int(tidx[s]), []).append(t)
+            continue
+        for k in range(m.child_start[s], m.child_start[s + 1]):
+            c = int(m.child_shape[k])
+            if m.shape_type[c] != ShapeType.VERTEX:
+                stack.append((c, t @ mats[int(m.child_loc[k])]))
+    reps = m.edge_reps
+    for q in np.flatnonzero(reps[:, 1] == RepKind.CURVE3D).tolist():
+        c = int(reps[q, 2])
+        for t in edge_at.get(int(reps[q, 0]), []):
+            at.setdefault(c, []).append(t @ mats[int(reps[q, 6])])
+    return {c: ts[0] for c, ts in at.items() if all(np.array_equal(x, ts[0]) for x in ts)}
+
+
+def placed(poles: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Points (n, 3) moved by the 4 x 4 matrix ``t``."""
+    return poles @ t[:3, :3].T + t[:3, 3]
+
+
 def twin_curves(
     curves: list[Geometry],
     rows: set[int],
     eps: float,
     iso: set[int] = frozenset(),  # type: ignore[assignment]
+    where: dict[int, np.ndarray] | None = None,
 ) -> dict[int, tuple[int, int, float]]:
-    """Rows of ``rows`` whose B-spline curve is another row's up to ``eps``.
+    """Rows of ``rows`` whose B-spline curve is another row's up to ``eps``, in
+    the model's frame.
 
     Returns ``{member row: (leader row, reversed, distance)}``.  Faces of an
     IGES surface model (and of many STEP files) meet along separate edges
-    whose curves coincide, often with their poles reversed: coded
-    independently, they would part by up to tol, opening the gap the paper's
-    shared boundaries prevent.  A member is decoded as a copy of its
-    leader's final poles (``Method.COPY``).  Rows in ``iso`` (copies of a
+    whose curves coincide, often with their poles reversed, and each face may
+    have a frame of its own: coded independently, they would part by up to
+    tol, opening the gap the paper's shared boundaries prevent.  A member is
+    decoded as a copy of its leader's final poles (``Method.COPY``), moved by
+    the two placements (:func:`copy_matrix`).  Rows in ``iso`` (copies of a
     surface's boundary, :func:`iso_sources`) lead first and are never members.
+    ``where`` is :func:`curve_placements`; rows without one are left out
+    (with ``where`` None, every curve is where its poles are).
     """
     order = sorted(rows, key=lambda r: (r not in iso, r))
-    runs = [
-        (r, _curve_run(g))
-        for r in order
-        if isinstance(g := curves[r], BSplineCurve) and not g.periodic and g.poles.shape[1] == 3
-    ]
+    runs = []
+    for r in order:
+        g = curves[r]
+        if not isinstance(g, BSplineCurve) or g.periodic or g.poles.shape[1] != 3:
+            continue
+        if where is not None and r not in where:
+            continue
+        run = _curve_run(g)
+        if where is not None:
+            run = replace(run, poles=placed(run.poles, where[r]))
+        runs.append((r, run))
     return _pair_up(runs, eps, iso)
+
+
+def copy_matrix(where: dict[int, np.ndarray], row: int, leader: int) -> np.ndarray | None:
+    """The matrix taking the leader's poles to a copy's own frame
+    (inverse of the copy's placement times the leader's), or None where the
+    two placements are equal (the poles are copied as they are)."""
+    a, b = where.get(row, np.eye(4)), where.get(leader, np.eye(4))
+    if np.array_equal(a, b):
+        return None
+    return np.linalg.inv(a) @ b
 
 
 def joined_sides(g: BSplineSurface, lead: BSplineSurface, join: np.ndarray) -> np.ndarray:

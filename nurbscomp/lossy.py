@@ -118,6 +118,8 @@ class Coded:
     #: (surface row, side) -> ((leader row, side), reversed): a side set to the
     #: leader's decoded side (:func:`joins.twin_sides`)
     sides: dict[tuple[int, int], tuple[tuple[int, int], int]] = field(default_factory=dict)
+    #: curve row -> its placement in the model's frame (:func:`joins.curve_placements`)
+    where: dict[int, np.ndarray] = field(default_factory=dict)
     #: per vertex, the first vertex of its cluster
     vlead: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
 
@@ -287,7 +289,9 @@ def code_model(m: BRepModel, tol: float, paper: bool = False) -> Coded:
     crows = _first_rows(m.curves3d, {k: v for k, v in candidates.items() if k not in keep_c})
     iso = joins.iso_sources(m, crows, _first_rows(m.surfaces, surfaces))
     iso_ids = {id(m.curves3d[c]): src for c, src in iso.items()}
-    twins = _affordable(m.curves3d, joins.twin_curves(m.curves3d, crows, eps, set(iso)), tol)
+    where = joins.curve_placements(m)
+    twins = joins.twin_curves(m.curves3d, crows, eps, set(iso), where)
+    twins = _affordable(m.curves3d, twins, tol)
     twin_ids = {id(m.curves3d[c]): (r, rev) for c, (r, rev, _) in twins.items()}
     limits = _leader_limits(m.curves3d, twins, tol)
     for c, (r, _, d) in twins.items():  # a surface whose boundary leads is coded to suit
@@ -316,6 +320,7 @@ def code_model(m: BRepModel, tol: float, paper: bool = False) -> Coded:
         iso_ids,
         vgrid,
         twins=twin_ids,
+        where=where,
         vlead=lead,
         sides={k: (lead_side, rev) for k, (lead_side, rev, _) in sides.items()},
     )
@@ -675,8 +680,11 @@ def _copy_twins(
         if id(curves[r]) not in codes:
             continue  # the leader is exact: so is this curve, as it is
         assert isinstance(g, BSplineCurve)
-        lead = curves[r].poles  # type: ignore[union-attr]
+        lead = _poles(curves[r])
         poles = (lead[::-1] if rev else lead).copy()
+        t = joins.copy_matrix(coded.where, c, r)
+        if t is not None:  # the two edges sit in frames of their own
+            poles = joins.placed(poles, t)
         bound = _moved(poles, g.poles)
         if bound > feature_limit(g.poles, coded.tol):
             continue

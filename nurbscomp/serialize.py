@@ -847,13 +847,21 @@ def _read_nets(
     return copies
 
 
-def _fill_copies(copies: list[tuple[int, int, codec.NetCode]], records: list[Geometry]) -> None:
+def _fill_copies(copies: list[tuple[int, int, codec.NetCode]], m: BRepModel) -> None:
     """Set the poles of ``Method.COPY`` rows (CNET), after every other row is
-    decoded and pinned: each is its leader row's final poles."""
+    decoded and pinned: each is its leader row's final poles, moved by
+    :func:`joins.copy_matrix` where the two sit in frames of their own."""
+    if not copies:
+        return
+    records = m.curves3d
+    where = joins.curve_placements(m)
     leaders = {row for _, row, _ in copies}
     for k, row, code in copies:
         try:
             net = _twin_copy(code, row, records, leaders)
+            t = joins.copy_matrix(where, row, row - int(code.ints[0]))
+            if t is not None:
+                net = joins.placed(net, t)
         except ValueError as e:
             raise SectionError(f"CNET: net {k} (table row {row}): {e}") from None
         records[row].poles[...] = net  # type: ignore[union-attr]
@@ -1113,7 +1121,7 @@ def _sections_to_model(get: Any, minor: int) -> tuple[BRepModel, dict[str, Any]]
     for c, pins in joins.curve_end_pins(m, m.curves3d, pinned, tol).items():
         g = cast(BSplineCurve, m.curves3d[c])
         g.poles[...] = joins.pinned_poles(m, g, pins)
-    _fill_copies(copies, m.curves3d)
+    _fill_copies(copies, m)
     return m, meta
 
 

@@ -122,3 +122,55 @@ def test_copy_code_is_checked() -> None:
     assert np.array_equal(serialize._twin_copy(ok, 2, curves, set()), curves[0].poles[::-1])
     with pytest.raises(ValueError, match="not a copy"):
         serialize._twin_copy(ok, 2, curves, {0})  # a copy of a copy
+
+
+def test_curve_placements_match_occt(tmp_path: Path) -> None:
+    """An IGES surface model whose faces sit in frames of their own: each
+    placed curve's first pole is where OCCT puts the edge's start."""
+    from OCP.BRep import BRep_Tool
+    from OCP.BRepAdaptor import BRepAdaptor_Curve
+    from OCP.TopAbs import TopAbs_EDGE
+    from OCP.TopExp import TopExp
+    from OCP.TopoDS import TopoDS
+    from OCP.TopTools import TopTools_IndexedMapOfShape
+
+    from tests.stress.files import write_iges
+    from tests.stress.shapes import _fillet_cyl
+
+    src = tmp_path / "f.igs"
+    write_iges(_fillet_cyl(5.0, 8.0, 1.0, None), src, 0)  # faces mode
+    cad = occ.read_cad(src)
+    m, _ = occ.shape_to_model(cad.shape)
+    assert len(m.locations) > 1  # the reader placed the faces
+    where = joins.curve_placements(m)
+    em = TopTools_IndexedMapOfShape()
+    TopExp.MapShapes_s(cad.shape, TopAbs_EDGE, em)
+    reps = m.edge_reps
+    checked = 0
+    for q in np.flatnonzero(reps[:, 1] == 0).tolist():
+        c = int(reps[q, 2])
+        g = m.curves3d[c] if c >= 0 else None
+        if not isinstance(g, BSplineCurve) or c not in where:
+            continue
+        edge = TopoDS.Edge(em.FindKey(int(reps[q, 0]) + 1))
+        if BRep_Tool.Degenerated_s(edge):
+            continue
+        p = BRepAdaptor_Curve(edge).Value(float(g.knots[0]))
+        got = joins.placed(g.poles[:1], where[c])[0]
+        assert np.allclose(got, [p.X(), p.Y(), p.Z()], atol=1e-9)
+        checked += 1
+    assert checked >= 4
+
+
+def test_located_surface_model_keeps_its_free_edges(tmp_path: Path) -> None:
+    """Faces in frames of their own, each with its own edges: twins are found
+    in the model's frame and copied across the two placements."""
+    from tests.stress.files import write_iges
+    from tests.stress.shapes import _fillet_cyl
+
+    src = tmp_path / "f.igs"
+    write_iges(_fillet_cyl(5.0, 8.0, 1.0, None), src, 0)
+    nzc = tmp_path / "f.nzc"
+    pipeline.compress_file(src, nzc, tol=0.01)
+    shape = pipeline.decode_file(nzc)[0]
+    assert occ.free_edges_sewn(shape) <= occ.free_edges_sewn(occ.read_cad(src).shape)
