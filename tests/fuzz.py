@@ -68,6 +68,9 @@ def make_seeds(folder: Path) -> list[bytes]:
         if not dst.exists():
             pipeline.compress_file(SAMPLES / name, dst, force=True, **opts)  # type: ignore[arg-type]
         out.append(dst.read_bytes())
+    # format 1.1's parts (SIDE, copied curves): the golden surface models
+    golden = Path(__file__).resolve().parent / "golden"
+    out += [p.read_bytes() for p in sorted(golden.glob("*.faces.*.nzc"))]
     return out
 
 

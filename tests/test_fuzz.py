@@ -1,6 +1,6 @@
 """Fuzzing in ``make test``: mutated containers decode or fail with a FormatError.
 
-The seeds are the golden containers (format 1.0, made from the samples); the
+The seeds are the golden containers (formats 1.0 and 1.1, made from the samples); the
 mutations are those of ``tests/fuzz.py`` (``make fuzz`` runs ≥ 10,000 of
 them).  Raw mutations are mostly caught by a CRC; section mutations are
 packed again with valid CRCs, so they reach the section decoders and OCCT.

@@ -20,12 +20,11 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from OCP.Geom import Geom_BSplineCurve, Geom_BSplineSurface
-from OCP.gp import gp_Pnt
-from OCP.TColgp import TColgp_Array1OfPnt, TColgp_Array2OfPnt
-from OCP.TColStd import TColStd_Array1OfInteger, TColStd_Array1OfReal, TColStd_Array2OfReal
 
 from nurbscomp import codec, lossy
 from nurbscomp.model import BSplineCurve, BSplineSurface
+
+from .stress.shapes import _ints, _poles1, _poles2, _reals, _weights2
 
 TOLS = (0.001, 0.01, 0.1)
 
@@ -109,34 +108,12 @@ def curves(draw: st.DrawFn) -> BSplineCurve:
     return g
 
 
-def _reals(x: np.ndarray) -> TColStd_Array1OfReal:
-    a = TColStd_Array1OfReal(1, len(x))
-    for i, v in enumerate(x):
-        a.SetValue(i + 1, float(v))
-    return a
-
-
-def _ints(x: np.ndarray) -> TColStd_Array1OfInteger:
-    a = TColStd_Array1OfInteger(1, len(x))
-    for i, v in enumerate(x):
-        a.SetValue(i + 1, int(v))
-    return a
-
-
 def _occt_surface(g: BSplineSurface) -> None:
     """Build the record as OCCT would hold it (raises if OCCT rejects it)."""
     nu, nv = g.poles.shape[:2]
-    poles = TColgp_Array2OfPnt(1, nu, 1, nv)
-    for i in range(nu):
-        for j in range(nv):
-            poles.SetValue(i + 1, j + 1, gp_Pnt(*map(float, g.poles[i, j])))
-    args: list = [poles]
+    args: list = [_poles2(g.poles)]
     if g.weights is not None:
-        w = TColStd_Array2OfReal(1, nu, 1, nv)
-        for i in range(nu):
-            for j in range(nv):
-                w.SetValue(i + 1, j + 1, float(g.weights[i, j]))
-        args.append(w)
+        args.append(_weights2(g.weights))
     s = Geom_BSplineSurface(
         *args,
         _reals(g.uknots),
@@ -153,10 +130,7 @@ def _occt_surface(g: BSplineSurface) -> None:
 
 
 def _occt_curve(g: BSplineCurve) -> None:
-    poles = TColgp_Array1OfPnt(1, len(g.poles))
-    for i, p in enumerate(g.poles):
-        poles.SetValue(i + 1, gp_Pnt(*map(float, p)))
-    args: list = [poles]
+    args: list = [_poles1(g.poles)]
     if g.weights is not None:
         args.append(_reals(g.weights))
     c = Geom_BSplineCurve(*args, _reals(g.knots), _ints(g.mults), g.degree, g.periodic)
