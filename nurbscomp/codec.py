@@ -51,7 +51,7 @@ class Method(IntEnum):
     ISO = 6  # curves: a copy of a decoded surface's boundary (ints: surface row, side, reversed)
     BOUNDARY3 = 7  # surfaces: as BOUNDARY, with the bicubically blended Coons net
     DDMAP3 = 8  # surfaces: as DDMAP, with the bicubically blended Coons net
-    COPY = 9  # curves: a copy of an earlier decoded curve row (ints: row, reversed); format 1.1
+    COPY = 9  # curves: another row's final poles (ints: this row minus it, reversed); format 1.1
 
 
 SURFACE_METHODS = (
@@ -471,22 +471,15 @@ def _passing(
     basis: dmap.Basis | None = None,
     dfit: np.ndarray | None = None,
     limit: float | None = None,
-    guess: int | None = None,
-) -> tuple[list[NetCode], int | None]:
-    """The first ``keep`` codes within ``limit`` (default tol) along a coarse-to-fine
-    ladder, and the index of the first.
+) -> list[NetCode]:
+    """The first ``keep`` codes within ``limit`` (default tol) along a coarse-to-fine ladder.
 
     The error shrinks (nearly) monotonically along the ladder, so the first
-    passing rung is found by galloping from ``guess`` (where the last net of
-    this kind passed first; the finest rung without one): coarser while it
-    passes, finer while it fails.  Nets of one file pass at nearly the same
-    rung, so this takes two or three trials where a bisection of the ladder
-    takes five.  The ``keep`` rungs from there on are all returned, since a
-    finer step sometimes codes smaller.
+    passing rung is found by bisection; the ``keep`` rungs from there on are
+    all returned, since a finer step sometimes codes smaller.
     """
     cache: dict[int, NetCode | None] = {}
     limit = tol if limit is None else limit
-    last = len(settings) - 1
 
     def ok(i: int) -> bool:
         if i not in cache:
@@ -494,23 +487,22 @@ def _passing(
         c = cache[i]
         return c is not None and c.bound <= limit
 
-    i = last if guess is None else min(max(guess, 0), last)
-    if ok(i):
-        while i > 0 and ok(i - 1):
-            i -= 1
-    else:
-        while i < last and not ok(i + 1):
-            i += 1
-        if i == last:
-            return [], None
-        i += 1
+    lo, hi = 0, len(settings) - 1
+    if not ok(hi):
+        return []
+    while lo < hi:  # first passing rung in [lo, hi]
+        mid = (lo + hi) // 2
+        if ok(mid):
+            hi = mid
+        else:
+            lo = mid + 1
     out = []
-    for k in range(i, min(i + keep, len(settings))):
-        if ok(k):
-            c = cache[k]
+    for i in range(lo, min(lo + keep, len(settings))):
+        if ok(i):
+            c = cache[i]
             assert c is not None
             out.append(c)
-    return out, i
+    return out
 
 
 #: Methods that differ from ``BOUNDARY`` only in a net's interior.
@@ -537,7 +529,6 @@ def encode_net(
     origin: np.ndarray | None = None,
     basis: dmap.Basis | None = None,
     limit: float | None = None,
-    guesses: dict[tuple[Method, int], int] | None = None,
 ) -> NetCode:
     """The cheapest code of a net whose certified bound is ≤ tol (or ``limit``).
 
@@ -567,11 +558,6 @@ def encode_net(
         A bound below tol this net is held to (a feature smaller than tol,
         see :func:`nurbscomp.lossy.feature_limit`); steps stay multiples
         tol·2^(e/4) of the container's tol, with e going further down.
-    guesses : dict, optional
-        Per (method, ladder), the level where the previous net first passed;
-        the search starts there and writes this net's back (:func:`_passing`).
-        Shared by the nets of one table, it makes the search two to three
-        times cheaper; without it each search starts at the finest rung.
 
     Notes
     -----
@@ -609,16 +595,10 @@ def encode_net(
                 ladders.append([_Stepper(Quant.TOL, e, k, tol) for e in rungs])
             if paper:
                 ladders.append([_Stepper(Quant.PAPER, a, 0, tol) for a in PAPER_BITS])
-        for k, settings in enumerate(ladders):
-            key = (method, k)
-            at = {st.level: i for i, st in enumerate(settings)}
-            guess = None if guesses is None or key not in guesses else at.get(guesses[key])
-            found, first = _passing(
-                p, s, t, tol, method, settings, o, basis=basis, dfit=dfit, limit=limit, guess=guess
-            )
-            if guesses is not None and first is not None:
-                guesses[key] = settings[first].level
-            for c in found:
+        for settings in ladders:
+            for c in _passing(
+                p, s, t, tol, method, settings, o, basis=basis, dfit=dfit, limit=limit
+            ):
                 if best is None or c.bits < best.bits:
                     best = c
     if best is None:

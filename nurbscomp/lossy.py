@@ -157,10 +157,8 @@ def _code_one(
     paper: bool,
     origin: np.ndarray | None,
     limit: float,
-    guesses: dict[tuple[codec.Method, int], int] | None = None,
 ) -> tuple[codec.NetCode, Geometry]:
-    """One record's code (:func:`codec.encode_net`) and the record as decoded;
-    ``guesses`` is the search's memory across the nets of a table."""
+    """One record's code (:func:`codec.encode_net`) and the record as decoded."""
     s, t = net_abscissae(g)
     basis = net_basis(g)
     code = codec.encode_net(
@@ -173,7 +171,6 @@ def _code_one(
         origin=origin,
         basis=basis,
         limit=limit,
-        guesses=guesses,
     )
     net, _ = codec.decode_net(code, g.poles.shape, s, t, tol, origin, basis)
     return replace(code, first=net.reshape(-1, net.shape[-1])[0]), replace(g, poles=net)
@@ -193,14 +190,13 @@ def _code_table(
     to a limit below :func:`feature_limit`'s."""
     out: dict[int, tuple[codec.NetCode, Geometry]] = {}
     origin = None
-    guesses: dict[tuple[codec.Method, int], int] = {}
     for g in table:
         if id(g) in out or id(g) in keep or not isinstance(g, (BSplineSurface, BSplineCurve)):
             continue
         at = (anchors or {}).get(id(g), origin)
         limit = feature_limit(g.poles, tol)
         limit = min(limit, (limits or {}).get(id(g), limit))
-        out[id(g)] = _code_one(g, tol, methods, paper, at, limit, guesses)
+        out[id(g)] = _code_one(g, tol, methods, paper, at, limit)
         origin = out[id(g)][0].first
     return out
 
@@ -226,7 +222,9 @@ def tighten(coded: Coded, records: list[Geometry], level: int = 1) -> None:
             if id(g) in done and coded.tight.get(id(g), 0) < level:
                 assert isinstance(g, (BSplineSurface, BSplineCurve))
                 code = done[id(g)][0]
-                limit = feature_limit(g.poles, coded.tol) / TIGHTER**level
+                # never looser than it is (a twin leader may be held below its own limit)
+                floor = max(code.bound, coded.tol / 1024)
+                limit = min(feature_limit(g.poles, coded.tol) / TIGHTER**level, floor)
                 done[id(g)] = _code_one(g, coded.tol, methods, False, code.origin, limit)
                 coded.fine.add(id(g))
                 coded.tight[id(g)] = level
