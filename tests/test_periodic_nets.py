@@ -141,13 +141,21 @@ def _moved(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.sqrt(((a - b) ** 2).sum(-1)).max())
 
 
+def _coded_within_tol(g: BSplineSurface | BSplineCurve, tol: float, methods: tuple) -> object:
+    """Code ``g`` as the encoder does; the decoded record, checked to be of the
+    same kind and shape, finite, and within tol pole for pole."""
+    code, back = lossy._code_one(g, tol, methods, False, None, tol)
+    assert type(back) is type(g) and back.poles.shape == g.poles.shape
+    assert np.isfinite(back.poles).all()
+    assert _moved(back.poles, g.poles) <= tol, (code.method.name, code.bound)
+    return back
+
+
 @settings(max_examples=300, deadline=None)
 @given(surfaces(), st.sampled_from(TOLS))
 def test_surface_nets_code_within_tol(g: BSplineSurface, tol: float) -> None:
-    code, back = lossy._code_one(g, tol, codec.SURFACE_METHODS, False, None, tol)
-    assert isinstance(back, BSplineSurface) and back.poles.shape == g.poles.shape
-    assert np.isfinite(back.poles).all()
-    assert _moved(back.poles, g.poles) <= tol, (code.method.name, code.bound)
+    back = _coded_within_tol(g, tol, codec.SURFACE_METHODS)
+    assert isinstance(back, BSplineSurface)
     # knots, degrees, periodicity and weights are kept exactly
     assert back.uperiodic == g.uperiodic and back.vperiodic == g.vperiodic
     assert (back.umults == g.umults).all() and (back.vmults == g.vmults).all()
@@ -157,10 +165,8 @@ def test_surface_nets_code_within_tol(g: BSplineSurface, tol: float) -> None:
 @settings(max_examples=300, deadline=None)
 @given(curves(), st.sampled_from(TOLS))
 def test_curve_nets_code_within_tol(g: BSplineCurve, tol: float) -> None:
-    code, back = lossy._code_one(g, tol, codec.CURVE_METHODS, False, None, tol)
-    assert isinstance(back, BSplineCurve) and back.poles.shape == g.poles.shape
-    assert np.isfinite(back.poles).all()
-    assert _moved(back.poles, g.poles) <= tol, (code.method.name, code.bound)
+    back = _coded_within_tol(g, tol, codec.CURVE_METHODS)
+    assert isinstance(back, BSplineCurve)
     assert back.periodic == g.periodic and (back.mults == g.mults).all()
 
 

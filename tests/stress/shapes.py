@@ -158,22 +158,22 @@ def _ints(values: Sequence[int]) -> TColStd_Array1OfInteger:
     return a
 
 
-def _poles2(poles: np.ndarray) -> TColgp_Array2OfPnt:
-    nu, nv = poles.shape[:2]
-    a = TColgp_Array2OfPnt(1, nu, 1, nv)
+def _array2(values: np.ndarray, cls: Any, item: Callable[[np.ndarray], Any]) -> Any:
+    """An OCCT 2-D array (1-based) of ``cls`` holding ``item`` of each entry."""
+    nu, nv = values.shape[:2]
+    a = cls(1, nu, 1, nv)
     for i in range(nu):
         for j in range(nv):
-            a.SetValue(i + 1, j + 1, _pnt(poles[i, j]))
+            a.SetValue(i + 1, j + 1, item(values[i, j]))
     return a
+
+
+def _poles2(poles: np.ndarray) -> TColgp_Array2OfPnt:
+    return _array2(poles, TColgp_Array2OfPnt, _pnt)
 
 
 def _weights2(w: np.ndarray) -> TColStd_Array2OfReal:
-    nu, nv = w.shape
-    a = TColStd_Array2OfReal(1, nu, 1, nv)
-    for i in range(nu):
-        for j in range(nv):
-            a.SetValue(i + 1, j + 1, float(w[i, j]))
-    return a
+    return _array2(w, TColStd_Array2OfReal, float)
 
 
 def _poles1(poles: np.ndarray) -> TColgp_Array1OfPnt:
