@@ -230,6 +230,18 @@ def _compress_text(r: dict[str, Any], verbose: bool) -> str:
     if verbose:
         line += f"\n  {_fmt_counts(r['counts'])}; unit {r['unit']}; faces by type: "
         line += ", ".join(f"{v} {k}" for k, v in r["faces_by_type"].items())
+        if r["faces_by_method"]:
+            line += "\n  faces by method: "
+            line += ", ".join(f"{v} {k}" for k, v in sorted(r["faces_by_method"].items()))
+        v = r.get("validity") or {}
+        if v:
+            kept = ", ".join(f"{n} ({why})" for why, n in v["exact_faces"].items()) or "none"
+            line += (
+                f"\n  validity: rounds {v['rounds']}, STEP round trips {v['step_round_trips']};"
+                f" faces kept exact: {kept}; faces with stored pcurves: {v['pcurves_kept']}"
+            )
+            if v["step_skipped"]:
+                line += f"; no STEP check: {v['step_skipped']}"
     return line
 
 
