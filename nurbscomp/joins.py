@@ -498,6 +498,26 @@ def _pair_up(
     return out
 
 
+def coincident_edges(points: np.ndarray, eps: float) -> list[tuple[int, int]]:
+    """Pairs (i, j), i < j, of rows of ``points`` (edges sampled along their
+    ranges, :func:`occ.edge_points`, shape (E, n, 3)) that run through the same
+    points within ``eps``, in the same or the opposite direction."""
+    from scipy.spatial import cKDTree
+
+    ok = np.isfinite(points).all(axis=(1, 2))
+    rows = np.flatnonzero(ok)
+    if len(rows) < 2:
+        return []
+    mid = points[rows, points.shape[1] // 2]
+    out = []
+    for a, b in sorted(cKDTree(mid).query_pairs(2 * eps)):
+        i, j = int(rows[a]), int(rows[b])
+        pi, pj = points[i], points[j]
+        if np.abs(pi - pj).max() <= eps or np.abs(pi - pj[::-1]).max() <= eps:
+            out.append((i, j))
+    return out
+
+
 def location_matrix(m: BRepModel, loc: int) -> np.ndarray:
     """The 4 x 4 matrix of location ``loc``: its datums' matrices raised to their
     powers, multiplied first factor first (OCCT's ``TopLoc_Location``)."""

@@ -234,7 +234,9 @@ _TRIM_S = (Kind.TRIMMED_SURFACE,)
 _TRIM_C = (Kind.TRIMMED_CURVE,)
 
 
-def code_model(m: BRepModel, tol: float, paper: bool = False) -> Coded:
+def code_model(
+    m: BRepModel, tol: float, paper: bool = False, points: np.ndarray | None = None
+) -> Coded:
     """Run the per-net search (:func:`codec.encode_net`) on every B-spline surface
     and 3-D curve of ``m`` that may move (not under an offset).
 
@@ -246,6 +248,9 @@ def code_model(m: BRepModel, tol: float, paper: bool = False) -> Coded:
     (:func:`joins.twin_sides`) becomes that side after decoding, and a curve
     that is an earlier curve (:func:`joins.twin_curves`) a copy of it.  The
     first of each is coded to a limit that leaves its copies within theirs.
+    ``points`` (edges sampled along their ranges, :func:`occ.edge_points`)
+    finds coincident edges no copy covers (another representation of the
+    same curve): their curves stay exact (:func:`_lonely_curves`).
     """
     eps = min(joins.TWIN_EPS, tol / 64)
     keep_s = _offset_bases(m.surfaces, Kind.OFFSET_SURFACE, _TRIM_S)
@@ -290,6 +295,12 @@ def code_model(m: BRepModel, tol: float, paper: bool = False) -> Coded:
     where = joins.curve_placements(m)
     twins = joins.twin_curves(m.curves3d, crows, eps, set(iso), where)
     twins = _affordable(m.curves3d, twins, tol)
+    if points is not None:  # coincident edges no copy covers: their curves stay exact
+        lonely = _lonely_curves(m, points, twins, iso, sides)
+        keep_c = keep_c | {id(m.curves3d[r]) for r in lonely}
+        iso = {c: v for c, v in iso.items() if c not in lonely}
+        iso_ids = {id(m.curves3d[c]): src for c, src in iso.items()}
+        twins = {c: v for c, v in twins.items() if c not in lonely}
     twin_ids = {id(m.curves3d[c]): (r, rev) for c, (r, rev, _) in twins.items()}
     limits = _leader_limits(m.curves3d, twins, tol)
     for c, (r, _, d) in twins.items():  # a surface whose boundary leads is coded to suit
@@ -333,6 +344,53 @@ def code_model(m: BRepModel, tol: float, paper: bool = False) -> Coded:
             if isinstance(g, (BSplineSurface, BSplineCurve)) and feature_limit(g.poles, tol) < tol:
                 coded.fine.add(id(g))
     return coded
+
+
+#: Edges whose points agree within this (mm) meet in the source: the sewing
+#: tolerance of the free-edge measure, with room for the sampling.
+COINCIDENT = 1e-6
+
+
+def _lonely_curves(
+    m: BRepModel,
+    points: np.ndarray,
+    twins: dict[int, tuple[int, int, float]],
+    iso: dict[int, tuple[int, int, int]],
+    sides: dict[tuple[int, int], tuple[tuple[int, int], int, float]],
+) -> set[int]:
+    """3-D curve rows of coincident edges (:func:`joins.coincident_edges`) that
+    would be coded apart: neither one curve, nor a copy and its leader (or
+    two copies of one), nor the iso-boundaries of two joined sides.  Kept
+    exact, they keep meeting (trj3 at 0.1: a closed curve given twice, with
+    its poles in another order)."""
+    curve_of: dict[int, int] = {}
+    reps = m.edge_reps
+    for q in np.flatnonzero(reps[:, 1] == RepKind.CURVE3D).tolist():
+        curve_of.setdefault(int(reps[q, 0]), int(reps[q, 2]))
+    lead = {c: r for c, (r, _, _) in twins.items()}
+    side_lead = {k: v[0] for k, v in sides.items()}
+
+    def root(c: int) -> tuple[str, Any]:
+        """What a curve's decoded poles come from: a copy's leader's source,
+        an iso-boundary's (joined) side, or the curve itself."""
+        c = lead.get(c, c)
+        if c in iso:
+            k = iso[c][:2]
+            return ("side", side_lead.get(k, k))
+        return ("curve", c)
+
+    out: set[int] = set()
+    for e1, e2 in joins.coincident_edges(points, COINCIDENT):
+        r1, r2 = curve_of.get(e1, -1), curve_of.get(e2, -1)
+        if r1 < 0 or r2 < 0 or r1 == r2:
+            continue
+        g1, g2 = m.curves3d[r1], m.curves3d[r2]
+        if not (isinstance(g1, BSplineCurve) or isinstance(g2, BSplineCurve)):
+            continue  # analytic curves are exact
+        if root(r1) == root(r2):
+            continue
+        out |= {r for r, g in ((r1, g1), (r2, g2)) if isinstance(g, BSplineCurve)}
+    return out
 
 
 def _edges_by_surface(m: BRepModel) -> dict[int, set[int]]:

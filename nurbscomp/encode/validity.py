@@ -185,9 +185,10 @@ class _Floor:
 class _Plan:
     """Which records stay exact, which pcurves are kept, which vertices stay."""
 
-    def __init__(self, m: BRepModel, tol: float) -> None:
+    def __init__(self, m: BRepModel, tol: float, source: Any) -> None:
         self.m, self.tol = m, tol
-        self.coded = lossy.code_model(m, tol)
+        every = list(range(len(m.edge_tol)))
+        self.coded = lossy.code_model(m, tol, points=occ.edge_points(source, every))
         self.faces_rec, self.edges_rec = lossy.face_records(m), lossy.edge_records(m)
         self.faces_of = faces_around(m, ShapeType.EDGE)
         self.edges_of: list[list[int]] = [[] for _ in self.faces_rec]
@@ -302,7 +303,7 @@ def lossy_target(m: BRepModel, source: Any, tol: float, step_check: bool = True)
         Also hold the candidate to OCCT's STEP round trip.
     """
     vr = ValidityReport()
-    plan = _Plan(m, tol)
+    plan = _Plan(m, tol, source)
     if step_check:
         vr.step_skipped = step_reader_hangs(m)
     floor = _Floor(source, m.unit, vr) if step_check and not vr.step_skipped else None

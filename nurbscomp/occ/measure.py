@@ -79,6 +79,25 @@ def free_edges(shape: Any) -> int:
     return n
 
 
+def edge_points(shape: Any, edges: list[int], n: int = 9) -> np.ndarray:
+    """Points along edges (0-based, model order) of ``shape``, in the shape's
+    frame, evenly spread over each edge's range; shape (len(edges), n, 3)."""
+    from OCP.BRepAdaptor import BRepAdaptor_Curve
+
+    em = _map(shape, TopAbs_EDGE)
+    out = np.full((len(edges), n, 3), np.nan)
+    for k, e in enumerate(edges):
+        edge = TopoDS.Edge(em.FindKey(e + 1))
+        if BRep_Tool.Degenerated_s(edge):
+            continue
+        c = BRepAdaptor_Curve(edge)
+        a, b = c.FirstParameter(), c.LastParameter()
+        for i, t in enumerate(np.linspace(a, b, n).tolist()):
+            p = c.Value(t)
+            out[k, i] = p.X(), p.Y(), p.Z()
+    return out
+
+
 def free_edges_sewn(shape: Any, tolerance: float = 1e-7) -> int:
     """Free edges left after sewing at ``tolerance``: edges that no other face
     meets within it, shared or not (``ShapeAnalysis_FreeBounds(shape, tolerance)``).
