@@ -25,7 +25,7 @@ OCCT's own STEP round trip of it (``occ.step_round_trip``):
 ``free_edges``
     more free edges than the source: edges left free when the faces are
     sewn at 1e-7 (``ShapeAnalysis_FreeBounds(shape, 1e-7, False, False)``,
-    :func:`free_edges`; ``occ.free_edges`` counts without sewing, per shell);
+    ``occ.free_edges_sewn``; ``occ.free_edges`` counts without sewing, per shell);
 ``measure``
     a check itself raised on the decoded shape.
 
@@ -55,11 +55,6 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
-
-from OCP.ShapeAnalysis import ShapeAnalysis_FreeBounds
-from OCP.TopAbs import TopAbs_EDGE
-from OCP.TopExp import TopExp
-from OCP.TopTools import TopTools_IndexedMapOfShape
 
 from nurbscomp import occ, pipeline
 from nurbscomp.encode.validity import step_reader_hangs
@@ -103,15 +98,7 @@ class Result:
 
 def free_edges(shape: Any, tol: float = SEWING_TOL) -> int:
     """Edges left free when the faces of ``shape`` are sewn at ``tol``."""
-    fb = ShapeAnalysis_FreeBounds(shape, tol, False, False)
-    n = 0
-    for comp in (fb.GetClosedWires(), fb.GetOpenWires()):
-        if comp.IsNull():
-            continue
-        m = TopTools_IndexedMapOfShape()
-        TopExp.MapShapes_s(comp, TopAbs_EDGE, m)
-        n += m.Extent()
-    return n
+    return occ.free_edges_sewn(shape, tol)
 
 
 def _where(e: BaseException) -> str:
