@@ -406,12 +406,9 @@ def _affordable(table: list[Geometry], pairs: dict[Any, Any], tol: float) -> dic
     """The twin pairs (``{member: (leader, reversed, distance)}``, keys a row or
     (row, side)) whose distance is at most half the member's limit: the
     leader is coded to the rest (:func:`_leader_limits`)."""
-    out = {}
-    for k, v in pairs.items():
-        row = k[0] if isinstance(k, tuple) else k
-        if v[2] <= feature_limit(table[row].poles, tol) / 2:  # type: ignore[union-attr]
-            out[k] = v
-    return out
+    return {
+        k: v for k, v in pairs.items() if v[2] <= feature_limit(_poles(table[_row(k)]), tol) / 2
+    }
 
 
 def _leader_limits(table: list[Geometry], pairs: dict[Any, Any], tol: float) -> dict[int, float]:
@@ -419,12 +416,15 @@ def _leader_limits(table: list[Geometry], pairs: dict[Any, Any], tol: float) -> 
     which moves by the leader's bound plus their distance, within the copy's limit."""
     out: dict[int, float] = {}
     for k, (lead, _, d) in pairs.items():
-        row = k[0] if isinstance(k, tuple) else k
-        lrow = lead[0] if isinstance(lead, tuple) else lead
-        key = id(table[lrow])
-        own = out.get(key, feature_limit(table[lrow].poles, tol))  # type: ignore[union-attr]
-        out[key] = min(own, feature_limit(table[row].poles, tol) - d)  # type: ignore[union-attr]
+        key = id(table[_row(lead)])
+        own = out.get(key, feature_limit(_poles(table[_row(lead)]), tol))
+        out[key] = min(own, feature_limit(_poles(table[_row(k)]), tol) - d)
     return out
+
+
+def _row(key: int | tuple[int, int]) -> int:
+    """The table row of a twin key: a curve row, or a (surface row, side)."""
+    return key[0] if isinstance(key, tuple) else key
 
 
 def _poles(g: Geometry) -> np.ndarray:

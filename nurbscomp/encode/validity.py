@@ -313,8 +313,7 @@ def lossy_target(m: BRepModel, source: Any, tol: float, step_check: bool = True)
         cand, codes, report = plan.candidate()
         shape = build(cand)
         vr.rounds += 1
-        bad_e, bad_f = occ.failures(shape)
-        new_e, new_f = bad_e - old_e, bad_f - old_f
+        new_e, new_f, blamed = _check(shape, old_e, old_f, floor, tol)
         log.debug(
             "validity round %d: %d exact records, pcurves kept on %d faces; "
             "new faults: %d edges, %d faces",
@@ -326,23 +325,20 @@ def lossy_target(m: BRepModel, source: Any, tol: float, step_check: bool = True)
         )
         if new_e or new_f:
             plan.brepcheck(new_e, new_f)
-        elif floor is None:
+        elif blamed is None:
             return _done(plan, cand, codes, report, shape, vr)
-        else:
-            blamed = floor.candidate_losses(shape, tol)
-            if blamed is None:
-                return _done(plan, cand, codes, report, shape, vr)
-            if blamed:
-                plan.step(blamed)
-            else:  # split or merged with no face to blame: C0 knots stay exact
-                plan.make_exact(lossy.kinked_records(m), "kinked")
+        elif blamed:
+            plan.step(blamed)
+        else:  # split or merged with no face to blame: C0 knots stay exact
+            plan.make_exact(lossy.kinked_records(m), "kinked")
         if plan.state() == before:
             break  # nothing left to try here: the fallbacks
     # coded geometry with every pcurve stored, if that passes
     target, codes, report = lossy.assemble(m, plan.coded, plan.exact, plan.still_v)
     shape = build(target)
     vr.rounds += 1
-    if _passes(shape, old_e, old_f, floor, tol, vr):
+    new_e, new_f, blamed = _check(shape, old_e, old_f, floor, tol)
+    if not new_e and not new_f and blamed is None:
         vr.fallback = "pcurves"
         vr.exact_faces = plan.exact_faces(report)
         vr.pcurves_kept = len(m.face_surface)
@@ -368,21 +364,17 @@ def _done(
     return Target(cand, codes, report, shape, vr, rebuilt)
 
 
-def _passes(
-    shape: Any,
-    old_e: set[int],
-    old_f: set[int],
-    floor: _Floor | None,
-    tol: float,
-    vr: ValidityReport,
-) -> bool:
-    """No BRepCheck fault the source lacks and, with a floor, a STEP re-read that keeps it."""
+def _check(
+    shape: Any, old_e: set[int], old_f: set[int], floor: _Floor | None, tol: float
+) -> tuple[set[int], set[int], set[int] | None]:
+    """A candidate's BRepCheck faults the source lacks (edges, faces) and, when
+    it has none and there is a floor, the faces its STEP re-read loses
+    (:meth:`_Floor.candidate_losses`; None: it keeps what the floor keeps)."""
     bad_e, bad_f = occ.failures(shape)
-    if bad_e - old_e or bad_f - old_f:
-        return False
-    if floor is None:
-        return True
-    return floor.candidate_losses(shape, tol) is None
+    new_e, new_f = bad_e - old_e, bad_f - old_f
+    if new_e or new_f or floor is None:
+        return new_e, new_f, None
+    return new_e, new_f, floor.candidate_losses(shape, tol)
 
 
 def vertex_neighbours(m: BRepModel, tol: float) -> list[set[int]]:
