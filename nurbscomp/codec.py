@@ -202,11 +202,19 @@ class _Stepper:
 class _Writer:
     """Encoder side: quantize, record integers and DCs, return the decoded values."""
 
-    def __init__(self, stepper: _Stepper, dfit: np.ndarray | None = None) -> None:
+    def __init__(
+        self,
+        stepper: _Stepper,
+        dfit: np.ndarray | None = None,
+        boundaries: dict[tuple[int, int, int], _Boundary | None] | None = None,
+    ) -> None:
         self.st = stepper
         self.ints: list[np.ndarray] = []
         self.dcs: list[np.ndarray] = []
         self.dfit = dfit  # the D-map fitted once to the exact boundaries' Coons net
+        # one net's coded boundaries by quantizer setting: every Coons method
+        # codes the same corners and curves first (None: unusable there)
+        self.boundaries = boundaries
 
     def coeffs(self, d: np.ndarray) -> np.ndarray:
         shape = d.shape[:-1]
@@ -325,6 +333,55 @@ def _curve(io: _Writer | _Reader, p: np.ndarray, a: np.ndarray, b: np.ndarray) -
     return np.concatenate([a[None], chord + dct.idct1(v), b[None]])
 
 
+@dataclass(frozen=True)
+class _Boundary:
+    """A net's four boundary curves as decoded, and the integers and DCs that
+    code them (with the corners) under one quantizer setting."""
+
+    curves: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+    ints: tuple[np.ndarray, ...]
+    dcs: tuple[np.ndarray, ...]
+
+
+def _boundary(
+    io: _Writer | _Reader, p: np.ndarray, origin: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Code a net's corners on the grid, then its boundary curves (eq. 5-10)
+    between them; return the decoded curves u0, u1, v0, v1.
+
+    The encoder codes them once per quantizer setting of a net
+    (``_Writer.boundaries``): every Coons method begins with the same code.
+    """
+    cache = io.boundaries if isinstance(io, _Writer) else None
+    key = (int(io.st.quant), io.st.level, io.st.slope)
+    if cache is not None and key in cache:
+        assert isinstance(io, _Writer)
+        hit = cache[key]
+        if hit is None:
+            raise _Unusable
+        io.ints.extend(hit.ints)
+        io.dcs.extend(hit.dcs)
+        return hit.curves
+    n_ints, n_dcs = (len(io.ints), len(io.dcs)) if isinstance(io, _Writer) else (0, 0)
+    try:
+        corners = p[[0, 0, -1, -1], [0, -1, 0, -1]]
+        c = io.grid(corners if isinstance(io, _Writer) else np.empty_like(corners), origin)
+        curves = (
+            _curve(io, p[0], c[0], c[1]),
+            _curve(io, p[-1], c[2], c[3]),
+            _curve(io, p[:, 0], c[0], c[2]),
+            _curve(io, p[:, -1], c[1], c[3]),
+        )
+    except _Unusable:
+        if cache is not None:
+            cache[key] = None
+        raise
+    if cache is not None:
+        assert isinstance(io, _Writer)
+        cache[key] = _Boundary(curves, tuple(io.ints[n_ints:]), tuple(io.dcs[n_dcs:]))
+    return curves
+
+
 def _coons_code(
     io: _Writer | _Reader,
     p: np.ndarray,
@@ -336,12 +393,7 @@ def _coons_code(
 ) -> np.ndarray:
     """Code a net as corners + boundary curves + (for DDMAP, DMAP) difference
     data; return the decoded net."""
-    corners = p[[0, 0, -1, -1], [0, -1, 0, -1]]
-    c = io.grid(corners if isinstance(io, _Writer) else np.empty_like(corners), origin)
-    u0 = _curve(io, p[0], c[0], c[1])
-    u1 = _curve(io, p[-1], c[2], c[3])
-    v0 = _curve(io, p[:, 0], c[0], c[2])
-    v1 = _curve(io, p[:, -1], c[1], c[3])
+    u0, u1, v0, v1 = _boundary(io, p, origin)
     net = (coons.bicubic_net if method in BICUBIC else coons.coons_net)(u0, u1, v0, v1, s, t)
     nu, nv = p.shape[:2]
     if method in (Method.DDMAP, Method.DDMAP3) and nu > 2 and nv > 2:
@@ -446,8 +498,9 @@ def _try(
     origin: np.ndarray,
     basis: dmap.Basis | None = None,
     dfit: np.ndarray | None = None,
+    boundaries: dict[tuple[int, int, int], _Boundary | None] | None = None,
 ) -> NetCode | None:
-    w = _Writer(st, dfit)
+    w = _Writer(st, dfit, boundaries)
     try:
         dec = _code(w, p, method, s, t, origin, basis)
     except _Unusable:
@@ -471,6 +524,7 @@ def _passing(
     basis: dmap.Basis | None = None,
     dfit: np.ndarray | None = None,
     limit: float | None = None,
+    boundaries: dict[tuple[int, int, int], _Boundary | None] | None = None,
 ) -> list[NetCode]:
     """The first ``keep`` codes within ``limit`` (default tol) along a coarse-to-fine ladder.
 
@@ -483,7 +537,7 @@ def _passing(
 
     def ok(i: int) -> bool:
         if i not in cache:
-            cache[i] = _try(p, s, t, tol, method, settings[i], origin, basis, dfit)
+            cache[i] = _try(p, s, t, tol, method, settings[i], origin, basis, dfit, boundaries)
         c = cache[i]
         return c is not None and c.bound <= limit
 
@@ -570,6 +624,7 @@ def encode_net(
     limit = tol if limit is None else min(limit, tol)
     rungs = ladder(tol, limit)
     best: NetCode | None = None
+    boundaries: dict[tuple[int, int, int], _Boundary | None] = {}
     if p.ndim == 3 and min(p.shape[:2]) <= 2:
         # no interior: every Coons method decodes to the boundary method's net
         # with the same integers, and the first of equal codes is kept anyway
@@ -597,7 +652,17 @@ def encode_net(
                 ladders.append([_Stepper(Quant.PAPER, a, 0, tol) for a in PAPER_BITS])
         for settings in ladders:
             for c in _passing(
-                p, s, t, tol, method, settings, o, basis=basis, dfit=dfit, limit=limit
+                p,
+                s,
+                t,
+                tol,
+                method,
+                settings,
+                o,
+                basis=basis,
+                dfit=dfit,
+                limit=limit,
+                boundaries=boundaries,
             ):
                 if best is None or c.bits < best.bits:
                     best = c

@@ -31,6 +31,7 @@ face kept exact is counted in :class:`ValidityReport` with its reason.
 from __future__ import annotations
 
 import collections
+import functools
 import logging
 from dataclasses import dataclass, field
 from enum import IntEnum
@@ -139,6 +140,7 @@ class _Floor:
         self.source, self.unit, self.report = source, unit, report
         self.counts = occ.counts(source)
         self._shape: Any = None
+        self._signatures: dict[str, np.ndarray] = {}  # the source's and the floor's
 
     @property
     def shape(self) -> Any:
@@ -146,6 +148,21 @@ class _Floor:
             self._shape = occ.step_round_trip(self.source, self.unit)
             self.report.step_round_trips += 1
         return self._shape
+
+    @functools.cached_property
+    def floor_counts(self) -> dict[str, int]:
+        return occ.counts(self.shape)
+
+    @functools.cached_property
+    def floor_valid(self) -> bool:
+        return occ.is_valid(self.shape)
+
+    def signatures(self, which: str) -> np.ndarray:
+        """:func:`occ.face_signatures` of the ``"source"`` or the ``"floor"``, made once."""
+        if which not in self._signatures:
+            shape = self.source if which == "source" else self.shape
+            self._signatures[which] = occ.face_signatures(shape)
+        return self._signatures[which]
 
     def candidate_losses(self, shape: Any, tol: float) -> set[int] | None:
         """:meth:`losses` of the candidate ``shape`` written to STEP and read back.
@@ -168,14 +185,14 @@ class _Floor:
         got = occ.counts(back)
         if got == self.counts and occ.is_valid(back):
             return None  # as the source: whatever the floor is, this keeps it
-        floor = occ.counts(self.shape)
-        faulty = occ.faulty_faces(back) if occ.is_valid(self.shape) else set()
+        floor = self.floor_counts
+        faulty = occ.faulty_faces(back) if self.floor_valid else set()
         if not faulty and step_keeps(self.counts, floor, got):
             return None
         log.debug("STEP round trip %s != %s", got, floor)
         return step_losses(
-            occ.face_signatures(self.source),
-            occ.face_signatures(self.shape),
+            self.signatures("source"),
+            self.signatures("floor"),
             occ.face_signatures(back),
             tol,
             faulty,
