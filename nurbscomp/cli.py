@@ -238,7 +238,8 @@ def _compress_text(r: dict[str, Any], verbose: bool) -> str:
             kept = ", ".join(f"{n} ({why})" for why, n in v["exact_faces"].items()) or "none"
             line += (
                 f"\n  validity: rounds {v['rounds']}, STEP round trips {v['step_round_trips']};"
-                f" faces kept exact: {kept}; faces with stored pcurves: {v['pcurves_kept']}"
+                f" faces coded tighter: {v['tightened']}; faces kept exact: {kept};"
+                f" faces with stored pcurves: {v['pcurves_kept']}"
             )
             if v["step_skipped"]:
                 line += f"; no STEP check: {v['step_skipped']}"

@@ -49,12 +49,23 @@ def _read_brep(path: Path):
     return shape
 
 
+#: Containers of corpus files made with the defaults, by (file name, tol),
+#: shared by the slow tests so that each is made once per session.
+_MADE: dict[tuple[str, float], Path] = {}
+
+
+def _made(path: Path, tol: float, tmp_path: Path) -> Path:
+    if (path.name, tol) not in _MADE:
+        nzc = tmp_path / f"{path.name}.{tol}.nzc"
+        pipeline.compress_file(path, nzc, tol=tol)
+        _MADE[path.name, tol] = nzc
+    return _MADE[path.name, tol]
+
+
 def _no_new_gaps(path: Path, tmp_path: Path, tol: float) -> None:
     """The decoded shape (as a .brep file holds it, no STEP reader mending it)
     has no more free edges sewn at 1e-7 than the source."""
-    nzc = tmp_path / "x.nzc"
-    if not nzc.exists():
-        pipeline.compress_file(path, nzc, tol=tol)
+    nzc = _made(path, tol, tmp_path)
     brep = tmp_path / "x.brep"
     pipeline.decompress_file(nzc, brep, force=True)
     back = _read_brep(brep)
@@ -65,6 +76,7 @@ def _no_new_gaps(path: Path, tmp_path: Path, tol: float) -> None:
 @pytest.mark.parametrize("path", corpus_files(), ids=lambda p: p.name)
 def test_corpus_within_tol(path: Path, tmp_path: Path) -> None:
     _check(path, tmp_path, 0.01, step=True)
+    _MADE[path.name, 0.01] = tmp_path / "x.nzc"
     _no_new_gaps(path, tmp_path, 0.01)
 
 
@@ -73,6 +85,30 @@ def test_corpus_within_tol(path: Path, tmp_path: Path) -> None:
 @pytest.mark.parametrize("tol", [0.001, 0.1])
 def test_corpus_no_new_gaps(path: Path, tmp_path: Path, tol: float) -> None:
     _no_new_gaps(path, tmp_path, tol)
+
+
+#: Corpus files whose container still grows with the tolerance, and why.
+GROWS_WITH_TOL = {
+    "occt__bearing.iges": "0.01 -> 0.1 mm: at 0.1 mm (more than the part's 0.07 mm) "
+    "OCCT's STEP reader splits 4 faces of 10 um unless they are kept exact",
+}
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    "path",
+    [
+        pytest.param(p, marks=pytest.mark.xfail(strict=True, reason=GROWS_WITH_TOL[p.name]))
+        if p.name in GROWS_WITH_TOL
+        else p
+        for p in corpus_files()
+    ],
+    ids=lambda p: p.name,
+)
+def test_corpus_no_growth_with_tol(path: Path, tmp_path: Path) -> None:
+    """A larger tolerance never gives a larger container (issue 10)."""
+    sizes = [_made(path, tol, tmp_path).stat().st_size for tol in (0.001, 0.01, 0.1)]
+    assert sizes == sorted(sizes, reverse=True), f"bytes at 0.001, 0.01, 0.1 mm: {sizes}"
 
 
 @pytest.mark.parametrize("path", sample_files(), ids=lambda p: p.name)
