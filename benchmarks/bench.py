@@ -51,7 +51,7 @@ import numpy as np
 import zstandard
 
 import nurbscomp
-from nurbscomp import entropy, lossy, occ, pipeline, spatial
+from nurbscomp import entropy, occ, pipeline, spatial
 from nurbscomp.model import BSplineSurface
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -113,14 +113,14 @@ def baseline_stream(nets: list[np.ndarray], tol: float) -> bytes:
     neighbours (``spatial.encode``: on the grid, closed-loop prediction is
     exact integer arithmetic).  b is the bound nurbscomp holds the same net
     to: tol, or less on a net smaller than a few tol
-    (``lossy.feature_limit``), so both meet the same bound on every net.
+    (``nets.feature_limit``), so both meet the same bound on every net.
     Each net's first pole is coded against the previous net's first pole.
     Knots, weights and degrees are not included.
     """
     prev = np.zeros(3)
     parts = []
     for p in nets:
-        h = 2.0 * lossy.feature_limit(p, tol) / math.sqrt(3.0)
+        h = 2.0 * nets.feature_limit(p, tol) / math.sqrt(3.0)
         r = spatial.encode(p, h)
         first = r[0, 0].copy()
         r[0, 0] -= np.rint(prev / h).astype(np.int64)
@@ -904,7 +904,7 @@ def report(
     w(
         "Every pole of a net is snapped to a grid of step h = 2·b/√3 (each coordinate moves "
         "≤ h/2, so each pole ≤ b: the same certified bound nurbscomp gives that net; b is "
-        "tol, or a quarter of the net's size where that is smaller, `lossy.feature_limit`, "
+        "tol, or a quarter of the net's size where that is smaller, `encode.nets.feature_limit`, "
         "as nurbscomp holds features smaller than 4·tol) and predicted "
         "from its decoded neighbours by the parallelogram rule, P[i-1,j] + P[i,j-1] − "
         "P[i-1,j-1] (`nurbscomp.spatial.encode`, exact integer arithmetic on the grid). Each "

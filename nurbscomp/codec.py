@@ -610,7 +610,7 @@ def encode_net(
         ``DMAP_MAX_INTERIOR`` poles; its dense least squares grows fast).
     limit : float, optional
         A bound below tol this net is held to (a feature smaller than tol,
-        see :func:`nurbscomp.lossy.feature_limit`); steps stay multiples
+        see :func:`nurbscomp.encode.nets.feature_limit`); steps stay multiples
         tol·2^(e/4) of the container's tol, with e going further down.
 
     Notes

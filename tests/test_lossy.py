@@ -7,7 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from nurbscomp import lossy, occ, pipeline
+from nurbscomp import occ, pipeline
+from nurbscomp.encode import assembly, nets, pcurves
 
 from .conftest import assert_step_keeps_floor, corpus_files, sample_files
 
@@ -196,18 +197,18 @@ def test_feature_limit_holds_small_features_to_a_fraction_of_their_size() -> Non
     big = np.stack(
         [*np.meshgrid(np.arange(4.0), np.arange(3.0), indexing="ij"), np.zeros((4, 3))], -1
     )
-    assert lossy.feature_limit(big, 0.01) == 0.01
+    assert nets.feature_limit(big, 0.01) == 0.01
     tiny = big * 0.002  # rows 0.006 and 0.004 long: the shorter of the longest rows
-    assert lossy.feature_limit(tiny, 0.01) == pytest.approx(lossy.FEATURE_FRACTION * 0.004)
-    assert lossy.feature_limit(tiny[:, 0], 0.01) == pytest.approx(lossy.FEATURE_FRACTION * 0.006)
-    assert lossy.feature_limit(np.zeros((3, 3)), 0.01) == 0.01 / 1024  # a point
+    assert nets.feature_limit(tiny, 0.01) == pytest.approx(nets.FEATURE_FRACTION * 0.004)
+    assert nets.feature_limit(tiny[:, 0], 0.01) == pytest.approx(nets.FEATURE_FRACTION * 0.006)
+    assert nets.feature_limit(np.zeros((3, 3)), 0.01) == 0.01 / 1024  # a point
 
 
 def test_vertices_that_would_merge_stay() -> None:
     exact = np.array([[0.0, 0, 0], [0.001, 0, 0], [5.0, 0, 0], [5.0, 0, 0], [9.0, 0, 0]])
     snapped = np.array([[0.0, 0, 0], [0.0, 0, 0], [5.0, 0, 0], [5.0, 0, 0], [9.0, 0, 0]])
     # 0 and 1 are two places landing on one point; 2 and 3 were one place already
-    assert lossy._merging(exact, snapped).tolist() == [True, True, False, False, False]
+    assert assembly._merging(exact, snapped).tolist() == [True, True, False, False, False]
 
 
 def _curve_points(g, t: np.ndarray) -> np.ndarray:
@@ -229,8 +230,8 @@ def test_unit_curves_keep_every_edge_point_for_point(name: str) -> None:
     path = next(p for p in corpus_files() if p.name.endswith(name))
     m, _ = occ.shape_to_model(occ.read_cad(path).shape)
     keep = set(range(0, len(m.edge_tol), 2))  # every other edge keeps its pcurves
-    d = lossy.drop_pcurves(m, keep, set())
-    u = lossy.unit_curves(d, {})
+    d = pcurves.drop_pcurves(m, keep, set())
+    u = pcurves.unit_curves(d, {})
     reps = d.edge_reps
     pc = (reps[:, 1] == RepKind.ON_SURFACE) | (reps[:, 1] == RepKind.ON_CLOSED_SURFACE)
     stored = set(reps[pc & (reps[:, 2] >= 0), 0].tolist())  # edges with a stored pcurve

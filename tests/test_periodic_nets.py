@@ -2,7 +2,7 @@
 
 For random ``BSplineSurface`` records (periodic in u, v, both or neither;
 degrees 1-5; random interior multiplicities; rational or not; nets from 2 x N
-up to 12 x 12) and random ``BSplineCurve`` records, ``lossy._code_one`` (what
+up to 12 x 12) and random ``BSplineCurve`` records, ``nets._code_one`` (what
 the encoder runs on every record: ``serialize.net_abscissae`` and
 ``net_basis``, ``codec.encode_net``, then ``codec.decode_net``) must not
 raise, and no decoded pole may be further than tol from its original.
@@ -21,7 +21,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from OCP.Geom import Geom_BSplineCurve, Geom_BSplineSurface
 
-from nurbscomp import codec, lossy
+from nurbscomp import codec
+from nurbscomp.encode import nets
 from nurbscomp.model import BSplineCurve, BSplineSurface
 
 from .stress.shapes import _ints, _poles1, _poles2, _reals, _weights2
@@ -144,7 +145,7 @@ def _moved(a: np.ndarray, b: np.ndarray) -> float:
 def _coded_within_tol(g: BSplineSurface | BSplineCurve, tol: float, methods: tuple) -> object:
     """Code ``g`` as the encoder does; the decoded record, checked to be of the
     same kind and shape, finite, and within tol pole for pole."""
-    code, back = lossy._code_one(g, tol, methods, False, None, tol)
+    code, back = nets._code_one(g, tol, methods, False, None, tol)
     assert type(back) is type(g) and back.poles.shape == g.poles.shape
     assert np.isfinite(back.poles).all()
     assert _moved(back.poles, g.poles) <= tol, (code.method.name, code.bound)
@@ -201,5 +202,5 @@ def test_periodic_net_with_low_end_multiplicity() -> None:
     )
     _occt_surface(g)
     for tol in TOLS:
-        _, back = lossy._code_one(g, tol, codec.SURFACE_METHODS, False, None, tol)
+        _, back = nets._code_one(g, tol, codec.SURFACE_METHODS, False, None, tol)
         assert _moved(back.poles, g.poles) <= tol

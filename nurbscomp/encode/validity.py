@@ -1,6 +1,6 @@
 """The validity stage: the cheapest decodable model that is as valid as the source.
 
-Every B-spline net and curve is coded (:func:`nurbscomp.lossy.code_model`),
+Every B-spline net and curve is coded (:func:`nurbscomp.nets.code_model`),
 and the pcurves OCCT can compute are left for the decoder (DESIGN §4a).  The
 B-rep the decoder will build is then checked, and remedies are applied where
 it falls short, cheapest first.  Two checks:
@@ -19,7 +19,7 @@ it falls short, cheapest first.  Two checks:
    climbs one rung of :class:`Rung` per round; a face whose rungs are all
    spent passes the blame to its edge neighbours, then to its vertex
    neighbours.  Faces that come back split with no face to blame get the
-   deliberate rule of :func:`nurbscomp.lossy.kinked_records`.
+   deliberate rule of :func:`nurbscomp.nets.kinked_records`.
 
 Faces and edges are always indices of the *source* model (``m``): a re-read
 shape's faces are mapped onto the source's by :func:`step_losses` before
@@ -41,9 +41,10 @@ from typing import Any
 
 import numpy as np
 
-from .. import lossy, occ
+from .. import occ
 from ..errors import InputError, NurbscompError, RebuildError
 from ..model import REBUILD, BRepModel, Derived, Kind, ShapeType, faces_around
+from . import assembly, nets, pcurves
 
 log = logging.getLogger(__name__)
 
@@ -102,7 +103,7 @@ class Target:
 
     model: BRepModel
     codes: dict[int, Any]
-    report: lossy.LossyReport
+    report: assembly.LossyReport
     shape: Any
     validity: ValidityReport
     pcurves_rebuilt: int
@@ -211,8 +212,8 @@ class _Plan:
     def __init__(self, m: BRepModel, tol: float, source: Any) -> None:
         self.m, self.tol = m, tol
         every = list(range(len(m.edge_tol)))
-        self.coded = lossy.code_model(m, tol, points=occ.edge_points(source, every))
-        self.faces_rec, self.edges_rec = lossy.face_records(m), lossy.edge_records(m)
+        self.coded = nets.code_model(m, tol, points=occ.edge_points(source, every))
+        self.faces_rec, self.edges_rec = nets.face_records(m), nets.edge_records(m)
         self.faces_of = faces_around(m, ShapeType.EDGE)
         self.edges_of: list[list[int]] = [[] for _ in self.faces_rec]
         for e, fs in enumerate(self.faces_of):
@@ -242,10 +243,10 @@ class _Plan:
             len(self.tight_f),
         )
 
-    def candidate(self) -> tuple[BRepModel, dict[int, Any], lossy.LossyReport]:
-        target, codes, report = lossy.assemble(self.m, self.coded, self.exact, self.still_v)
-        cand = lossy.drop_pcurves(target, self.keep_e, self.keep_f)
-        return lossy.vertex_ranges(lossy.unit_curves(cand, codes), self.tol), codes, report
+    def candidate(self) -> tuple[BRepModel, dict[int, Any], assembly.LossyReport]:
+        target, codes, report = assembly.assemble(self.m, self.coded, self.exact, self.still_v)
+        cand = pcurves.drop_pcurves(target, self.keep_e, self.keep_f)
+        return pcurves.vertex_ranges(pcurves.unit_curves(cand, codes), self.tol), codes, report
 
     def with_leaders(self, ids: set[int]) -> set[int]:
         """``ids`` with the records their copies follow: a copied curve's leader
@@ -284,7 +285,7 @@ class _Plan:
             ids = self.with_leaders(
                 {i for f in fresh for i in (self.faces_rec[f], *self.edge_ids(f))}
             )
-            lossy.tighten(self.coded, [self.originals[i] for i in ids if i in self.originals], 2)
+            nets.tighten(self.coded, [self.originals[i] for i in ids if i in self.originals], 2)
             new_e = {e for e in new_e if not set(self.faces_of[e]) & fresh}
             new_f = new_f - fresh
         for e in new_e & self.keep_e:  # its curve, then its faces' surfaces
@@ -314,7 +315,7 @@ class _Plan:
                 self.still_v |= set(self.verts_of[f])
             elif r in (Rung.TIGHT, Rung.TIGHTER):
                 records = [self.originals[i] for i in ids if i in self.originals]
-                lossy.tighten(self.coded, records, 1 if r == Rung.TIGHT else 2)
+                nets.tighten(self.coded, records, 1 if r == Rung.TIGHT else 2)
             elif r == Rung.EXACT:
                 self.make_exact(ids, "step")
             else:
@@ -325,7 +326,7 @@ class _Plan:
         """Faces coded tighter than tol for a fault."""
         return len(self.tight_f | {f for f, r in self.rung.items() if r >= Rung.TIGHT})
 
-    def exact_faces(self, report: lossy.LossyReport) -> dict[str, int]:
+    def exact_faces(self, report: assembly.LossyReport) -> dict[str, int]:
         """Faces whose coded record the plan left exact, by reason."""
         out: collections.Counter[str] = collections.Counter()
         for f, rec in enumerate(self.faces_rec):
@@ -375,11 +376,11 @@ def lossy_target(m: BRepModel, source: Any, tol: float, step_check: bool = True)
         elif blamed:
             plan.step(blamed)
         else:  # split or merged with no face to blame: C0 knots stay exact
-            plan.make_exact(lossy.kinked_records(m), "kinked")
+            plan.make_exact(nets.kinked_records(m), "kinked")
         if plan.state() == before:
             break  # nothing left to try here: the fallbacks
     # coded geometry with every pcurve stored, if that passes
-    target, codes, report = lossy.assemble(m, plan.coded, plan.exact, plan.still_v)
+    target, codes, report = assembly.assemble(m, plan.coded, plan.exact, plan.still_v)
     shape = build(target)
     vr.rounds += 1
     new_e, new_f, blamed = _check(shape, old_e, old_f, floor, tol)
@@ -390,7 +391,7 @@ def lossy_target(m: BRepModel, source: Any, tol: float, step_check: bool = True)
         vr.tightened = plan.tightened()
         return Target(target, codes, report, shape, vr, 0)
     everything = set(plan.coded.surfaces) | set(plan.coded.curves)
-    target, codes, report = lossy.assemble(m, plan.coded, everything)
+    target, codes, report = assembly.assemble(m, plan.coded, everything)
     vr.fallback = "exact"
     vr.exact_faces = {"fallback": sum(1 for x in report.face_method if x == "exact")}
     return Target(target, codes, report, build(target), vr, 0)
@@ -400,7 +401,7 @@ def _done(
     plan: _Plan,
     cand: BRepModel,
     codes: dict[int, Any],
-    report: lossy.LossyReport,
+    report: assembly.LossyReport,
     shape: Any,
     vr: ValidityReport,
 ) -> Target:

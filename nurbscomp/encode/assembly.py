@@ -1,0 +1,397 @@
+"""The model the decoder will rebuild from a model's codes (DESIGN §2, ``encode/``).
+
+:func:`assemble` puts the *decoded* poles of every coded record into the
+model's tables, leaving a chosen set of records exact, and does what the
+decoder does after it: vertices snapped to the vertex grid, curve ends and net
+corners pinned to them, copies of coincident curves and joined sides made, and
+edge and vertex tolerances widened by the coding error around them.
+"""
+
+from __future__ import annotations
+
+import collections
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+
+from .. import codec, joins
+from ..model import (
+    BRepModel,
+    BSplineCurve,
+    BSplineSurface,
+    Derived,
+    Geometry,
+    RepKind,
+    ShapeType,
+    below,
+)
+from ..serialize import SWEPT
+from .nets import TRIM_C, TRIM_S, Coded, feature_limit, first_rows, poles_of, resolve
+
+
+@dataclass
+class LossyReport:
+    """What the search chose.
+
+    Attributes
+    ----------
+    face_method : list of str
+        Per face (model order): ``"spatial"``, ``"boundary"`` (the paper's "no
+        difference data"), ``"ddmap"``, ``"dmap"``, ``"boundary3"`` and
+        ``"ddmap3"`` (with the bicubic Coons net), ``"swept"`` (a swept surface whose
+        curve was coded), or ``"exact"``.
+    face_bound : ndarray, shape (F,)
+        Certified bound per face (0 for exact faces).
+    edge_bound : ndarray, shape (E,)
+        Certified bound of each edge's 3-D curve.
+    surface_bits, curve_bits : float
+        Estimated bits of the coded nets (before the entropy stage).
+    surface_poles, curve_poles : int
+        Poles of the coded nets.
+    """
+
+    face_method: list[str]
+    face_bound: np.ndarray
+    edge_bound: np.ndarray
+    surface_bits: float
+    surface_poles: int
+    curve_bits: float
+    curve_poles: int
+
+    def method_counts(self) -> dict[str, int]:
+        return dict(collections.Counter(self.face_method))
+
+
+def assemble(
+    m: BRepModel,
+    coded: Coded,
+    exact: set[int] = frozenset(),  # type: ignore[assignment]
+    still: set[int] = frozenset(),  # type: ignore[assignment]
+) -> tuple[BRepModel, dict[int, codec.NetCode], LossyReport]:
+    """The model the decoder will rebuild when every coded record but ``exact`` is used,
+    and every vertex that may move (:func:`_snap_vertices`) but the rows in ``still``.
+
+    Returns
+    -------
+    decoded : BRepModel
+        Shares unchanged tables with ``m``; tolerances widened.
+    codes : dict
+        ``id(record in decoded) -> NetCode`` for the container.
+    report : LossyReport
+    """
+    codes: dict[int, codec.NetCode] = {}
+
+    def swap(
+        table: list[Geometry], done: dict[int, tuple[codec.NetCode, Geometry]]
+    ) -> list[Geometry]:
+        out = []
+        for g in table:
+            hit = done.get(id(g)) if id(g) not in exact else None
+            if hit is None:
+                out.append(g)
+            else:
+                codes[id(hit[1])] = hit[0]
+                out.append(hit[1])
+        return out
+
+    # a boundary coded once is exact on every side or on none: an exact copy's
+    # leader is exact too
+    exact = exact | {id(m.curves3d[r]) for k, (r, _) in coded.twins.items() if k in exact}
+    while True:
+        more = {
+            id(m.surfaces[a])
+            for (b, _), ((a, _), _) in coded.sides.items()
+            if id(m.surfaces[b]) in exact
+        } - exact
+        if not more:
+            break
+        exact = exact | more
+    surfaces = swap(m.surfaces, coded.surfaces)
+    curves = swap(m.curves3d, coded.curves)
+    m, moved_v = _snap_vertices(m, coded, surfaces, curves, codes, exact, still)
+    _pin_surfaces(m, surfaces, codes, coded.tol)
+    side_joins = _join_sides(m, coded, surfaces, codes)
+    _copy_iso(m, coded, surfaces, curves, codes, exact)
+    _pin_curves(m, curves, codes, coded.tol)
+    _copy_twins(m, coded, curves, codes, exact)
+    bound_of = {k: c.bound for k, c in codes.items()}
+
+    def curve_bound(i: int) -> float:
+        return 0.0 if i < 0 else bound_of.get(id(resolve(curves, i, TRIM_C)), 0.0)
+
+    face_bound = np.zeros(len(m.face_surface))
+    face_method = []
+    for f, row in enumerate(m.face_surface.tolist()):
+        b = resolve(surfaces, row, TRIM_S)
+        if id(b) in codes:
+            face_bound[f] = codes[id(b)].bound
+            face_method.append(codes[id(b)].method.name.lower())
+        elif isinstance(b, Derived) and b.kind in SWEPT:
+            # sweeping is an isometry of each curve point: the surface moves as the curve
+            face_bound[f] = curve_bound(b.basis)
+            face_method.append("swept" if face_bound[f] > 0 else "exact")
+        else:
+            face_method.append("exact")
+    reps = m.edge_reps
+    edge_bound = np.zeros(len(m.edge_tol))
+    for q in np.flatnonzero(reps[:, 1] == RepKind.CURVE3D).tolist():
+        edge_bound[reps[q, 0]] = max(edge_bound[reps[q, 0]], curve_bound(int(reps[q, 2])))
+    out = _widen_tolerances(m, face_bound, edge_bound, moved_v)
+    out.surfaces, out.curves3d = surfaces, curves
+    out.side_joins = side_joins
+    sc = [codes[id(g)] for g in {id(g): g for g in surfaces if id(g) in codes}.values()]
+    cc = [codes[id(g)] for g in {id(g): g for g in curves if id(g) in codes}.values()]
+    report = LossyReport(
+        face_method,
+        face_bound,
+        edge_bound,
+        sum(c.bits for c in sc),
+        sum(int(np.prod(poles_of(g).shape[:-1])) for g in surfaces if id(g) in codes),
+        sum(c.bits for c in cc),
+        sum(len(poles_of(g)) for g in curves if id(g) in codes),
+    )
+    return out, codes, report
+
+
+def _snap_vertices(
+    m: BRepModel,
+    coded: Coded,
+    surfaces: list[Geometry],
+    curves: list[Geometry],
+    codes: dict[int, codec.NetCode],
+    exact: set[int],
+    still: set[int],
+) -> tuple[BRepModel, np.ndarray]:
+    """``m`` with its vertices on the vertex grid where every edge at the vertex
+    has a coded (or iso-copied) 3-D curve, and how far each vertex moved.
+
+    Those curves are then pinned to the snapped vertex, and so are the corners
+    of the nets around it, so everything that meets there still meets.  A
+    vertex on an exact curve (a line, a circle, a degenerated edge), on a
+    feature smaller than tol (``coded.fine``), or that would land where
+    another vertex lands (:func:`_merging`) stays.
+    """
+    if not len(coded.vgrid):
+        return m, np.zeros(len(m.vertex_tol))
+    tidx = m.type_index()
+    curve_of: dict[int, int] = {}
+    reps = m.edge_reps
+    for q in np.flatnonzero(reps[:, 1] == RepKind.CURVE3D).tolist():
+        curve_of[int(reps[q, 0])] = int(reps[q, 2]) if reps[q, 6] == 0 else -1
+    ok = np.ones(len(m.vertex_tol), bool)
+    for e, s in enumerate(np.flatnonzero(m.shape_type == ShapeType.EDGE).tolist()):
+        c = curve_of.get(e, -1)
+        moving = c >= 0 and (
+            id(curves[c]) in codes
+            or (
+                id(m.curves3d[c]) in coded.iso
+                and id(m.curves3d[c]) not in exact
+                and id(surfaces[coded.iso[id(m.curves3d[c])][0]]) in codes
+            )
+        )
+        if not moving or id(m.curves3d[c]) in coded.fine:
+            for v in below(m, s, ShapeType.VERTEX):
+                ok[tidx[v]] = False
+    for f, s in enumerate(np.flatnonzero(m.shape_type == ShapeType.FACE).tolist()):
+        if id(resolve(m.surfaces, int(m.face_surface[f]), TRIM_S)) in coded.fine:
+            for v in below(m, s, ShapeType.VERTEX):
+                ok[tidx[v]] = False
+    ok[sorted(still)] = False
+    lead = coded.vlead if len(coded.vlead) == len(ok) else np.arange(len(ok))
+    ok &= ~_merging(m.vertex_point[lead], coded.vgrid)
+    ok &= ~np.isin(lead, lead[~ok])  # a cluster moves as one or stays
+    out: Any = replace(m)
+    out.vertex_point = np.where(ok[:, None], coded.vgrid, m.vertex_point)
+    moved = np.sqrt(((out.vertex_point - m.vertex_point) ** 2).sum(-1))
+    return out, moved
+
+
+def _merging(exact: np.ndarray, snapped: np.ndarray) -> np.ndarray:
+    """Vertices that would land on the same grid point as a vertex at another place.
+
+    Distinct vertices at one point are one vertex to a STEP reader (measured on
+    an IGES file of one shell per face: 925 vertices came back as 678), so
+    such vertices keep their place.
+    """
+    out = np.zeros(len(exact), bool)
+    if not len(exact):
+        return out
+    _, group = np.unique(snapped, axis=0, return_inverse=True)
+    group = group.ravel()
+    _, first = np.unique(group, return_index=True)
+    differs = (exact != exact[first[group]]).any(-1)  # not where its group's first vertex is
+    bad_groups = np.unique(group[differs])
+    out[np.isin(group, bad_groups)] = True
+    return out
+
+
+def _replace_all(table: list[Geometry], old: Geometry, new: Geometry) -> None:
+    for i, g in enumerate(table):
+        if g is old:
+            table[i] = new
+
+
+def _moved(a: np.ndarray, b: np.ndarray) -> float:
+    return float(np.sqrt(((a - b) ** 2).sum(-1)).max())
+
+
+def _pin_surfaces(
+    m: BRepModel, surfaces: list[Geometry], codes: dict[int, codec.NetCode], tol: float
+) -> None:
+    """Apply :func:`joins.surface_corner_pins` as the decoder will, raising bounds."""
+    for r, pins in joins.surface_corner_pins(m, surfaces, first_rows(surfaces, codes), tol).items():
+        old, original = surfaces[r], m.surfaces[r]
+        assert isinstance(old, BSplineSurface) and isinstance(original, BSplineSurface)
+        new = replace(old, poles=joins.pinned_corners(m, old, pins))
+        code = codes.pop(id(old))
+        codes[id(new)] = replace(code, bound=max(code.bound, _moved(new.poles, original.poles)))
+        _replace_all(surfaces, old, new)
+
+
+def _copy_iso(
+    m: BRepModel,
+    coded: Coded,
+    surfaces: list[Geometry],
+    curves: list[Geometry],
+    codes: dict[int, codec.NetCode],
+    exact: set[int],
+) -> None:
+    """Curves that are a coded surface's boundary become copies of the decoded boundary."""
+    for c, g in enumerate(m.curves3d):
+        src = coded.iso.get(id(g))
+        if src is None or id(g) in exact or curves[c] is not g:
+            continue
+        r, side, rev = src
+        if id(surfaces[r]) not in codes:
+            continue  # the surface is exact, and so is its boundary: the curve as it is
+        assert isinstance(g, BSplineCurve)
+        poles = joins.boundary(surfaces[r].poles, side, bool(rev)).copy()  # type: ignore[union-attr]
+        new = replace(g, poles=poles)
+        ints = np.array([r, side, rev], np.int64)
+        bound = _moved(poles, g.poles)
+        code = codec.NetCode(codec.Method.ISO, codec.Quant.TOL, 0, 0, ints, np.zeros(0), bound, 0.0)
+        codes[id(new)] = replace(code, first=poles[0].copy())
+        _replace_all(curves, g, new)
+
+
+def _join_sides(
+    m: BRepModel, coded: Coded, surfaces: list[Geometry], codes: dict[int, codec.NetCode]
+) -> np.ndarray:
+    """Set each coded net's twin sides to their leaders' (as the decoder does after
+    the corner pins); the rows of ``BRepModel.side_joins``, shape (J, 5)."""
+    rows = []
+    for (b, j), ((a, i), rev) in sorted(coded.sides.items()):
+        old, original = surfaces[b], m.surfaces[b]
+        if id(old) not in codes:
+            continue  # exact: its leader is exact too (see assemble)
+        assert isinstance(old, BSplineSurface) and isinstance(original, BSplineSurface)
+        row = np.array([b, j, a, i, rev], np.int64)
+        new = replace(old, poles=joins.joined_sides(old, surfaces[a], row))  # type: ignore[arg-type]
+        code = codes.pop(id(old))
+        codes[id(new)] = replace(code, bound=max(code.bound, _moved(new.poles, original.poles)))
+        _replace_all(surfaces, old, new)
+        rows.append(row)
+    return np.array(rows, np.int64).reshape(-1, 5)
+
+
+def _copy_twins(
+    m: BRepModel,
+    coded: Coded,
+    curves: list[Geometry],
+    codes: dict[int, codec.NetCode],
+    exact: set[int],
+) -> None:
+    """Curves coincident with a coded curve become copies of its final (decoded
+    and pinned) poles (``Method.COPY``; :func:`joins.twin_curves`), as the
+    decoder makes them after the pins.  A copy is not pinned itself: it
+    coincides with its leader, ends included.  A copy that would move further
+    than its limit (a leader that is a coded surface's boundary, coded to the
+    surface's limit) stays exact."""
+    for c, g in enumerate(m.curves3d):
+        twin = coded.twins.get(id(g))
+        if twin is None or id(g) in exact or curves[c] is not g:
+            continue
+        r, rev = twin
+        if id(curves[r]) not in codes:
+            continue  # the leader is exact: so is this curve, as it is
+        assert isinstance(g, BSplineCurve)
+        lead = poles_of(curves[r])
+        poles = (lead[::-1] if rev else lead).copy()
+        t = joins.copy_matrix(coded.where, c, r)
+        if t is not None:  # the two edges sit in frames of their own
+            poles = joins.placed(poles, t)
+        bound = _moved(poles, g.poles)
+        if bound > feature_limit(g.poles, coded.tol):
+            continue
+        ints = np.array([c - r, rev], np.int64)  # the leader as an offset from this row
+        code = codec.NetCode(
+            codec.Method.COPY, codec.Quant.TOL, 0, 0, ints, np.zeros(0), bound, 0.0
+        )
+        new = replace(g, poles=poles)
+        codes[id(new)] = code
+        _replace_all(curves, g, new)
+
+
+def _pin_curves(
+    m: BRepModel, curves: list[Geometry], codes: dict[int, codec.NetCode], tol: float
+) -> None:
+    """Apply :func:`joins.curve_end_pins` as the decoder will, raising each pinned curve's bound."""
+    pins = joins.curve_end_pins(m, curves, first_rows(curves, codes), tol)
+    for c, places in pins.items():
+        old = curves[c]
+        assert isinstance(old, BSplineCurve)
+        new = replace(old, poles=joins.pinned_poles(m, old, places))
+        original = m.curves3d[c]
+        assert isinstance(original, BSplineCurve)
+        moved = float(np.sqrt(((new.poles - original.poles) ** 2).sum(-1)).max())
+        code = codes.pop(id(old))
+        codes[id(new)] = replace(code, bound=max(code.bound, moved))
+        _replace_all(curves, old, new)
+
+
+#: BRepCheck measures an edge's distance to its surfaces with a 5% margin
+#: (BRepLib_ValidateEdge); tolerances are widened by the bound times this.
+MARGIN = 1.1
+
+
+def _widen_tolerances(
+    m: BRepModel, face_bound: np.ndarray, edge_bound: np.ndarray, moved_v: np.ndarray
+) -> BRepModel:
+    """A copy of ``m`` whose edge and vertex tolerances cover the coding errors.
+
+    An edge's 3-D curve moved by its curve's bound and each of its surfaces by
+    their faces' bounds, so its curve-to-surface distances grow by at most their
+    sum; a vertex's distance to the ends of its curves and pcurves by at most
+    the largest of them.
+    """
+    tidx = m.type_index()
+    faces = np.flatnonzero(m.shape_type == ShapeType.FACE)
+    edges = np.flatnonzero(m.shape_type == ShapeType.EDGE)
+    extra_e = np.zeros(len(m.edge_tol))
+    extra_v = np.zeros(len(m.vertex_tol))
+    for f, s in enumerate(faces.tolist()):
+        b = face_bound[f]
+        if b <= 0:
+            continue
+        for e in below(m, s, ShapeType.EDGE):
+            extra_e[tidx[e]] = max(extra_e[tidx[e]], b)
+    for k, s in enumerate(edges.tolist()):
+        reach = max(extra_e[k], edge_bound[k])
+        extra_e[k] += edge_bound[k]
+        if reach > 0:
+            for v in below(m, s, ShapeType.VERTEX):
+                extra_v[tidx[v]] = max(extra_v[tidx[v]], reach)
+    extra_v += moved_v  # a snapped vertex is that much further from what it sat on
+    out: Any = replace(m)
+    out.edge_tol = np.where(extra_e > 0, round_up(m.edge_tol + MARGIN * extra_e), m.edge_tol)
+    out.vertex_tol = np.where(extra_v > 0, round_up(m.vertex_tol + MARGIN * extra_v), m.vertex_tol)
+    return out
+
+
+def round_up(x: np.ndarray) -> np.ndarray:
+    """The smallest power of 2^(1/4) ≥ x (x > 0): a widened tolerance needs no
+    more precision than that, and a few distinct values cost next to nothing."""
+    k = np.ceil(4 * np.log2(x))
+    y = np.exp2(k / 4)
+    return np.where(y >= x, y, np.exp2((k + 1) / 4))

@@ -1,0 +1,445 @@
+"""Which records of a model are coded, and how (DESIGN §2, ``encode/``).
+
+:func:`code_model` runs the per-net search of :mod:`nurbscomp.codec`
+(:func:`codec.encode_net`, the paper's §6) once on each distinct B-spline
+surface and 3-D B-spline curve, each held to its :func:`feature_limit`.
+Coincident curves and surface sides are found first (:mod:`nurbscomp.joins`):
+a copy is not coded, it follows its leader.  :func:`tighten` codes records
+again below their limit, for the validity stage.  :func:`face_records`,
+:func:`edge_records` and :func:`kinked_records` name the records a face or an
+edge stands on.
+
+Still exact in this version: analytic geometry, and B-splines under an offset
+(an offset of a moved geometry can move by more than its poles did).
+"""
+
+from __future__ import annotations
+
+import collections
+from dataclasses import dataclass, field, replace
+from typing import Any, cast
+
+import numpy as np
+
+from .. import codec, joins, serialize
+from ..model import (
+    BRepModel,
+    BSplineCurve,
+    BSplineSurface,
+    Derived,
+    Geometry,
+    Kind,
+    RepKind,
+    ShapeType,
+    faces_around,
+)
+from ..serialize import SWEPT, net_abscissae, net_basis
+
+
+def resolve(table: list[Geometry], i: int, through: tuple[Kind, ...]) -> Geometry:
+    """The record under row ``i``, following the bases of ``through`` kinds."""
+    g = table[i]
+    while isinstance(g, Derived) and g.kind in through:
+        g = table[g.basis]
+    return g
+
+
+def _offset_bases(table: list[Geometry], offset: Kind, through: tuple[Kind, ...]) -> set[int]:
+    """Ids of records under an offset: they must stay exact (an offset of a
+    moved geometry moves by more than the poles did)."""
+    out: set[int] = set()
+    for g in table:
+        if isinstance(g, Derived) and g.kind == offset:
+            b = table[g.basis]
+            while True:
+                out.add(id(b))
+                if isinstance(b, Derived) and b.kind in (*through, offset):
+                    b = table[b.basis]
+                else:
+                    break
+    return out
+
+
+@dataclass
+class Coded:
+    """Every codable record of a model, coded once: ``id(original) -> (code, decoded)``."""
+
+    surfaces: dict[int, tuple[codec.NetCode, Geometry]]
+    curves: dict[int, tuple[codec.NetCode, Geometry]]
+    tol: float
+    #: id(curve) -> (surface row, side, reversed): copied from a decoded surface
+    iso: dict[int, tuple[int, int, int]] = field(default_factory=dict)
+    #: every vertex snapped to the vertex grid (used where all its edges' curves are
+    #: coded): its cluster's first vertex's grid point (:func:`joins.vertex_clusters`)
+    vgrid: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    #: ids of coded records held to a limit below tol (:func:`feature_limit`, :func:`tighten`)
+    fine: set[int] = field(default_factory=set)
+    #: ids of records coded again, tighter, and how many times (:func:`tighten`)
+    tight: dict[int, int] = field(default_factory=dict)
+    #: id(curve) -> (leader row, reversed): a copy of a coincident curve
+    #: (:func:`joins.twin_curves`), not coded itself
+    twins: dict[int, tuple[int, int]] = field(default_factory=dict)
+    #: (surface row, side) -> ((leader row, side), reversed): a side set to the
+    #: leader's decoded side (:func:`joins.twin_sides`)
+    sides: dict[tuple[int, int], tuple[tuple[int, int], int]] = field(default_factory=dict)
+    #: curve row -> its placement in the model's frame (:func:`joins.curve_placements`)
+    where: dict[int, np.ndarray] = field(default_factory=dict)
+    #: per vertex, the first vertex of its cluster
+    vlead: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+
+
+#: A coded net moves by at most this fraction of its size (:func:`feature_limit`).
+FEATURE_FRACTION = 0.25
+
+
+def _polyline(p: np.ndarray) -> np.ndarray:
+    """Lengths of the polylines along the first axis of ``p`` (..., n, dim) -> (...)."""
+    return np.sqrt((np.diff(p, axis=-2) ** 2).sum(-1)).sum(-1)
+
+
+def feature_limit(poles: np.ndarray, tol: float) -> float:
+    """The bound a net is coded to: tol, or less on a feature smaller than tol.
+
+    A curve's size is its control polygon's length; a surface's, the shorter of
+    its longest u- and v-rows of poles.  A net moves by at most
+    ``FEATURE_FRACTION`` of its size (and at least tol/1024): a face whose
+    edges are shorter than tol would otherwise be coded out of shape, and a
+    STEP reader re-projecting its edges adds or drops edges there (measured
+    on an IGES file whose 213 faces have edges of 2-10 µm, at tol 10 µm).
+    """
+    if poles.ndim == 3:
+        size = min(_polyline(np.swapaxes(poles, 0, 1)).max(), _polyline(poles).max())
+    else:
+        size = float(_polyline(poles))
+    return float(np.clip(FEATURE_FRACTION * size, tol / 1024, tol))
+
+
+def _code_one(
+    g: BSplineSurface | BSplineCurve,
+    tol: float,
+    methods: tuple[codec.Method, ...],
+    paper: bool,
+    origin: np.ndarray | None,
+    limit: float,
+) -> tuple[codec.NetCode, Geometry]:
+    """One record's code (:func:`codec.encode_net`) and the record as decoded."""
+    s, t = net_abscissae(g)
+    basis = net_basis(g)
+    code = codec.encode_net(
+        g.poles,
+        s,
+        t,
+        tol,
+        methods,
+        paper=paper,
+        origin=origin,
+        basis=basis,
+        limit=limit,
+    )
+    net, _ = codec.decode_net(code, g.poles.shape, s, t, tol, origin, basis)
+    return replace(code, first=net.reshape(-1, net.shape[-1])[0]), replace(g, poles=net)
+
+
+def _code_table(
+    table: list[Geometry],
+    tol: float,
+    keep: set[int],
+    methods: tuple[codec.Method, ...],
+    paper: bool,
+    anchors: dict[int, np.ndarray] | None = None,
+    limits: dict[int, float] | None = None,
+) -> dict[int, tuple[codec.NetCode, Geometry]]:
+    """Code each distinct B-spline record of ``table`` (see :func:`code_model`);
+    ``anchors`` maps record ids to :func:`joins.anchors` points, ``limits``
+    to a limit below :func:`feature_limit`'s."""
+    out: dict[int, tuple[codec.NetCode, Geometry]] = {}
+    origin = None
+    for g in table:
+        if id(g) in out or id(g) in keep or not isinstance(g, (BSplineSurface, BSplineCurve)):
+            continue
+        at = (anchors or {}).get(id(g), origin)
+        limit = feature_limit(g.poles, tol)
+        limit = min(limit, (limits or {}).get(id(g), limit))
+        out[id(g)] = _code_one(g, tol, methods, paper, at, limit)
+        origin = out[id(g)][0].first
+    return out
+
+
+#: A record a STEP reader mends (``validity.lossy_target``) is coded again,
+#: this many times tighter, before it is kept exact.
+TIGHTER = 8
+
+
+def tighten(coded: Coded, records: list[Geometry], level: int = 1) -> None:
+    """Code ``records`` (originals) again to 1/``TIGHTER``^``level`` of their limit,
+    in place (those already that tight are left).
+
+    Their vertices then stay where they are (``coded.fine``).  A record's
+    first pole is coded against the origin it had; the container re-bases it
+    on the chain as written (:func:`codec.reorigin`).
+    """
+    for g in records:
+        for done, methods in (
+            (coded.surfaces, codec.SURFACE_METHODS),
+            (coded.curves, codec.CURVE_METHODS),
+        ):
+            if id(g) in done and coded.tight.get(id(g), 0) < level:
+                assert isinstance(g, (BSplineSurface, BSplineCurve))
+                code = done[id(g)][0]
+                # never looser than it is (a twin leader may be held below its own limit)
+                floor = max(code.bound, coded.tol / 1024)
+                limit = min(feature_limit(g.poles, coded.tol) / TIGHTER**level, floor)
+                done[id(g)] = _code_one(g, coded.tol, methods, False, code.origin, limit)
+                coded.fine.add(id(g))
+                coded.tight[id(g)] = level
+
+
+TRIM_S = (Kind.TRIMMED_SURFACE,)
+TRIM_C = (Kind.TRIMMED_CURVE,)
+
+
+def code_model(
+    m: BRepModel, tol: float, paper: bool = False, points: np.ndarray | None = None
+) -> Coded:
+    """Run the per-net search (:func:`codec.encode_net`) on every B-spline surface
+    and 3-D curve of ``m`` that may move (not under an offset).
+
+    A curve whose ends the decoder would pin to vertices too far from the
+    original ends (:func:`joins.overreaching`) is left exact.
+
+    Boundaries that coincide within ``joins.TWIN_EPS`` (or tol/64) are coded
+    once: a side of a net shared with an earlier net's side
+    (:func:`joins.twin_sides`) becomes that side after decoding, and a curve
+    that is an earlier curve (:func:`joins.twin_curves`) a copy of it.  The
+    first of each is coded to a limit that leaves its copies within theirs.
+    ``points`` (edges sampled along their ranges, :func:`occ.edge_points`)
+    finds coincident edges no copy covers (another representation of the
+    same curve): their curves stay exact (:func:`_lonely_curves`).
+    """
+    eps = min(joins.TWIN_EPS, tol / 64)
+    keep_s = _offset_bases(m.surfaces, Kind.OFFSET_SURFACE, TRIM_S)
+    srows0 = first_rows(
+        m.surfaces, {id(g) for g in m.surfaces if isinstance(g, BSplineSurface)} - keep_s
+    )
+    sides = _affordable(m.surfaces, joins.twin_sides(m.surfaces, sorted(srows0), eps), tol)
+    # where faces share an edge, its tolerance covers their coding errors: no
+    # side needs joining there (joining would only move them off their other edges)
+    on = _edges_by_surface(m)
+    sides = {k: v for k, v in sides.items() if not on[k[0]] & on[v[0][0]]}
+    surfaces = _code_table(
+        m.surfaces,
+        tol,
+        keep_s,
+        codec.SURFACE_METHODS,
+        paper,
+        limits=_leader_limits(m.surfaces, sides, tol),
+    )
+    h = serialize.vertex_grid(tol)
+    # vertices at one point (within TWIN_VERTEX) snap as one: to their first's grid point
+    lead = joins.vertex_clusters(m.vertex_point, joins.TWIN_VERTEX)
+    vgrid = np.rint(m.vertex_point[lead] / h).astype(np.int64) * h  # as the decoder reads it
+    snapped: Any = replace(m)
+    snapped.vertex_point = vgrid
+    decoded_s = [surfaces[id(g)][1] if id(g) in surfaces else g for g in m.surfaces]
+    srows = first_rows(m.surfaces, surfaces)
+    for mm in (m, snapped):  # a pin may go to the exact or to the snapped vertex
+        for r, pins in joins.surface_corner_pins(mm, decoded_s, srows, tol).items():
+            g = m.surfaces[r]
+            assert isinstance(g, BSplineSurface)
+            if any(
+                np.sqrt(((g.poles[joins.CORNERS[k]] - mm.vertex_point[v]) ** 2).sum()) > tol
+                for k, v in pins
+            ):
+                surfaces.pop(id(g), None)
+    keep_c = _offset_bases(m.curves3d, Kind.OFFSET_CURVE, TRIM_C)
+    candidates = {id(g): g for g in m.curves3d if isinstance(g, BSplineCurve)}
+    crows = first_rows(m.curves3d, {k: v for k, v in candidates.items() if k not in keep_c})
+    iso = joins.iso_sources(m, crows, first_rows(m.surfaces, surfaces))
+    iso_ids = {id(m.curves3d[c]): src for c, src in iso.items()}
+    where = joins.curve_placements(m)
+    twins = joins.twin_curves(m.curves3d, crows, eps, set(iso), where)
+    twins = _affordable(m.curves3d, twins, tol)
+    if points is not None:  # coincident edges no copy covers: their curves stay exact
+        lonely = _lonely_curves(m, points, twins, iso, sides)
+        keep_c = keep_c | {id(m.curves3d[r]) for r in lonely}
+        iso = {c: v for c, v in iso.items() if c not in lonely}
+        iso_ids = {id(m.curves3d[c]): src for c, src in iso.items()}
+        twins = {c: v for c, v in twins.items() if c not in lonely}
+    twin_ids = {id(m.curves3d[c]): (r, rev) for c, (r, rev, _) in twins.items()}
+    limits = _leader_limits(m.curves3d, twins, tol)
+    for c, (r, _, d) in twins.items():  # a surface whose boundary leads is coded to suit
+        if r in iso:
+            sg = m.surfaces[iso[r][0]]
+            need = feature_limit(cast(BSplineCurve, m.curves3d[c]).poles, tol) - d
+            code = surfaces[id(sg)][0] if id(sg) in surfaces else None
+            if code is not None and code.bound > need:
+                assert isinstance(sg, BSplineSurface)
+                surfaces[id(sg)] = _code_one(
+                    sg, tol, codec.SURFACE_METHODS, paper, code.origin, need
+                )
+    at = joins.anchors(m, m.curves3d, crows)
+    coded = Coded(
+        surfaces,
+        _code_table(
+            m.curves3d,
+            tol,
+            keep_c | set(iso_ids) | set(twin_ids),
+            codec.CURVE_METHODS,
+            paper,
+            {id(m.curves3d[r]): a for r, a in at.items()},
+            limits,
+        ),
+        tol,
+        iso_ids,
+        vgrid,
+        twins=twin_ids,
+        where=where,
+        vlead=lead,
+        sides={k: (lead_side, rev) for k, (lead_side, rev, _) in sides.items()},
+    )
+    decoded = [coded.curves[id(g)][1] if id(g) in coded.curves else g for g in m.curves3d]
+    rows = {i for i, g in enumerate(m.curves3d) if id(g) in coded.curves}
+    for c in joins.overreaching(m, decoded, rows, tol) | joins.overreaching(
+        snapped, decoded, rows, tol
+    ):
+        coded.curves.pop(id(m.curves3d[c]), None)
+    for table in (m.surfaces, m.curves3d):
+        for g in table:
+            if isinstance(g, (BSplineSurface, BSplineCurve)) and feature_limit(g.poles, tol) < tol:
+                coded.fine.add(id(g))
+    return coded
+
+
+#: Edges whose points agree within this (mm) meet in the source: the sewing
+#: tolerance of the free-edge measure, with room for the sampling.
+COINCIDENT = 1e-6
+
+
+def _lonely_curves(
+    m: BRepModel,
+    points: np.ndarray,
+    twins: dict[int, tuple[int, int, float]],
+    iso: dict[int, tuple[int, int, int]],
+    sides: dict[tuple[int, int], tuple[tuple[int, int], int, float]],
+) -> set[int]:
+    """3-D curve rows of coincident edges (:func:`joins.coincident_edges`) that
+    would be coded apart: neither one curve, nor a copy and its leader (or
+    two copies of one), nor the iso-boundaries of two joined sides.  Kept
+    exact, they keep meeting (trj3 at 0.1: a closed curve given twice, with
+    its poles in another order)."""
+    curve_of: dict[int, int] = {}
+    reps = m.edge_reps
+    for q in np.flatnonzero(reps[:, 1] == RepKind.CURVE3D).tolist():
+        curve_of.setdefault(int(reps[q, 0]), int(reps[q, 2]))
+    lead = {c: r for c, (r, _, _) in twins.items()}
+    side_lead = {k: v[0] for k, v in sides.items()}
+
+    def root(c: int) -> tuple[str, Any]:
+        """What a curve's decoded poles come from: a copy's leader's source,
+        an iso-boundary's (joined) side, or the curve itself."""
+        c = lead.get(c, c)
+        if c in iso:
+            k = iso[c][:2]
+            return ("side", side_lead.get(k, k))
+        return ("curve", c)
+
+    out: set[int] = set()
+    for e1, e2 in joins.coincident_edges(points, COINCIDENT):
+        r1, r2 = curve_of.get(e1, -1), curve_of.get(e2, -1)
+        if r1 < 0 or r2 < 0 or r1 == r2:
+            continue
+        g1, g2 = m.curves3d[r1], m.curves3d[r2]
+        if not (isinstance(g1, BSplineCurve) or isinstance(g2, BSplineCurve)):
+            continue  # analytic curves are exact
+        if root(r1) == root(r2):
+            continue
+        out |= {r for r, g in ((r1, g1), (r2, g2)) if isinstance(g, BSplineCurve)}
+    return out
+
+
+def _edges_by_surface(m: BRepModel) -> dict[int, set[int]]:
+    """Per surface row, the edges of the faces on it."""
+    out: dict[int, set[int]] = collections.defaultdict(set)
+    for e, fs in enumerate(faces_around(m, ShapeType.EDGE)):
+        for f in fs:
+            out[int(m.face_surface[f])].add(e)
+    return out
+
+
+def _affordable(table: list[Geometry], pairs: dict[Any, Any], tol: float) -> dict[Any, Any]:
+    """The twin pairs (``{member: (leader, reversed, distance)}``, keys a row or
+    (row, side)) whose distance is at most half the member's limit: the
+    leader is coded to the rest (:func:`_leader_limits`)."""
+    return {
+        k: v for k, v in pairs.items() if v[2] <= feature_limit(poles_of(table[_row(k)]), tol) / 2
+    }
+
+
+def _leader_limits(table: list[Geometry], pairs: dict[Any, Any], tol: float) -> dict[int, float]:
+    """``{id(leader): limit}``: a leader coded to this leaves each copy of it,
+    which moves by the leader's bound plus their distance, within the copy's limit."""
+    out: dict[int, float] = {}
+    for k, (lead, _, d) in pairs.items():
+        key = id(table[_row(lead)])
+        own = out.get(key, feature_limit(poles_of(table[_row(lead)]), tol))
+        out[key] = min(own, feature_limit(poles_of(table[_row(k)]), tol) - d)
+    return out
+
+
+def _row(key: int | tuple[int, int]) -> int:
+    """The table row of a twin key: a curve row, or a (surface row, side)."""
+    return key[0] if isinstance(key, tuple) else key
+
+
+def poles_of(g: Geometry) -> np.ndarray:
+    """The poles of a coded record (a B-spline curve or surface)."""
+    return cast(BSplineCurve | BSplineSurface, g).poles
+
+
+def first_rows(table: list[Geometry], ids: dict[int, Any] | set[int]) -> set[int]:
+    """Rows where records whose id is in ``ids`` first occur."""
+    first: dict[int, int] = {}
+    for i, g in enumerate(table):
+        if id(g) in ids:
+            first.setdefault(id(g), i)
+    return set(first.values())
+
+
+def face_records(m: BRepModel) -> list[int]:
+    """Per face, the id of the record it moves with: its surface (trimmed ->
+    basis), or for a swept surface the swept curve (trimmed -> basis)."""
+    out = []
+    for r in m.face_surface.tolist():
+        g = resolve(m.surfaces, r, TRIM_S)
+        if isinstance(g, Derived) and g.kind in SWEPT:
+            g = resolve(m.curves3d, g.basis, TRIM_C)
+        out.append(id(g))
+    return out
+
+
+def edge_records(m: BRepModel) -> list[int]:
+    """Per edge, the id of its 3-D curve record (trimmed -> basis), or 0."""
+    out = [0] * len(m.edge_tol)
+    reps = m.edge_reps
+    for q in np.flatnonzero(reps[:, 1] == RepKind.CURVE3D).tolist():
+        if reps[q, 2] >= 0:
+            out[reps[q, 0]] = id(resolve(m.curves3d, int(reps[q, 2]), TRIM_C))
+    return out
+
+
+def kinked_records(m: BRepModel) -> set[int]:
+    """Ids of B-splines with an interior knot of multiplicity ≥ degree.
+
+    Such a knot is only C0 by its knots; the original's poles around it are
+    usually aligned (G1).  Coding breaks the alignment, and a STEP reader then
+    splits the edge or face there, changing the topology.
+    """
+    out = set()
+    for g in [*m.surfaces, *m.curves3d]:
+        if isinstance(g, BSplineCurve) and not g.bezier:
+            if (g.mults[1:-1] >= g.degree).any():
+                out.add(id(g))
+        elif isinstance(g, BSplineSurface) and not g.bezier:
+            if (g.umults[1:-1] >= g.udegree).any() or (g.vmults[1:-1] >= g.vdegree).any():
+                out.add(id(g))
+    return out

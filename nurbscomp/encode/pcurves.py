@@ -1,0 +1,245 @@
+"""Pcurves and parameter ranges the container need not store (DESIGN §4a, ``encode/``).
+
+:func:`drop_pcurves` leaves pcurves for the decoder to compute (OCCT projects
+the 3-D curve); :func:`unit_curves` maps coded curves to [0, 1] where their
+knots then compress smaller; :func:`vertex_ranges` stores the ranges of edges
+on lines and circles as the rule "what the vertices give".
+"""
+
+from __future__ import annotations
+
+import collections
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+
+from .. import codec, joins
+from ..model import (
+    REBUILD,
+    BRepModel,
+    BSplineCurve,
+    BSplineSurface,
+    Derived,
+    Geometry,
+    Kind,
+    RepKind,
+)
+from ..serialize import SWEPT
+
+
+def drop_pcurves(m: BRepModel, keep_edges: set[int], keep_faces: set[int]) -> BRepModel:
+    """A copy of ``m`` whose pcurves are left for the decoder to compute, where it can.
+
+    A pcurve is dropped (its curve index set to ``REBUILD``) when its edge is
+    not degenerated, has a 3-D curve, is not in ``keep_edges``, and every face
+    on its surface is outside ``keep_faces``.  Pcurves no longer referenced
+    leave the 2-D curve table.  The caller checks the rebuilt B-rep and keeps
+    what fails (:func:`nurbscomp.pipeline.compress_file`).
+    """
+    reps = m.edge_reps.copy()
+    kind = reps[:, 1]
+    has3d = np.zeros(len(m.edge_tol), bool)
+    c3 = kind == RepKind.CURVE3D
+    has3d[reps[c3, 0]] = reps[c3, 2] >= 0
+    faces_on: dict[tuple[int, int], list[int]] = collections.defaultdict(list)
+    for f, key in enumerate(zip(m.face_surface.tolist(), m.face_loc.tolist())):
+        faces_on[key].append(f)
+    degenerated = (m.edge_flags & 1).astype(bool)
+    pc = (kind == RepKind.ON_SURFACE) | (kind == RepKind.ON_CLOSED_SURFACE)
+    for q in np.flatnonzero(pc).tolist():
+        e = int(reps[q, 0])
+        if degenerated[e] or not has3d[e] or e in keep_edges:
+            continue
+        on = faces_on.get((int(reps[q, 4]), int(reps[q, 6])), [])
+        if not on or any(f in keep_faces for f in on):
+            continue
+        reps[q, 2] = REBUILD
+        if kind[q] == RepKind.ON_CLOSED_SURFACE:
+            reps[q, 3] = REBUILD
+    out: Any = replace(m)
+    out.edge_reps = reps
+    dropped = reps[:, 2] == REBUILD
+    out.edge_rep_range = np.where(dropped[:, None], 0.0, m.edge_rep_range)
+    out.edge_rep_uv = np.where(dropped[:, None], 0.0, m.edge_rep_uv)
+    return prune_curves2d(out)
+
+
+def prune_curves2d(m: BRepModel) -> BRepModel:
+    """Drop 2-D curves nothing refers to, renumbering the references."""
+    used = np.zeros(len(m.curves2d), bool)
+    reps = m.edge_reps
+    pc = (reps[:, 1] == RepKind.ON_SURFACE) | (reps[:, 1] == RepKind.ON_CLOSED_SURFACE)
+    for col in (2, 3):
+        idx = reps[pc, col]
+        used[idx[idx >= 0]] = True
+    vr = m.vertex_reps
+    idx = vr[vr[:, 1] == 1, 2]
+    used[idx[idx >= 0]] = True
+    for i in range(len(m.curves2d) - 1, -1, -1):  # bases precede their curves
+        g = m.curves2d[i]
+        if used[i] and isinstance(g, Derived):
+            used[g.basis] = True
+    new_index = np.cumsum(used) - 1
+    table: list[Geometry] = []
+    for i, g in enumerate(m.curves2d):
+        if used[i]:
+            if isinstance(g, Derived):
+                g = replace(g, basis=int(new_index[g.basis]))
+            table.append(g)
+    out: Any = replace(m)
+    out.curves2d = table
+    reps = reps.copy()
+    for col in (2, 3):
+        sel = pc & (reps[:, col] >= 0)
+        reps[sel, col] = new_index[reps[sel, col]]
+    out.edge_reps = reps
+    vr = vr.copy()
+    sel = (vr[:, 1] == 1) & (vr[:, 2] >= 0)
+    vr[sel, 2] = new_index[vr[sel, 2]]
+    out.vertex_reps = vr
+    return out
+
+
+def _mantissa_bits(x: np.ndarray) -> int:
+    """Significant mantissa bits of float64 values, summed: how dear they are to store."""
+    frac = x.astype(np.float64).view(np.uint64) & np.uint64((1 << 52) - 1)
+    nz = frac[frac != 0]
+    trailing = np.zeros(len(nz), np.int64)
+    for _ in range(52):  # count trailing zero bits
+        even = (nz & np.uint64(1)) == 0
+        if not even.any():
+            break
+        trailing += even & (nz != 0)
+        nz = np.where(even, nz >> np.uint64(1), nz)
+    return int((52 - trailing).sum())
+
+
+def _cheaper(m: BRepModel, maps: dict[int, tuple[float, float]]) -> bool:
+    """Whether the model's knots, surfaces' and curves', compress smaller with
+    ``maps`` applied to the curves' (a curve's knots may repeat a surface's)."""
+    import lzma
+
+    def packed(mapped: bool) -> int:
+        parts = [
+            k
+            for g in m.surfaces
+            if isinstance(g, BSplineSurface) and not g.bezier
+            for k in (g.uknots, g.vknots)
+        ]
+        for g in {id(g): g for g in m.curves3d}.values():
+            if isinstance(g, BSplineCurve) and not g.bezier:
+                ab = maps.get(id(g)) if mapped else None
+                parts.append(g.knots if ab is None else (g.knots - ab[0]) / (ab[1] - ab[0]))
+        return len(lzma.compress(np.concatenate(parts).tobytes() if parts else b""))
+
+    return packed(True) < packed(False)
+
+
+def unit_curves(m: BRepModel, codes: dict[int, codec.NetCode]) -> BRepModel:
+    """``m`` with its free 3-D B-spline curves reparametrized onto [0, 1].
+
+    A curve's knots are only its parametrization when nothing else holds its
+    parameter: t -> (t - a)/(b - a) maps its knots onto [0, 1] (the same
+    curve, point for point) and its edges' ranges with them.  Free means: its
+    edges all run over the whole curve (a partial range, mapped, would cost
+    more than the knots save), none keeps a stored pcurve (a pcurve shares
+    its edge's parameter), no vertex holds a parameter on it, and no other
+    record is built on it.
+    On the corpus most curves have two knots, the ends of an arbitrary
+    parameter range: as 0 and 1 they cost next to nothing.  Knots that are
+    simpler as they are (0, 1, 2, 3 against 0, 1/3, 2/3, 1) stay.  Curve codes do
+    not depend on the knots, so ``codes`` is only re-keyed (in place).
+    """
+    reps = m.edge_reps
+    kind = reps[:, 1]
+    on3d = kind == RepKind.CURVE3D
+    busy: set[int] = set()
+    pc = (kind == RepKind.ON_SURFACE) | (kind == RepKind.ON_CLOSED_SURFACE)
+    kept_pc_edges = set(reps[pc & (reps[:, 2] != REBUILD), 0].tolist())
+    for q in np.flatnonzero(on3d).tolist():
+        if int(reps[q, 0]) in kept_pc_edges:
+            busy.add(int(reps[q, 2]))
+    vr = m.vertex_reps
+    busy |= set(vr[vr[:, 1] == 0, 2].tolist())
+    for g in m.curves3d:
+        if isinstance(g, Derived):
+            busy.add(g.basis)
+    for g in m.surfaces:
+        if isinstance(g, Derived) and g.kind in SWEPT:
+            busy.add(g.basis)
+    busy_ids = {id(m.curves3d[i]) for i in busy if 0 <= i < len(m.curves3d)}
+    maps: dict[int, tuple[float, float]] = {}
+    for g in m.curves3d:
+        if (
+            isinstance(g, BSplineCurve)
+            and not g.bezier
+            and id(g) not in busy_ids
+            and (g.knots[0] != 0.0 or g.knots[-1] != 1.0)
+            and g.knots[-1] > g.knots[0]
+        ):
+            a, b = float(g.knots[0]), float(g.knots[-1])
+            if _mantissa_bits((g.knots - a) / (b - a)) < _mantissa_bits(g.knots):
+                maps[id(g)] = (a, b)
+    rng = m.edge_rep_range.copy()
+    rows = np.flatnonzero(on3d & (reps[:, 2] >= 0)).tolist()
+    for q in rows:
+        ab = maps.get(id(m.curves3d[int(reps[q, 2])]))
+        if ab is not None:
+            if (m.edge_rep_range[q] == ab).all():
+                rng[q] = (0.0, 1.0)
+            else:  # a partial range would cost more as a mapped float than the knots save
+                maps.pop(id(m.curves3d[int(reps[q, 2])]), None)
+    if not maps or not _cheaper(m, maps):
+        return m
+    new: dict[int, Geometry] = {}
+    table: list[Geometry] = []
+    for g in m.curves3d:
+        if id(g) in maps and id(g) not in new:
+            assert isinstance(g, BSplineCurve)
+            a, b = maps[id(g)]
+            k = (g.knots - a) / (b - a)
+            k[0], k[-1] = 0.0, 1.0
+            new[id(g)] = replace(g, knots=k)
+            if id(g) in codes:
+                codes[id(new[id(g)])] = codes.pop(id(g))
+        table.append(new.get(id(g), g))
+    out: Any = replace(m)
+    out.curves3d = table
+    for q in rows:
+        if id(m.curves3d[int(reps[q, 2])]) not in maps:
+            rng[q] = m.edge_rep_range[q]
+    out.edge_rep_range = rng
+    return out
+
+
+#: An edge on a line or circle takes the range its vertices give when that
+#: moves its ends by at most this fraction of tol (:func:`vertex_ranges`).
+RANGE_SLACK = 1e-3
+
+
+def vertex_ranges(m: BRepModel, tol: float) -> BRepModel:
+    """``m`` with the ranges of edges on lines and circles set to what their
+    vertices give.
+
+    Such a range is then stored as a rule, not as two floats
+    (:func:`joins.vertex_ranges`, ``serialize.RANGE_VERTICES``).  The ends
+    move along the curve by at most ``RANGE_SLACK``·tol (in the corpus, by
+    the 1e-7 mm a CAD system leaves between a vertex and its curve), each to
+    the point of the curve nearest its vertex.  The edge's pcurve ranges that
+    were the same follow (same range).
+    """
+    rng = m.edge_rep_range
+    out_rng = rng.copy()
+    for q, t in joins.vertex_ranges(m).items():
+        g = m.curves3d[int(m.edge_reps[q, 2])]
+        speed = float(g.params[0]) if g.kind == Kind.CIRCLE else 1.0  # type: ignore[union-attr]
+        d = np.abs(np.array(t) - rng[q])
+        if (d > 0).any() and d.max() * speed <= RANGE_SLACK * tol:
+            same = (m.edge_reps[:, 0] == m.edge_reps[q, 0]) & (rng == rng[q]).all(-1)
+            out_rng[same] = t
+    if np.array_equal(out_rng, rng):
+        return m
+    out: Any = replace(m)
+    out.edge_rep_range = out_rng
+    return out
