@@ -1,7 +1,8 @@
 """The command line.  The only module that prints or exits.
 
 Exit codes: 0 ok; 1 bad input, bad container, output exists, or any other
-failure on a file; 2 usage; 130 interrupted.  Errors are one line,
+failure on a file; 2 usage; 128 + the signal's number when interrupted (130
+SIGINT, 129 SIGHUP, 143 SIGTERM).  Errors are one line,
 ``error: FILE: message``, on stderr; ``--debug`` adds the traceback.  README,
 "Exit codes and errors", lists every error class.
 """
@@ -9,6 +10,7 @@ failure on a file; 2 usage; 130 interrupted.  Errors are one line,
 from __future__ import annotations
 
 import json
+import signal
 import sys
 import traceback
 from collections.abc import Callable
@@ -40,13 +42,40 @@ class _State:
         self.failed = False
 
 
+class Interrupted(KeyboardInterrupt):
+    """SIGTERM or SIGHUP, raised like Ctrl-C's ``KeyboardInterrupt`` so that the
+    file being written is removed (``pipeline.atomic_output``)."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signum)
+        self.signum = signum
+
+
+def _raise_interrupted(signum: int, frame: Any) -> None:
+    raise Interrupted(signum)
+
+
+def catch_signals() -> None:
+    """Handle SIGTERM and SIGHUP like SIGINT (unless they are ignored, as under
+    ``nohup``).  SIGKILL cannot be caught: it leaves the temporary file."""
+    for sig in (signal.SIGTERM, signal.SIGHUP):
+        if signal.getsignal(sig) is signal.SIG_DFL:
+            signal.signal(sig, _raise_interrupted)
+
+
 def _run(state: _State, path: str, fn: Callable[[], dict[str, Any]]) -> dict[str, Any] | None:
     """Run one file's work; turn any failure into one ``error:`` line."""
     try:
         return fn()
-    except KeyboardInterrupt:
-        click.echo(f"error: {path}: interrupted", err=True)
-        sys.exit(130)
+    except KeyboardInterrupt as e:
+        signum = e.signum if isinstance(e, Interrupted) else signal.SIGINT
+        name = (
+            "interrupted"
+            if signum == signal.SIGINT
+            else f"interrupted ({signal.Signals(signum).name})"
+        )
+        click.echo(f"error: {path}: {name}", err=True)
+        sys.exit(128 + signum)
     except NurbscompError as e:
         msg = str(e)
     except MemoryError:
@@ -81,7 +110,8 @@ def cli(ctx: click.Context, debug: bool) -> None:
 
     \b
     Exit codes: 0 ok; 1 bad input, damaged container, output exists or any
-    other failure on a file; 2 bad usage; 130 interrupted (Ctrl-C).
+    other failure on a file; 2 bad usage; 130 interrupted (Ctrl-C), 143
+    terminated (SIGTERM), 129 hung up (SIGHUP).
     """
     ctx.obj = _State(debug)
 
@@ -360,6 +390,7 @@ def eval_cmd(state: _State, original: str, reconstructed: str, as_json: bool) ->
 
 def main() -> None:
     """Console-script entry point."""
+    catch_signals()
     cli(prog_name="nurbscomp")
 
 
