@@ -63,6 +63,16 @@ def catch_signals() -> None:
             signal.signal(sig, _raise_interrupted)
 
 
+def show(x: Any) -> str:
+    """``x`` as text safe for a terminal: every character that is not printable
+    (control characters such as CR and BEL, lone surrogates, format characters)
+    escaped as Python writes it (``\\r``, ``\\x07``, ``\\u202e``)."""
+    s = str(x)
+    if s.isprintable():
+        return s
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in s)
+
+
 def _run(state: _State, path: str, fn: Callable[[], dict[str, Any]]) -> dict[str, Any] | None:
     """Run one file's work; turn any failure into one ``error:`` line."""
     try:
@@ -74,7 +84,7 @@ def _run(state: _State, path: str, fn: Callable[[], dict[str, Any]]) -> dict[str
             if signum == signal.SIGINT
             else f"interrupted ({signal.Signals(signum).name})"
         )
-        click.echo(f"error: {path}: {name}", err=True)
+        click.echo(f"error: {show(path)}: {name}", err=True)
         sys.exit(128 + signum)
     except NurbscompError as e:
         msg = str(e)
@@ -84,7 +94,7 @@ def _run(state: _State, path: str, fn: Callable[[], dict[str, Any]]) -> dict[str
         msg = f"internal error ({type(e).__name__}: {e}); rerun with --debug for details"
     if state.debug:
         traceback.print_exc()
-    click.echo(f"error: {path}: {msg}", err=True)
+    click.echo(f"error: {show(path)}: {show(msg)}", err=True)
     state.failed = True
     return None
 
@@ -185,9 +195,9 @@ def _batch(
                 continue
             reports.append(r)
             if not as_json and not quiet:
-                click.echo(text(r))
+                click.echo("\n".join(show(line) for line in text(r).split("\n")))
             for w in r.get("warnings", []) if not (quiet or as_json) else []:
-                click.echo(f"warning: {f}: {w}", err=True)
+                click.echo(f"warning: {show(f)}: {show(w)}", err=True)
     if as_json:
         _emit(reports, True, str)
     sys.exit(1 if state.failed else 0)
@@ -337,7 +347,7 @@ def info(state: _State, file: str, as_json: bool) -> None:
         + ", ".join(f"{k} {v}" for k, v in r["section_raw_bytes"].items())
         + f" bytes raw; {r['body_stored_bytes']} bytes coded",
     ]
-    click.echo("\n".join(lines))
+    click.echo("\n".join(show(line) for line in lines))
 
 
 @cli.command("test")
@@ -349,7 +359,7 @@ def test_cmd(state: _State, files: tuple[str, ...], quiet: bool) -> None:
     for f in files:
         r = _run(state, f, partial(pipeline.test_file, f))
         if r is not None and not quiet:
-            click.echo(f"{f}: OK ({r['faces']} faces)")
+            click.echo(f"{show(f)}: OK ({r['faces']} faces)")
     sys.exit(1 if state.failed else 0)
 
 

@@ -317,7 +317,7 @@ def compress_file(
     meta = {
         "mode": "lossless" if lossless else "tolerance",
         "tolerance_mm": None if lossless else tol,
-        "source_name": src_p.name,
+        "source_name": serialize.meta_text(src_p.name),
         "source_bytes": src_bytes,
         "writer": f"nurbscomp {__version__}",
     }
