@@ -23,7 +23,7 @@ from typing import Any, TypeVar, cast
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from . import __version__, container, occ, serialize
+from . import __version__, budget, container, occ, serialize
 from .encode import validity
 from .errors import (
     CorruptError,
@@ -186,8 +186,16 @@ def read_container(path: Path) -> container.Container:
 
 
 @one_blas_thread
-def decode(c: container.Container) -> tuple[BRepModel, dict[str, Any]]:
+def decode(
+    c: container.Container,
+    limits: budget.Limits | None = budget.DEFAULT,
+    fmt: str | None = None,
+) -> tuple[BRepModel, dict[str, Any]]:
     """The model and metadata a checked container holds.
+
+    ``limits`` is the decoding budget, with the output size of ``fmt`` (the
+    format about to be written) if given; None skips it (``compress``
+    verifying what it just wrote).
 
     Raises
     ------
@@ -203,7 +211,7 @@ def decode(c: container.Container) -> tuple[BRepModel, dict[str, Any]]:
     """
     serialize.check_layout(c.tags(), c.minor, container.MINOR)
     try:
-        m, meta = serialize.sections_to_model(c.get, min(c.minor, container.MINOR))
+        m, meta = serialize.sections_to_model(c.get, min(c.minor, container.MINOR), limits, fmt)
     except NurbscompError:
         raise
     except (ValueError, IndexError, KeyError, TypeError, ArithmeticError, RecursionError) as e:
@@ -246,9 +254,14 @@ def write(shape: Any, path: Path, fmt: str, unit: str, meta: dict[str, Any]) -> 
         ) from None
 
 
-def decode_file(path: str | os.PathLike[str]) -> tuple[Any, BRepModel, dict[str, Any]]:
-    """Decode a ``.nzc`` file into an in-memory shape (millimetres)."""
-    m, meta = decode(read_container(Path(path)))
+def decode_file(
+    path: str | os.PathLike[str],
+    limits: budget.Limits = budget.DEFAULT,
+    fmt: str | None = None,
+) -> tuple[Any, BRepModel, dict[str, Any]]:
+    """Decode a ``.nzc`` file into an in-memory shape (millimetres), within
+    ``limits`` (and the output size of ``fmt``, if given)."""
+    m, meta = decode(read_container(Path(path)), limits, fmt)
     return build(m), m, meta
 
 
@@ -338,7 +351,7 @@ def compress_file(
     with atomic_output(dst_p, force, (src_p,)) as tmp:
         tmp.write_bytes(data)
         if verify:
-            back, _ = decode(read_container(tmp))
+            back, _ = decode(read_container(tmp), limits=None)
             diff = differences(target, back)
             if diff:
                 raise VerifyError(f"decoded container differs from the input: {', '.join(diff)}")
@@ -410,14 +423,16 @@ def decompress_file(
     dst: str | os.PathLike[str] | None = None,
     *,
     force: bool = False,
+    limits: budget.Limits = budget.DEFAULT,
 ) -> dict[str, Any]:
-    """Decode a ``.nzc`` container and write STEP, IGES or BREP (by extension)."""
+    """Decode a ``.nzc`` container and write STEP, IGES or BREP (by extension),
+    if the shape and the output's estimated size are within ``limits``."""
     t0 = time.perf_counter()
     src_p = Path(src)
     dst_p = Path(dst) if dst is not None else default_decompressed_name(src_p)
     check_output(dst_p, force, (src_p,))
-    shape, m, meta = decode_file(src_p)
     fmt = occ.output_format(dst_p)
+    shape, m, meta = decode_file(src_p, limits, fmt)
     with atomic_output(dst_p, force, (src_p,)) as tmp:
         write(shape, tmp, fmt, m.unit, meta)
         size = tmp.stat().st_size
@@ -433,11 +448,11 @@ def decompress_file(
     }
 
 
-def info(src: str | os.PathLike[str]) -> dict[str, Any]:
+def info(src: str | os.PathLike[str], limits: budget.Limits = budget.DEFAULT) -> dict[str, Any]:
     """What a container holds: version, mode, unit, counts, bytes per section."""
     p = Path(src)
     c = read_container(p)
-    m, meta = decode(c)
+    m, meta = decode(c, limits)
     return {
         "command": "info",
         "input": str(p),
@@ -466,10 +481,13 @@ def info(src: str | os.PathLike[str]) -> dict[str, Any]:
     }
 
 
-def test_file(src: str | os.PathLike[str]) -> dict[str, Any]:
-    """Integrity check, like ``xz -t``: every checksum, every reference, a full rebuild."""
+def test_file(
+    src: str | os.PathLike[str], limits: budget.Limits = budget.DEFAULT
+) -> dict[str, Any]:
+    """Integrity check, like ``xz -t``: every checksum, every reference, the
+    decoding budget, a full rebuild."""
     p = Path(src)
-    shape, m, _ = decode_file(p)
+    shape, m, _ = decode_file(p, limits)
     return {
         "command": "test",
         "input": str(p),

@@ -25,7 +25,7 @@ from typing import Any, cast
 
 import numpy as np
 
-from . import codec, coons, dmap, joins
+from . import budget, codec, coons, dmap, joins
 from .errors import BadReferenceError, CorruptError, LimitError, SectionError
 from .model import (
     REBUILD,
@@ -1104,11 +1104,19 @@ def read_meta(raw: bytes) -> dict[str, Any]:
     return meta
 
 
-def sections_to_model(get: Any, minor: int | None = None) -> tuple[BRepModel, dict[str, Any]]:
+def sections_to_model(
+    get: Any,
+    minor: int | None = None,
+    limits: budget.Limits | None = budget.DEFAULT,
+    fmt: str | None = None,
+) -> tuple[BRepModel, dict[str, Any]]:
     """Rebuild a model from a section lookup ``get(tag) -> bytes``; check every reference.
 
     ``minor`` is the file's minor version, capped at this reader's (default:
     the newest this reader knows, ``max(ADDED)``): it says which sections there are.
+    ``limits`` is the decoding budget (``budget.check``, with the output size
+    of ``fmt`` if given), checked on the tables before any net is decoded or
+    any walk over the shapes is made; None skips it (a container just written).
 
     Raises
     ------
@@ -1117,10 +1125,10 @@ def sections_to_model(get: Any, minor: int | None = None) -> tuple[BRepModel, di
         not decode; its tag and where), ``BadReferenceError`` (an index points
         outside its table).
     LimitError
-        Coded nets larger than a reader allocates.
+        Coded nets larger than a reader allocates, or a shape past ``limits``.
     """
     with np.errstate(all="ignore"):  # overflows become non-finite values, refused by name
-        return _sections_to_model(get, max(ADDED) if minor is None else minor)
+        return _sections_to_model(get, max(ADDED) if minor is None else minor, limits, fmt)
 
 
 def _optional(get: Any, tag: str) -> bytes | None:
@@ -1132,7 +1140,9 @@ def _optional(get: Any, tag: str) -> bytes | None:
         return None
 
 
-def _sections_to_model(get: Any, minor: int) -> tuple[BRepModel, dict[str, Any]]:
+def _sections_to_model(
+    get: Any, minor: int, limits: budget.Limits | None, fmt: str | None
+) -> tuple[BRepModel, dict[str, Any]]:
     meta = read_meta(get("META"))
     m = BRepModel()
     m.unit = str(meta.get("unit", "MM"))
@@ -1149,6 +1159,8 @@ def _sections_to_model(get: Any, minor: int) -> tuple[BRepModel, dict[str, Any]]
     range_how = _read_edges(get("EDGE"), m)
     _read_faces(get("FACE"), m)
     check_references(m)
+    if limits is not None:
+        budget.check(m, limits, fmt)
     _resolve_ranges(m, range_how)
     coded_surfaces = set(coded_rows(m.surfaces))
     _read_nets(get("SNET"), m.surfaces, tol, "SNET")
