@@ -1,7 +1,8 @@
 """The command line.  The only module that prints or exits.
 
 Exit codes: 0 ok; 1 bad input, bad container, output exists, or any other
-failure on a file; 2 usage; 130 interrupted.  Errors are one line,
+failure on a file; 2 usage; 128 + the signal's number when interrupted (130
+SIGINT, 129 SIGHUP, 143 SIGTERM).  Errors are one line,
 ``error: FILE: message``, on stderr; ``--debug`` adds the traceback.  README,
 "Exit codes and errors", lists every error class.
 """
@@ -9,6 +10,7 @@ failure on a file; 2 usage; 130 interrupted.  Errors are one line,
 from __future__ import annotations
 
 import json
+import signal
 import sys
 import traceback
 from collections.abc import Callable
@@ -40,13 +42,50 @@ class _State:
         self.failed = False
 
 
+class Interrupted(KeyboardInterrupt):
+    """SIGTERM or SIGHUP, raised like Ctrl-C's ``KeyboardInterrupt`` so that the
+    file being written is removed (``pipeline.atomic_output``)."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signum)
+        self.signum = signum
+
+
+def _raise_interrupted(signum: int, frame: Any) -> None:
+    raise Interrupted(signum)
+
+
+def catch_signals() -> None:
+    """Handle SIGTERM and SIGHUP like SIGINT (unless they are ignored, as under
+    ``nohup``).  SIGKILL cannot be caught: it leaves the temporary file."""
+    for sig in (signal.SIGTERM, signal.SIGHUP):
+        if signal.getsignal(sig) is signal.SIG_DFL:
+            signal.signal(sig, _raise_interrupted)
+
+
+def show(x: Any) -> str:
+    """``x`` as text safe for a terminal: every character that is not printable
+    (control characters such as CR and BEL, lone surrogates, format characters)
+    escaped as Python writes it (``\\r``, ``\\x07``, ``\\u202e``)."""
+    s = str(x)
+    if s.isprintable():
+        return s
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in s)
+
+
 def _run(state: _State, path: str, fn: Callable[[], dict[str, Any]]) -> dict[str, Any] | None:
     """Run one file's work; turn any failure into one ``error:`` line."""
     try:
         return fn()
-    except KeyboardInterrupt:
-        click.echo(f"error: {path}: interrupted", err=True)
-        sys.exit(130)
+    except KeyboardInterrupt as e:
+        signum = e.signum if isinstance(e, Interrupted) else signal.SIGINT
+        name = (
+            "interrupted"
+            if signum == signal.SIGINT
+            else f"interrupted ({signal.Signals(signum).name})"
+        )
+        click.echo(f"error: {show(path)}: {name}", err=True)
+        sys.exit(128 + signum)
     except NurbscompError as e:
         msg = str(e)
     except MemoryError:
@@ -55,7 +94,7 @@ def _run(state: _State, path: str, fn: Callable[[], dict[str, Any]]) -> dict[str
         msg = f"internal error ({type(e).__name__}: {e}); rerun with --debug for details"
     if state.debug:
         traceback.print_exc()
-    click.echo(f"error: {path}: {msg}", err=True)
+    click.echo(f"error: {show(path)}: {show(msg)}", err=True)
     state.failed = True
     return None
 
@@ -81,7 +120,8 @@ def cli(ctx: click.Context, debug: bool) -> None:
 
     \b
     Exit codes: 0 ok; 1 bad input, damaged container, output exists or any
-    other failure on a file; 2 bad usage; 130 interrupted (Ctrl-C).
+    other failure on a file; 2 bad usage; 130 interrupted (Ctrl-C), 143
+    terminated (SIGTERM), 129 hung up (SIGHUP).
     """
     ctx.obj = _State(debug)
 
@@ -155,9 +195,9 @@ def _batch(
                 continue
             reports.append(r)
             if not as_json and not quiet:
-                click.echo(text(r))
+                click.echo("\n".join(show(line) for line in text(r).split("\n")))
             for w in r.get("warnings", []) if not (quiet or as_json) else []:
-                click.echo(f"warning: {f}: {w}", err=True)
+                click.echo(f"warning: {show(f)}: {show(w)}", err=True)
     if as_json:
         _emit(reports, True, str)
     sys.exit(1 if state.failed else 0)
@@ -308,7 +348,7 @@ def info(state: _State, file: str, as_json: bool) -> None:
         + ", ".join(f"{k} {v}" for k, v in r["section_raw_bytes"].items())
         + f" bytes raw; {r['body_stored_bytes']} bytes coded",
     ]
-    click.echo("\n".join(lines))
+    click.echo("\n".join(show(line) for line in lines))
 
 
 @cli.command("test")
@@ -320,7 +360,7 @@ def test_cmd(state: _State, files: tuple[str, ...], quiet: bool) -> None:
     for f in files:
         r = _run(state, f, partial(pipeline.test_file, f))
         if r is not None and not quiet:
-            click.echo(f"{f}: OK ({r['faces']} faces)")
+            click.echo(f"{show(f)}: OK ({r['faces']} faces)")
     sys.exit(1 if state.failed else 0)
 
 
@@ -361,6 +401,7 @@ def eval_cmd(state: _State, original: str, reconstructed: str, as_json: bool) ->
 
 def main() -> None:
     """Console-script entry point."""
+    catch_signals()
     cli(prog_name="nurbscomp")
 
 

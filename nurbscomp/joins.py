@@ -229,22 +229,29 @@ def clamped_surface(g: Geometry) -> bool:
 
 
 def face_vertices(m: BRepModel) -> list[list[int]]:
-    """Per face, the vertex rows reached from it through unlocated sub-shapes only."""
-    tidx = m.type_index()
+    """Per face, the vertex rows reached from it through unlocated sub-shapes only.
+
+    Each face's walk visits a shape once (a visited set), so shared wires or
+    edges cost nothing more, and it keeps its own stack (no recursion)."""
+    tidx = m.type_index().tolist()
+    types = m.shape_type.tolist()
+    start, kids = m.child_start.tolist(), m.child_shape.tolist()
+    unlocated = (m.child_loc == 0).tolist()
     out = []
     for f, s in enumerate(np.flatnonzero(m.shape_type == ShapeType.FACE).tolist()):
-        found: list[int] = []
+        found: set[int] = set()
+        seen = {s}
         stack = [s] if m.face_loc[f] == 0 else []
         while stack:
             x = stack.pop()
-            for k in range(m.child_start[x], m.child_start[x + 1]):
-                c = int(m.child_shape[k])
-                if m.child_loc[k] != 0:
+            for k in range(start[x], start[x + 1]):
+                c = kids[k]
+                if not unlocated[k] or c in seen:
                     continue
-                if m.shape_type[c] == ShapeType.VERTEX:
-                    if int(tidx[c]) not in found:
-                        found.append(int(tidx[c]))
-                elif m.shape_type[c] < ShapeType.VERTEX:
+                seen.add(c)
+                if types[c] == ShapeType.VERTEX:
+                    found.add(tidx[c])
+                elif types[c] < ShapeType.VERTEX:
                     stack.append(c)
         out.append(sorted(found))
     return out
@@ -538,32 +545,52 @@ def curve_placements(m: BRepModel) -> dict[int, np.ndarray]:
     """Per 3-D curve row used in one place only, where: the 4 x 4 matrix that
     takes its poles into the model's frame (the locations from the root down
     to its edge, then its representation's).  A curve used under two different
-    placements (an instanced part) has none."""
+    placements (an instanced part) has none.
+
+    Each shape's placement is found once, parents before children (the shapes
+    table lists sub-shapes first, so it is walked backwards from the root):
+    the one matrix every path from the root gives it, or none where two paths
+    differ.  No path is walked twice, however much the shapes are shared."""
     mats = {k: location_matrix(m, k) for k in range(len(m.locations))}
-    at: dict[int, list[np.ndarray]] = {}
-    stack = [(m.root_shape, mats[m.root_loc])]
-    seen: set[tuple[int, bytes]] = set()
-    tidx = m.type_index()
-    edge_at: dict[int, list[np.ndarray]] = {}
-    while stack:
-        s, t = stack.pop()
-        key = (s, t.tobytes())
-        if key in seen:
+    n = len(m.shape_type)
+    types = m.shape_type.tolist()
+    start, kids, locs = m.child_start.tolist(), m.child_shape.tolist(), m.child_loc.tolist()
+    place: list[np.ndarray | None] = [None] * n
+    many = [False] * n  # reached with two different matrices
+    reached = [False] * n
+    if 0 <= m.root_shape < n:
+        place[m.root_shape], reached[m.root_shape] = mats[m.root_loc], True
+    edge_at: dict[int, np.ndarray | None] = {}
+    tidx = m.type_index().tolist()
+    for s in range(n - 1, -1, -1):
+        if not reached[s]:
             continue
-        seen.add(key)
-        if m.shape_type[s] == ShapeType.EDGE:
-            edge_at.setdefault(int(tidx[s]), []).append(t)
+        t = None if many[s] else place[s]
+        if types[s] == ShapeType.EDGE:
+            edge_at[tidx[s]] = t
             continue
-        for k in range(m.child_start[s], m.child_start[s + 1]):
-            c = int(m.child_shape[k])
-            if m.shape_type[c] != ShapeType.VERTEX:
-                stack.append((c, t @ mats[int(m.child_loc[k])]))
+        for k in range(start[s], start[s + 1]):
+            c = kids[k]
+            if types[c] == ShapeType.VERTEX:
+                continue
+            tc = None if t is None else t @ mats[locs[k]]
+            if not reached[c]:
+                reached[c], place[c], many[c] = True, tc, tc is None
+            elif not many[c] and (tc is None or not np.array_equal(place[c], tc)):
+                many[c] = True
+    at: dict[int, list[np.ndarray | None]] = {}
     reps = m.edge_reps
     for q in np.flatnonzero(reps[:, 1] == RepKind.CURVE3D).tolist():
         c = int(reps[q, 2])
-        for t in edge_at.get(int(reps[q, 0]), []):
-            at.setdefault(c, []).append(t @ mats[int(reps[q, 6])])
-    return {c: ts[0] for c, ts in at.items() if all(np.array_equal(x, ts[0]) for x in ts)}
+        e = int(reps[q, 0])
+        if e in edge_at:
+            t = edge_at[e]
+            at.setdefault(c, []).append(None if t is None else t @ mats[int(reps[q, 6])])
+    return {
+        c: ts[0]
+        for c, ts in at.items()
+        if ts[0] is not None and all(x is not None and np.array_equal(x, ts[0]) for x in ts)
+    }
 
 
 def placed(poles: np.ndarray, t: np.ndarray) -> np.ndarray:

@@ -378,11 +378,15 @@ def differences(a: BRepModel, b: BRepModel) -> list[str]:
 
 
 def below(m: BRepModel, s: int, kind: ShapeType) -> set[int]:
-    """Shape indices of type ``kind`` reachable below shape ``s``."""
-    out, stack = set(), [s]
+    """Shape indices of type ``kind`` reachable below shape ``s`` (each shape
+    visited once, with a stack of its own: no recursion)."""
+    out, stack, seen = set(), [s], {s}
     while stack:
         x = stack.pop()
         for c in m.child_shape[m.child_start[x] : m.child_start[x + 1]].tolist():
+            if c in seen:
+                continue
+            seen.add(c)
             if m.shape_type[c] == kind:
                 out.add(c)
             elif m.shape_type[c] < kind:

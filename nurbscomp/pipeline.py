@@ -23,7 +23,7 @@ from typing import Any, TypeVar, cast
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from . import __version__, container, occ, serialize
+from . import __version__, budget, container, occ, serialize
 from .encode import validity
 from .errors import (
     CorruptError,
@@ -85,30 +85,77 @@ def default_decompressed_name(src: Path) -> Path:
     return src.with_name(src.name + ".step")
 
 
-@contextlib.contextmanager
-def atomic_output(dst: Path, force: bool) -> Iterator[Path]:
-    """Yield a temporary path beside ``dst``; rename it to ``dst`` on success.
+#: Longest file name a temporary name's stem keeps, in bytes: the name
+#: ``.STEM.XXXXXXXX.tmp`` then fits the 255 bytes of common file systems.
+_TMP_STEM_BYTES = 200
+
+
+def _os_message(e: OSError) -> str:
+    return e.strerror or str(e)
+
+
+def check_output(dst: Path, force: bool, inputs: tuple[Path, ...] = ()) -> None:
+    """Refuse an output that may not be written, before any work is done.
 
     Raises
     ------
     OutputError
-        ``dst`` exists and ``force`` is not set, or its folder does not exist.
+        ``dst`` is one of ``inputs`` (even with ``force``), exists and ``force``
+        is not set, is a folder, or cannot be looked at (the OS's message).
     """
-    if dst.exists() and not force:
+    try:
+        if not dst.exists():
+            return
+        for src in inputs:
+            if src.exists() and os.path.samefile(src, dst):
+                raise OutputError(f"{dst} is the input file; it is never overwritten")
+        if dst.is_dir():
+            raise OutputError(f"{dst} is a directory")
+    except OSError as e:
+        raise OutputError(f"cannot write {dst}: {_os_message(e)}") from None
+    if not force:
         raise OutputError(f"{dst} already exists (use --force to overwrite)")
-    if dst.is_dir():
-        raise OutputError(f"{dst} is a directory")
+
+
+def _tmp_prefix(name: str) -> str:
+    """``.NAME.``, NAME cut to ``_TMP_STEM_BYTES`` bytes (mkstemp adds the unique part)."""
+    while len(os.fsencode(name)) > _TMP_STEM_BYTES:  # whole characters only
+        name = name[: -1 - (len(os.fsencode(name)) - _TMP_STEM_BYTES) // 4]
+    return f".{name}."
+
+
+@contextlib.contextmanager
+def atomic_output(dst: Path, force: bool, inputs: tuple[Path, ...] = ()) -> Iterator[Path]:
+    """Yield a temporary path beside ``dst``; rename it to ``dst`` on success.
+
+    The temporary name is ``.NAME.XXXXXXXX.tmp`` (NAME shortened so that it
+    fits 255 bytes); it is removed on any failure or interrupt (the CLI turns
+    SIGTERM and SIGHUP into interrupts).
+
+    Raises
+    ------
+    OutputError
+        ``dst`` is one of ``inputs``, exists and ``force`` is not set, its
+        folder does not exist, or the OS refuses a write (its message).
+    """
+    check_output(dst, force, inputs)
     folder = dst.parent if str(dst.parent) else Path(".")
     if not folder.is_dir():
         raise OutputError(f"output folder {folder} does not exist")
-    fd, tmp = tempfile.mkstemp(prefix=f".{dst.name}.", suffix=".tmp", dir=folder)
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=_tmp_prefix(dst.name), suffix=".tmp", dir=folder)
+    except OSError as e:
+        raise OutputError(f"cannot write in {folder}: {_os_message(e)}") from None
     os.close(fd)
     try:
         yield Path(tmp)
         umask = os.umask(0)
         os.umask(umask)
         os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; outputs get the usual mode
+        check_output(dst, force, inputs)  # the input may have been linked there meanwhile
         os.replace(tmp, dst)
+    except OSError as e:
+        raise OutputError(f"cannot write {dst}: {_os_message(e)}") from None
     finally:
         with contextlib.suppress(FileNotFoundError):
             os.unlink(tmp)
@@ -139,8 +186,16 @@ def read_container(path: Path) -> container.Container:
 
 
 @one_blas_thread
-def decode(c: container.Container) -> tuple[BRepModel, dict[str, Any]]:
+def decode(
+    c: container.Container,
+    limits: budget.Limits | None = budget.DEFAULT,
+    fmt: str | None = None,
+) -> tuple[BRepModel, dict[str, Any]]:
     """The model and metadata a checked container holds.
+
+    ``limits`` is the decoding budget, with the output size of ``fmt`` (the
+    format about to be written) if given; None skips it (``compress``
+    verifying what it just wrote).
 
     Raises
     ------
@@ -156,7 +211,7 @@ def decode(c: container.Container) -> tuple[BRepModel, dict[str, Any]]:
     """
     serialize.check_layout(c.tags(), c.minor, container.MINOR)
     try:
-        m, meta = serialize.sections_to_model(c.get, min(c.minor, container.MINOR))
+        m, meta = serialize.sections_to_model(c.get, min(c.minor, container.MINOR), limits, fmt)
     except NurbscompError:
         raise
     except (ValueError, IndexError, KeyError, TypeError, ArithmeticError, RecursionError) as e:
@@ -199,9 +254,14 @@ def write(shape: Any, path: Path, fmt: str, unit: str, meta: dict[str, Any]) -> 
         ) from None
 
 
-def decode_file(path: str | os.PathLike[str]) -> tuple[Any, BRepModel, dict[str, Any]]:
-    """Decode a ``.nzc`` file into an in-memory shape (millimetres)."""
-    m, meta = decode(read_container(Path(path)))
+def decode_file(
+    path: str | os.PathLike[str],
+    limits: budget.Limits = budget.DEFAULT,
+    fmt: str | None = None,
+) -> tuple[Any, BRepModel, dict[str, Any]]:
+    """Decode a ``.nzc`` file into an in-memory shape (millimetres), within
+    ``limits`` (and the output size of ``fmt``, if given)."""
+    m, meta = decode(read_container(Path(path)), limits, fmt)
     return build(m), m, meta
 
 
@@ -254,8 +314,7 @@ def compress_file(
     t0 = time.perf_counter()
     src_p = Path(src)
     dst_p = Path(dst) if dst is not None else default_compressed_name(src_p)
-    if dst_p.exists() and not force:
-        raise OutputError(f"{dst_p} already exists (use --force to overwrite)")
+    check_output(dst_p, force, (src_p,))
     try:
         cad = occ.read_cad(src_p)
     except NurbscompError:
@@ -271,7 +330,7 @@ def compress_file(
     meta = {
         "mode": "lossless" if lossless else "tolerance",
         "tolerance_mm": None if lossless else tol,
-        "source_name": src_p.name,
+        "source_name": serialize.meta_text(src_p.name),
         "source_bytes": src_bytes,
         "writer": f"nurbscomp {__version__}",
     }
@@ -289,10 +348,10 @@ def compress_file(
         flags = 0
     data = container.pack(serialize.model_to_sections(target, meta, codes), flags)
     verified = False
-    with atomic_output(dst_p, force) as tmp:
+    with atomic_output(dst_p, force, (src_p,)) as tmp:
         tmp.write_bytes(data)
         if verify:
-            back, _ = decode(read_container(tmp))
+            back, _ = decode(read_container(tmp), limits=None)
             diff = differences(target, back)
             if diff:
                 raise VerifyError(f"decoded container differs from the input: {', '.join(diff)}")
@@ -364,16 +423,17 @@ def decompress_file(
     dst: str | os.PathLike[str] | None = None,
     *,
     force: bool = False,
+    limits: budget.Limits = budget.DEFAULT,
 ) -> dict[str, Any]:
-    """Decode a ``.nzc`` container and write STEP, IGES or BREP (by extension)."""
+    """Decode a ``.nzc`` container and write STEP, IGES or BREP (by extension),
+    if the shape and the output's estimated size are within ``limits``."""
     t0 = time.perf_counter()
     src_p = Path(src)
     dst_p = Path(dst) if dst is not None else default_decompressed_name(src_p)
-    if dst_p.exists() and not force:
-        raise OutputError(f"{dst_p} already exists (use --force to overwrite)")
-    shape, m, meta = decode_file(src_p)
+    check_output(dst_p, force, (src_p,))
     fmt = occ.output_format(dst_p)
-    with atomic_output(dst_p, force) as tmp:
+    shape, m, meta = decode_file(src_p, limits, fmt)
+    with atomic_output(dst_p, force, (src_p,)) as tmp:
         write(shape, tmp, fmt, m.unit, meta)
         size = tmp.stat().st_size
     return {
@@ -388,11 +448,11 @@ def decompress_file(
     }
 
 
-def info(src: str | os.PathLike[str]) -> dict[str, Any]:
+def info(src: str | os.PathLike[str], limits: budget.Limits = budget.DEFAULT) -> dict[str, Any]:
     """What a container holds: version, mode, unit, counts, bytes per section."""
     p = Path(src)
     c = read_container(p)
-    m, meta = decode(c)
+    m, meta = decode(c, limits)
     return {
         "command": "info",
         "input": str(p),
@@ -421,10 +481,13 @@ def info(src: str | os.PathLike[str]) -> dict[str, Any]:
     }
 
 
-def test_file(src: str | os.PathLike[str]) -> dict[str, Any]:
-    """Integrity check, like ``xz -t``: every checksum, every reference, a full rebuild."""
+def test_file(
+    src: str | os.PathLike[str], limits: budget.Limits = budget.DEFAULT
+) -> dict[str, Any]:
+    """Integrity check, like ``xz -t``: every checksum, every reference, the
+    decoding budget, a full rebuild."""
     p = Path(src)
-    shape, m, _ = decode_file(p)
+    shape, m, _ = decode_file(p, limits)
     return {
         "command": "test",
         "input": str(p),

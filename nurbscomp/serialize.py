@@ -25,7 +25,7 @@ from typing import Any, cast
 
 import numpy as np
 
-from . import codec, coons, dmap, joins
+from . import budget, codec, coons, dmap, joins
 from .errors import BadReferenceError, CorruptError, LimitError, SectionError
 from .model import (
     REBUILD,
@@ -1026,25 +1026,71 @@ def _number(x: Any) -> bool:
     return isinstance(x, (int, float)) and not isinstance(x, bool)
 
 
+#: Largest META section a reader parses, in bytes (a writer's is ~200).
+MAX_META_BYTES = 1 << 16
+#: Longest string in META, in characters (``source_name`` is a file name).
+MAX_META_TEXT = 1024
+#: Most digits of an integer in META (``int()`` of a longer one is refused by
+#: Python, and ``source_bytes`` fits 2^53 anyway).
+MAX_META_DIGITS = 20
+#: Largest ``source_bytes`` (exactly representable as a double).
+MAX_SOURCE_BYTES = 2**53
+
+
+def _meta_int(digits: str) -> int:
+    if len(digits.lstrip("-")) > MAX_META_DIGITS:
+        raise SectionError(f"META: an integer of {len(digits)} digits is too long")
+    return int(digits)
+
+
+def _meta_constant(name: str) -> float:
+    raise SectionError(f"META: {name} is not a number")
+
+
+def _bad_text(s: str) -> bool:
+    """A control character (C0, DEL, C1) or a lone surrogate in ``s``."""
+    return any(c < " " or "\x7f" <= c <= "\x9f" or "\ud800" <= c <= "\udfff" for c in s)
+
+
+def meta_text(s: str) -> str:
+    """``s`` as META may hold it: control characters and lone surrogates (a
+    file name's undecodable bytes) become U+FFFD, and it is cut to ``MAX_META_TEXT``."""
+    s = s[:MAX_META_TEXT]
+    return "".join("\ufffd" if _bad_text(c) else c for c in s) if _bad_text(s) else s
+
+
 def read_meta(raw: bytes) -> dict[str, Any]:
     """The META section's JSON object, its fields checked.
 
     Raises
     ------
+    LimitError
+        The section is larger than ``MAX_META_BYTES``.
     SectionError
-        Not a JSON object, or a field of the wrong type or value.
+        Not a JSON object, or a field of the wrong type or value: integers of
+        more than ``MAX_META_DIGITS`` digits, NaN or infinities, strings longer
+        than ``MAX_META_TEXT`` or holding control characters or lone surrogates.
     """
+    if len(raw) > MAX_META_BYTES:
+        raise LimitError(f"META: {len(raw)} bytes, more than the {MAX_META_BYTES} a reader parses")
     try:
-        meta = json.loads(raw.decode("utf-8"))
+        meta = json.loads(raw.decode("utf-8"), parse_int=_meta_int, parse_constant=_meta_constant)
     except (UnicodeDecodeError, json.JSONDecodeError, RecursionError):
         raise SectionError("META section is not valid JSON") from None
     if not isinstance(meta, dict):
         raise SectionError("META section is not a JSON object")
+    for key in ("unit", "source_format", "mode", "source_name", "writer"):
+        v = meta.get(key, "")
+        if not isinstance(v, str) and not (key == "mode" and v is None):
+            raise SectionError(f"META: {key} is not a string")
+        if isinstance(v, str) and (len(v) > MAX_META_TEXT or _bad_text(v)):
+            raise SectionError(
+                f"META: {key} is longer than {MAX_META_TEXT} characters or holds control "
+                "characters or lone surrogates"
+            )
     unit = meta.get("unit", "MM")
-    if not isinstance(unit, str) or unit not in UNITS_MM:
-        raise SectionError(f"META: unknown unit {str(meta.get('unit'))[:20]!r}")
-    if not isinstance(meta.get("source_format", "STEP"), str):
-        raise SectionError("META: source_format is not a string")
+    if unit not in UNITS_MM:
+        raise SectionError(f"META: unknown unit {unit[:20]!r}")
     mode, tol = meta.get("mode"), meta.get("tolerance_mm")
     if mode not in ("lossless", "tolerance"):
         raise SectionError(f"META: unknown mode {str(mode)[:20]!r}")
@@ -1052,19 +1098,25 @@ def read_meta(raw: bytes) -> dict[str, Any]:
         raise SectionError("META: tolerance_mm is not a positive number")
     if mode == "lossless" and tol is not None:
         raise SectionError("META: a lossless container has a tolerance")
-    for key in ("source_name", "writer"):
-        if not isinstance(meta.get(key, ""), str):
-            raise SectionError(f"META: {key} is not a string")
-    if not _number(meta.get("source_bytes", 0)):
-        raise SectionError("META: source_bytes is not a number")
+    size = meta.get("source_bytes", 0)
+    if not (_number(size) and 0 <= size <= MAX_SOURCE_BYTES):
+        raise SectionError(f"META: source_bytes is not a number from 0 to {MAX_SOURCE_BYTES}")
     return meta
 
 
-def sections_to_model(get: Any, minor: int | None = None) -> tuple[BRepModel, dict[str, Any]]:
+def sections_to_model(
+    get: Any,
+    minor: int | None = None,
+    limits: budget.Limits | None = budget.DEFAULT,
+    fmt: str | None = None,
+) -> tuple[BRepModel, dict[str, Any]]:
     """Rebuild a model from a section lookup ``get(tag) -> bytes``; check every reference.
 
     ``minor`` is the file's minor version, capped at this reader's (default:
     the newest this reader knows, ``max(ADDED)``): it says which sections there are.
+    ``limits`` is the decoding budget (``budget.check``, with the output size
+    of ``fmt`` if given), checked on the tables before any net is decoded or
+    any walk over the shapes is made; None skips it (a container just written).
 
     Raises
     ------
@@ -1073,10 +1125,10 @@ def sections_to_model(get: Any, minor: int | None = None) -> tuple[BRepModel, di
         not decode; its tag and where), ``BadReferenceError`` (an index points
         outside its table).
     LimitError
-        Coded nets larger than a reader allocates.
+        Coded nets larger than a reader allocates, or a shape past ``limits``.
     """
     with np.errstate(all="ignore"):  # overflows become non-finite values, refused by name
-        return _sections_to_model(get, max(ADDED) if minor is None else minor)
+        return _sections_to_model(get, max(ADDED) if minor is None else minor, limits, fmt)
 
 
 def _optional(get: Any, tag: str) -> bytes | None:
@@ -1088,7 +1140,9 @@ def _optional(get: Any, tag: str) -> bytes | None:
         return None
 
 
-def _sections_to_model(get: Any, minor: int) -> tuple[BRepModel, dict[str, Any]]:
+def _sections_to_model(
+    get: Any, minor: int, limits: budget.Limits | None, fmt: str | None
+) -> tuple[BRepModel, dict[str, Any]]:
     meta = read_meta(get("META"))
     m = BRepModel()
     m.unit = str(meta.get("unit", "MM"))
@@ -1105,6 +1159,8 @@ def _sections_to_model(get: Any, minor: int) -> tuple[BRepModel, dict[str, Any]]
     range_how = _read_edges(get("EDGE"), m)
     _read_faces(get("FACE"), m)
     check_references(m)
+    if limits is not None:
+        budget.check(m, limits, fmt)
     _resolve_ranges(m, range_how)
     coded_surfaces = set(coded_rows(m.surfaces))
     _read_nets(get("SNET"), m.surfaces, tol, "SNET")

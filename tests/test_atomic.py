@@ -100,3 +100,101 @@ def test_decompress_into_missing_folder(work: Path) -> None:
     assert r.exit_code == 1
     assert "output folder" in r.stderr and "does not exist" in r.stderr
     assert _names(work) == ["part.step.nzc"]
+
+
+# ---------------------------------------------------------------- issue 11: outputs
+
+
+def test_output_on_its_input_is_refused_even_with_force(work: Path) -> None:
+    src = work / "part.step.nzc"
+    before = src.read_bytes()
+    for args in (["decompress", "-f", str(src), "-o", str(src)], ["compress", "-f", str(src)]):
+        if args[0] == "compress":  # a CAD input as its own output
+            cad = work / "loft.step"
+            shutil.copy(Path(__file__).resolve().parent.parent / "samples" / "loft.step", cad)
+            before_cad = cad.read_bytes()
+            args = ["compress", "-f", "--lossless", str(cad), "-o", str(cad)]
+        r = CliRunner().invoke(cli, args)
+        assert r.exit_code == 1, r.output
+        lines = r.stderr.strip().splitlines()
+        assert len(lines) == 1 and "is the input file" in lines[0], r.stderr
+    assert src.read_bytes() == before
+    assert cad.read_bytes() == before_cad
+    assert _names(work) == ["loft.step", "part.step.nzc"]
+
+
+def test_output_through_a_link_to_the_input_is_refused(work: Path) -> None:
+    src = work / "part.step.nzc"
+    (work / "link.step").symlink_to(src)
+    with pytest.raises(OutputError, match="is the input file"):
+        pipeline.decompress_file(src, work / "link.step", force=True)
+    assert (work / "link.step").is_symlink()
+    assert (GOLDEN / "loft.tol0.01.nzc").read_bytes() == src.read_bytes()
+
+
+def test_os_errors_on_output_are_output_errors(work: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A folder that cannot be written (the test runs as root, so the OS's
+    refusal is simulated where it happens), and a full disk mid-write."""
+    import errno
+    import tempfile
+
+    def refuse(*a: Any, **k: Any) -> Any:
+        raise PermissionError(errno.EACCES, "Permission denied")
+
+    with monkeypatch.context() as mp:
+        mp.setattr(tempfile, "mkstemp", refuse)
+        r = CliRunner().invoke(cli, ["decompress", str(work / "part.step.nzc")])
+    assert r.exit_code == 1
+    assert r.stderr.strip().endswith("Permission denied"), r.stderr
+    assert "internal error" not in r.stderr
+    monkeypatch.setattr(occ, "write_shape", _half_write(OSError(errno.ENOSPC, "No space left")))
+    with pytest.raises(OutputError, match="No space left"):
+        pipeline.decompress_file(work / "part.step.nzc")
+    assert _names(work) == ["part.step.nzc"]
+
+
+def test_long_output_names(work: Path) -> None:
+    """249 characters: the temporary name is shortened to fit 255 bytes.  300:
+    the OS's own refusal, as an OutputError."""
+    src = work / "part.step.nzc"
+    out = work / ("x" * 244 + ".step")
+    assert len(out.name) == 249
+    pipeline.decompress_file(src, out)
+    assert out.read_bytes().startswith(b"ISO-10303-21;")
+    uni = work / ("é" * 100 + "y" * 40 + ".step")  # 145 characters, 245 bytes
+    pipeline.decompress_file(src, uni)
+    assert _names(work) == sorted(["part.step.nzc", out.name, uni.name])
+    assert pipeline._tmp_prefix("é" * 200).encode() == b"." + "é".encode() * 100 + b"."
+    with pytest.raises(OutputError, match="File name too long"):
+        pipeline.decompress_file(src, work / ("z" * 300 + ".step"))
+    r = CliRunner().invoke(cli, ["decompress", str(src), "-o", str(work / ("z" * 300))])
+    assert r.exit_code == 1 and "File name too long" in r.stderr
+    assert len(_names(work)) == 3
+
+
+@pytest.mark.parametrize(("sig", "code"), [("SIGTERM", 143), ("SIGHUP", 129)])
+def test_signal_mid_write_leaves_nothing(work: Path, sig: str, code: int) -> None:
+    """A real process, killed while its temporary file exists: the signal is
+    handled like Ctrl-C (the temporary file is removed), with exit 128 + signal."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    root = Path(__file__).resolve().parent.parent
+    src = work / "loft.step"
+    shutil.copy(root / "samples" / "blob.step", src)
+    # compress verifies the container while its temporary file exists: seconds
+    cmd = [sys.executable, "-m", "nurbscomp.cli", "compress", "--tol", "0.01", str(src)]
+    env = {**os.environ, "PYTHONPATH": str(root)}
+    p = subprocess.Popen(cmd, cwd=root, env=env, stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + 120
+    while not list(work.glob(".*.tmp")) and p.poll() is None and time.time() < deadline:
+        time.sleep(0.005)
+    assert p.poll() is None, "the process ended before its temporary file was seen"
+    p.send_signal(getattr(signal, sig))
+    _, err = p.communicate(timeout=120)
+    assert p.returncode == code, err
+    assert err.strip().splitlines()[-1] == f"error: {src}: interrupted ({sig})"
+    assert _names(work) == ["loft.step", "part.step.nzc"]

@@ -144,18 +144,38 @@ class _Reader:
         return i
 
     def shape(self, s: Any) -> int:
-        """Table index of the TShape under ``s`` (adding it and its sub-shapes)."""
+        """Table index of the TShape under ``s`` (adding it and its sub-shapes).
+
+        A depth-first walk in post-order with a stack of its own (no
+        recursion, so no nesting depth exhausts Python's stack); a TShape seen
+        before is looked up, never walked again."""
         key = s.Located(TopLoc_Location()).Oriented(TopAbs_FORWARD)
         k = self.keys.FindIndex(key)
         if k:
             return self.index_of[k]
-        k = self.keys.Add(key)
-        kids = []
-        it = TopoDS_Iterator(key, False, False)
-        while it.More():
-            c = it.Value()
-            kids.append((self.shape(c), c.Orientation().value, self.location(c.Location())))
-            it.Next()
+        # frames: [key, its map index, iterator over its children, children so far]
+        stack: list[list[Any]] = [[key, self.keys.Add(key), TopoDS_Iterator(key, False, False), []]]
+        done = -1
+        while stack:
+            key, k, it, kids = stack[-1]
+            if it.More():
+                c = it.Value()
+                ckey = c.Located(TopLoc_Location()).Oriented(TopAbs_FORWARD)
+                ck = self.keys.FindIndex(ckey)
+                if not ck:  # first visit: walk it, then come back to this child
+                    stack.append(
+                        [ckey, self.keys.Add(ckey), TopoDS_Iterator(ckey, False, False), []]
+                    )
+                    continue
+                kids.append((self.index_of[ck], c.Orientation().value, self.location(c.Location())))
+                it.Next()
+                continue
+            stack.pop()
+            done = self._add(key, k, kids)
+        return done
+
+    def _add(self, key: Any, k: int, kids: list[tuple[int, int, int]]) -> int:
+        """Append one TShape whose sub-shapes are in the table; its index."""
         ts = key.TShape()
         t = key.ShapeType().value
         if t == ShapeType.VERTEX:

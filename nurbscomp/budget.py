@@ -1,0 +1,249 @@
+"""The decoding budget: how much a container's tables expand, computed from the
+tables alone, before anything is built (docs/format.md §4, "Budget").
+
+A container is small; the shape it describes need not be.  Sharing makes a
+tree of sub-shape references out of a DAG (a compound holding the one below
+it twice, 40 levels deep, is 2^40 references), coded nets have poles that no
+byte backs, a pcurve the decoder computes costs no byte at all, and an IGES
+writer flattens every instance.  :func:`expansion` measures all of that with
+one pass over the shapes table in each direction (sub-shapes precede their
+parents, so the table is its own topological order: no recursion, no
+revisiting), and :func:`check` refuses what is past :class:`Limits`.
+
+Counts are capped at ``CAP`` while they are summed, so that a hostile DAG
+costs no big-integer arithmetic.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections import Counter
+from dataclasses import dataclass
+
+from .errors import LimitError
+from .model import (
+    REBUILD,
+    Analytic,
+    BRepModel,
+    BSplineCurve,
+    BSplineSurface,
+    Derived,
+    Geometry,
+    Kind,
+    RepKind,
+    ShapeType,
+)
+
+#: Counts stop growing here (far past every limit).
+CAP = 1 << 62
+
+# Bytes an output file spends, measured on the corpus (STEP and IGES written by
+# OCCT from decoded containers, docs/format.md §4): a pole or knot is a few
+# numbers of ~20 characters, a topological or geometric entity a line.
+_POLE_BYTES = 75
+_NUMBER_BYTES = 20
+_ENTITY_BYTES = 120
+#: An instance (a located reference) in STEP: its assembly entities.
+_INSTANCE_BYTES = 5 * _ENTITY_BYTES
+
+
+@dataclass(frozen=True)
+class Limits:
+    """What a reader decodes at most (``--limit-scale K`` multiplies each by K).
+
+    Defaults are about 100 times the largest of the public corpus's files
+    (docs/format.md §4 gives the measured values), except where OCCT's own
+    recursion sets the bound (``depth``).
+    """
+
+    #: Sub-shape references with sharing unfolded: what OCCT's explorers,
+    #: counters and writers walk.
+    references: int = 20_000_000
+    #: Longest chain of sub-shape references (OCCT walks it recursively).
+    depth: int = 1_000
+    #: Poles and knots of every distinct B-spline OCCT builds.
+    poles: int = 30_000_000
+    #: Pcurves the decoder computes (``occ.topology.rebuild_pcurves``), one per
+    #: edge and face it projects onto.
+    pcurves: int = 20_000
+    #: Estimated size of a STEP output (instances written once).
+    step_bytes: int = 1 << 30
+    #: Estimated size of an IGES output (instances flattened).
+    iges_bytes: int = 1 << 30
+
+    def scaled(self, k: float) -> Limits:
+        """Every limit times ``k`` (the CLI's ``--limit-scale``)."""
+        if not k > 0:
+            raise ValueError("the limit scale must be positive")
+        return Limits(**{f.name: int(getattr(self, f.name) * k) for f in dataclasses.fields(self)})
+
+
+DEFAULT = Limits()
+
+
+@dataclass(frozen=True)
+class Expansion:
+    """What the tables expand into (see :class:`Limits` for each field)."""
+
+    references: int
+    depth: int
+    poles: int
+    pcurves: int
+    step_bytes: int
+    iges_bytes: int
+
+
+def _record_cost(g: Geometry, table: list[Geometry]) -> tuple[int, int]:
+    """(poles and knots, bytes) of one geometry record, its bases in the same
+    table included (they precede their row: checked on reading).  A swept
+    surface's basis is a 3-D curve, counted with the curves."""
+    poles = out = 0
+    while True:
+        if isinstance(g, (BSplineSurface, BSplineCurve)):
+            n = g.poles.size // g.poles.shape[-1]
+            k = len(g.uknots) + len(g.vknots) if isinstance(g, BSplineSurface) else len(g.knots)
+            out += n * _POLE_BYTES + (n if g.weights is not None else 0) * _NUMBER_BYTES
+            return poles + n + k, out + 2 * k * _NUMBER_BYTES + _ENTITY_BYTES
+        assert isinstance(g, (Analytic, Derived))
+        out += _ENTITY_BYTES + (g.frame.size + g.params.size) * _NUMBER_BYTES
+        if not isinstance(g, Derived) or g.kind in (Kind.REVOLUTION, Kind.EXTRUSION):
+            return poles, out
+        g = table[g.basis]
+
+
+def _table_costs(table: list[Geometry]) -> tuple[list[int], int]:
+    """Bytes per row, and the poles and knots of the distinct records."""
+    seen: set[int] = set()
+    poles, costs = 0, []
+    for g in table:
+        p, b = _record_cost(g, table)
+        costs.append(b)
+        if id(g) not in seen:
+            seen.add(id(g))
+            poles += p
+    return costs, poles
+
+
+def _shape_costs(m: BRepModel) -> list[int]:
+    """Bytes an output spends on each shape itself (its entity and its geometry)."""
+    surf, _ = _table_costs(m.surfaces)
+    c3, _ = _table_costs(m.curves3d)
+    c2, _ = _table_costs(m.curves2d)
+    types = m.shape_type.tolist()
+    tidx = m.type_index().tolist()
+    edge_bytes = [_ENTITY_BYTES] * len(m.edge_tol)
+    for e, kind, c1, c2b in m.edge_reps[:, :4].tolist():
+        if kind == RepKind.CURVE3D and 0 <= c1 < len(c3):
+            edge_bytes[e] += c3[c1]
+        elif kind in (RepKind.ON_SURFACE, RepKind.ON_CLOSED_SURFACE):
+            for c in (c1, c2b):
+                if 0 <= c < len(c2):
+                    edge_bytes[e] += c2[c]
+    face_bytes = [_ENTITY_BYTES + surf[s] for s in m.face_surface.tolist()]
+    out = []
+    for s, t in enumerate(types):
+        if t == ShapeType.FACE:
+            out.append(face_bytes[tidx[s]])
+        elif t == ShapeType.EDGE:
+            out.append(edge_bytes[tidx[s]])
+        else:
+            out.append(_ENTITY_BYTES)
+    return out
+
+
+def expansion(m: BRepModel) -> Expansion:
+    """What ``m``'s tables expand into; ``m``'s references must be checked
+    (``serialize.check_references``: every child precedes its parent)."""
+    n = len(m.shape_type)
+    start = m.child_start.tolist()
+    kids = m.child_shape.tolist()
+    located = (m.child_loc != 0).tolist()
+    # bottom-up (children first): the size of each shape's unfolded tree, its depth
+    size = [1] * n
+    depth = [1] * n
+    for s in range(n):
+        a, b = start[s], start[s + 1]
+        if a == b:
+            continue
+        total, deep = 1, 0
+        for c in kids[a:b]:
+            total += size[c]
+            deep = max(deep, depth[c])
+        size[s] = min(total, CAP)
+        depth[s] = deep + 1
+    # top-down (parents first): the paths from the root to each shape, all of
+    # them (IGES flattens) and those within one instance (STEP writes a shape
+    # under a located reference once, as an instance)
+    paths = [0] * n
+    inst = [0] * n  # within-instance paths, then the shape's own count
+    top = [False] * n  # under a located reference: an instance of its own
+    root = m.root_shape
+    if 0 <= root < n:
+        paths[root] = 1
+        top[root] = True
+    cost = _shape_costs(m)
+    step = 0
+    for s in range(n - 1, -1, -1):
+        if not paths[s]:
+            continue
+        inst[s] = min(inst[s] + top[s], CAP)
+        step = min(step + inst[s] * cost[s], CAP)
+        for k in range(start[s], start[s + 1]):
+            c = kids[k]
+            paths[c] = min(paths[c] + paths[s], CAP)
+            if located[k]:
+                top[c] = True
+                step = min(step + inst[s] * _INSTANCE_BYTES, CAP)
+            else:
+                inst[c] = min(inst[c] + inst[s], CAP)
+    iges = sum(min(p * b, CAP) for p, b in zip(paths, cost))
+    poles = sum(_table_costs(t)[1] for t in (m.surfaces, m.curves3d, m.curves2d))
+    return Expansion(
+        references=size[root] if 0 <= root < n else 0,
+        depth=max(depth, default=0),
+        poles=poles,
+        pcurves=pcurves_to_compute(m),
+        step_bytes=min(step, CAP),
+        iges_bytes=min(iges, CAP),
+    )
+
+
+def pcurves_to_compute(m: BRepModel) -> int:
+    """Projections ``occ.topology.rebuild_pcurves`` makes: each representation
+    whose pcurve is left out, onto every face with its surface row and location."""
+    faces = Counter(zip(m.face_surface.tolist(), m.face_loc.tolist()))
+    reps = m.edge_reps
+    todo = reps[(reps[:, 1] != RepKind.CURVE3D) & (reps[:, 2] == REBUILD)]
+    return sum(faces.get((s, loc), 0) for s, loc in todo[:, [4, 6]].tolist())
+
+
+def check(m: BRepModel, limits: Limits = DEFAULT, fmt: str | None = None) -> Expansion:
+    """Refuse a model that expands past ``limits``: the references, depth, poles
+    and pcurves always; the output size of ``fmt`` (``"STEP"``, ``"IGES"``)
+    when one is given.
+
+    Raises
+    ------
+    LimitError
+        One line naming the measure, its value and the limit.
+    """
+    e = expansion(m)
+    checks = [
+        ("references", "sub-shape references once sharing is unfolded"),
+        ("depth", "levels of nested sub-shapes"),
+        ("poles", "poles and knots"),
+        ("pcurves", "pcurves to compute"),
+    ]
+    if fmt == "STEP":
+        checks.append(("step_bytes", "bytes of STEP (estimated)"))
+    elif fmt == "IGES":
+        checks.append(("iges_bytes", "bytes of IGES (estimated)"))
+    for name, what in checks:
+        value, limit = getattr(e, name), getattr(limits, name)
+        if value > limit:
+            shown = f"{value:,}" if value < CAP else f"more than {CAP:,}"
+            raise LimitError(
+                f"the shape holds {shown} {what}, more than the {limit:,} a reader "
+                "decodes (--limit-scale raises the limits)"
+            )
+    return e
