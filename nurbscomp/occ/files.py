@@ -27,7 +27,14 @@ from OCP.StepRepr import StepRepr_NextAssemblyUsageOccurrence
 from OCP.TCollection import TCollection_HAsciiString
 from OCP.TColStd import TColStd_SequenceOfAsciiString
 
-from ..errors import InputError, OutputError, RebuildError
+from ..errors import InputError, NoBRepError, OutputError, RebuildError
+from ..formats import (  # noqa: F401 (re-exported: they were defined here)
+    BREP_SUFFIXES,
+    IGES_SUFFIXES,
+    STEP_SUFFIXES,
+    output_format,
+    sniff_format,
+)
 from ..units import UNITS_MM
 
 # OCCT prints progress and statistics to stdout; the CLI owns stdout.
@@ -67,9 +74,6 @@ _IGES_UNIT_FLAGS = {
     11: "UIN",
 }
 
-STEP_SUFFIXES = (".step", ".stp", ".p21")
-IGES_SUFFIXES = (".iges", ".igs")
-BREP_SUFFIXES = (".brep",)
 
 _STEP_MARKERS = {
     b"STYLED_ITEM": "colours",
@@ -106,21 +110,6 @@ def _check_readable(path: Path) -> bytes:
     return head
 
 
-def sniff_format(path: Path, head: bytes) -> str:
-    """``"STEP"`` or ``"IGES"`` by content, falling back to the file name."""
-    if head.lstrip().startswith(b"ISO-10303-21"):
-        return "STEP"
-    lines = head.splitlines()
-    if lines and len(lines[0]) >= 73 and lines[0][72:73] in (b"S", b"F"):
-        return "IGES"
-    suffix = path.suffix.lower()
-    if suffix in IGES_SUFFIXES:
-        return "IGES"
-    if suffix in STEP_SUFFIXES:
-        return "STEP"
-    raise InputError("not a STEP or IGES file")
-
-
 def read_cad(path: str | os.PathLike[str]) -> CadFile:
     """Read a STEP (AP203/214/242) or IGES file into one shape, in millimetres.
 
@@ -152,13 +141,13 @@ def read_cad(path: str | os.PathLike[str]) -> CadFile:
     else:
         unit = _IGES_UNIT_FLAGS.get(reader.IGESModel().GlobalSection().UnitFlag(), "MM")
     if reader.NbRootsForTransfer() == 0:
-        raise InputError(f"the {fmt} file holds no shape to transfer")
+        raise NoBRepError(f"the {fmt} file holds no shape to transfer")
     reader.TransferRoots()
     if reader.NbShapes() == 0:
-        raise InputError(f"nothing in the {fmt} file transfers to a B-rep")
+        raise NoBRepError(f"nothing in the {fmt} file transfers to a B-rep")
     shape = reader.OneShape()
     if shape.IsNull():
-        raise InputError(f"nothing in the {fmt} file transfers to a B-rep")
+        raise NoBRepError(f"nothing in the {fmt} file transfers to a B-rep")
     warnings = []
     if fmt == "STEP":
         warnings = _step_losses(p)
@@ -176,16 +165,6 @@ def _step_losses(path: Path) -> list[str]:
     if not found:
         return []
     return [f"not stored: {', '.join(found)} (geometry and topology only)"]
-
-
-def output_format(path: str | os.PathLike[str]) -> str:
-    """``"STEP"`` (the default), ``"IGES"`` or ``"BREP"``, by the file's extension."""
-    suffix = Path(path).suffix.lower()
-    if suffix in BREP_SUFFIXES:
-        return "BREP"
-    if suffix in IGES_SUFFIXES:
-        return "IGES"
-    return "STEP"
 
 
 #: The STEP header's time stamp: fixed, so that the same shape gives the same bytes.
