@@ -220,21 +220,24 @@ def run_task(task: Task, opts: Options) -> dict[str, Any]:
     return {**r, **base, "status": "ok", "exit_code": 0}
 
 
-def run_bytes(name: str, data: bytes, opts: Options) -> tuple[dict[str, Any], bytes | None]:
+def run_bytes(
+    name: str, data: bytes, opts: Options, out_name: str | None = None
+) -> tuple[dict[str, Any], bytes | None]:
     """Do one file given as bytes, in a private scratch folder; its record and the
     output's bytes (None if it failed).
 
     The same work as :func:`run_task`, for inputs and outputs that are not
     files here: standard input and output, and Dask workers (no shared disk).
     ``name`` is the input's file name (it is stored in the container and
-    tells the format); the record's paths are the scratch folder's, for the
-    caller to replace.
+    tells the format); ``out_name`` the output's (its extension gives the
+    format; default :func:`default_output`'s).  The record's paths are the
+    scratch folder's, for the caller to replace.
     """
     with tempfile.TemporaryDirectory(prefix="nurbscomp.") as scratch:
         src = Path(scratch) / "in" / (Path(name).name or "stdin")
         src.parent.mkdir()
         src.write_bytes(data)
-        out = Path(scratch) / default_output(src, opts).name
+        out = Path(scratch) / (Path(out_name).name if out_name else default_output(src, opts).name)
         rec = run_task(Task(str(src), str(out)), replace(opts, force=False, skip_existing=False))
         return rec, out.read_bytes() if rec["status"] == "ok" else None
 
@@ -369,7 +372,7 @@ class Runner:
                 pipeline.check_output(Path(t.dst), self.opts.force)
             except NurbscompError as e:
                 return self._failed(t, e), None
-        rec, blob = run_bytes(name, data, self.opts)
+        rec, blob = run_bytes(name, data, self.opts, t.dst)
         rec = {**rec, "input": t.src, "output": t.dst or STDIO}
         if blob is None or t.dst is None:
             return rec, blob
@@ -383,25 +386,25 @@ class Runner:
         ctx = multiprocessing.get_context("spawn")  # no fork of a process with threads
         ex = cf.ProcessPoolExecutor(self.jobs, mp_context=ctx, initializer=_init_worker)
         done = False
+        futures: dict[cf.Future[dict[str, Any]], Task] = {}
         try:
             futures = {ex.submit(run_task, t, self.opts): t for t in self.tasks}
-            self.running = [t.src for t in self.tasks]
             for f in cf.as_completed(futures):
-                self.running.remove(futures[f].src)
                 yield f.result(), None
             done = True
         finally:
             if done:
                 ex.shutdown(wait=True)
-            else:
+            else:  # interrupted: name the files started, stop the workers
+                self.running = [futures[f].src for f in futures if f.running()]
                 _stop_pool(ex)
 
     def _dask(self) -> Iterator[tuple[dict[str, Any], bytes | None]]:
         from distributed import Client, as_completed
 
         client = Client(self.scheduler, set_as_default=False)
+        futures: dict[Any, Task] = {}
         try:
-            futures = {}
             for t in self.tasks:
                 rec = self._client_side_checks(t)
                 if rec is not None:
@@ -412,16 +415,21 @@ class Runner:
                 except NurbscompError as e:
                     yield self._failed(t, e), None
                     continue
-                fut = client.submit(run_bytes, Path(t.src).name, data, self.opts, pure=False)
-                futures[fut] = t
+                name = Path(t.src).name
+                futures[client.submit(run_bytes, name, data, self.opts, t.dst, pure=False)] = t
             self.running = [t.src for t in futures.values()]
             for fut in as_completed(list(futures)):
                 t = futures.pop(fut)
                 self.running.remove(t.src)
-                rec, blob = fut.result()
+                try:
+                    rec, blob = fut.result()
+                except Exception as e:  # the task itself failed (a worker lost): report it
+                    yield self._failed(t, e), None
+                    continue
                 rec = {**rec, "input": t.src, "output": t.dst}
                 yield (deliver(rec, blob, t, self.opts) if blob is not None else rec), None
         finally:
+            client.cancel(list(futures))
             client.close()
 
     def _client_side_checks(self, t: Task) -> dict[str, Any] | None:
