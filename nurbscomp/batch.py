@@ -45,10 +45,16 @@ WALK_SUFFIXES = {
 STDIO = "-"
 #: How long a worker may take to clean up after it is told to stop (seconds).
 STOP_GRACE = 30.0
+#: How long to wait for a Dask scheduler to answer (seconds).
+CONNECT_TIMEOUT = 30
 
 
 class UsageError(ValueError):
     """The inputs and options do not go together (the CLI exits 2)."""
+
+
+class SchedulerError(RuntimeError):
+    """The Dask scheduler cannot be reached (the CLI exits 1, no file is done)."""
 
 
 @dataclass(frozen=True)
@@ -402,7 +408,10 @@ class Runner:
     def _dask(self) -> Iterator[tuple[dict[str, Any], bytes | None]]:
         from distributed import Client, as_completed
 
-        client = Client(self.scheduler, set_as_default=False)
+        try:
+            client = Client(self.scheduler, set_as_default=False, timeout=CONNECT_TIMEOUT)
+        except (OSError, TimeoutError, ValueError) as e:
+            raise SchedulerError(f"cannot connect to the Dask scheduler: {e}") from None
         futures: dict[Any, Task] = {}
         try:
             for t in self.tasks:
@@ -418,7 +427,7 @@ class Runner:
                 name = Path(t.src).name
                 futures[client.submit(run_bytes, name, data, self.opts, t.dst, pure=False)] = t
             self.running = [t.src for t in futures.values()]
-            for fut in as_completed(list(futures)):
+            for fut in as_completed(list(futures), loop=client.loop):
                 t = futures.pop(fut)
                 self.running.remove(t.src)
                 try:

@@ -297,6 +297,10 @@ def _batch(
         gen.close()
         bar.close()
         _interrupted(e, runner.running)
+    except batch.SchedulerError as e:
+        bar.close()
+        click.echo(f"error: {show(kw['scheduler'])}: {show(e)}", err=True)
+        sys.exit(1)
     finally:
         gen.close()
         bar.close()
