@@ -27,7 +27,7 @@ import signal
 import tempfile
 import time
 import traceback
-from collections.abc import Generator, Iterator
+from collections.abc import Callable, Generator, Iterator
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -187,10 +187,13 @@ def _failure(e: BaseException, opts: Options) -> dict[str, Any]:
     return {"status": "failed", **rec}
 
 
-def run_task(task: Task, opts: Options) -> dict[str, Any]:
+def run_task(
+    task: Task, opts: Options, stage: Callable[[str], None] | None = None
+) -> dict[str, Any]:
     """Do one file here and now; its record (``status`` ok, skipped or failed).
 
     ``task.dst`` must be a path (standard output goes through :func:`run_bytes`).
+    ``stage`` is told each stage of the file as it starts (``pipeline.compress_file``).
     ``KeyboardInterrupt`` (and so SIGTERM, SIGHUP in the CLI and in workers)
     is not caught: the output being written is removed on the way out.
     """
@@ -216,9 +219,10 @@ def run_task(task: Task, opts: Options) -> dict[str, Any]:
                 force=opts.force,
                 verify=opts.verify,
                 step_safe=opts.step_safe,
+                stage=stage,
             )
         else:
-            r = pipeline.decompress_file(src, dst, force=opts.force)
+            r = pipeline.decompress_file(src, dst, force=opts.force, stage=stage)
     except Exception as e:  # one file's failure, reported in its record (MemoryError too)
         return {**base, **_failure(e, opts)}
     if "input_bytes" not in r:
@@ -324,6 +328,9 @@ class Runner:
         to its workers as bytes and the outputs written here.
     read_stdin : callable, optional
         Returns standard input's bytes (for a task whose input is ``-``).
+    stage : callable, optional
+        Told ``"NAME: STAGE"`` as each stage of a file done in this process
+        starts (not in workers).
 
     Attributes
     ----------
@@ -338,10 +345,12 @@ class Runner:
         jobs: int = 1,
         scheduler: str | None = None,
         read_stdin: Any = None,
+        stage: Callable[[str], None] | None = None,
     ) -> None:
         self.tasks, self.opts, self.scheduler = tasks, opts, scheduler
         self.jobs = max(1, min(jobs, len(tasks)))
         self.read_stdin = read_stdin
+        self.stage = stage
         self.running: list[str] = []
 
     def records(self) -> Generator[tuple[dict[str, Any], bytes | None], None, None]:
@@ -360,8 +369,16 @@ class Runner:
             if t.src == STDIO or t.dst is None:
                 yield self._via_bytes(t)
             else:
-                yield run_task(t, self.opts), None
+                yield run_task(t, self.opts, self._stage_of(t)), None
             self.running = []
+
+    def _stage_of(self, t: Task) -> Callable[[str], None] | None:
+        """The stage callback for ``t``: ``stage("part.step: code")``."""
+        tell = self.stage
+        if tell is None:
+            return None
+        name = Path(t.src).name
+        return lambda what: tell(f"{name}: {what}")
 
     def _via_bytes(self, t: Task) -> tuple[dict[str, Any], bytes | None]:
         """A task reading standard input or writing standard output, done here."""

@@ -13,6 +13,7 @@ import json
 import os
 import signal
 import sys
+import threading
 import time
 import traceback
 from collections.abc import Callable
@@ -204,15 +205,33 @@ def _mb(n: int) -> str:
 
 class _Bar:
     """A progress bar on stderr (tqdm) when stderr is a terminal and the batch
-    lasts more than a second: files done, bytes, ratio so far, ETA."""
+    lasts more than a second: files done, bytes, ratio so far, ETA; and, for
+    files done in this process, the file's stage (read, code, write, check),
+    redrawn every half second."""
+
+    DELAY = 1.0
 
     def __init__(self, total: int, show_bar: bool) -> None:
         self.bar: Any = None
         self.bytes_in = self.bytes_out = 0
+        self.done = threading.Event()
         if show_bar:
             from tqdm import tqdm
 
-            self.bar = tqdm(total=total, unit="file", file=sys.stderr, delay=1.0, leave=False)
+            self.bar = tqdm(
+                total=total, unit="file", file=sys.stderr, delay=self.DELAY, leave=False
+            )
+            threading.Thread(target=self._tick, daemon=True).start()
+
+    def _tick(self) -> None:
+        while not self.done.wait(0.5):
+            if time.time() - self.bar.start_t >= self.DELAY:
+                self.bar.refresh()
+
+    def stage(self, what: str) -> None:
+        """The runner's stage callback: show ``FILE: stage``."""
+        if self.bar is not None:
+            self.bar.set_description_str(show(what), refresh=False)
 
     def update(self, r: dict[str, Any]) -> None:
         if self.bar is None:
@@ -237,6 +256,7 @@ class _Bar:
             self.bar.refresh()
 
     def close(self) -> None:
+        self.done.set()
         if self.bar is not None:
             self.bar.close()
 
@@ -276,11 +296,16 @@ def _batch(
                 err=True,
             )
     jobs = kw["jobs"] or os.cpu_count() or 1
-    runner = batch.Runner(
-        tasks, opts, jobs, kw["scheduler"], read_stdin=lambda: sys.stdin.buffer.read()
-    )
     show_bar = not quiet and len(tasks) > 0 and sys.stderr.isatty()
     bar = _Bar(len(tasks), show_bar)
+    runner = batch.Runner(
+        tasks,
+        opts,
+        jobs,
+        kw["scheduler"],
+        read_stdin=lambda: sys.stdin.buffer.read(),
+        stage=bar.stage if show_bar else None,
+    )
     say_err = to_stdout  # the data owns stdout
     records: list[dict[str, Any]] = []
     t0 = time.perf_counter()

@@ -17,7 +17,7 @@ import os
 import stat
 import tempfile
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeVar, cast
 
@@ -308,6 +308,10 @@ def decode_file(
 # ---------------------------------------------------------------- compress
 
 
+def _no_stage(name: str) -> None:
+    """The default ``stage`` callback: no progress display."""
+
+
 def faces_by_type(m: BRepModel) -> dict[str, int]:
     """Faces counted by the kind of their surface (a trimmed surface by its basis)."""
     out: collections.Counter[str] = collections.Counter()
@@ -329,6 +333,7 @@ def compress_file(
     force: bool = False,
     verify: bool = True,
     step_safe: bool = True,
+    stage: Callable[[str], None] | None = None,
 ) -> dict[str, Any]:
     """Compress a STEP/IGES file into a ``.nzc`` container.
 
@@ -350,11 +355,16 @@ def compress_file(
         faces) when the decompressed STEP is read back, so the STEP output
         keeps what OCCT's own round trip keeps.  Off, files are smaller and
         the in-memory / BREP result is still valid and within tol.
+    stage : callable, optional
+        Called with ``"read"``, ``"code"``, ``"write"``, ``"check"`` as each
+        stage starts (a progress display).
     """
     t0 = time.perf_counter()
+    stage = stage or _no_stage
     src_p = Path(src)
     dst_p = Path(dst) if dst is not None else default_compressed_name(src_p)
     check_output(dst_p, force, (src_p,))
+    stage("read")
     try:
         cad = occ.read_cad(src_p)
         if occ.counts(cad.shape)["faces"] == 0:
@@ -368,6 +378,7 @@ def compress_file(
     except Exception as e:
         raise InputError(f"OCCT failed to read the file ({type(e).__name__}: {e})") from None
     t_read = time.perf_counter() - t0
+    stage("code")
     m, warnings = occ.shape_to_model(cad.shape)
     m.unit, m.source_format = cad.unit, cad.source_format
     src_bytes = src_p.stat().st_size
@@ -393,10 +404,12 @@ def compress_file(
             warnings.append(f"no STEP check: {vreport.step_skipped}")
         flags = 0
     data = container.pack(serialize.model_to_sections(target, meta, codes), flags)
+    stage("write")
     verified = False
     with atomic_output(dst_p, force, (src_p,)) as tmp:
         tmp.write_bytes(data)
         if verify:
+            stage("check")
             back, _ = decode(read_container(tmp), limits=None)
             diff = differences(target, back)
             if diff:
@@ -470,17 +483,22 @@ def decompress_file(
     *,
     force: bool = False,
     limits: budget.Limits = budget.DEFAULT,
+    stage: Callable[[str], None] | None = None,
 ) -> dict[str, Any]:
     """Decode a ``.nzc`` container and write STEP, IGES or BREP (by extension),
-    if the shape and the output's estimated size are within ``limits``."""
+    if the shape and the output's estimated size are within ``limits``.
+    ``stage`` is called with ``"decode"`` and ``"write"`` as they start."""
     t0 = time.perf_counter()
+    stage = stage or _no_stage
     src_p = Path(src)
     dst_p = Path(dst) if dst is not None else default_decompressed_name(src_p)
     if passthrough.is_passthrough(src_p):
         return passthrough.decompress_file(src_p, dst_p, force=force)
     check_output(dst_p, force, (src_p,))
     fmt = occ.output_format(dst_p)
+    stage("decode")
     shape, m, meta = decode_file(src_p, limits, fmt)
+    stage("write")
     with atomic_output(dst_p, force, (src_p,)) as tmp:
         write(shape, tmp, fmt, m.unit, meta)
         size = tmp.stat().st_size
