@@ -28,6 +28,7 @@ from __future__ import annotations
 import argparse
 import datetime as dt
 import gzip
+import json
 import lzma
 import math
 import os
@@ -423,6 +424,76 @@ def measure(corpus: list[Path], samples: list[Path], tmp: str, pool: Pool) -> di
         "errors": errors,
         "phase_s": {"sizes, deviation, baseline, timings": t1 - t0, "peak memory": t2 - t1},
     }
+
+
+# ---------------------------------------------------------------- batches, start-up (issue 13)
+
+#: Start-up goal of ``--help``, ``--version`` and ``info`` (seconds).
+START_GOAL_S = 0.5
+#: Scaling goal of a batch on 2 workers against 1.
+SCALING_GOAL = 1.8
+
+
+def _cli_seconds(src: str, args: list[str], repeat: int = 5) -> float:
+    """Median wall time of ``python -m nurbscomp.cli ARGS`` (a fresh process each)."""
+    env = {**os.environ, "PYTHONPATH": src}
+    times = []
+    for _ in range(repeat):
+        t = time.perf_counter()
+        subprocess.run([sys.executable, "-m", "nurbscomp.cli", *args], env=env, capture_output=True)
+        times.append(time.perf_counter() - t)
+    return statistics.median(times)
+
+
+def measure_batch(corpus: list[Path], tmp: str, src: str, log: Any) -> dict[str, Any]:
+    """Start-up times, and the corpus as one batch (``compress -r``, default
+    tolerance) with ``-j 1`` and ``-j 2``: wall times, the speed-up, and whether
+    both gave the same containers.  Runs alone, after the pool is done."""
+    env = {**os.environ, "PYTHONPATH": src}
+    folder = Path(tmp) / "batch-in"
+    folder.mkdir()
+    for f in corpus:  # the corpus read in place, through links
+        (folder / f.name).symlink_to(f)
+    out: dict[str, Any] = {"files": len(corpus)}
+    walls, outs = {}, {}
+    for jobs in (1, 2):
+        d = Path(tmp) / f"batch-j{jobs}"
+        cmd = [sys.executable, "-m", "nurbscomp.cli", "compress", "-r", str(folder)]
+        t = time.perf_counter()
+        r = subprocess.run(
+            [*cmd, "-d", str(d), "-j", str(jobs), "--json"], env=env, capture_output=True
+        )
+        walls[jobs] = time.perf_counter() - t
+        summary = json.loads(r.stdout.decode().splitlines()[-1]) if r.stdout else {}
+        outs[jobs] = {p.name: p.read_bytes() for p in d.glob("*.nzc")}
+        out[f"j{jobs}"] = {"wall_s": walls[jobs], "exit": r.returncode, "summary": summary}
+        log(f"batch -j {jobs}: {walls[jobs]:.1f} s, exit {r.returncode}")
+    out["speedup"] = walls[1] / walls[2]
+    out["identical"] = bool(outs[1]) and outs[1] == outs[2]
+    some = next(iter(sorted(Path(tmp, "batch-j1").glob("*.nzc"))), None)
+    out["start_s"] = {
+        "--help": _cli_seconds(src, ["--help"]),
+        "--version": _cli_seconds(src, ["--version"]),
+        "info": _cli_seconds(src, ["info", str(some)]) if some else None,
+    }
+    log(f"start-up: {out['start_s']}")
+    return out
+
+
+def batch_markdown(b: dict[str, Any] | None) -> str:
+    """The batch and start-up figures, for docs/benchmarks.md and the README."""
+    if not b:
+        return ""
+    start = ", ".join(f"`{k}` {v:.2f} s" for k, v in b["start_s"].items() if v is not None)
+    slow = [k for k, v in b["start_s"].items() if v is not None and v >= START_GOAL_S]
+    return (
+        f"Start-up (median of 5 fresh processes): {start} "
+        f"(goal < {START_GOAL_S} s{'; behind: ' + ', '.join(slow) if slow else ''}).\n"
+        f"The corpus as one batch (`compress -r`, 0.01 mm, {b['files']} files): "
+        f"`-j 1` {b['j1']['wall_s']:.1f} s, `-j 2` {b['j2']['wall_s']:.1f} s, "
+        f"{b['speedup']:.2f}× (goal ≥ {SCALING_GOAL}×); "
+        f"the same containers: {'yes' if b['identical'] else 'NO'}.\n"
+    )
 
 
 # ---------------------------------------------------------------- environment
@@ -1530,6 +1601,7 @@ def main(argv: list[str] | None = None) -> int:
         samples = [SAMPLES / n for n in picked]
         log(f"{len(corpus)} corpus files, samples {', '.join(picked)}, temporary folder {tmp}")
         res = measure(corpus, samples, tmp, pool)
+        res["batch"] = measure_batch(corpus, tmp, str(src), log)
     finally:
         if not a.keep:
             shutil.rmtree(tmp, ignore_errors=True)
@@ -1562,10 +1634,15 @@ def render(
     a.out.mkdir(parents=True, exist_ok=True)
     figs = Figures(res, corpus)
     plot(figs, a.out / "benchmarks.png")
-    (a.out / "benchmarks.md").write_text(report(res, corpus, picked, ctx))
+    batch_md = batch_markdown(res.get("batch"))
+    md = report(res, corpus, picked, ctx)
+    (a.out / "benchmarks.md").write_text(
+        md + (f"\n## Batches and start-up\n\n{batch_md}" if batch_md else "")
+    )
     log(f"wrote {a.out / 'benchmarks.md'} and {a.out / 'benchmarks.png'}")
     if not a.no_readme and not a.quick and a.out.resolve() == (ROOT / "docs").resolve():
-        if update_readme(readme_section(figs, ctx)):
+        section = readme_section(figs, ctx).replace(README_END, batch_md + README_END)
+        if update_readme(section):
             log("rewrote README.md's bench section")
         else:
             log("README.md has no bench markers; section not written")

@@ -28,6 +28,7 @@ import tempfile
 import time
 import traceback
 from collections.abc import Callable, Generator, Iterator
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -41,6 +42,8 @@ WALK_SUFFIXES = {
     "compress": (*STEP_SUFFIXES, *IGES_SUFFIXES),
     "decompress": (pipeline.SUFFIX,),
 }
+#: What the fork server of the worker processes imports before forking them.
+WORKER_PRELOAD = ("nurbscomp.pipeline", "nurbscomp.occ", "nurbscomp.encode.validity")
 #: The name standing for standard input and standard output.
 STDIO = "-"
 #: How long a worker may take to clean up after it is told to stop (seconds).
@@ -51,6 +54,11 @@ CONNECT_TIMEOUT = 30
 
 class UsageError(ValueError):
     """The inputs and options do not go together (the CLI exits 2)."""
+
+
+class WorkerDied(RuntimeError):
+    """The worker process doing a file died (a crash in OCCT, say): an
+    internal error of that file."""
 
 
 class SchedulerError(RuntimeError):
@@ -406,14 +414,40 @@ class Runner:
         return {**base, **_failure(e, self.opts)}
 
     def _pool(self) -> Iterator[tuple[dict[str, Any], bytes | None]]:
-        ctx = multiprocessing.get_context("spawn")  # no fork of a process with threads
-        ex = cf.ProcessPoolExecutor(self.jobs, mp_context=ctx, initializer=_init_worker)
+        """The tasks in ``jobs`` worker processes.  A worker that dies (a crash
+        in OCCT, say) breaks the pool and every task not finished with it; each
+        of those is then run again alone, in a pool of its own, so that only the
+        file that kills its worker is reported failed."""
+        broken: list[Task] = []
+        yield from self._in_pool(self.tasks, self.jobs, broken)
+        for t in list(broken):
+            yield from self._in_pool([t], 1, None)
+
+    def _in_pool(
+        self, tasks: list[Task], jobs: int, broken: list[Task] | None
+    ) -> Iterator[tuple[dict[str, Any], bytes | None]]:
+        """Run ``tasks`` in a pool of ``jobs`` workers; the tasks the pool
+        breaks on are added to ``broken`` (None: reported failed)."""
+        # Workers are forked from a fork server that has imported OCP and the
+        # coder once (no fork of this process, which may have threads): N
+        # workers cost one import, not N.
+        ctx = multiprocessing.get_context("forkserver")
+        ctx.set_forkserver_preload(list(WORKER_PRELOAD))
+        ex = cf.ProcessPoolExecutor(jobs, mp_context=ctx, initializer=_init_worker)
         done = False
         futures: dict[cf.Future[dict[str, Any]], Task] = {}
         try:
-            futures = {ex.submit(run_task, t, self.opts): t for t in self.tasks}
+            futures = {ex.submit(run_task, t, self.opts): t for t in tasks}
             for f in cf.as_completed(futures):
-                yield f.result(), None
+                try:
+                    rec = f.result()
+                except BrokenProcessPool as e:
+                    if broken is not None:
+                        broken.append(futures[f])
+                    else:
+                        yield self._failed(futures[f], WorkerDied(str(e))), None
+                    continue
+                yield rec, None
             done = True
         finally:
             if done:

@@ -332,3 +332,36 @@ def test_dask_local_cluster_gives_the_same_containers(tmp_path: Path) -> None:
     for rel in a:
         assert (tmp_path / "local" / rel).read_bytes() == (tmp_path / "dask" / rel).read_bytes()
     assert no_temporary_files(tmp_path)
+
+
+def test_a_worker_that_dies_fails_only_its_file(tmp_path: Path) -> None:
+    """A worker killed on one file (as by a crash in OCCT) breaks the pool:
+    the other files are done again, and only that file is reported failed."""
+    src = tmp_path / "in"
+    src.mkdir()
+    for name in ("a.step", "crash.step", "b.step", "c.step"):
+        shutil.copy(SAMPLES / "loft.step", src / name)
+    code = (
+        "import sys; from nurbscomp import batch, cli; "
+        "batch.WORKER_PRELOAD += ('tests.crash_worker',); "
+        "sys.argv = ['nurbscomp', *sys.argv[1:]]; cli.main()"
+    )
+    args = ["compress", "-r", str(src), "-d", str(tmp_path / "out"), "-j", "2", "--json"]
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    r = subprocess.run(
+        [sys.executable, "-c", code, *args], env=env, capture_output=True, cwd=ROOT, timeout=600
+    )
+    assert r.returncode == 1, r.stderr
+    recs, total = lines(r.stdout.decode())
+    assert recs["crash.step"]["error_class"] == "WorkerDied" and recs["crash.step"]["internal"]
+    assert sorted(n for n, x in recs.items() if x["status"] == "ok") == [
+        "a.step",
+        "b.step",
+        "c.step",
+    ]
+    assert (total["ok"], total["failed"]) == (3, 1)
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == [
+        "a.step.nzc",
+        "b.step.nzc",
+        "c.step.nzc",
+    ]
