@@ -46,7 +46,7 @@ def mixed_folder(root: Path) -> Path:
     """A folder of mixed files: a part, tessellated-only and curve-only STEP, garbage."""
     src = root / "in"
     (src / "sub").mkdir(parents=True)
-    shutil.copy(SAMPLES / "loft.step", src / "loft.step")
+    shutil.copy(SAMPLES / "loft.step", src / "part.step")
     (src / "tess.step").write_bytes(TESSELLATED)
     (src / "sub" / "curve.stp").write_bytes(CURVE_ONLY)
     (src / "sub" / "garbage.step").write_bytes(b"garbage\n" * 10)
@@ -68,15 +68,15 @@ def test_plan_mirrors_the_tree(tmp_path: Path) -> None:
     got = {Path(t.src).relative_to(src).as_posix(): t.dst for t in tasks}
     out = tmp_path / "out"
     assert got == {
-        "loft.step": str(out / "loft.step.nzc"),
+        "part.step": str(out / "part.step.nzc"),
         "tess.step": str(out / "tess.step.nzc"),
         "sub/curve.stp": str(out / "sub" / "curve.stp.nzc"),
         "sub/garbage.step": str(out / "sub" / "garbage.step.nzc"),
     }
     assert all(t.make_parent for t in tasks)
     # default names beside the inputs; a folder without -r is one (failing) input
-    tasks = batch.plan([str(src / "loft.step"), str(src)], opts)
-    assert [t.dst for t in tasks] == [str(src / "loft.step.nzc"), str(src) + ".nzc"]
+    tasks = batch.plan([str(src / "part.step"), str(src)], opts)
+    assert [t.dst for t in tasks] == [str(src / "part.step.nzc"), str(src) + ".nzc"]
     # decompress: .nzc files; --format sets the extension
     (src / "sub" / "a.step.nzc").write_bytes(b"")
     d = batch.Options("decompress", fmt="IGES")
@@ -129,9 +129,9 @@ def test_mixed_batch_json_and_back(tmp_path: Path, monkeypatch: pytest.MonkeyPat
     code, stdout, err = run("compress", "-r", str(src), "-d", str(out), "-j", "1", "--json")
     assert code == 1
     recs, total = lines(stdout)
-    assert sorted(recs) == ["curve.stp", "garbage.step", "locked.step", "loft.step", "tess.step"]
+    assert sorted(recs) == ["curve.stp", "garbage.step", "locked.step", "part.step", "tess.step"]
     assert not any(r.get("internal") for r in recs.values())
-    assert recs["loft.step"]["status"] == "ok" and recs["loft.step"]["mode"] == "tolerance"
+    assert recs["part.step"]["status"] == "ok" and recs["part.step"]["mode"] == "tolerance"
     for name in ("tess.step", "curve.stp"):
         r = recs[name]
         assert r["status"] == "ok" and r["passthrough"] and r["exit_code"] == 0
@@ -150,7 +150,7 @@ def test_mixed_batch_json_and_back(tmp_path: Path, monkeypatch: pytest.MonkeyPat
         f"error: {src / 'sub' / n}: {recs[n]['error']}" for n in ("garbage.step", "locked.step")
     )
     assert sorted(p.relative_to(out).as_posix() for p in out.rglob("*.nzc")) == [
-        "loft.step.nzc",
+        "part.step.nzc",
         "sub/curve.stp.nzc",
         "tess.step.nzc",
     ]
@@ -159,7 +159,7 @@ def test_mixed_batch_json_and_back(tmp_path: Path, monkeypatch: pytest.MonkeyPat
     assert "3 files: 3 ok (2 stored verbatim), 0 failed" in stdout
     assert (back / "tess.step").read_bytes() == TESSELLATED
     assert (back / "sub" / "curve.stp").read_bytes() == CURVE_ONLY
-    assert (back / "loft.step").read_bytes().startswith(b"ISO-10303-21;")
+    assert (back / "part.step").read_bytes().startswith(b"ISO-10303-21;")
     # a second run skips what exists, --force redoes it
     code, stdout, _ = run("decompress", "-r", str(out), "-d", str(back), "--skip-existing")
     assert code == 0 and "3 skipped" in stdout
@@ -365,3 +365,42 @@ def test_a_worker_that_dies_fails_only_its_file(tmp_path: Path) -> None:
         "b.step.nzc",
         "c.step.nzc",
     ]
+
+
+def archive_round_trip(cad: Path, tmp_path: Path) -> dict[str, dict[str, Any]]:
+    """``compress -r CAD MIXED -d OUT -j 2 --json`` over ``cad`` and a folder
+    of generated and bad files, then ``decompress -r OUT -d BACK -j 2``; the
+    compress records."""
+    mixed = mixed_folder(tmp_path)
+    out, back = tmp_path / "out", tmp_path / "back"
+    r = _cli("compress", "-r", str(cad), str(mixed), "-d", str(out), "-j", "2", "--json")
+    assert r.returncode == 1, r.stderr  # the garbage file
+    recs, total = lines(r.stdout.decode())
+    want = {p.name for p in batch.walk(cad, "compress")} | {
+        p.name for p in batch.walk(mixed, "compress")
+    }
+    assert set(recs) == want
+    failed = {n for n, x in recs.items() if x["status"] == "failed"}
+    assert failed == {"garbage.step"}, {n: recs[n]["error"] for n in failed}
+    assert not any(x.get("internal") for x in recs.values())
+    assert total["failed"] == 1 and total["ok"] == len(want) - 1
+    r = _cli("decompress", "-r", str(out), "-d", str(back), "-j", "2", "--json")
+    assert r.returncode == 0, r.stderr
+    assert lines(r.stdout.decode())[1]["ok"] == len(want) - 1
+    assert (back / "tess.step").read_bytes() == TESSELLATED
+    assert (back / "sub" / "curve.stp").read_bytes() == CURVE_ONLY
+    for name, x in recs.items():
+        if x["status"] == "ok" and not x.get("passthrough"):
+            rel = Path(x["output"]).relative_to(out)
+            step = back / rel.parent / pipeline.default_decompressed_name(rel).name
+            assert step.read_bytes().startswith(b"ISO-10303-21;"), name
+    assert no_temporary_files(tmp_path)
+    return recs
+
+
+@pytest.mark.slow
+def test_corpus_archive_round_trip(tmp_path: Path) -> None:
+    """The issue's "done when": the corpus and generated files, -j 2, and back."""
+    from .conftest import CORPUS
+
+    archive_round_trip(CORPUS, tmp_path / "work")
