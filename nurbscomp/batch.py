@@ -35,7 +35,14 @@ from typing import Any
 
 from . import pipeline
 from .errors import InputError, NurbscompError, OutputError
-from .formats import FORMAT_SUFFIX, IGES_SUFFIXES, STEP_SUFFIXES, output_format, sniff_format
+from .formats import (
+    BREP_SUFFIXES,
+    FORMAT_SUFFIX,
+    IGES_SUFFIXES,
+    STEP_SUFFIXES,
+    output_format,
+    sniff_format,
+)
 
 #: What ``-r`` picks up in a folder, by command (case-insensitive suffixes).
 WALK_SUFFIXES = {
@@ -156,6 +163,10 @@ def plan(
             tasks.append(_task(p, Path(), opts, output_dir))
     if output is not None and len(tasks) != 1:
         raise UsageError("-o/--output takes a single input file")
+    if output is not None and opts.fmt is not None:
+        known = (*STEP_SUFFIXES, *IGES_SUFFIXES, *BREP_SUFFIXES)
+        if Path(output).suffix.lower() in known and output_format(output) != opts.fmt:
+            raise UsageError(f"--format {opts.fmt.lower()} and the extension of -o disagree")
     if output is not None:
         tasks = [replace(tasks[0], dst=output)]
     if to_stdout:
@@ -213,6 +224,8 @@ def run_task(
     try:
         if opts.skip_existing and (dst.exists() or dst.is_symlink()):
             return {**base, "status": "skipped", "exit_code": 0, "reason": "output exists"}
+        if src.is_dir():
+            raise InputError("is a directory (-r walks it)")
         if task.make_parent:
             try:
                 dst.parent.mkdir(parents=True, exist_ok=True)

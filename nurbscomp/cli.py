@@ -1,8 +1,9 @@
 """The command line.  The only module that prints or exits.
 
 Exit codes: 0 ok; 1 bad input, bad container, output exists, or any other
-failure on a file; 2 usage; 128 + the signal's number when interrupted (130
-SIGINT, 129 SIGHUP, 143 SIGTERM).  Errors are one line,
+failure on a file (a batch exits with its worst file's code); 2 usage;
+128 + the signal's number when interrupted (130 SIGINT, 129 SIGHUP, 143
+SIGTERM).  Errors are one line,
 ``error: FILE: message``, on stderr; ``--debug`` adds the traceback.  README,
 "Exit codes and errors", lists every error class.
 """
