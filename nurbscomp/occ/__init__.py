@@ -26,6 +26,7 @@ from .measure import (
     free_edges,
     free_edges_sewn,
     is_valid,
+    model_order,
 )
 from .topology import model_to_shape, shape_to_model
 
@@ -45,6 +46,7 @@ __all__ = [
     "free_edges",
     "free_edges_sewn",
     "is_valid",
+    "model_order",
     "model_to_shape",
     "output_format",
     "read_cad",
