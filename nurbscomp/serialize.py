@@ -439,7 +439,9 @@ def _read_shapes(data: bytes, m: BRepModel) -> None:
     m.child_start = np.concatenate([[0], np.cumsum(nkids)]).astype(np.int64)
     parent = np.repeat(np.arange(n), nkids)
     if c and ((back < 1).any() or (back > parent).any()):
-        raise BadReferenceError("SHAP: a shape refers to a sub-shape that does not precede it")
+        raise BadReferenceError(
+            "SHAP: a shape refers to itself or to a later shape (a cycle, or out of order)"
+        )
     if c and (orient.min() < 0 or orient.max() > 3):
         raise SectionError("SHAP: unknown orientation")
     m.child_shape = parent - back
