@@ -15,10 +15,18 @@ from click.testing import CliRunner
 
 from nurbscomp import budget, container, entropy, joins, model, occ, pipeline, serialize
 from nurbscomp.cli import cli, show
-from nurbscomp.errors import BadReferenceError, FormatError, LimitError, SectionError
+from nurbscomp.errors import (
+    BadReferenceError,
+    FormatError,
+    InputError,
+    LimitError,
+    SectionError,
+)
 from nurbscomp.model import BRepModel, RepKind, ShapeType
+from nurbscomp.occ import files
 
 from . import fuzz
+from .conftest import SAMPLES
 
 GOLDEN = Path(__file__).resolve().parent / "golden"
 BASE = GOLDEN / "bracket.lossless.nzc"
@@ -304,3 +312,43 @@ def test_reader_walks_deep_shapes_without_recursion() -> None:
     shape = occ.model_to_shape(m)
     back, _ = occ.shape_to_model(shape)
     assert model.differences(m, back) == []
+
+
+# ---------------------------------------------------------------- STEP input screening
+
+
+def _deep_step(tmp_path: Path, n: int, quoted: str = "") -> Path:
+    text = (SAMPLES / "loft.step").read_text()
+    i = text.index("DATA;") + len("DATA;\n")
+    bad = f"#999999=CARTESIAN_POINT('{quoted}'," + "(" * n + "0.0" + ")" * n + ");\n"
+    p = tmp_path / f"deep{n}.step"
+    p.write_text(text[:i] + bad + text[i:])
+    return p
+
+
+def test_deeply_nested_step_is_screened(tmp_path: Path) -> None:
+    """100,000 nested parentheses crash OCCT's STEP parser: refused first."""
+    p = _deep_step(tmp_path, 100_000)
+    prefix = "#999999=CARTESIAN_POINT('',"  # its "(" is level 1
+    with pytest.raises(InputError, match="nested more than 1000 deep"):
+        files.screen_step(p)
+    r = CliRunner().invoke(cli, ["compress", "--lossless", str(p)])
+    assert r.exit_code == 1
+    assert r.stderr.strip().splitlines() == [
+        f"error: {p}: STEP parentheses nested more than 1000 deep (at byte "
+        f"{p.read_bytes().index(b'#999999=') + len(prefix) + files.MAX_STEP_NESTING - 1}); "
+        "OCCT's parser cannot read it"
+    ]
+    assert sorted(x.name for x in tmp_path.iterdir()) == [p.name]
+
+
+def test_screening_reads_strings_and_chunks(tmp_path: Path, monkeypatch) -> None:
+    """Parentheses inside a string (with an escaped apostrophe) do not count,
+    and the depth and the quoting carry across the scan's chunks."""
+    files.screen_step(_deep_step(tmp_path, 998, quoted="it''s " + "(" * 5000))
+    monkeypatch.setattr(files, "_SCAN_CHUNK", 7)
+    files.screen_step(_deep_step(tmp_path, 998, quoted="x''" + "(" * 2000))
+    with pytest.raises(InputError):
+        files.screen_step(_deep_step(tmp_path, 1000, quoted="''"))
+    for p in sorted(SAMPLES.glob("*.step")):
+        files.screen_step(p)
