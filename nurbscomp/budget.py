@@ -82,8 +82,8 @@ class Limits:
     #: flattens them): at most ``output_ratio`` bytes per byte of the
     #: container, but ``output_floor`` whatever the container's size, and
     #: never more than ``output_bytes``.
-    output_ratio: int = 5_000
-    output_floor: int = 64 << 20
+    output_ratio: int = 2_000
+    output_floor: int = 32 << 20
     output_bytes: int = 2 << 30
 
     def scaled(self, k: float) -> Limits:

@@ -525,12 +525,15 @@ EDITS = (
 
 
 def build_case(
-    models: list[tuple[BRepModel, dict[str, Any]]], rng: random.Random
+    models: list[tuple[BRepModel, dict[str, Any]]],
+    rng: random.Random,
+    names: list[str] | None = None,
 ) -> tuple[str, bytes]:
-    """One structure-aware case: (what was done, container bytes)."""
+    """One structure-aware case: (what was done, container bytes).  ``names``
+    forces the edits (default: one or two of ``EDITS`` at random)."""
     base, meta = rng.choice(models)
     m = copy.deepcopy(base)
-    names = rng.sample(EDITS, rng.choice([1, 1, 1, 2]))
+    names = names or rng.sample(EDITS, rng.choice([1, 1, 1, 2]))
     meta_raw = None
     for name in names:
         if name == "shared_compounds":
@@ -653,7 +656,7 @@ def _verdict(data: bytes, seconds: float, fmt: str, base_kb: int, mb: int) -> st
 
 def _worker(seed: int, first: int, count: int, folder: Path, mode: str, mb: int) -> None:
     """Run cases ``first`` … ``first + count - 1``; one line per case on stdout."""
-    seeds = make_seeds(folder)
+    seeds = make_seeds(folder) if mode != "structure" else []
     models = [decoded(p.read_bytes()) for p in sorted(GOLDEN.glob("*.nzc"))]
     base_kb = _limit_memory(mb)
     for case in range(first, first + count):
@@ -687,7 +690,8 @@ def run(
     results: dict[int, str] = {}
     with tempfile.TemporaryDirectory() as d:
         folder = Path(d)
-        make_seeds(folder)
+        if mode != "structure":
+            make_seeds(folder)
         todo = [(a, min(chunk, cases - a)) for a in range(0, cases, chunk)]
         running: list[tuple[subprocess.Popen[str], int, int]] = []
         while todo or running:
