@@ -63,6 +63,10 @@ class Limits:
     container byte.
     """
 
+    #: Rows of the tables the decoder loops over (shapes, sub-shape
+    #: references, edge and vertex representations, geometry rows), checked
+    #: before any loop: the sections may declare up to 256 MB of them.
+    rows: int = 1_000_000
     #: Sub-shape references with sharing unfolded: what OCCT's explorers,
     #: counters and writers walk (95x the corpus's largest).
     references: int = 1_000_000
@@ -279,6 +283,12 @@ def check_structure(m: BRepModel, limits: Limits = DEFAULT) -> Expansion:
     LimitError
         One line naming the measure, its value and the limit.
     """
+    rows = len(m.shape_type) + len(m.child_shape) + len(m.edge_reps) + len(m.vertex_reps)
+    rows += len(m.surfaces) + len(m.curves3d) + len(m.curves2d)
+    if rows > limits.rows:
+        raise _refuse(
+            rows, "table rows (shapes, references, representations, geometry)", limits.rows
+        )
     e = expansion(m)
     for name, what in (
         ("depth", "levels of nested sub-shapes"),

@@ -352,3 +352,27 @@ def test_screening_reads_strings_and_chunks(tmp_path: Path, monkeypatch) -> None
         files.screen_step(_deep_step(tmp_path, 1000, quoted="''"))
     for p in sorted(SAMPLES.glob("*.step")):
         files.screen_step(p)
+
+
+def test_table_rows_are_bounded_before_any_loop() -> None:
+    """A container may declare millions of rows in a few KB (the body inflates
+    to 256 MB): refused by their count before the budget's own loops."""
+    m, meta = _model()
+    n = len(m.shape_type) + len(m.child_shape) + len(m.edge_reps) + len(m.vertex_reps)
+    n += len(m.surfaces) + len(m.curves3d) + len(m.curves2d)
+    data = fuzz.pack_model(m, meta)
+    pipeline.decode(container.unpack(data), dataclasses.replace(budget.DEFAULT, rows=n))
+    with pytest.raises(LimitError, match=f"{n:,} table rows"):
+        pipeline.decode(container.unpack(data), dataclasses.replace(budget.DEFAULT, rows=n - 1))
+    verts = 1_100_000  # unreached vertices: no reference, no path, only rows
+    fuzz.add_shapes(m, [ShapeType.VERTEX] * verts, [[] for _ in range(verts)])
+    m.vertex_point = np.zeros((len(m.vertex_point) + verts, 3))
+    m.vertex_tol = np.zeros(len(m.vertex_point))
+    m.vertex_reps = np.zeros((0, 5), np.int64)
+    m.vertex_rep_params = np.zeros((0, 2))
+    data = fuzz.pack_model(m, meta)
+    assert len(data) < 100_000
+    t = time.perf_counter()
+    with pytest.raises(LimitError, match="table rows"):
+        _decode(data)
+    assert time.perf_counter() - t < 10
