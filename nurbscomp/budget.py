@@ -47,35 +47,61 @@ _ENTITY_BYTES = 120
 _INSTANCE_BYTES = 5 * _ENTITY_BYTES
 
 
+#: Deepest nesting a scaled limit allows: OCCT walks nested shapes
+#: recursively (measured: 30,000 levels decode and write, 100,000 crash its
+#: STEP writer's stack).
+DEPTH_CEILING = 10_000
+
+
 @dataclass(frozen=True)
 class Limits:
     """What a reader decodes at most (``--limit-scale K`` multiplies each by K).
 
-    Defaults are about 100 times the largest of the public corpus's files
-    (docs/format.md §4 gives the measured values), except where OCCT's own
-    recursion sets the bound (``depth``).
+    Measured on the public corpus (11 files, docs/format.md §4): at most
+    10,482 references, depth 7, 44,620 poles and knots, 2,050 pcurves (if
+    every one were left out), estimated outputs of 8 MB and 160 bytes per
+    container byte.
     """
 
+    #: Rows of the tables the decoder loops over (shapes, sub-shape
+    #: references, edge and vertex representations, geometry rows), checked
+    #: before any loop: the sections may declare up to 256 MB of them.
+    rows: int = 1_000_000
     #: Sub-shape references with sharing unfolded: what OCCT's explorers,
-    #: counters and writers walk.
-    references: int = 20_000_000
+    #: counters and writers walk (95x the corpus's largest).
+    references: int = 1_000_000
     #: Longest chain of sub-shape references (OCCT walks it recursively).
     depth: int = 1_000
-    #: Poles and knots of every distinct B-spline OCCT builds.
-    poles: int = 30_000_000
+    #: Poles and knots of every distinct B-spline OCCT builds (90x).
+    poles: int = 4_000_000
     #: Pcurves the decoder computes (``occ.topology.rebuild_pcurves``), one per
-    #: edge and face it projects onto.
-    pcurves: int = 20_000
-    #: Estimated size of a STEP output (instances written once).
-    step_bytes: int = 1 << 30
-    #: Estimated size of an IGES output (instances flattened).
-    iges_bytes: int = 1 << 30
+    #: representation and face it projects onto (100x).
+    pcurves: int = 200_000
+    #: Work of those projections: per projection, the poles of the surface
+    #: times (u degree + 1) x (v degree + 1) (16 for an analytic surface).
+    #: Measured: about a microsecond each (a 300 x 300 bicubic net: 1.4 s
+    #: per projection; 200 x 300 of degree 25: over 30 s).
+    projection: int = 10_000_000
+    #: Estimated output size (STEP and BREP write instances once, IGES
+    #: flattens them): at most ``output_ratio`` bytes per byte of the
+    #: container, but ``output_floor`` whatever the container's size, and
+    #: never more than ``output_bytes``.
+    output_ratio: int = 2_000
+    output_floor: int = 32 << 20
+    output_bytes: int = 2 << 30
 
     def scaled(self, k: float) -> Limits:
-        """Every limit times ``k`` (the CLI's ``--limit-scale``)."""
+        """Every limit times ``k`` (the CLI's ``--limit-scale``); the depth at
+        most ``DEPTH_CEILING``."""
         if not k > 0:
             raise ValueError("the limit scale must be positive")
-        return Limits(**{f.name: int(getattr(self, f.name) * k) for f in dataclasses.fields(self)})
+        out = {f.name: int(getattr(self, f.name) * k) for f in dataclasses.fields(self)}
+        out["depth"] = min(out["depth"], max(self.depth, DEPTH_CEILING))
+        return Limits(**out)
+
+    def output(self, container_bytes: int) -> int:
+        """Largest estimated output a container of ``container_bytes`` may give."""
+        return min(self.output_bytes, max(self.output_floor, self.output_ratio * container_bytes))
 
 
 DEFAULT = Limits()
@@ -89,6 +115,7 @@ class Expansion:
     depth: int
     poles: int
     pcurves: int
+    projection: int
     step_bytes: int
     iges_bytes: int
 
@@ -198,52 +225,101 @@ def expansion(m: BRepModel) -> Expansion:
                 inst[c] = min(inst[c] + inst[s], CAP)
     iges = sum(min(p * b, CAP) for p, b in zip(paths, cost))
     poles = sum(_table_costs(t)[1] for t in (m.surfaces, m.curves3d, m.curves2d))
+    pcurves, projection = pcurves_to_compute(m)
     return Expansion(
         references=size[root] if 0 <= root < n else 0,
         depth=max(depth, default=0),
         poles=poles,
-        pcurves=pcurves_to_compute(m),
+        pcurves=pcurves,
+        projection=projection,
         step_bytes=min(step, CAP),
         iges_bytes=min(iges, CAP),
     )
 
 
-def pcurves_to_compute(m: BRepModel) -> int:
-    """Projections ``occ.topology.rebuild_pcurves`` makes: each representation
-    whose pcurve is left out, onto every face with its surface row and location."""
+def _projection_work(g: Geometry, table: list[Geometry]) -> int:
+    """What projecting a curve onto surface ``g`` costs (see ``Limits.projection``)."""
+    while isinstance(g, Derived) and g.kind in (Kind.TRIMMED_SURFACE, Kind.OFFSET_SURFACE):
+        g = table[g.basis]
+    if isinstance(g, BSplineSurface):
+        nu, nv = g.poles.shape[:2]
+        du, dv = (nu - 1, nv - 1) if g.bezier else (g.udegree, g.vdegree)
+        return nu * nv * (du + 1) * (dv + 1)
+    return 16
+
+
+def pcurves_to_compute(m: BRepModel) -> tuple[int, int]:
+    """Projections ``occ.topology.rebuild_pcurves`` makes (each representation
+    whose pcurve is left out, onto every face with its surface row and
+    location), and their work (``Limits.projection``)."""
     faces = Counter(zip(m.face_surface.tolist(), m.face_loc.tolist()))
     reps = m.edge_reps
     todo = reps[(reps[:, 1] != RepKind.CURVE3D) & (reps[:, 2] == REBUILD)]
-    return sum(faces.get((s, loc), 0) for s, loc in todo[:, [4, 6]].tolist())
+    count = work = 0
+    per_row: dict[int, int] = {}
+    for s, loc in todo[:, [4, 6]].tolist():
+        n = faces.get((s, loc), 0)
+        if n and 0 <= s < len(m.surfaces):
+            if s not in per_row:
+                per_row[s] = _projection_work(m.surfaces[s], m.surfaces)
+            count += n
+            work = min(work + n * per_row[s], CAP)
+    return count, work
 
 
-def check(m: BRepModel, limits: Limits = DEFAULT, fmt: str | None = None) -> Expansion:
-    """Refuse a model that expands past ``limits``: the references, depth, poles
-    and pcurves always; the output size of ``fmt`` (``"STEP"``, ``"IGES"``)
-    when one is given.
+def _refuse(value: int, what: str, limit: int) -> LimitError:
+    shown = f"{value:,}" if value < CAP else f"more than {CAP:,}"
+    return LimitError(
+        f"the shape holds {shown} {what}, more than the {limit:,} a reader decodes "
+        "(--limit-scale raises the limits)"
+    )
+
+
+def check_structure(m: BRepModel, limits: Limits = DEFAULT) -> Expansion:
+    """Refuse a model whose references, depth, poles or pcurves are past ``limits``.
 
     Raises
     ------
     LimitError
         One line naming the measure, its value and the limit.
     """
+    rows = len(m.shape_type) + len(m.child_shape) + len(m.edge_reps) + len(m.vertex_reps)
+    rows += len(m.surfaces) + len(m.curves3d) + len(m.curves2d)
+    if rows > limits.rows:
+        raise _refuse(
+            rows, "table rows (shapes, references, representations, geometry)", limits.rows
+        )
     e = expansion(m)
-    checks = [
-        ("references", "sub-shape references once sharing is unfolded"),
+    for name, what in (
         ("depth", "levels of nested sub-shapes"),
+        ("references", "sub-shape references once sharing is unfolded"),
         ("poles", "poles and knots"),
         ("pcurves", "pcurves to compute"),
-    ]
-    if fmt == "STEP":
-        checks.append(("step_bytes", "bytes of STEP (estimated)"))
-    elif fmt == "IGES":
-        checks.append(("iges_bytes", "bytes of IGES (estimated)"))
-    for name, what in checks:
-        value, limit = getattr(e, name), getattr(limits, name)
-        if value > limit:
-            shown = f"{value:,}" if value < CAP else f"more than {CAP:,}"
-            raise LimitError(
-                f"the shape holds {shown} {what}, more than the {limit:,} a reader "
-                "decodes (--limit-scale raises the limits)"
-            )
+        ("projection", "units of work projecting them (poles x degrees of their surfaces)"),
+    ):
+        if getattr(e, name) > getattr(limits, name):
+            raise _refuse(getattr(e, name), what, getattr(limits, name))
+    return e
+
+
+def check_output(
+    m: BRepModel, fmt: str, container_bytes: int, limits: Limits = DEFAULT
+) -> Expansion:
+    """Refuse a model whose ``fmt`` output (``"STEP"``, ``"IGES"``, ``"BREP"``)
+    is estimated past ``limits.output(container_bytes)``.
+
+    Raises
+    ------
+    LimitError
+        One line with the estimate and the limit.
+    """
+    e = expansion(m)
+    size = e.iges_bytes if fmt == "IGES" else e.step_bytes
+    limit = limits.output(container_bytes)
+    if size > limit:
+        raise LimitError(
+            f"the {fmt} output would take about {size:,} bytes, more than the {limit:,} a "
+            f"reader writes from a container of {container_bytes:,} bytes "
+            "(--limit-scale raises the limits)"
+        )
     return e

@@ -19,7 +19,7 @@ from typing import Any
 
 import click
 
-from . import __version__, pipeline
+from . import __version__, budget, pipeline
 from .errors import NurbscompError
 from .units import parse_length
 
@@ -124,6 +124,21 @@ def cli(ctx: click.Context, debug: bool) -> None:
     terminated (SIGTERM), 129 hung up (SIGHUP).
     """
     ctx.obj = _State(debug)
+
+
+def _limit_scale(f: Any) -> Any:
+    """``--limit-scale K``: the decoding budget times K (docs/format.md §4)."""
+    return click.option(
+        "--limit-scale",
+        type=click.FloatRange(min=0, min_open=True),
+        default=1.0,
+        show_default=True,
+        metavar="K",
+        help="Multiply the decoding limits (references once sharing is unfolded, "
+        f"nesting depth {budget.DEFAULT.depth:,}, poles {budget.DEFAULT.poles:,}, "
+        "pcurves to compute, estimated output size) by K, for a container that "
+        "is trusted and larger than they allow.",
+    )(f)
 
 
 def _outputs(files: tuple[str, ...], output: str | None) -> list[str | None]:
@@ -291,12 +306,14 @@ def _compress_text(r: dict[str, Any], verbose: bool) -> str:
 @click.option(
     "-o", "--output", type=click.Path(), help="Output file: .step (default), .igs, .brep."
 )
+@_limit_scale
 @_batch_options("Print topology counts.")
 @click.pass_obj
 def decompress(
     state: _State,
     files: tuple[str, ...],
     output: str | None,
+    limit_scale: float,
     force: bool,
     as_json: bool,
     quiet: bool,
@@ -314,7 +331,9 @@ def decompress(
         files,
         output,
         "decompress",
-        lambda f, o: pipeline.decompress_file(f, o, force=force),
+        lambda f, o: pipeline.decompress_file(
+            f, o, force=force, limits=budget.DEFAULT.scaled(limit_scale)
+        ),
         text,
         as_json,
         quiet,
@@ -324,10 +343,11 @@ def decompress(
 @cli.command()
 @click.argument("file", type=click.Path())
 @click.option("--json", "as_json", is_flag=True, help="Print the report as JSON.")
+@_limit_scale
 @click.pass_obj
-def info(state: _State, file: str, as_json: bool) -> None:
+def info(state: _State, file: str, as_json: bool, limit_scale: float) -> None:
     """Show what a .nzc container holds."""
-    r = _run(state, file, lambda: pipeline.info(file))
+    r = _run(state, file, lambda: pipeline.info(file, budget.DEFAULT.scaled(limit_scale)))
     if r is None:
         sys.exit(1)
     if as_json:
@@ -354,11 +374,14 @@ def info(state: _State, file: str, as_json: bool) -> None:
 @cli.command("test")
 @click.argument("files", nargs=-1, required=True, type=click.Path())
 @click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
+@_limit_scale
 @click.pass_obj
-def test_cmd(state: _State, files: tuple[str, ...], quiet: bool) -> None:
-    """Check .nzc FILES: checksums, references, and a full rebuild (like xz -t)."""
+def test_cmd(state: _State, files: tuple[str, ...], quiet: bool, limit_scale: float) -> None:
+    """Check .nzc FILES: checksums, references, the decoding limits, and a full
+    rebuild (like xz -t)."""
+    limits = budget.DEFAULT.scaled(limit_scale)
     for f in files:
-        r = _run(state, f, partial(pipeline.test_file, f))
+        r = _run(state, f, partial(pipeline.test_file, f, limits))
         if r is not None and not quiet:
             click.echo(f"{show(f)}: OK ({r['faces']} faces)")
     sys.exit(1 if state.failed else 0)

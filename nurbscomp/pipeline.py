@@ -193,9 +193,10 @@ def decode(
 ) -> tuple[BRepModel, dict[str, Any]]:
     """The model and metadata a checked container holds.
 
-    ``limits`` is the decoding budget, with the output size of ``fmt`` (the
-    format about to be written) if given; None skips it (``compress``
-    verifying what it just wrote).
+    ``limits`` is the decoding budget (``budget.check_structure``), and the
+    estimated size of a ``fmt`` output (the format about to be written,
+    ``budget.check_output``) if given; None skips it (``compress`` verifying
+    what it just wrote).
 
     Raises
     ------
@@ -211,7 +212,7 @@ def decode(
     """
     serialize.check_layout(c.tags(), c.minor, container.MINOR)
     try:
-        m, meta = serialize.sections_to_model(c.get, min(c.minor, container.MINOR), limits, fmt)
+        m, meta = serialize.sections_to_model(c.get, min(c.minor, container.MINOR), limits)
     except NurbscompError:
         raise
     except (ValueError, IndexError, KeyError, TypeError, ArithmeticError, RecursionError) as e:
@@ -220,6 +221,8 @@ def decode(
         ) from None
     if bool(c.flags & container.FLAG_LOSSLESS) != (meta["mode"] == "lossless"):
         raise CorruptError("the header's lossless flag (offset 6) disagrees with META's mode")
+    if limits is not None and fmt is not None:
+        budget.check_output(m, fmt, c.file_bytes, limits)
     return m, meta
 
 

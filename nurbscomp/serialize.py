@@ -439,7 +439,9 @@ def _read_shapes(data: bytes, m: BRepModel) -> None:
     m.child_start = np.concatenate([[0], np.cumsum(nkids)]).astype(np.int64)
     parent = np.repeat(np.arange(n), nkids)
     if c and ((back < 1).any() or (back > parent).any()):
-        raise BadReferenceError("SHAP: a shape refers to a sub-shape that does not precede it")
+        raise BadReferenceError(
+            "SHAP: a shape refers to itself or to a later shape (a cycle, or out of order)"
+        )
     if c and (orient.min() < 0 or orient.max() > 3):
         raise SectionError("SHAP: unknown orientation")
     m.child_shape = parent - back
@@ -1108,15 +1110,14 @@ def sections_to_model(
     get: Any,
     minor: int | None = None,
     limits: budget.Limits | None = budget.DEFAULT,
-    fmt: str | None = None,
 ) -> tuple[BRepModel, dict[str, Any]]:
     """Rebuild a model from a section lookup ``get(tag) -> bytes``; check every reference.
 
     ``minor`` is the file's minor version, capped at this reader's (default:
     the newest this reader knows, ``max(ADDED)``): it says which sections there are.
-    ``limits`` is the decoding budget (``budget.check``, with the output size
-    of ``fmt`` if given), checked on the tables before any net is decoded or
-    any walk over the shapes is made; None skips it (a container just written).
+    ``limits`` is the decoding budget (``budget.check_structure``), checked on
+    the tables before any net is decoded or any walk over the shapes is made;
+    None skips it (a container just written).
 
     Raises
     ------
@@ -1128,7 +1129,7 @@ def sections_to_model(
         Coded nets larger than a reader allocates, or a shape past ``limits``.
     """
     with np.errstate(all="ignore"):  # overflows become non-finite values, refused by name
-        return _sections_to_model(get, max(ADDED) if minor is None else minor, limits, fmt)
+        return _sections_to_model(get, max(ADDED) if minor is None else minor, limits)
 
 
 def _optional(get: Any, tag: str) -> bytes | None:
@@ -1141,7 +1142,7 @@ def _optional(get: Any, tag: str) -> bytes | None:
 
 
 def _sections_to_model(
-    get: Any, minor: int, limits: budget.Limits | None, fmt: str | None
+    get: Any, minor: int, limits: budget.Limits | None
 ) -> tuple[BRepModel, dict[str, Any]]:
     meta = read_meta(get("META"))
     m = BRepModel()
@@ -1160,7 +1161,7 @@ def _sections_to_model(
     _read_faces(get("FACE"), m)
     check_references(m)
     if limits is not None:
-        budget.check(m, limits, fmt)
+        budget.check_structure(m, limits)
     _resolve_ranges(m, range_how)
     coded_surfaces = set(coded_rows(m.surfaces))
     _read_nets(get("SNET"), m.surfaces, tol, "SNET")
