@@ -28,6 +28,7 @@ from .measure import (
     is_valid,
 )
 from .topology import model_to_shape, shape_to_model
+from .xcaf import write as write_product
 
 __all__ = [
     "UNITS_MM",
@@ -50,5 +51,6 @@ __all__ = [
     "read_cad",
     "shape_to_model",
     "step_round_trip",
+    "write_product",
     "write_shape",
 ]
