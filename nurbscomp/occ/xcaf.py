@@ -41,7 +41,7 @@ from OCP.TDataStd import TDataStd_Name, TDataStd_NamedData
 from OCP.TDF import TDF_ChildIterator, TDF_Label, TDF_LabelSequence, TDF_Tool
 from OCP.TDocStd import TDocStd_Document
 from OCP.TopAbs import TopAbs_FACE, TopAbs_FORWARD, TopAbs_Orientation
-from OCP.TopExp import TopExp_Explorer
+from OCP.TopExp import TopExp, TopExp_Explorer
 from OCP.TopLoc import TopLoc_Location
 from OCP.TopoDS import TopoDS_Iterator
 from OCP.TopTools import TopTools_IndexedMapOfShape
@@ -88,6 +88,7 @@ def caf_reader(fmt: str) -> tuple[Any, Any]:
     colours and layers on, and the other XDE modes on too so that what the
     container drops can be named (:func:`dropped`)."""
     if fmt == "STEP":
+        Interface_Static.SetIVal_s("read.stepcaf.subshapes.name", 1)
         caf: Any = STEPCAFControl_Reader()
         for mode in ("SetGDTMode", "SetPropsMode", "SetMatMode", "SetViewMode", "SetMetaMode"):
             getattr(caf, mode)(True)
@@ -376,11 +377,16 @@ def to_document(p: ProductData, shapes: list[Any]) -> Any:
     st = XCAFDoc_DocumentTool.ShapeTool_s(main)
     ct = XCAFDoc_DocumentTool.ColorTool_s(main)
     lt = XCAFDoc_DocumentTool.LayerTool_s(main)
-    locs = [TopLoc_Location(_trsf(m, int(f))) for m, f in zip(p.placements, p.forms.tolist())]
+    def place(i: int) -> Any:
+        """A new location for node ``i`` (never shared: XDE's STEP writer tells
+        located shapes apart by their location's identity)."""
+        k = int(p.place[i])
+        return TopLoc_Location(_trsf(p.placements[k], int(p.forms[k]))) if k >= 0 else None
 
     def located(i: int) -> Any:
         s = shapes[int(p.ref[i])].Oriented(_ORIENT[int(p.orient[i])])
-        return s.Located(locs[p.place[i]]) if p.place[i] >= 0 else s
+        loc = place(i)
+        return s if loc is None else s.Located(loc)
 
     assemblies = set(p.parent[p.kind == INSTANCE].tolist())
     labels: dict[int, Any] = {}
@@ -394,10 +400,11 @@ def to_document(p: ProductData, shapes: list[Any]) -> Any:
                 labels[i] = st.AddShape(located(i), False, False)
         for i in range(len(p)):
             if p.kind[i] == INSTANCE:
-                loc = locs[p.place[i]] if p.place[i] >= 0 else TopLoc_Location()
+                loc = place(i) or TopLoc_Location()
                 labels[i] = st.AddComponent(labels[int(p.parent[i])], labels[int(p.ref[i])], loc)
             elif p.kind[i] == SUBSHAPE:
-                labels[i] = st.AddSubShape(labels[int(p.parent[i])], located(i))
+                sub = _sub_shape(p, i, shapes, labels[int(p.parent[i])])
+                labels[i] = st.AddSubShape(labels[int(p.parent[i])], sub)
         st.UpdateAssemblies()
     finally:
         XCAFDoc_ShapeTool.SetAutoNaming_s(auto)
@@ -416,6 +423,28 @@ def to_document(p: ProductData, shapes: list[Any]) -> Any:
         for x in members:
             lt.SetLayer(labels[x], layer, False)
     return doc
+
+
+def _sub_shape(p: ProductData, i: int, shapes: list[Any], part: Any) -> Any:
+    """The sub-shape of ``part``'s shape that node ``i`` names: the one on the
+    node's ``SHAP`` row whose location has the node's placement (XDE needs the
+    very sub-shape, location included, not an equal copy)."""
+    whole = XCAFDoc_ShapeTool.GetShape_s(part)
+    subs = TopTools_IndexedMapOfShape()
+    TopExp.MapShapes_s(whole, shapes[int(p.ref[i])].ShapeType(), subs)
+    key = shapes[int(p.ref[i])]
+    k = int(p.place[i])
+    want = None if k < 0 else p.placements[k].reshape(-1).tolist()
+    for j in range(1, subs.Extent() + 1):
+        s = subs.FindKey(j)
+        if not s.Located(TopLoc_Location()).IsSame(key):
+            continue
+        loc = s.Location()
+        if (want is None and loc.IsIdentity()) or (
+            want is not None and _trsf_rows(loc.Transformation()) == want
+        ):
+            return s.Oriented(_ORIENT[int(p.orient[i])])
+    raise RebuildError(f"product node {i}: its shape is not a sub-shape of its part")
 
 
 def step_schema(header: dict[str, list[str]]) -> str:
@@ -478,7 +507,11 @@ def write(
                 raise OutputError("cannot write IGES")
         return
     schema = step_schema(p.header)
-    with _static("write.step.unit", unit), _static("write.step.schema", schema):
+    with (
+        _static("write.step.unit", unit),
+        _static("write.step.schema", schema),
+        _static("write.stepcaf.subshapes.name", "1"),
+    ):
         sw: Any = STEPCAFControl_Writer()
         sw.SetColorMode(True)
         sw.SetNameMode(True)
@@ -561,7 +594,7 @@ def round_trip(src: str | os.PathLike[str], dst: str | os.PathLike[str]) -> None
         w.Write(str(dst))
         return
     schema = step_schema(step_header(plain) if fmt == "STEP" else {})
-    with _static("write.step.schema", schema):
+    with _static("write.step.schema", schema), _static("write.stepcaf.subshapes.name", "1"):
         sw = STEPCAFControl_Writer()
         sw.Transfer(doc, STEPControl_AsIs)
         sw.Write(str(dst))
