@@ -377,6 +377,7 @@ def to_document(p: ProductData, shapes: list[Any]) -> Any:
     st = XCAFDoc_DocumentTool.ShapeTool_s(main)
     ct = XCAFDoc_DocumentTool.ColorTool_s(main)
     lt = XCAFDoc_DocumentTool.LayerTool_s(main)
+
     def place(i: int) -> Any:
         """A new location for node ``i`` (never shared: XDE's STEP writer tells
         located shapes apart by their location's identity)."""
@@ -488,9 +489,10 @@ def write(
     Raises
     ------
     RebuildError
-        XDE or the writer refuses the shapes.
+        XDE or the writer refuses the shapes (for STEP, any failure of the
+        write: XDE translates the shapes only then).
     OutputError
-        The file cannot be written.
+        The IGES file cannot be written.
     """
     doc = to_document(p, shape_rows(root)[2])
     if fmt == "IGES":
@@ -528,7 +530,9 @@ def write(
         _set_header(model, {**default, **p.header})
         status = sw.Write(str(path))
     if status != IFSelect_ReturnStatus.IFSelect_RetDone:
-        raise OutputError(f"cannot write STEP ({status.name})")
+        # XDE's Transfer only collects; the shapes are translated on Write, so
+        # a shape OCCT cannot write fails here (the folder was checked before)
+        raise RebuildError(f"the STEP writer refused the shape ({status.name})")
 
 
 def _set_header(model: Any, header: dict[str, list[str]]) -> None:
