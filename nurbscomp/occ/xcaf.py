@@ -405,7 +405,7 @@ def to_document(p: ProductData, shapes: list[Any]) -> Any:
                 labels[i] = st.AddComponent(labels[int(p.parent[i])], labels[int(p.ref[i])], loc)
             elif p.kind[i] == SUBSHAPE:
                 sub = _sub_shape(p, i, shapes, labels[int(p.parent[i])])
-                labels[i] = st.AddSubShape(labels[int(p.parent[i])], sub)
+                labels[i] = st.AddSubShape(labels[int(p.parent[i])], sub or located(i))
         st.UpdateAssemblies()
     finally:
         XCAFDoc_ShapeTool.SetAutoNaming_s(auto)
@@ -429,7 +429,8 @@ def to_document(p: ProductData, shapes: list[Any]) -> Any:
 def _sub_shape(p: ProductData, i: int, shapes: list[Any], part: Any) -> Any:
     """The sub-shape of ``part``'s shape that node ``i`` names: the one on the
     node's ``SHAP`` row whose location has the node's placement (XDE needs the
-    very sub-shape, location included, not an equal copy)."""
+    very sub-shape, location included, not an equal copy); None if there is
+    none (XDE also takes a compound of sub-shapes, which is no sub-shape)."""
     whole = XCAFDoc_ShapeTool.GetShape_s(part)
     subs = TopTools_IndexedMapOfShape()
     TopExp.MapShapes_s(whole, shapes[int(p.ref[i])].ShapeType(), subs)
@@ -445,7 +446,7 @@ def _sub_shape(p: ProductData, i: int, shapes: list[Any], part: Any) -> Any:
             want is not None and _trsf_rows(loc.Transformation()) == want
         ):
             return s.Oriented(_ORIENT[int(p.orient[i])])
-    raise RebuildError(f"product node {i}: its shape is not a sub-shape of its part")
+    return None
 
 
 def step_schema(header: dict[str, list[str]]) -> str:
