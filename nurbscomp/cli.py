@@ -367,8 +367,24 @@ def info(state: _State, file: str, as_json: bool, limit_scale: float) -> None:
         "sections:    "
         + ", ".join(f"{k} {v}" for k, v in r["section_raw_bytes"].items())
         + f" bytes raw; {r['body_stored_bytes']} bytes coded",
+        *_product_lines(r.get("product")),
     ]
     click.echo("\n".join(show(line) for line in lines))
+
+
+def _product_lines(p: dict[str, Any] | None) -> list[str]:
+    """``info``'s product summary (format 1.2), or a line saying there is none."""
+    if p is None:
+        return ["product:     none stored (a format 1.0/1.1 container, or none in the source)"]
+    coloured = ", ".join(f"{v} {k}s" for k, v in p["coloured"].items()) or "nothing"
+    return [
+        f"product:     {p['parts']} parts, {p['assemblies']} assemblies, "
+        f"{p['instances']} instances, depth {p['depth']}, {p['named']} names",
+        f"colours:     {p['colours']} colours on {coloured}",
+        f"layers:      {p['layers']}",
+        f"schema:      {', '.join(p['schema']) or '-'}",
+        f"dropped:     {'; '.join(p['dropped']) or 'nothing'}",
+    ]
 
 
 @cli.command("test")

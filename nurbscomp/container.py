@@ -39,7 +39,7 @@ from .errors import (
 MAGIC = b"\x89NZC"
 #: Format 1.0, frozen (docs/format.md): a reader of 1.x reads every 1.y with y ≤ x.
 MAJOR = 1
-MINOR = 1
+MINOR = 2
 FLAG_LOSSLESS = 1
 _KNOWN_FLAGS = FLAG_LOSSLESS
 _HEADER = struct.Struct("<4sBBHHH")

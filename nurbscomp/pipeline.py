@@ -23,7 +23,7 @@ from typing import Any, TypeVar, cast
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from . import __version__, budget, container, occ, serialize
+from . import __version__, budget, container, occ, product, serialize
 from .encode import validity
 from .errors import (
     CorruptError,
@@ -229,12 +229,22 @@ def decode(
 build = validity.build
 
 
-def write(shape: Any, path: Path, fmt: str, unit: str, meta: dict[str, Any]) -> None:
+def write(
+    shape: Any,
+    path: Path,
+    fmt: str,
+    unit: str,
+    meta: dict[str, Any],
+    product_data: product.ProductData | None = None,
+) -> None:
     """Write a decoded shape; the STEP header is taken from the container's META.
 
     FILE_NAME's name is the source file's name and its originating system the
     writer named in META; the time stamp is fixed (``occ.files.STEP_TIME_STAMP``),
-    so the same container always gives the same bytes.
+    so the same container always gives the same bytes.  With product data
+    (format 1.2), STEP and IGES are written through OCCT's XDE writers with
+    the source's tree, names, colours, layers, schema and header
+    (``occ.xcaf.write``).
 
     Raises
     ------
@@ -246,7 +256,10 @@ def write(shape: Any, path: Path, fmt: str, unit: str, meta: dict[str, Any]) -> 
     name = meta.get("source_name") or ""
     name = name[: -len(SUFFIX)] if name.endswith(SUFFIX) else name
     try:
-        occ.write_shape(shape, path, fmt, unit, name=name, system=meta.get("writer") or "")
+        if product_data is not None and fmt != "BREP":
+            occ.write_product(product_data, shape, path, fmt, unit, name, meta.get("writer") or "")
+        else:
+            occ.write_shape(shape, path, fmt, unit, name=name, system=meta.get("writer") or "")
     except NurbscompError:
         raise
     except OSError as e:
@@ -319,7 +332,7 @@ def compress_file(
     dst_p = Path(dst) if dst is not None else default_compressed_name(src_p)
     check_output(dst_p, force, (src_p,))
     try:
-        cad = occ.read_cad(src_p)
+        cad = occ.read_cad(src_p, product=True)
     except NurbscompError:
         raise
     except Exception as e:
@@ -328,7 +341,7 @@ def compress_file(
     if occ.counts(cad.shape)["faces"] == 0:
         raise InputError(f"the {cad.source_format} file holds no B-rep faces (nothing to compress)")
     m, warnings = occ.shape_to_model(cad.shape)
-    m.unit, m.source_format = cad.unit, cad.source_format
+    m.unit, m.source_format, m.product = cad.unit, cad.source_format, cad.product
     src_bytes = src_p.stat().st_size
     meta = {
         "mode": "lossless" if lossless else "tolerance",
@@ -349,6 +362,7 @@ def compress_file(
         if vreport.step_skipped:
             warnings.append(f"no STEP check: {vreport.step_skipped}")
         flags = 0
+    target.product = m.product  # exact in every mode, placements included
     data = container.pack(serialize.model_to_sections(target, meta, codes), flags)
     verified = False
     with atomic_output(dst_p, force, (src_p,)) as tmp:
@@ -356,6 +370,10 @@ def compress_file(
         if verify:
             back, _ = decode(read_container(tmp), limits=None)
             diff = differences(target, back)
+            if target.product is not None and not (
+                back.product is not None and back.product.same(target.product)
+            ):
+                diff.append("product data")
             if diff:
                 raise VerifyError(f"decoded container differs from the input: {', '.join(diff)}")
             worst = max_net_displacement(m, back)
@@ -395,6 +413,8 @@ def compress_file(
         "source_format": m.source_format,
         "counts": occ.counts(cad.shape),
         "faces_by_type": faces_by_type(m),
+        "product": product.summary(m.product) if m.product is not None else None,
+        "product_bytes": len(product.write(m.product)) if m.product is not None else 0,
         "verified": verified,
         "seconds": seconds,
         "read_seconds": t_read,
@@ -437,7 +457,7 @@ def decompress_file(
     fmt = occ.output_format(dst_p)
     shape, m, meta = decode_file(src_p, limits, fmt)
     with atomic_output(dst_p, force, (src_p,)) as tmp:
-        write(shape, tmp, fmt, m.unit, meta)
+        write(shape, tmp, fmt, m.unit, meta, m.product)
         size = tmp.stat().st_size
     return {
         "command": "decompress",
@@ -481,6 +501,8 @@ def info(src: str | os.PathLike[str], limits: budget.Limits = budget.DEFAULT) ->
             "curves3d": len(m.curves3d),
             "curves2d": len(m.curves2d),
         },
+        "product": product.summary(m.product) if m.product is not None else None,
+        "product_tree": product.tree(m.product) if m.product is not None else None,
     }
 
 

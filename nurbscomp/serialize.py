@@ -15,6 +15,8 @@ SHAP  shape types, flags, and sub-shape references
 VERT  vertex points, tolerances, point representations
 EDGE  edge tolerances, flags, curve representations
 FACE  face surface, location, tolerance, natural-restriction flag
+SIDE  (1.1, optional) net sides set to another net's side
+PROD  (1.2, optional) product data: tree, names, colours, layers, header
 ====  ==========================================================
 """
 
@@ -25,7 +27,7 @@ from typing import Any, cast
 
 import numpy as np
 
-from . import budget, codec, coons, dmap, joins
+from . import budget, codec, coons, dmap, joins, product
 from .errors import BadReferenceError, CorruptError, LimitError, SectionError
 from .model import (
     REBUILD,
@@ -897,6 +899,7 @@ def model_to_sections(
         ("EDGE", _write_edges(m)),
         ("FACE", _write_faces(m)),
         *([("SIDE", _write_sides(m))] if len(m.side_joins) else []),
+        *([("PROD", product.write(m.product))] if m.product is not None else []),
     ]
 
 
@@ -990,7 +993,7 @@ def _curve_anchors(m: BRepModel, codes: dict[int, codec.NetCode]) -> dict[int, n
 #: The sections of format 1.0, in the order they are written and must be read.
 SECTIONS = ("META", "LOCS", "SURF", "SNET", "CRV3", "CNET", "CRV2", "SHAP", "VERT", "EDGE", "FACE")
 #: What each minor version adds, after the sections of the minors before it.
-ADDED = {1: ("SIDE",)}
+ADDED = {1: ("SIDE",), 2: ("PROD",)}
 
 
 def layout(minor: int) -> tuple[str, ...]:
@@ -1179,6 +1182,9 @@ def _sections_to_model(
         g = cast(BSplineCurve, m.curves3d[c])
         g.poles[...] = joins.pinned_poles(m, g, pins)
     _fill_copies(copies, m)
+    prod = _optional(get, "PROD") if "PROD" in layout(minor) else None
+    if prod is not None:
+        m.product = product.read(prod, len(m.shape_type))
     return m, meta
 
 

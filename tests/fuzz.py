@@ -89,6 +89,8 @@ def make_seeds(folder: Path) -> list[bytes]:
     # format 1.1's parts (SIDE, copied curves): the golden surface models
     golden = Path(__file__).resolve().parent / "golden"
     out += [p.read_bytes() for p in sorted(golden.glob("*.faces.*.nzc"))]
+    # format 1.2's PROD (assembly tree, names, colours, layers): the golden assemblies
+    out += [p.read_bytes() for p in sorted(golden.glob("assembly.*.nzc"))]
     return out
 
 

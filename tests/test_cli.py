@@ -62,7 +62,7 @@ def test_json_info_and_test(work: Path) -> None:
     assert info["lossless"] and info["unit"] == "MM" and info["shapes"]["face"] == 3
     assert set(info["section_raw_bytes"]) >= {"META", "SURF", "SHAP", "EDGE"}
     code, out, _ = run("info", str(work / "part.step.nzc"))
-    assert code == 0 and "format:      .nzc 1.1," in out
+    assert code == 0 and "format:      .nzc 1.2," in out
     code, out, _ = run("test", str(work / "part.step.nzc"))
     assert code == 0 and "OK" in out
 

@@ -29,6 +29,7 @@ from .measure import (
     model_order,
 )
 from .topology import model_to_shape, shape_to_model
+from .xcaf import write as write_product
 
 __all__ = [
     "UNITS_MM",
@@ -52,5 +53,6 @@ __all__ = [
     "read_cad",
     "shape_to_model",
     "step_round_trip",
+    "write_product",
     "write_shape",
 ]

@@ -27,6 +27,7 @@ from OCP.STEPControl import STEPControl_AsIs, STEPControl_Reader, STEPControl_Wr
 from OCP.StepRepr import StepRepr_NextAssemblyUsageOccurrence
 from OCP.TCollection import TCollection_HAsciiString
 from OCP.TColStd import TColStd_SequenceOfAsciiString
+from OCP.TopAbs import TopAbs_COMPOUND
 
 from ..errors import InputError, OutputError, RebuildError
 from ..units import UNITS_MM
@@ -90,6 +91,9 @@ class CadFile:
     unit: str
     source_format: str
     warnings: list[str] = field(default_factory=list)
+    #: Product data (names, tree, colours, layers, header) when read with
+    #: ``product=True``: a ``nurbscomp.product.ProductData``.
+    product: Any = None
 
 
 def _check_readable(path: Path) -> bytes:
@@ -160,8 +164,12 @@ def screen_step(path: Path) -> None:
             at += len(chunk)
 
 
-def read_cad(path: str | os.PathLike[str]) -> CadFile:
+def read_cad(path: str | os.PathLike[str], product: bool = False) -> CadFile:
     """Read a STEP (AP203/214/242) or IGES file into one shape, in millimetres.
+
+    With ``product``, the file is read through OCCT's XDE readers
+    (``xcaf.caf_reader``): the shape is the same, and ``CadFile.product``
+    holds the product data; the warnings then name what that leaves out.
 
     Raises
     ------
@@ -174,13 +182,21 @@ def read_cad(path: str | os.PathLike[str]) -> CadFile:
     fmt = sniff_format(p, head)
     if fmt == "STEP":
         screen_step(p)
-        reader: Any = STEPControl_Reader()
+    caf: Any = None
+    reader: Any = None
+    if product:
+        from . import xcaf
+
+        caf, reader = xcaf.caf_reader(fmt)
+    elif fmt == "STEP":
+        reader = STEPControl_Reader()
+    else:
+        reader = IGESControl_Reader()
+    if fmt == "STEP":
         # tessellated entities (AP242) hold no B-rep to store, and OCCT 7.9's
         # transfer of a malformed one can crash the process: never read them
         # (set after the reader exists: its controller's first set-up resets it)
         Interface_Static.SetIVal_s("read.step.tessellated", 0)
-    else:
-        reader = IGESControl_Reader()
     status = reader.ReadFile(str(p))
     if status != IFSelect_ReturnStatus.IFSelect_RetDone:
         raise InputError(f"cannot parse {fmt} file ({status.name.removeprefix('IFSelect_')})")
@@ -193,12 +209,24 @@ def read_cad(path: str | os.PathLike[str]) -> CadFile:
         unit = _IGES_UNIT_FLAGS.get(reader.IGESModel().GlobalSection().UnitFlag(), "MM")
     if reader.NbRootsForTransfer() == 0:
         raise InputError(f"the {fmt} file holds no shape to transfer")
-    reader.TransferRoots()
+    doc = None
+    if caf is not None:
+        from . import xcaf
+
+        doc = xcaf.new_document()
+        caf.Transfer(doc)
+    else:
+        reader.TransferRoots()
     if reader.NbShapes() == 0:
         raise InputError(f"nothing in the {fmt} file transfers to a B-rep")
     shape = reader.OneShape()
-    if shape.IsNull():
+    # XDE's transfer of nothing is an empty compound
+    if shape.IsNull() or (shape.ShapeType() == TopAbs_COMPOUND and shape.NbChildren() == 0):
         raise InputError(f"nothing in the {fmt} file transfers to a B-rep")
+    if doc is not None:
+        data = xcaf.product_data(doc, shape, fmt, reader)
+        warnings = [f"not stored: {', '.join(data.dropped)}"] if data.dropped else []
+        return CadFile(shape, unit, fmt, warnings, data)
     warnings = []
     if fmt == "STEP":
         warnings = _step_losses(p)
@@ -282,10 +310,7 @@ def write_shape(
         if not w.AddShape(shape):
             raise RebuildError("the IGES writer refused the shape")
         w.ComputeModel()
-        gs = w.Model().GlobalSection()  # dates fixed, like STEP's time stamp
-        gs.SetDate(TCollection_HAsciiString(IGES_DATE))
-        gs.SetLastChangeDate(TCollection_HAsciiString(IGES_DATE))
-        w.Model().SetGlobalSection(gs)
+        fix_iges_dates(w.Model())
         if not w.Write(str(p)):
             raise OutputError("cannot write IGES")
         return
@@ -305,11 +330,18 @@ def write_shape(
         raise OutputError(f"cannot write STEP ({status.name})")
 
 
+def fix_iges_dates(model: Any) -> None:
+    """Set an IGES model's dates to the fixed ``IGES_DATE``, like STEP's time stamp."""
+    gs = model.GlobalSection()
+    gs.SetDate(TCollection_HAsciiString(IGES_DATE))
+    gs.SetLastChangeDate(TCollection_HAsciiString(IGES_DATE))
+    model.SetGlobalSection(gs)
+
+
 def _name_products(model: Any, name: str) -> None:
     """Name the PRODUCTs of a STEP model after ``name`` (``name``, ``name 2`` …)
-    and number its assembly occurrences 1, 2 … in entity order: OCCT's own
-    names and ids count what was written before in the same process."""
-    products = occurrences = 0
+    and number its assembly occurrences (:func:`number_occurrences`)."""
+    products = 0
     for i in range(1, model.NbEntities() + 1):
         e = model.Value(i)
         if isinstance(e, StepBasic_Product):
@@ -317,7 +349,16 @@ def _name_products(model: Any, name: str) -> None:
             label = TCollection_HAsciiString(name if products == 1 else f"{name} {products}")
             e.SetName(label)
             e.SetId(label)
-        elif isinstance(e, StepRepr_NextAssemblyUsageOccurrence):
+    number_occurrences(model)
+
+
+def number_occurrences(model: Any) -> None:
+    """Number a STEP model's assembly occurrences 1, 2 … in entity order:
+    OCCT's own ids count what was written before in the same process."""
+    occurrences = 0
+    for i in range(1, model.NbEntities() + 1):
+        e = model.Value(i)
+        if isinstance(e, StepRepr_NextAssemblyUsageOccurrence):
             occurrences += 1
             e.SetId(TCollection_HAsciiString(str(occurrences)))
 
