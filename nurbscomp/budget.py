@@ -74,11 +74,15 @@ class Limits:
     depth: int = 1_000
     #: Poles and knots of every distinct B-spline OCCT builds (90x).
     poles: int = 4_000_000
+    #: Longest chain of geometry rows built on one another (a trimmed or
+    #: offset surface or curve on its basis; OCCT evaluates them recursively).
+    bases: int = 100
     #: Pcurves the decoder computes (``occ.topology.rebuild_pcurves``), one per
     #: representation and face it projects onto (100x).
     pcurves: int = 200_000
     #: Work of those projections: per projection, the poles of the surface
-    #: times (u degree + 1) x (v degree + 1) (16 for an analytic surface).
+    #: times (u degree + 1) x (v degree + 1) (16 for an analytic surface; a
+    #: trimmed or offset surface costs what its basis does).
     #: Measured: about a microsecond each (a 300 x 300 bicubic net: 1.4 s
     #: per projection; 200 x 300 of degree 25: over 30 s).
     projection: int = 10_000_000
@@ -114,48 +118,64 @@ class Expansion:
     references: int
     depth: int
     poles: int
+    bases: int
     pcurves: int
     projection: int
     step_bytes: int
     iges_bytes: int
 
 
-def _record_cost(g: Geometry, table: list[Geometry]) -> tuple[int, int]:
-    """(poles and knots, bytes) of one geometry record, its bases in the same
-    table included (they precede their row: checked on reading).  A swept
-    surface's basis is a 3-D curve, counted with the curves."""
-    poles = out = 0
-    while True:
+@dataclass
+class _Table:
+    """Per row of a geometry table: output bytes, bases deep, projection work;
+    and the poles and knots of its distinct B-spline records."""
+
+    bytes: list[int]
+    depth: list[int]
+    work: list[int]
+    poles: int
+
+
+def _table(table: list[Geometry]) -> _Table:
+    """One pass in row order: a derived row's basis precedes it (checked on
+    reading), so its figures are known when the row is reached (memoised:
+    chains of bases cost one step a row).  A swept surface's basis is a 3-D
+    curve, counted with the curves."""
+    out = _Table([], [], [], 0)
+    seen: set[int] = set()
+    for g in table:
         if isinstance(g, (BSplineSurface, BSplineCurve)):
             n = g.poles.size // g.poles.shape[-1]
             k = len(g.uknots) + len(g.vknots) if isinstance(g, BSplineSurface) else len(g.knots)
-            out += n * _POLE_BYTES + (n if g.weights is not None else 0) * _NUMBER_BYTES
-            return poles + n + k, out + 2 * k * _NUMBER_BYTES + _ENTITY_BYTES
+            b = n * _POLE_BYTES + (n if g.weights is not None else 0) * _NUMBER_BYTES
+            out.bytes.append(b + 2 * k * _NUMBER_BYTES + _ENTITY_BYTES)
+            out.depth.append(1)
+            if isinstance(g, BSplineSurface):
+                nu, nv = g.poles.shape[:2]
+                du, dv = (nu - 1, nv - 1) if g.bezier else (g.udegree, g.vdegree)
+                out.work.append(nu * nv * (du + 1) * (dv + 1))
+            else:
+                out.work.append(16)
+            if id(g) not in seen:
+                seen.add(id(g))
+                out.poles += n + k
+            continue
         assert isinstance(g, (Analytic, Derived))
-        out += _ENTITY_BYTES + (g.frame.size + g.params.size) * _NUMBER_BYTES
-        if not isinstance(g, Derived) or g.kind in (Kind.REVOLUTION, Kind.EXTRUSION):
-            return poles, out
-        g = table[g.basis]
-
-
-def _table_costs(table: list[Geometry]) -> tuple[list[int], int]:
-    """Bytes per row, and the poles and knots of the distinct records."""
-    seen: set[int] = set()
-    poles, costs = 0, []
-    for g in table:
-        p, b = _record_cost(g, table)
-        costs.append(b)
-        if id(g) not in seen:
-            seen.add(id(g))
-            poles += p
-    return costs, poles
+        own = _ENTITY_BYTES + (g.frame.size + g.params.size) * _NUMBER_BYTES
+        if isinstance(g, Derived) and g.kind not in (Kind.REVOLUTION, Kind.EXTRUSION):
+            out.bytes.append(min(own + out.bytes[g.basis], CAP))
+            out.depth.append(out.depth[g.basis] + 1)
+            out.work.append(out.work[g.basis])
+        else:
+            out.bytes.append(own)
+            out.depth.append(1)
+            out.work.append(16)
+    return out
 
 
 def _shape_costs(m: BRepModel) -> list[int]:
     """Bytes an output spends on each shape itself (its entity and its geometry)."""
-    surf, _ = _table_costs(m.surfaces)
-    c3, _ = _table_costs(m.curves3d)
-    c2, _ = _table_costs(m.curves2d)
+    surf, c3, c2 = (_table(t).bytes for t in (m.surfaces, m.curves3d, m.curves2d))
     types = m.shape_type.tolist()
     tidx = m.type_index().tolist()
     edge_bytes = [_ENTITY_BYTES] * len(m.edge_tol)
@@ -224,12 +244,15 @@ def expansion(m: BRepModel) -> Expansion:
             else:
                 inst[c] = min(inst[c] + inst[s], CAP)
     iges = sum(min(p * b, CAP) for p, b in zip(paths, cost))
-    poles = sum(_table_costs(t)[1] for t in (m.surfaces, m.curves3d, m.curves2d))
-    pcurves, projection = pcurves_to_compute(m)
+    tables = [_table(t) for t in (m.surfaces, m.curves3d, m.curves2d)]
+    poles = sum(t.poles for t in tables)
+    bases = max((d for t in tables for d in t.depth), default=0)
+    pcurves, projection = pcurves_to_compute(m, tables[0].work)
     return Expansion(
         references=size[root] if 0 <= root < n else 0,
         depth=max(depth, default=0),
         poles=poles,
+        bases=bases,
         pcurves=pcurves,
         projection=projection,
         step_bytes=min(step, CAP),
@@ -237,34 +260,23 @@ def expansion(m: BRepModel) -> Expansion:
     )
 
 
-def _projection_work(g: Geometry, table: list[Geometry]) -> int:
-    """What projecting a curve onto surface ``g`` costs (see ``Limits.projection``)."""
-    while isinstance(g, Derived) and g.kind in (Kind.TRIMMED_SURFACE, Kind.OFFSET_SURFACE):
-        g = table[g.basis]
-    if isinstance(g, BSplineSurface):
-        nu, nv = g.poles.shape[:2]
-        du, dv = (nu - 1, nv - 1) if g.bezier else (g.udegree, g.vdegree)
-        return nu * nv * (du + 1) * (dv + 1)
-    return 16
-
-
-def pcurves_to_compute(m: BRepModel) -> tuple[int, int]:
+def pcurves_to_compute(m: BRepModel, work: list[int] | None = None) -> tuple[int, int]:
     """Projections ``occ.topology.rebuild_pcurves`` makes (each representation
     whose pcurve is left out, onto every face with its surface row and
-    location), and their work (``Limits.projection``)."""
+    location), and their work (``Limits.projection``; ``work`` per surface
+    row, as :func:`_table` gives it)."""
+    if work is None:
+        work = _table(m.surfaces).work
     faces = Counter(zip(m.face_surface.tolist(), m.face_loc.tolist()))
     reps = m.edge_reps
     todo = reps[(reps[:, 1] != RepKind.CURVE3D) & (reps[:, 2] == REBUILD)]
-    count = work = 0
-    per_row: dict[int, int] = {}
+    count = total = 0
     for s, loc in todo[:, [4, 6]].tolist():
         n = faces.get((s, loc), 0)
-        if n and 0 <= s < len(m.surfaces):
-            if s not in per_row:
-                per_row[s] = _projection_work(m.surfaces[s], m.surfaces)
+        if n and 0 <= s < len(work):
             count += n
-            work = min(work + n * per_row[s], CAP)
-    return count, work
+            total = min(total + n * work[s], CAP)
+    return count, total
 
 
 def _refuse(value: int, what: str, limit: int) -> LimitError:
@@ -294,6 +306,7 @@ def check_structure(m: BRepModel, limits: Limits = DEFAULT) -> Expansion:
         ("depth", "levels of nested sub-shapes"),
         ("references", "sub-shape references once sharing is unfolded"),
         ("poles", "poles and knots"),
+        ("bases", "levels of geometry on geometry (trimmed, offset bases)"),
         ("pcurves", "pcurves to compute"),
         ("projection", "units of work projecting them (poles x degrees of their surfaces)"),
     ):

@@ -195,7 +195,7 @@ def test_limit_scale_raises_the_limits(tmp_path: Path) -> None:
     # the limits scale down too: a golden file is then refused
     g = GOLDEN / "teapot.lossless.nzc"
     r = CliRunner().invoke(cli, ["info", "--limit-scale", "0.0001", str(g)])
-    assert r.exit_code == 1 and "levels of nested sub-shapes, more than the 0 " in r.stderr
+    assert r.exit_code == 1 and "table rows" in r.stderr and "more than the 100 " in r.stderr
     assert budget.DEFAULT.scaled(1e6).depth == budget.DEPTH_CEILING
 
 
@@ -376,3 +376,25 @@ def test_table_rows_are_bounded_before_any_loop() -> None:
     with pytest.raises(LimitError, match="table rows"):
         _decode(data)
     assert time.perf_counter() - t < 10
+
+
+def test_chains_of_geometry_bases_are_bounded() -> None:
+    """A trimmed surface on a trimmed surface on …, 10,000 deep, under face 0:
+    its depth is counted in one pass (memoised) and refused."""
+    from nurbscomp.model import Derived, Kind
+
+    m, meta = _model()
+    s = int(m.face_surface[0])
+    first = len(m.surfaces)
+    box = np.array([0.0, 1.0, 0.0, 1.0])
+    m.surfaces += [
+        Derived(Kind.TRIMMED_SURFACE, s if i == 0 else first + i - 1, np.zeros((0, 3)), box)
+        for i in range(10_000)
+    ]
+    m.face_surface[0] = len(m.surfaces) - 1
+    data = fuzz.pack_model(m, meta)
+    t = time.perf_counter()
+    with pytest.raises(LimitError, match="10,001 levels of geometry on geometry"):
+        _decode(data)
+    assert time.perf_counter() - t < 5
+    assert budget.expansion(_model()[0]).bases <= 2
