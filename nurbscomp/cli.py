@@ -10,8 +10,10 @@ SIGINT, 129 SIGHUP, 143 SIGTERM).  Errors are one line,
 from __future__ import annotations
 
 import json
+import os
 import signal
 import sys
+import time
 import traceback
 from collections.abc import Callable
 from functools import partial
@@ -19,9 +21,9 @@ from typing import Any
 
 import click
 
-from . import __version__, budget, pipeline
+from . import __version__, budget
 from .errors import NurbscompError
-from .units import parse_length
+from .units import DEFAULT_TOL_MM, parse_length
 
 
 class _Length(click.ParamType):
@@ -73,29 +75,39 @@ def show(x: Any) -> str:
     return "".join(c if c.isprintable() else repr(c)[1:-1] for c in s)
 
 
+def _interrupted(e: KeyboardInterrupt, names: list[str]) -> None:
+    """Report an interrupt (one line per file being worked on) and exit 128 + signal."""
+    signum = e.signum if isinstance(e, Interrupted) else signal.SIGINT
+    name = "interrupted"
+    if signum != signal.SIGINT:
+        name += f" ({signal.Signals(signum).name})"
+    for path in names or ["batch"]:
+        click.echo(f"error: {show(path)}: {name}", err=True)
+    sys.exit(128 + signum)
+
+
+def _error(state: _State, path: str, msg: str, tb: str | None) -> None:
+    """One ``error:`` line on stderr, after the traceback with ``--debug``."""
+    if state.debug and tb:
+        click.echo(tb.rstrip("\n"), err=True)
+    click.echo(f"error: {show(path)}: {show(msg)}", err=True)
+    state.failed = True
+
+
 def _run(state: _State, path: str, fn: Callable[[], dict[str, Any]]) -> dict[str, Any] | None:
     """Run one file's work; turn any failure into one ``error:`` line."""
     try:
         return fn()
     except KeyboardInterrupt as e:
-        signum = e.signum if isinstance(e, Interrupted) else signal.SIGINT
-        name = (
-            "interrupted"
-            if signum == signal.SIGINT
-            else f"interrupted ({signal.Signals(signum).name})"
-        )
-        click.echo(f"error: {show(path)}: {name}", err=True)
-        sys.exit(128 + signum)
+        _interrupted(e, [path])
     except NurbscompError as e:
-        msg = str(e)
+        msg, tb = str(e), traceback.format_exc()
     except MemoryError:
-        msg = "out of memory"
+        msg, tb = "out of memory", traceback.format_exc()
     except Exception as e:  # an OCCT or internal failure: still one line
         msg = f"internal error ({type(e).__name__}: {e}); rerun with --debug for details"
-    if state.debug:
-        traceback.print_exc()
-    click.echo(f"error: {show(path)}: {show(msg)}", err=True)
-    state.failed = True
+        tb = traceback.format_exc()
+    _error(state, path, msg, tb)
     return None
 
 
@@ -105,7 +117,7 @@ def _fmt_counts(c: dict[str, int]) -> str:
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, "-V", "--version", prog_name="nurbscomp")
-@click.option("--debug", is_flag=True, help="Show a traceback on errors.")
+@click.option("--debug", is_flag=True, help="Show the traceback of each error.")
 @click.pass_context
 def cli(ctx: click.Context, debug: bool) -> None:
     """Compress STEP and IGES B-reps into .nzc containers, and back to STEP.
@@ -117,11 +129,20 @@ def cli(ctx: click.Context, debug: bool) -> None:
       nurbscomp decompress part.step.nzc      # -> part.step
       nurbscomp decompress a.nzc -o a.igs     # IGES (or .brep) by extension
       nurbscomp info part.step.nzc --json
+    \b
+    Batches, pipes:
+      nurbscomp compress -r parts/ -d archive/ -j 4 --json > report.jsonl
+      nurbscomp compress -r parts/ -d archive/ --skip-existing   # resume
+      nurbscomp decompress -r archive/ -d back/                  # mirror the tree
+      nurbscomp compress -r parts/ -d archive/ --scheduler tcp://host:8786
+      cat part.step | nurbscomp compress - -c > part.nzc
+      nurbscomp decompress -c --format step part.nzc | head
 
     \b
     Exit codes: 0 ok; 1 bad input, damaged container, output exists or any
-    other failure on a file; 2 bad usage; 130 interrupted (Ctrl-C), 143
-    terminated (SIGTERM), 129 hung up (SIGHUP).
+    other failure on a file (a batch exits with its worst file's code);
+    2 bad usage; 130 interrupted (Ctrl-C), 143 terminated (SIGTERM), 129 hung
+    up (SIGHUP).
     """
     ctx.obj = _State(debug)
 
@@ -141,45 +162,46 @@ def _limit_scale(f: Any) -> Any:
     )(f)
 
 
-def _outputs(files: tuple[str, ...], output: str | None) -> list[str | None]:
-    if output is not None and len(files) > 1:
-        raise click.UsageError("-o/--output takes a single input file")
-    return [output] if output is not None else [None] * len(files)
-
-
-def _emit(
-    reports: list[dict[str, Any]], as_json: bool, text: Callable[[dict[str, Any]], str]
-) -> None:
-    for r in reports:
-        click.echo(json.dumps(r, sort_keys=True) if as_json else text(r))
-
-
-def _progress(items: list[Any], quiet: bool, label: str) -> Any:
-    if quiet or len(items) < 2 or not sys.stderr.isatty():
-        return _NoBar(items)
-    return click.progressbar(items, label=label, file=sys.stderr)
-
-
-class _NoBar:
-    def __init__(self, items: list[Any]) -> None:
-        self.items = items
-
-    def __enter__(self) -> list[Any]:
-        return self.items
-
-    def __exit__(self, *exc: Any) -> None:
-        return None
-
-
 def _batch_options(verbose_help: str) -> Callable[[Any], Any]:
     """The options every file-converting command shares, like xz and zstd."""
 
     def wrap(f: Any) -> Any:
         for opt in reversed(
             [
+                click.option(
+                    "-o", "--output", type=click.Path(), help="Output file (one input; -: stdout)."
+                ),
+                click.option(
+                    "-d",
+                    "--output-dir",
+                    type=click.Path(file_okay=False),
+                    help="Write outputs here, mirroring the folders walked by -r.",
+                ),
+                click.option(
+                    "-r", "--recursive", is_flag=True, help="Walk folders given as inputs."
+                ),
+                click.option("-c", "--stdout", "to_stdout", is_flag=True, help="Write to stdout."),
+                click.option(
+                    "-j",
+                    "--jobs",
+                    type=click.IntRange(min=0),
+                    default=0,
+                    help="Worker processes (default 0: one per core; 1: no workers).",
+                ),
+                click.option(
+                    "--scheduler",
+                    metavar="tcp://HOST:PORT",
+                    help="Run the files on this Dask cluster (sent as bytes).",
+                ),
                 click.option("-f", "--force", is_flag=True, help="Overwrite existing outputs."),
                 click.option(
-                    "--json", "as_json", is_flag=True, help="One JSON report per file on stdout."
+                    "--skip-existing", is_flag=True, help="Skip files whose output exists (resume)."
+                ),
+                click.option(
+                    "--json",
+                    "as_json",
+                    is_flag=True,
+                    help="One JSON line per file, failures included, then a summary line.",
                 ),
                 click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors."),
                 click.option("-v", "--verbose", is_flag=True, help=verbose_help),
@@ -191,42 +213,162 @@ def _batch_options(verbose_help: str) -> Callable[[Any], Any]:
     return wrap
 
 
+def _mb(n: int) -> str:
+    return f"{n / 1e6:.2f} MB" if n >= 10**5 else f"{n} bytes"
+
+
+class _Bar:
+    """A progress bar on stderr (tqdm) when stderr is a terminal and the batch
+    lasts more than a second: files done, bytes, ratio so far, ETA."""
+
+    def __init__(self, total: int, show_bar: bool) -> None:
+        self.bar: Any = None
+        self.bytes_in = self.bytes_out = 0
+        if show_bar:
+            from tqdm import tqdm
+
+            self.bar = tqdm(total=total, unit="file", file=sys.stderr, delay=1.0, leave=False)
+
+    def update(self, r: dict[str, Any]) -> None:
+        if self.bar is None:
+            return
+        if r["status"] == "ok":
+            self.bytes_in += r.get("input_bytes", 0)
+            self.bytes_out += r.get("output_bytes", 0)
+        if self.bytes_in and self.bytes_out:
+            self.bar.set_postfix_str(
+                f"{_mb(self.bytes_in)} -> {_mb(self.bytes_out)}, "
+                f"{self.bytes_in / self.bytes_out:.1f}x",
+                refresh=False,
+            )
+        self.bar.update(1)
+
+    def write(self, text: str, err: bool) -> None:
+        """Print a line without breaking the bar."""
+        if self.bar is not None:
+            self.bar.clear()
+        click.echo(text, err=err)
+        if self.bar is not None:
+            self.bar.refresh()
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+
+
 def _batch(
     state: _State,
     files: tuple[str, ...],
-    output: str | None,
-    label: str,
-    work: Callable[[str, str | None], dict[str, Any]],
+    opts: Any,
+    kw: dict[str, Any],
     text: Callable[[dict[str, Any]], str],
+) -> None:
+    """Plan the tasks, run them (here, in workers or on a cluster), print a line
+    per file and a summary; exit with the worst file's code."""
+    from . import batch
+
+    as_json, quiet = kw["as_json"], kw["quiet"]
+    try:
+        tasks = batch.plan(
+            list(files),
+            opts,
+            recursive=kw["recursive"],
+            output=kw["output"],
+            output_dir=kw["output_dir"],
+            to_stdout=kw["to_stdout"],
+        )
+    except batch.UsageError as e:
+        raise click.UsageError(str(e)) from None
+    to_stdout = any(t.dst is None for t in tasks)
+    if to_stdout and sys.stdout.isatty() and (opts.command == "compress" or opts.fmt == "BREP"):
+        raise click.UsageError("refusing to write binary data to a terminal (redirect, or -o)")
+    if any(t.src == batch.STDIO for t in tasks) and sys.stdin.isatty():
+        raise click.UsageError("refusing to read data from a terminal (pipe a file into -)")
+    if opts.command == "compress" and opts.tol is not None and not opts.lossless:
+        if kw["tol"] is None and not quiet and not as_json:
+            click.echo(
+                f"tolerance {opts.tol} mm (default; --tol to change)",
+                err=True,
+            )
+    jobs = kw["jobs"] or os.cpu_count() or 1
+    runner = batch.Runner(
+        tasks, opts, jobs, kw["scheduler"], read_stdin=lambda: sys.stdin.buffer.read()
+    )
+    show_bar = not quiet and len(tasks) > 0 and sys.stderr.isatty()
+    bar = _Bar(len(tasks), show_bar)
+    say_err = to_stdout  # the data owns stdout
+    records: list[dict[str, Any]] = []
+    t0 = time.perf_counter()
+    gen = runner.records()
+    try:
+        for r, blob in gen:
+            if blob is not None:
+                sys.stdout.buffer.write(blob)
+                sys.stdout.buffer.flush()
+            records.append(r)
+            bar.update(r)
+            _report(state, r, as_json, quiet, text, bar, say_err)
+    except KeyboardInterrupt as e:
+        gen.close()
+        bar.close()
+        _interrupted(e, runner.running)
+    except batch.SchedulerError as e:
+        bar.close()
+        click.echo(f"error: {show(kw['scheduler'])}: {show(e)}", err=True)
+        sys.exit(1)
+    finally:
+        gen.close()
+        bar.close()
+    s = batch.summary(records, time.perf_counter() - t0)
+    if as_json:
+        click.echo(json.dumps(s, sort_keys=True), err=say_err)
+    elif not quiet and len(records) > 1:
+        ratio = f", {s['ratio']:.1f}x" if s["ratio"] else ""
+        click.echo(
+            f"{s['files']} files: {s['ok']} ok ({s['passthrough']} stored verbatim), "
+            f"{s['failed']} failed, {s['skipped']} skipped; "
+            f"{_mb(s['bytes_in'])} -> {_mb(s['bytes_out'])}{ratio}; {s['seconds']:.1f} s",
+            err=say_err,
+        )
+    sys.exit(s["exit_code"])
+
+
+def _report(
+    state: _State,
+    r: dict[str, Any],
     as_json: bool,
     quiet: bool,
+    text: Callable[[dict[str, Any]], str],
+    bar: _Bar,
+    err: bool,
 ) -> None:
-    """Run ``work`` on each file, report each result, exit 1 if any file failed."""
-    reports = []
-    with _progress(list(zip(files, _outputs(files, output))), quiet or as_json, label) as bar:
-        for f, o in bar:
-            r = _run(state, f, partial(work, f, o))
-            if r is None:
-                continue
-            reports.append(r)
-            if not as_json and not quiet:
-                click.echo("\n".join(show(line) for line in text(r).split("\n")))
-            for w in r.get("warnings", []) if not (quiet or as_json) else []:
-                click.echo(f"warning: {show(f)}: {show(w)}", err=True)
+    """Print one file's record: a JSON line, or text; its error or warnings on stderr."""
+    if r["status"] == "failed":
+        if state.debug and r.get("traceback"):
+            bar.write(r["traceback"].rstrip("\n"), True)
+        bar.write(f"error: {show(r['input'])}: {show(r['error'])}", True)
+        state.failed = True
     if as_json:
-        _emit(reports, True, str)
-    sys.exit(1 if state.failed else 0)
+        bar.write(json.dumps({k: v for k, v in r.items() if k != "traceback"}, sort_keys=True), err)
+        return
+    if quiet:
+        return
+    if r["status"] == "skipped":
+        bar.write(f"{show(r['input'])}: skipped ({show(r['output'])} exists)", err)
+    elif r["status"] == "ok":
+        bar.write("\n".join(show(line) for line in text(r).split("\n")), err)
+        for w in r.get("warnings", []):
+            bar.write(f"warning: {show(r['input'])}: {show(w)}", True)
 
 
 @cli.command()
 @click.argument("files", nargs=-1, required=True, type=click.Path())
-@click.option("-o", "--output", type=click.Path(), help="Output file (one input only).")
 @click.option("--lossless", is_flag=True, help="Keep every number bit for bit.")
 @click.option(
     "--tol",
     type=_Length(),
     default=None,
-    help=f"Tolerance, mm unless suffixed (um, in, mil...). Default {pipeline.DEFAULT_TOL_MM} mm.",
+    help=f"Tolerance, mm unless suffixed (um, in, mil...). Default {DEFAULT_TOL_MM} mm.",
 )
 @click.option("--no-verify", is_flag=True, help="Skip decoding the output to check it.")
 @click.option(
@@ -242,40 +384,43 @@ def _batch(
 def compress(
     state: _State,
     files: tuple[str, ...],
-    output: str | None,
     lossless: bool,
     tol: float | None,
     no_verify: bool,
     step_safe: bool,
-    force: bool,
-    as_json: bool,
-    quiet: bool,
     verbose: bool,
+    **kw: Any,
 ) -> None:
-    """Compress STEP/IGES FILES to FILE.nzc (the input is kept)."""
+    """Compress STEP/IGES FILES to FILE.nzc (the input is kept).
+
+    FILES may be folders (with -r) and - (standard input, to standard output
+    unless -o).  A valid STEP/IGES file that holds no B-rep (tessellated,
+    curves only) is stored verbatim, with a warning.
+    """
+    from .batch import Options
+
     if lossless and tol is not None:
         raise click.UsageError("--lossless and --tol exclude each other")
-    if tol is None and not lossless and not quiet and not as_json:
-        click.echo(f"tolerance {pipeline.DEFAULT_TOL_MM} mm (default; --tol to change)", err=True)
-    tol_mm = tol if tol is not None else pipeline.DEFAULT_TOL_MM
-
-    def work(f: str, o: str | None) -> dict[str, Any]:
-        return pipeline.compress_file(
-            f,
-            o,
-            tol=tol_mm,
-            lossless=lossless,
-            force=force,
-            verify=not no_verify,
-            step_safe=step_safe,
-        )
-
-    _batch(
-        state, files, output, "compress", work, lambda r: _compress_text(r, verbose), as_json, quiet
+    opts = Options(
+        "compress",
+        force=kw["force"],
+        skip_existing=kw["skip_existing"],
+        tol=None if lossless else (tol if tol is not None else DEFAULT_TOL_MM),
+        lossless=lossless,
+        verify=not no_verify,
+        step_safe=step_safe,
+        debug=state.debug,
     )
+    _batch(state, files, opts, {**kw, "tol": tol}, lambda r: _compress_text(r, verbose))
 
 
 def _compress_text(r: dict[str, Any], verbose: bool) -> str:
+    if r["mode"] == "passthrough":
+        return (
+            f"{r['input']} -> {r['output']}: {r['input_bytes']} -> {r['output_bytes']} bytes "
+            f"({r['ratio']:.1f}x, stored verbatim, {r['seconds']:.2f} s"
+            f"{', verified' if r['verified'] else ''})"
+        )
     mode = "lossless" if r["mode"] == "lossless" else f"tol {r['tolerance_mm']:g} mm"
     line = (
         f"{r['input']} -> {r['output']}: {r['input_bytes']} -> {r['output_bytes']} bytes "
@@ -304,40 +449,41 @@ def _compress_text(r: dict[str, Any], verbose: bool) -> str:
 @cli.command()
 @click.argument("files", nargs=-1, required=True, type=click.Path())
 @click.option(
-    "-o", "--output", type=click.Path(), help="Output file: .step (default), .igs, .brep."
+    "--format",
+    "fmt",
+    type=click.Choice(["step", "iges", "brep"], case_sensitive=False),
+    help="Output format (needed with -c; default: by -o's extension, else STEP).",
 )
 @_limit_scale
 @_batch_options("Print topology counts.")
 @click.pass_obj
 def decompress(
-    state: _State,
-    files: tuple[str, ...],
-    output: str | None,
-    limit_scale: float,
-    force: bool,
-    as_json: bool,
-    quiet: bool,
-    verbose: bool,
+    state: _State, files: tuple[str, ...], fmt: str | None, verbose: bool, **kw: Any
 ) -> None:
-    """Decode .nzc FILES back to STEP (or IGES/BREP by the -o extension)."""
+    """Decode .nzc FILES back to STEP (or IGES/BREP by --format or the -o extension).
+
+    FILES may be folders (with -r) and - (standard input).  A passthrough
+    container gives back the exact bytes of the file it holds.
+    """
+    from .batch import Options
+
+    opts = Options(
+        "decompress",
+        force=kw["force"],
+        skip_existing=kw["skip_existing"],
+        fmt=fmt.upper() if fmt else None,
+        debug=state.debug,
+        limit_scale=kw.pop("limit_scale"),
+    )
 
     def text(r: dict[str, Any]) -> str:
+        if r.get("passthrough"):
+            return f"{r['input']} -> {r['output']}: {r['format']} stored verbatim, exact bytes"
         line = f"{r['input']} -> {r['output']}: {r['format']} in {r['unit']}"
         line += f", {r['seconds']:.2f} s"
         return line + (f"\n  {_fmt_counts(r['counts'])}" if verbose else "")
 
-    _batch(
-        state,
-        files,
-        output,
-        "decompress",
-        lambda f, o: pipeline.decompress_file(
-            f, o, force=force, limits=budget.DEFAULT.scaled(limit_scale)
-        ),
-        text,
-        as_json,
-        quiet,
-    )
+    _batch(state, files, opts, kw, text)
 
 
 @cli.command()
@@ -347,11 +493,23 @@ def decompress(
 @click.pass_obj
 def info(state: _State, file: str, as_json: bool, limit_scale: float) -> None:
     """Show what a .nzc container holds."""
+    from . import pipeline
+
     r = _run(state, file, lambda: pipeline.info(file, budget.DEFAULT.scaled(limit_scale)))
     if r is None:
         sys.exit(1)
     if as_json:
         click.echo(json.dumps(r, sort_keys=True))
+        return
+    if r.get("passthrough"):
+        lines = [
+            f"file:        {r['input']} ({r['file_bytes']} bytes)",
+            f"format:      .nzc {r['format_version']}, body coded with {r['coder']}",
+            f"mode:        passthrough (the file stored verbatim: {r['reason']})",
+            f"source:      {r['source_name']} ({r['source_format']}, {r['source_bytes']} bytes)",
+            f"ratio:       {r['source_bytes'] / r['file_bytes']:.1f}x",
+        ]
+        click.echo("\n".join(show(line) for line in lines))
         return
     mode = "lossless" if r["mode"] == "lossless" else f"tolerance {r['tolerance_mm']:g} mm"
     lines = [
@@ -395,11 +553,14 @@ def _product_lines(p: dict[str, Any] | None) -> list[str]:
 def test_cmd(state: _State, files: tuple[str, ...], quiet: bool, limit_scale: float) -> None:
     """Check .nzc FILES: checksums, references, the decoding limits, and a full
     rebuild (like xz -t)."""
+    from . import pipeline
+
     limits = budget.DEFAULT.scaled(limit_scale)
     for f in files:
         r = _run(state, f, partial(pipeline.test_file, f, limits))
         if r is not None and not quiet:
-            click.echo(f"{show(f)}: OK ({r['faces']} faces)")
+            what = "stored verbatim" if r.get("passthrough") else f"{r['faces']} faces"
+            click.echo(f"{show(f)}: OK ({what})")
     sys.exit(1 if state.failed else 0)
 
 
@@ -414,6 +575,8 @@ def eval_cmd(state: _State, original: str, reconstructed: str, as_json: bool) ->
     Faces are paired by index; points sampled inside each ORIGINAL face are
     measured against the RECONSTRUCTED face of the same index.
     """
+    from . import pipeline
+
     r = _run(state, reconstructed, lambda: pipeline.evaluate(original, reconstructed))
     if r is None:
         sys.exit(1)

@@ -41,7 +41,11 @@ MAGIC = b"\x89NZC"
 MAJOR = 1
 MINOR = 2
 FLAG_LOSSLESS = 1
-_KNOWN_FLAGS = FLAG_LOSSLESS
+#: Format 1.2: the container holds a STEP/IGES file verbatim (``passthrough``).
+FLAG_PASSTHROUGH = 2
+#: The flag bits a file of each minor version may set (a bit is reserved
+#: in the minors before the one that defines it).
+_KNOWN_FLAGS = {0: FLAG_LOSSLESS, 1: FLAG_LOSSLESS, 2: FLAG_LOSSLESS | FLAG_PASSTHROUGH}
 _HEADER = struct.Struct("<4sBBHHH")
 _ENTRY = struct.Struct("<4sII")
 _BODY = struct.Struct("<B3sII")
@@ -149,8 +153,9 @@ def unpack(data: bytes) -> Container:
         raise VersionError(
             f"format version {major}.{minor} is not supported (this reads {MAJOR}.x) at offset 4"
         )
-    if flags & ~_KNOWN_FLAGS:
-        raise ReservedBitsError(f"reserved flag bits 0x{flags & ~_KNOWN_FLAGS:04x} set at offset 6")
+    known = _KNOWN_FLAGS[min(minor, MINOR)]
+    if flags & ~known:
+        raise ReservedBitsError(f"reserved flag bits 0x{flags & ~known:04x} set at offset 6")
     if reserved:
         raise ReservedBitsError("reserved header field is not zero at offset 10")
     pos = _HEADER.size + 4

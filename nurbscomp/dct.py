@@ -11,7 +11,6 @@ from __future__ import annotations
 import functools
 
 import numpy as np
-from scipy import fft
 
 #: Lengths up to this are transformed by a cached matrix product: on the
 #: small nets of real files (most have 2-16 poles a side) a call into
@@ -38,6 +37,8 @@ def dct1(v: np.ndarray) -> np.ndarray:
     """
     if v.ndim == 2 and len(v) <= MATRIX_MAX:
         return _matrix(len(v)) @ v
+    from scipy import fft  # on first use: ~0.2 s that info and --help skip
+
     return fft.dct(v, type=2, norm="ortho", axis=0)
 
 
@@ -45,6 +46,8 @@ def idct1(d: np.ndarray) -> np.ndarray:
     """Inverse of :func:`dct1`."""
     if d.ndim == 2 and len(d) <= MATRIX_MAX:
         return _matrix(len(d)).T @ d
+    from scipy import fft  # on first use: ~0.2 s that info and --help skip
+
     return fft.idct(d, type=2, norm="ortho", axis=0)
 
 
@@ -59,6 +62,8 @@ def dct2(v: np.ndarray) -> np.ndarray:
         n, m, c = v.shape
         rows = _matrix(n) @ v.reshape(n, m * c)  # along axis 0
         return (_matrix(m) @ rows.reshape(n, m, c)).reshape(n, m, c)  # along axis 1
+    from scipy import fft  # on first use: ~0.2 s that info and --help skip
+
     return fft.dctn(v, type=2, norm="ortho", axes=(0, 1))
 
 
@@ -68,6 +73,8 @@ def idct2(d: np.ndarray) -> np.ndarray:
         n, m, c = d.shape
         rows = _matrix(n).T @ d.reshape(n, m * c)
         return (_matrix(m).T @ rows.reshape(n, m, c)).reshape(n, m, c)
+    from scipy import fft  # on first use: ~0.2 s that info and --help skip
+
     return fft.idctn(d, type=2, norm="ortho", axes=(0, 1))
 
 

@@ -23,8 +23,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.interpolate import BSpline
-from scipy.linalg import lstsq
 
 from .coons import full_knots, greville
 
@@ -80,6 +78,8 @@ def basis_matrices(
 ) -> tuple[np.ndarray, np.ndarray]:
     """B-spline basis values N_{i,p}(x) and first derivatives, shapes (len(x), n) (eq. 2)."""
     x = np.clip(x, flat[degree], flat[n])
+    from scipy.interpolate import BSpline  # on first use: ~0.3 s that decoding skips
+
     spline = BSpline(flat, np.eye(n), degree, extrapolate=True)
     der = spline.derivative()(x) if degree > 0 else np.zeros((len(x), n))
     return spline(x), der
@@ -157,6 +157,8 @@ def fit(poles: np.ndarray, coons: np.ndarray, basis: Basis) -> np.ndarray:
     nu, nv = poles.shape[:2]
     m, r = design(coons, basis)
     g = r @ (poles - coons).reshape(-1, 3)  # G_kl (eq. 20)
+    from scipy.linalg import lstsq
+
     d, *_ = lstsq(m, g.reshape(-1), lapack_driver="gelsd")
     return d.reshape(nu - 2, nv - 2)
 

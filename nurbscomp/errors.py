@@ -17,6 +17,12 @@ class InputError(NurbscompError):
     """The input CAD file is missing, unreadable, or holds no B-rep."""
 
 
+class NoBRepError(InputError):
+    """A valid STEP or IGES file that holds no B-rep (tessellated-only, curves or
+    points only, nothing the reader transfers).  ``compress`` does not fail on it:
+    it stores the file verbatim in a passthrough container (``passthrough``)."""
+
+
 class FormatError(NurbscompError):
     """A ``.nzc`` container is damaged or not a container at all."""
 

@@ -14,26 +14,28 @@ import dataclasses
 import functools
 import logging
 import os
+import stat
 import tempfile
 import time
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any, TypeVar, cast
+from typing import TYPE_CHECKING, Any, TypeVar, cast
 
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from . import __version__, budget, container, occ, product, serialize
-from .encode import validity
+from . import __version__, budget, container, passthrough, product, serialize, units
 from .errors import (
     CorruptError,
     InputError,
+    NoBRepError,
     NurbscompError,
     OutputError,
     RebuildError,
     UndiagnosedError,
     VerifyError,
 )
+from .lazy import lazy_module
 from .model import (
     BRepModel,
     BSplineCurve,
@@ -43,9 +45,14 @@ from .model import (
     differences,
 )
 
+if TYPE_CHECKING:
+    from . import occ
+else:  # OCP takes seconds to import: only what builds or reads shapes pays for it
+    occ = lazy_module("nurbscomp.occ")
+
 log = logging.getLogger(__name__)
 
-DEFAULT_TOL_MM = 0.01
+DEFAULT_TOL_MM = units.DEFAULT_TOL_MM
 SUFFIX = ".nzc"
 
 _F = TypeVar("_F", bound=Any)
@@ -101,20 +108,45 @@ def check_output(dst: Path, force: bool, inputs: tuple[Path, ...] = ()) -> None:
     ------
     OutputError
         ``dst`` is one of ``inputs`` (even with ``force``), exists and ``force``
-        is not set, is a folder, or cannot be looked at (the OS's message).
+        is not set, is a folder, or cannot be looked at (the OS's message); or
+        it is not a regular file (a symbolic link, even a dangling one, a FIFO,
+        a device, a socket), which is never replaced, even with ``force``.
     """
     try:
         if not dst.exists():
+            if dst.is_symlink():
+                raise OutputError(f"{dst} is a symbolic link; it is never replaced")
             return
         for src in inputs:
             if src.exists() and os.path.samefile(src, dst):
                 raise OutputError(f"{dst} is the input file; it is never overwritten")
         if dst.is_dir():
             raise OutputError(f"{dst} is a directory")
+        kind = _not_regular(dst)
+        if kind:
+            raise OutputError(f"{dst} is {kind}, not a regular file; it is never replaced")
     except OSError as e:
         raise OutputError(f"cannot write {dst}: {_os_message(e)}") from None
     if not force:
         raise OutputError(f"{dst} already exists (use --force to overwrite)")
+
+
+def _not_regular(path: Path) -> str:
+    """What ``path`` is if it is not a regular file (``"a symbolic link"``,
+    ``"a FIFO"`` …), else ``""``; the link itself is looked at, not its target."""
+    mode = os.lstat(path).st_mode
+    if stat.S_ISREG(mode):
+        return ""
+    for test, kind in (
+        (stat.S_ISLNK, "a symbolic link"),
+        (stat.S_ISFIFO, "a FIFO"),
+        (stat.S_ISCHR, "a character device"),
+        (stat.S_ISBLK, "a block device"),
+        (stat.S_ISSOCK, "a socket"),
+    ):
+        if test(mode):
+            return kind
+    return "a special file"
 
 
 def _tmp_prefix(name: str) -> str:
@@ -210,6 +242,9 @@ def decode(
         specific check caught.  The checks in ``serialize`` are meant to make
         this unreachable; the fuzzer counts it as a failure.
     """
+    if c.flags & container.FLAG_PASSTHROUGH:
+        passthrough.read(c)  # a FormatError if it is not a sound passthrough container
+        raise InputError("a passthrough container holds a file verbatim, not a B-rep")
     serialize.check_layout(c.tags(), c.minor, container.MINOR)
     try:
         m, meta = serialize.sections_to_model(c.get, min(c.minor, container.MINOR), limits)
@@ -226,7 +261,12 @@ def decode(
     return m, meta
 
 
-build = validity.build
+def build(m: BRepModel) -> Any:
+    """The shape of a decoded model (``encode.validity.build``, imported on first use:
+    commands that build no shape start without OCP)."""
+    from .encode import validity
+
+    return validity.build(m)
 
 
 def write(
@@ -333,13 +373,17 @@ def compress_file(
     check_output(dst_p, force, (src_p,))
     try:
         cad = occ.read_cad(src_p, product=True)
+        if occ.counts(cad.shape)["faces"] == 0:
+            raise NoBRepError(
+                f"the {cad.source_format} file holds no B-rep faces (only curves or points)"
+            )
+    except NoBRepError as e:  # a valid file all the same: stored verbatim
+        return passthrough.compress_file(src_p, dst_p, str(e), force=force, t0=t0, verify=verify)
     except NurbscompError:
         raise
     except Exception as e:
         raise InputError(f"OCCT failed to read the file ({type(e).__name__}: {e})") from None
     t_read = time.perf_counter() - t0
-    if occ.counts(cad.shape)["faces"] == 0:
-        raise InputError(f"the {cad.source_format} file holds no B-rep faces (nothing to compress)")
     m, warnings = occ.shape_to_model(cad.shape)
     m.unit, m.source_format, m.product = cad.unit, cad.source_format, cad.product
     src_bytes = src_p.stat().st_size
@@ -356,6 +400,8 @@ def compress_file(
         flags = container.FLAG_LOSSLESS
     else:
         assert tol is not None and tol > 0
+        from .encode import validity
+
         t = validity.lossy_target(m, cad.shape, tol, step_safe)
         target, codes, lossy_report, rebuilt = t.model, t.codes, t.report, t.pcurves_rebuilt
         built, vreport = t.shape, t.validity
@@ -453,6 +499,8 @@ def decompress_file(
     t0 = time.perf_counter()
     src_p = Path(src)
     dst_p = Path(dst) if dst is not None else default_decompressed_name(src_p)
+    if passthrough.is_passthrough(src_p):
+        return passthrough.decompress_file(src_p, dst_p, force=force)
     check_output(dst_p, force, (src_p,))
     fmt = occ.output_format(dst_p)
     shape, m, meta = decode_file(src_p, limits, fmt)
@@ -474,6 +522,8 @@ def decompress_file(
 def info(src: str | os.PathLike[str], limits: budget.Limits = budget.DEFAULT) -> dict[str, Any]:
     """What a container holds: version, mode, unit, counts, bytes per section."""
     p = Path(src)
+    if passthrough.is_passthrough(p):
+        return passthrough.info(p)
     c = read_container(p)
     m, meta = decode(c, limits)
     return {
@@ -512,6 +562,9 @@ def test_file(
     """Integrity check, like ``xz -t``: every checksum, every reference, the
     decoding budget, a full rebuild."""
     p = Path(src)
+    if passthrough.is_passthrough(p):
+        passthrough.read(read_container(p))
+        return {"command": "test", "input": str(p), "ok": True, "passthrough": True, "faces": 0}
     shape, m, _ = decode_file(p, limits)
     return {
         "command": "test",

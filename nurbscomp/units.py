@@ -5,6 +5,9 @@ from __future__ import annotations
 import math
 import re
 
+#: The default ``--tol``, in millimetres.
+DEFAULT_TOL_MM = 0.01
+
 #: Length units the STEP and IGES writers know (and a container's META may
 #: name), with their size in millimetres.
 UNITS_MM = {

@@ -54,8 +54,13 @@ def test_existing_output_needs_force(work: Path) -> None:
 def test_json_info_and_test(work: Path) -> None:
     code, out, err = run("compress", "--lossless", "--json", str(work / "part.step"))
     assert code == 0, err
-    rep = json.loads(out)
+    line, total = out.splitlines()  # one line per file, then the summary
+    rep = json.loads(line)
     assert rep["mode"] == "lossless" and rep["verified"] and rep["counts"]["faces"] == 3
+    assert rep["status"] == "ok" and rep["exit_code"] == 0
+    s = json.loads(total)
+    assert s["summary"] and (s["files"], s["ok"], s["failed"]) == (1, 1, 0)
+    assert s["bytes_in"] == rep["input_bytes"] and s["bytes_out"] == rep["output_bytes"]
     code, out, _ = run("info", "--json", str(work / "part.step.nzc"))
     assert code == 0
     info = json.loads(out)
@@ -70,7 +75,7 @@ def test_json_info_and_test(work: Path) -> None:
 def test_tol_with_unit_suffix(work: Path) -> None:
     code, out, err = run("compress", "--tol", "5um", "--json", str(work / "part.step"))
     assert code == 0, err
-    assert json.loads(out)["tolerance_mm"] == pytest.approx(0.005)
+    assert json.loads(out.splitlines()[0])["tolerance_mm"] == pytest.approx(0.005)
 
 
 @pytest.mark.parametrize(
@@ -177,15 +182,35 @@ NO_SHAPE = _step(_PRODUCT)
     [
         (TESSELLATED, "tessellated.step", "nothing in the STEP file transfers"),
         (CURVE_ONLY, "curve.step", "no B-rep faces"),
-        (NO_SHAPE, "product.step", "STEP file"),
+        (NO_SHAPE, "product.step", "in the STEP file"),
     ],
 )
-def test_step_without_brep(work: Path, content: bytes, name: str, fragment: str) -> None:
+def test_step_without_brep_is_stored_verbatim(
+    work: Path, content: bytes, name: str, fragment: str
+) -> None:
+    """A valid STEP file with no B-rep: a passthrough container, exit 0, a
+    warning saying why; decompress gives the exact bytes back (issue 13)."""
     (work / name).write_bytes(content)
-    code, _, err = run("compress", "-q", str(work / name))
-    _assert_clean_failure(work, code, err, str(work / name))
-    assert fragment in err
-    assert not (work / (name + ".nzc")).exists()
+    code, out, err = run("compress", str(work / name))
+    assert code == 0, err
+    warning = [line for line in err.splitlines() if line.startswith("warning: ")]
+    assert len(warning) == 1 and "stored verbatim" in warning[0] and fragment in warning[0]
+    assert "stored verbatim" in out
+    nzc = work / (name + ".nzc")
+    code, out, _ = run("info", "--json", str(nzc))
+    rep = json.loads(out)
+    assert code == 0 and rep["passthrough"] and rep["mode"] == "passthrough"
+    assert rep["format_version"] == "1.2" and fragment in rep["reason"]
+    assert rep["source_bytes"] == len(content)
+    code, out, _ = run("info", str(nzc))
+    assert code == 0 and "passthrough" in out
+    assert run("test", str(nzc))[0] == 0
+    code, _, err = run("decompress", str(nzc), "-o", str(work / "back.step"))
+    assert code == 0, err
+    assert (work / "back.step").read_bytes() == content
+    code, _, err = run("decompress", str(nzc), "-o", str(work / "back.igs"))
+    assert code == 1 and "cannot be written as IGES" in err
+    assert not (work / "back.igs").exists()
 
 
 def test_sample_cut_in_half(work: Path) -> None:

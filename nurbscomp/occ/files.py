@@ -29,7 +29,14 @@ from OCP.TCollection import TCollection_HAsciiString
 from OCP.TColStd import TColStd_SequenceOfAsciiString
 from OCP.TopAbs import TopAbs_COMPOUND
 
-from ..errors import InputError, OutputError, RebuildError
+from ..errors import InputError, NoBRepError, OutputError, RebuildError
+from ..formats import (  # noqa: F401 (re-exported: they were defined here)
+    BREP_SUFFIXES,
+    IGES_SUFFIXES,
+    STEP_SUFFIXES,
+    output_format,
+    sniff_format,
+)
 from ..units import UNITS_MM
 
 # OCCT prints progress and statistics to stdout; the CLI owns stdout.
@@ -69,9 +76,6 @@ _IGES_UNIT_FLAGS = {
     11: "UIN",
 }
 
-STEP_SUFFIXES = (".step", ".stp", ".p21")
-IGES_SUFFIXES = (".iges", ".igs")
-BREP_SUFFIXES = (".brep",)
 
 _STEP_MARKERS = {
     b"STYLED_ITEM": "colours",
@@ -109,21 +113,6 @@ def _check_readable(path: Path) -> bytes:
     if not head.strip():
         raise InputError("file is empty")
     return head
-
-
-def sniff_format(path: Path, head: bytes) -> str:
-    """``"STEP"`` or ``"IGES"`` by content, falling back to the file name."""
-    if head.lstrip().startswith(b"ISO-10303-21"):
-        return "STEP"
-    lines = head.splitlines()
-    if lines and len(lines[0]) >= 73 and lines[0][72:73] in (b"S", b"F"):
-        return "IGES"
-    suffix = path.suffix.lower()
-    if suffix in IGES_SUFFIXES:
-        return "IGES"
-    if suffix in STEP_SUFFIXES:
-        return "STEP"
-    raise InputError("not a STEP or IGES file")
 
 
 #: Deepest nesting of parentheses a STEP file may have (real files: under 10).
@@ -208,7 +197,7 @@ def read_cad(path: str | os.PathLike[str], product: bool = False) -> CadFile:
     else:
         unit = _IGES_UNIT_FLAGS.get(reader.IGESModel().GlobalSection().UnitFlag(), "MM")
     if reader.NbRootsForTransfer() == 0:
-        raise InputError(f"the {fmt} file holds no shape to transfer")
+        raise NoBRepError(f"the {fmt} file holds no shape to transfer")
     doc = None
     if caf is not None:
         from . import xcaf
@@ -218,11 +207,11 @@ def read_cad(path: str | os.PathLike[str], product: bool = False) -> CadFile:
     else:
         reader.TransferRoots()
     if reader.NbShapes() == 0:
-        raise InputError(f"nothing in the {fmt} file transfers to a B-rep")
+        raise NoBRepError(f"nothing in the {fmt} file transfers to a B-rep")
     shape = reader.OneShape()
     # XDE's transfer of nothing is an empty compound
     if shape.IsNull() or (shape.ShapeType() == TopAbs_COMPOUND and shape.NbChildren() == 0):
-        raise InputError(f"nothing in the {fmt} file transfers to a B-rep")
+        raise NoBRepError(f"nothing in the {fmt} file transfers to a B-rep")
     if doc is not None:
         data = xcaf.product_data(doc, shape, fmt, reader)
         warnings = [f"not stored: {', '.join(data.dropped)}"] if data.dropped else []
@@ -244,16 +233,6 @@ def _step_losses(path: Path) -> list[str]:
     if not found:
         return []
     return [f"not stored: {', '.join(found)} (geometry and topology only)"]
-
-
-def output_format(path: str | os.PathLike[str]) -> str:
-    """``"STEP"`` (the default), ``"IGES"`` or ``"BREP"``, by the file's extension."""
-    suffix = Path(path).suffix.lower()
-    if suffix in BREP_SUFFIXES:
-        return "BREP"
-    if suffix in IGES_SUFFIXES:
-        return "IGES"
-    return "STEP"
 
 
 #: The STEP header's time stamp: fixed, so that the same shape gives the same bytes.

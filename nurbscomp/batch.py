@@ -1,0 +1,514 @@
+"""Batches: many files and folders, worker processes, a Dask cluster, one record per file.
+
+The CLI (``cli.py``) is thin wiring over this module:
+
+* :func:`plan` expands the inputs (files, folders with ``recursive``, ``-``
+  for standard input) into :class:`Task` s, each with its output path (beside
+  the input, under ``output_dir`` mirroring the folder walked, ``output``, or
+  standard output);
+* :func:`run_task` does one file in this process and returns its record, a
+  plain dict: the pipeline's report with ``status`` ``"ok"``, or, for a file
+  that failed, ``status`` ``"failed"`` with the error's class, message and
+  exit code (an unexpected exception is an ``internal`` error with its class);
+* :class:`Runner` runs the tasks serially, in a process pool (each worker
+  imports OCP once and takes many files) or on a Dask cluster (files sent as
+  bytes), and yields the records as files finish;
+* :func:`summary` adds them up.
+
+Nothing here prints: the caller does, from the records.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import multiprocessing
+import os
+import signal
+import tempfile
+import time
+import traceback
+from collections.abc import Generator, Iterator
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+from . import budget, pipeline
+from .errors import InputError, NurbscompError, OutputError
+from .formats import FORMAT_SUFFIX, IGES_SUFFIXES, STEP_SUFFIXES, output_format, sniff_format
+
+#: What ``-r`` picks up in a folder, by command (case-insensitive suffixes).
+WALK_SUFFIXES = {
+    "compress": (*STEP_SUFFIXES, *IGES_SUFFIXES),
+    "decompress": (pipeline.SUFFIX,),
+}
+#: The name standing for standard input and standard output.
+STDIO = "-"
+#: How long a worker may take to clean up after it is told to stop (seconds).
+STOP_GRACE = 30.0
+#: How long to wait for a Dask scheduler to answer (seconds).
+CONNECT_TIMEOUT = 30
+
+
+class UsageError(ValueError):
+    """The inputs and options do not go together (the CLI exits 2)."""
+
+
+class SchedulerError(RuntimeError):
+    """The Dask scheduler cannot be reached (the CLI exits 1, no file is done)."""
+
+
+@dataclass(frozen=True)
+class Options:
+    """What every file of a batch is done with."""
+
+    command: str  # "compress" or "decompress"
+    force: bool = False
+    skip_existing: bool = False
+    tol: float | None = pipeline.DEFAULT_TOL_MM
+    lossless: bool = False
+    verify: bool = True
+    step_safe: bool = True
+    fmt: str | None = None  # decompress: "STEP", "IGES" or "BREP"
+    debug: bool = False  # failures carry their traceback
+    limit_scale: float = 1.0  # decompress: the decoding budget times this (--limit-scale)
+
+
+@dataclass(frozen=True)
+class Task:
+    """One file: its input (``"-"``: standard input) and output (None: standard output)."""
+
+    src: str
+    dst: str | None
+    make_parent: bool = False  # under -d: the output's folder is created
+
+
+# ---------------------------------------------------------------- planning
+
+
+def default_output(src: Path, opts: Options) -> Path:
+    """The output beside ``src``: ``part.step.nzc``, or ``part.step`` (``.igs``,
+    ``.brep`` with ``opts.fmt``)."""
+    if opts.command == "compress":
+        return pipeline.default_compressed_name(src)
+    out = pipeline.default_decompressed_name(src)
+    if opts.fmt is not None and output_format(out) != opts.fmt:
+        out = out.with_suffix(FORMAT_SUFFIX[opts.fmt])
+    return out
+
+
+def walk(folder: Path, command: str) -> list[Path]:
+    """The files under ``folder`` that ``command`` takes, sorted, links to folders not followed."""
+    suffixes = WALK_SUFFIXES[command]
+    found = []
+    for root, dirs, files in os.walk(folder):
+        dirs.sort()
+        found += [Path(root, f) for f in sorted(files) if f.lower().endswith(suffixes)]
+    return found
+
+
+def plan(
+    inputs: list[str],
+    opts: Options,
+    *,
+    recursive: bool = False,
+    output: str | None = None,
+    output_dir: str | None = None,
+    to_stdout: bool = False,
+) -> list[Task]:
+    """The tasks for ``inputs`` (files, folders, ``-``), each with its output.
+
+    Raises
+    ------
+    UsageError
+        ``output`` with several inputs or a folder, ``output`` with
+        ``output_dir``, ``-`` twice, standard output with several files,
+        ``decompress`` to standard output without a format, ``force`` with
+        ``skip_existing``.
+    """
+    if opts.force and opts.skip_existing:
+        raise UsageError("--force and --skip-existing exclude each other")
+    if output == STDIO:
+        output, to_stdout = None, True
+    if output is not None and output_dir is not None:
+        raise UsageError("-o/--output and -d/--output-dir exclude each other")
+    if inputs.count(STDIO) > 1:
+        raise UsageError("standard input (-) can be read once")
+    tasks: list[Task] = []
+    for name in inputs:
+        if name == STDIO:
+            dst = output if output is not None else None  # stdin goes to stdout by default
+            tasks.append(Task(STDIO, dst))
+            continue
+        p = Path(name)
+        if recursive and p.is_dir():
+            if output is not None:
+                raise UsageError("-o/--output takes a single input file, not a folder")
+            for f in walk(p, opts.command):
+                tasks.append(_task(f, f.relative_to(p).parent, opts, output_dir))
+        else:
+            tasks.append(_task(p, Path(), opts, output_dir))
+    if output is not None and len(tasks) != 1:
+        raise UsageError("-o/--output takes a single input file")
+    if output is not None:
+        tasks = [replace(tasks[0], dst=output)]
+    if to_stdout:
+        if len(tasks) != 1:
+            raise UsageError("-c/--stdout takes a single input file")
+        tasks = [replace(tasks[0], dst=None, make_parent=False)]
+    if opts.command == "decompress" and opts.fmt is None and any(t.dst is None for t in tasks):
+        raise UsageError("decompress to standard output needs --format step|iges|brep")
+    return tasks
+
+
+def _task(src: Path, rel: Path, opts: Options, output_dir: str | None) -> Task:
+    out = default_output(src, opts)
+    if output_dir is None:
+        return Task(str(src), str(out))
+    return Task(str(src), str(Path(output_dir) / rel / out.name), make_parent=True)
+
+
+# ---------------------------------------------------------------- one file
+
+
+def _failure(e: BaseException, opts: Options) -> dict[str, Any]:
+    """The record fields of a file that failed with ``e`` (called in its ``except``)."""
+    if isinstance(e, NurbscompError):
+        rec = {"error_class": type(e).__name__, "error": str(e), "exit_code": e.exit_code}
+    elif isinstance(e, MemoryError):
+        rec = {"error_class": "MemoryError", "error": "out of memory", "exit_code": 1}
+    else:  # a bug or an OCCT failure no check caught: reported with its class
+        rec = {
+            "error_class": type(e).__name__,
+            "error": f"internal error ({type(e).__name__}: {e}); rerun with --debug for details",
+            "exit_code": 1,
+            "internal": True,
+        }
+    if opts.debug:
+        rec["traceback"] = traceback.format_exc()
+    return {"status": "failed", **rec}
+
+
+def run_task(task: Task, opts: Options) -> dict[str, Any]:
+    """Do one file here and now; its record (``status`` ok, skipped or failed).
+
+    ``task.dst`` must be a path (standard output goes through :func:`run_bytes`).
+    ``KeyboardInterrupt`` (and so SIGTERM, SIGHUP in the CLI and in workers)
+    is not caught: the output being written is removed on the way out.
+    """
+    if _stopping:
+        raise KeyboardInterrupt
+    assert task.dst is not None
+    src, dst = Path(task.src), Path(task.dst)
+    base = {"command": opts.command, "input": task.src, "output": task.dst}
+    try:
+        if opts.skip_existing and (dst.exists() or dst.is_symlink()):
+            return {**base, "status": "skipped", "exit_code": 0, "reason": "output exists"}
+        if task.make_parent:
+            try:
+                dst.parent.mkdir(parents=True, exist_ok=True)
+            except OSError as e:
+                raise OutputError(f"cannot make folder {dst.parent}: {e.strerror or e}") from None
+        if opts.command == "compress":
+            r = pipeline.compress_file(
+                src,
+                dst,
+                tol=None if opts.lossless else opts.tol,
+                lossless=opts.lossless,
+                force=opts.force,
+                verify=opts.verify,
+                step_safe=opts.step_safe,
+            )
+        else:
+            limits = budget.DEFAULT.scaled(opts.limit_scale)
+            r = pipeline.decompress_file(src, dst, force=opts.force, limits=limits)
+    except Exception as e:  # one file's failure, reported in its record (MemoryError too)
+        return {**base, **_failure(e, opts)}
+    if "input_bytes" not in r:
+        r["input_bytes"] = src.stat().st_size
+    return {**r, **base, "status": "ok", "exit_code": 0}
+
+
+def run_bytes(
+    name: str, data: bytes, opts: Options, out_name: str | None = None
+) -> tuple[dict[str, Any], bytes | None]:
+    """Do one file given as bytes, in a private scratch folder; its record and the
+    output's bytes (None if it failed).
+
+    The same work as :func:`run_task`, for inputs and outputs that are not
+    files here: standard input and output, and Dask workers (no shared disk).
+    ``name`` is the input's file name (it is stored in the container and
+    tells the format); ``out_name`` the output's (its extension gives the
+    format; default :func:`default_output`'s).  The record's paths are the
+    scratch folder's, for the caller to replace.
+    """
+    with tempfile.TemporaryDirectory(prefix="nurbscomp.") as scratch:
+        src = Path(scratch) / "in" / (Path(name).name or "stdin")
+        src.parent.mkdir()
+        src.write_bytes(data)
+        out = Path(scratch) / (Path(out_name).name if out_name else default_output(src, opts).name)
+        rec = run_task(Task(str(src), str(out)), replace(opts, force=False, skip_existing=False))
+        return rec, out.read_bytes() if rec["status"] == "ok" else None
+
+
+def stdin_name(data: bytes, opts: Options) -> str:
+    """A file name for standard input's bytes: ``stdin.step``, ``stdin.igs`` by
+    content (``stdin.nzc`` to decompress; ``stdin`` when neither applies: the
+    pipeline then refuses it as it refuses such a file)."""
+    if opts.command == "decompress":
+        return "stdin" + pipeline.SUFFIX
+    try:
+        fmt = sniff_format(Path("stdin"), data[: 1 << 16])
+    except InputError:
+        return "stdin"
+    return "stdin" + FORMAT_SUFFIX[fmt]
+
+
+def deliver(rec: dict[str, Any], blob: bytes, task: Task, opts: Options) -> dict[str, Any]:
+    """Write ``blob`` (made elsewhere) to ``task.dst`` atomically; the record with
+    the real paths, or a failure if the output cannot be written."""
+    assert task.dst is not None
+    dst = Path(task.dst)
+    rec = {**rec, "input": task.src, "output": task.dst}
+    try:
+        if task.make_parent:
+            dst.parent.mkdir(parents=True, exist_ok=True)
+        inputs = (Path(task.src),) if task.src != STDIO else ()
+        with pipeline.atomic_output(dst, opts.force, inputs) as tmp:
+            tmp.write_bytes(blob)
+    except (OSError, NurbscompError) as e:
+        if isinstance(e, OSError):
+            e = OutputError(f"cannot write {dst}: {e.strerror or e}")
+        return {**rec, **_failure(e, opts)}
+    return rec
+
+
+# ---------------------------------------------------------------- workers
+
+#: Set in a worker process once it has been told to stop: tasks not started are refused.
+_stopping = False
+
+
+def _stop_worker(signum: int, frame: Any) -> None:
+    """SIGINT/SIGTERM/SIGHUP in a worker: the task running raises
+    ``KeyboardInterrupt`` (its output's temporary file is removed on the way
+    out) and no further task starts.  A second signal is ignored so that it
+    cannot cut that clean-up short."""
+    global _stopping
+    if _stopping:
+        return
+    _stopping = True
+    raise KeyboardInterrupt
+
+
+def _init_worker() -> None:
+    """A pool worker: handle the stop signals, import OCP once for all its files."""
+    for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+        signal.signal(sig, _stop_worker)
+    from . import occ
+
+    occ.read_cad  # noqa: B018 (the import itself: seconds, once per worker)
+
+
+# ---------------------------------------------------------------- running
+
+
+class Runner:
+    """Run tasks and yield their records as they finish.
+
+    Parameters
+    ----------
+    tasks : list of Task
+    opts : Options
+    jobs : int
+        Worker processes; 1 (or a single task) runs here, in this process.
+    scheduler : str, optional
+        A Dask scheduler's address (``tcp://HOST:PORT``): the files are sent
+        to its workers as bytes and the outputs written here.
+    read_stdin : callable, optional
+        Returns standard input's bytes (for a task whose input is ``-``).
+
+    Attributes
+    ----------
+    running : list of str
+        The inputs being worked on (for the CLI to name on an interrupt).
+    """
+
+    def __init__(
+        self,
+        tasks: list[Task],
+        opts: Options,
+        jobs: int = 1,
+        scheduler: str | None = None,
+        read_stdin: Any = None,
+    ) -> None:
+        self.tasks, self.opts, self.scheduler = tasks, opts, scheduler
+        self.jobs = max(1, min(jobs, len(tasks)))
+        self.read_stdin = read_stdin
+        self.running: list[str] = []
+
+    def records(self) -> Generator[tuple[dict[str, Any], bytes | None], None, None]:
+        """``(record, output bytes)`` per task; the bytes only for a task whose
+        output is standard output (the caller writes them)."""
+        if self.scheduler is not None:
+            yield from self._dask()
+        elif self.jobs == 1:
+            yield from self._serial()
+        else:
+            yield from self._pool()
+
+    def _serial(self) -> Iterator[tuple[dict[str, Any], bytes | None]]:
+        for t in self.tasks:
+            self.running = [t.src]
+            if t.src == STDIO or t.dst is None:
+                yield self._via_bytes(t)
+            else:
+                yield run_task(t, self.opts), None
+            self.running = []
+
+    def _via_bytes(self, t: Task) -> tuple[dict[str, Any], bytes | None]:
+        """A task reading standard input or writing standard output, done here."""
+        try:
+            if t.src == STDIO:
+                data = self.read_stdin()
+                name = stdin_name(data, self.opts)
+            else:
+                data, name = _read_input(Path(t.src)), Path(t.src).name
+        except NurbscompError as e:
+            return self._failed(t, e), None
+        if t.dst is not None:  # stdin to a file: refuse an output in the way first
+            try:
+                pipeline.check_output(Path(t.dst), self.opts.force)
+            except NurbscompError as e:
+                return self._failed(t, e), None
+        rec, blob = run_bytes(name, data, self.opts, t.dst)
+        rec = {**rec, "input": t.src, "output": t.dst or STDIO}
+        if blob is None or t.dst is None:
+            return rec, blob
+        return deliver(rec, blob, t, self.opts), None
+
+    def _failed(self, t: Task, e: Exception) -> dict[str, Any]:
+        base = {"command": self.opts.command, "input": t.src, "output": t.dst or STDIO}
+        return {**base, **_failure(e, self.opts)}
+
+    def _pool(self) -> Iterator[tuple[dict[str, Any], bytes | None]]:
+        ctx = multiprocessing.get_context("spawn")  # no fork of a process with threads
+        ex = cf.ProcessPoolExecutor(self.jobs, mp_context=ctx, initializer=_init_worker)
+        done = False
+        futures: dict[cf.Future[dict[str, Any]], Task] = {}
+        try:
+            futures = {ex.submit(run_task, t, self.opts): t for t in self.tasks}
+            for f in cf.as_completed(futures):
+                yield f.result(), None
+            done = True
+        finally:
+            if done:
+                ex.shutdown(wait=True)
+            else:  # interrupted: name the files started, stop the workers
+                self.running = [futures[f].src for f in futures if f.running()]
+                _stop_pool(ex)
+
+    def _dask(self) -> Iterator[tuple[dict[str, Any], bytes | None]]:
+        from distributed import Client, as_completed
+
+        try:
+            client = Client(self.scheduler, set_as_default=False, timeout=CONNECT_TIMEOUT)
+        except (OSError, TimeoutError, ValueError) as e:
+            raise SchedulerError(f"cannot connect to the Dask scheduler: {e}") from None
+        futures: dict[Any, Task] = {}
+        try:
+            for t in self.tasks:
+                rec = self._client_side_checks(t)
+                if rec is not None:
+                    yield rec, None
+                    continue
+                try:
+                    data = _read_input(Path(t.src))
+                except NurbscompError as e:
+                    yield self._failed(t, e), None
+                    continue
+                name = Path(t.src).name
+                futures[client.submit(run_bytes, name, data, self.opts, t.dst, pure=False)] = t
+            self.running = [t.src for t in futures.values()]
+            for fut in as_completed(list(futures), loop=client.loop):
+                t = futures.pop(fut)
+                self.running.remove(t.src)
+                try:
+                    rec, blob = fut.result()
+                except Exception as e:  # the task itself failed (a worker lost): report it
+                    yield self._failed(t, e), None
+                    continue
+                rec = {**rec, "input": t.src, "output": t.dst}
+                yield (deliver(rec, blob, t, self.opts) if blob is not None else rec), None
+        finally:
+            client.cancel(list(futures))
+            client.close()
+
+    def _client_side_checks(self, t: Task) -> dict[str, Any] | None:
+        """What this machine decides before a file is sent: skip it, or refuse its output."""
+        assert t.dst is not None
+        dst = Path(t.dst)
+        base = {"command": self.opts.command, "input": t.src, "output": t.dst}
+        if self.opts.skip_existing and (dst.exists() or dst.is_symlink()):
+            return {**base, "status": "skipped", "exit_code": 0, "reason": "output exists"}
+        try:
+            pipeline.check_output(dst, self.opts.force, (Path(t.src),))
+        except NurbscompError as e:
+            return self._failed(t, e)
+        return None
+
+
+def _read_input(p: Path) -> bytes:
+    """The bytes of an input file sent elsewhere (the errors ``read_cad`` gives)."""
+    if not p.exists():
+        raise InputError("no such file")
+    if p.is_dir():
+        raise InputError("is a directory")
+    try:
+        return p.read_bytes()
+    except OSError as e:
+        raise InputError(e.strerror or str(e)) from None
+
+
+def _stop_pool(ex: cf.ProcessPoolExecutor) -> None:
+    """Stop a pool on an interrupt: each worker is told to stop (SIGTERM) and
+    removes the output it was writing; waits for them (``STOP_GRACE``), and
+    kills one that does not stop."""
+    procs = list(getattr(ex, "_processes", {}).values())  # the stdlib has no public handle
+    for p in procs:
+        if p.is_alive():
+            os.kill(p.pid, signal.SIGTERM)
+    ex.shutdown(wait=False, cancel_futures=True)
+    deadline = time.monotonic() + STOP_GRACE
+    for p in procs:
+        p.join(max(0.0, deadline - time.monotonic()))
+        if p.is_alive():
+            p.kill()
+            p.join()
+
+
+# ---------------------------------------------------------------- summary
+
+
+def summary(records: list[dict[str, Any]], seconds: float) -> dict[str, Any]:
+    """The batch in one record: files ok, failed, skipped, stored verbatim;
+    bytes in and out; the total ratio (uncoded ÷ coded bytes); wall time;
+    the worst exit code."""
+    ok = [r for r in records if r["status"] == "ok"]
+    bytes_in = sum(r.get("input_bytes", 0) for r in ok)
+    bytes_out = sum(r.get("output_bytes", 0) for r in ok)
+    command = records[0]["command"] if records else ""
+    big, small = (bytes_out, bytes_in) if command == "decompress" else (bytes_in, bytes_out)
+    return {
+        "summary": True,
+        "command": command,
+        "files": len(records),
+        "ok": len(ok),
+        "failed": sum(r["status"] == "failed" for r in records),
+        "skipped": sum(r["status"] == "skipped" for r in records),
+        "passthrough": sum(bool(r.get("passthrough")) for r in ok),
+        "bytes_in": bytes_in,
+        "bytes_out": bytes_out,
+        "ratio": big / small if small else None,
+        "seconds": seconds,
+        "exit_code": max((r["exit_code"] for r in records), default=0),
+    }

@@ -1,0 +1,334 @@
+"""Batches (issue 13): many files and folders, -d mirroring the tree, JSON
+records for every file (failures included) and a summary, worker processes,
+Ctrl-C and --skip-existing, streams, outputs that are not regular files,
+--debug, and the same batch on a Dask LocalCluster."""
+
+from __future__ import annotations
+
+import builtins
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import pytest
+from click.testing import CliRunner
+
+from nurbscomp import batch, container, pipeline
+from nurbscomp.cli import cli
+from nurbscomp.occ import files as occ_files
+
+from .conftest import SAMPLES
+from .test_cli import CURVE_ONLY, TESSELLATED
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def run(*args: str) -> tuple[int, str, str]:
+    r = CliRunner().invoke(cli, list(args))
+    return r.exit_code, r.stdout, r.stderr
+
+
+def lines(out: str) -> tuple[dict[str, dict[str, Any]], dict[str, Any]]:
+    """The JSON records by input file name, and the summary."""
+    recs = [json.loads(line) for line in out.splitlines()]
+    *files, total = recs
+    assert total["summary"] and all("summary" not in r for r in files)
+    return {Path(r["input"]).name: r for r in files}, total
+
+
+def mixed_folder(root: Path) -> Path:
+    """A folder of mixed files: a part, tessellated-only and curve-only STEP, garbage."""
+    src = root / "in"
+    (src / "sub").mkdir(parents=True)
+    shutil.copy(SAMPLES / "loft.step", src / "loft.step")
+    (src / "tess.step").write_bytes(TESSELLATED)
+    (src / "sub" / "curve.stp").write_bytes(CURVE_ONLY)
+    (src / "sub" / "garbage.step").write_bytes(b"garbage\n" * 10)
+    (src / "sub" / "notes.txt").write_text("not CAD: not picked up by -r")
+    return src
+
+
+def no_temporary_files(root: Path) -> bool:
+    return not [p for p in root.rglob("*") if p.name.endswith(".tmp")]
+
+
+# ---------------------------------------------------------------- planning
+
+
+def test_plan_mirrors_the_tree(tmp_path: Path) -> None:
+    src = mixed_folder(tmp_path)
+    opts = batch.Options("compress")
+    tasks = batch.plan([str(src)], opts, recursive=True, output_dir=str(tmp_path / "out"))
+    got = {Path(t.src).relative_to(src).as_posix(): t.dst for t in tasks}
+    out = tmp_path / "out"
+    assert got == {
+        "loft.step": str(out / "loft.step.nzc"),
+        "tess.step": str(out / "tess.step.nzc"),
+        "sub/curve.stp": str(out / "sub" / "curve.stp.nzc"),
+        "sub/garbage.step": str(out / "sub" / "garbage.step.nzc"),
+    }
+    assert all(t.make_parent for t in tasks)
+    # default names beside the inputs; a folder without -r is one (failing) input
+    tasks = batch.plan([str(src / "loft.step"), str(src)], opts)
+    assert [t.dst for t in tasks] == [str(src / "loft.step.nzc"), str(src) + ".nzc"]
+    # decompress: .nzc files; --format sets the extension
+    (src / "sub" / "a.step.nzc").write_bytes(b"")
+    d = batch.Options("decompress", fmt="IGES")
+    tasks = batch.plan([str(src)], d, recursive=True, output_dir=str(out))
+    assert [t.dst for t in tasks] == [str(out / "sub" / "a.igs")]
+
+
+@pytest.mark.parametrize(
+    "inputs, kw, opts, message",
+    [
+        (["a", "b"], {"output": "x"}, {}, "single input"),
+        (["a", "b"], {"to_stdout": True}, {}, "single input"),
+        (["a"], {"output": "x", "output_dir": "d"}, {}, "exclude"),
+        (["-", "-"], {}, {}, "once"),
+        (["a"], {}, {"force": True, "skip_existing": True}, "exclude"),
+        (["a.nzc"], {"to_stdout": True}, {"command": "decompress"}, "--format"),
+    ],
+)
+def test_plan_usage_errors(
+    inputs: list[str], kw: dict[str, Any], opts: dict[str, Any], message: str
+) -> None:
+    o = batch.Options(**{"command": "compress", **opts})
+    with pytest.raises(batch.UsageError, match=message):
+        batch.plan(inputs, o, **kw)
+    code, _, err = run(o.command, *inputs, *(["-o", kw["output"]] if "output" in kw else []))
+    if "output" in kw and "output_dir" not in kw:
+        assert code == 2 and "single input" in err
+
+
+# ---------------------------------------------------------------- one process
+
+
+def test_mixed_batch_json_and_back(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Every file gets a JSON line (failures with class, message, exit code),
+    then the summary; the exit code is the worst; decompress rebuilds them all
+    and the passthrough files come back byte-identical."""
+    src = mixed_folder(tmp_path)
+    locked = src / "sub" / "locked.step"
+    shutil.copy(SAMPLES / "loft.step", locked)
+    locked.chmod(0)
+    real_open = builtins.open
+
+    def refuse(file: Any, *a: Any, **k: Any) -> Any:  # root reads anything: the OS refusal
+        if str(file) == str(locked):
+            raise PermissionError(13, "Permission denied", str(file))
+        return real_open(file, *a, **k)
+
+    monkeypatch.setattr(occ_files, "open", refuse, raising=False)
+    out, back = tmp_path / "out", tmp_path / "back"
+    code, stdout, err = run("compress", "-r", str(src), "-d", str(out), "-j", "1", "--json")
+    assert code == 1
+    recs, total = lines(stdout)
+    assert sorted(recs) == ["curve.stp", "garbage.step", "locked.step", "loft.step", "tess.step"]
+    assert not any(r.get("internal") for r in recs.values())
+    assert recs["loft.step"]["status"] == "ok" and recs["loft.step"]["mode"] == "tolerance"
+    for name in ("tess.step", "curve.stp"):
+        r = recs[name]
+        assert r["status"] == "ok" and r["passthrough"] and r["exit_code"] == 0
+        assert "stored verbatim" in r["warnings"][0]
+    g, lk = recs["garbage.step"], recs["locked.step"]
+    assert (g["status"], g["error_class"], g["exit_code"]) == ("failed", "InputError", 1)
+    assert "cannot parse STEP" in g["error"]
+    assert lk["error_class"] == "InputError" and lk["error"] == "Permission denied"
+    assert (total["files"], total["ok"], total["failed"], total["passthrough"]) == (5, 3, 2, 2)
+    assert total["exit_code"] == 1 and total["bytes_out"] < total["bytes_in"]
+    ok = [r for r in recs.values() if r["status"] == "ok"]
+    assert total["bytes_in"] == sum(r["input_bytes"] for r in ok)
+    assert total["ratio"] == pytest.approx(total["bytes_in"] / total["bytes_out"])
+    errors = [line for line in err.splitlines() if line.startswith("error: ")]
+    assert sorted(errors) == sorted(
+        f"error: {src / 'sub' / n}: {recs[n]['error']}" for n in ("garbage.step", "locked.step")
+    )
+    assert sorted(p.relative_to(out).as_posix() for p in out.rglob("*.nzc")) == [
+        "loft.step.nzc",
+        "sub/curve.stp.nzc",
+        "tess.step.nzc",
+    ]
+    code, stdout, err = run("decompress", "-r", str(out), "-d", str(back), "-j", "1")
+    assert code == 0, err
+    assert "3 files: 3 ok (2 stored verbatim), 0 failed" in stdout
+    assert (back / "tess.step").read_bytes() == TESSELLATED
+    assert (back / "sub" / "curve.stp").read_bytes() == CURVE_ONLY
+    assert (back / "loft.step").read_bytes().startswith(b"ISO-10303-21;")
+    # a second run skips what exists, --force redoes it
+    code, stdout, _ = run("decompress", "-r", str(out), "-d", str(back), "--skip-existing")
+    assert code == 0 and "3 skipped" in stdout
+    code, stdout, err = run("decompress", "-r", str(out), "-d", str(back), "--json", "-j", "1")
+    assert code == 1 and err.count("already exists") == 3
+    code, stdout, _ = run("decompress", "-r", str(out), "-d", str(back), "--json", "-f", "-j", "1")
+    assert code == 0 and lines(stdout)[1]["ok"] == 3
+    assert no_temporary_files(tmp_path)
+
+
+def test_internal_error_is_reported_with_its_class(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    shutil.copy(SAMPLES / "loft.step", tmp_path)
+
+    def broken(*a: Any, **k: Any) -> Any:
+        return 1 / 0
+
+    monkeypatch.setattr(pipeline, "compress_file", broken)
+    code, out, err = run("compress", "--json", str(tmp_path / "loft.step"))
+    assert code == 1
+    rec = lines(out)[0]["loft.step"]
+    assert rec["internal"] and rec["error_class"] == "ZeroDivisionError"
+    assert err.strip().endswith("rerun with --debug for details")
+    assert "Traceback" not in err
+    code, out, err = run("--debug", "compress", str(tmp_path / "loft.step"))
+    assert code == 1 and "Traceback (most recent call last)" in err and "1 / 0" in err
+
+
+def test_debug_prints_the_real_traceback(tmp_path: Path) -> None:
+    (tmp_path / "bad.step").write_bytes(b"garbage\n")
+    (tmp_path / "bad.nzc").write_bytes(b"\x89NZC garbage")
+    for args in (["compress", str(tmp_path / "bad.step")], ["info", str(tmp_path / "bad.nzc")]):
+        code, _, err = run("--debug", *args)
+        assert code == 1
+        assert "Traceback (most recent call last)" in err and "NoneType: None" not in err
+        assert "Error: " in err  # the exception's class closes the traceback
+        assert err.strip().splitlines()[-1].startswith("error: ")
+        code, _, err = run(*args)
+        assert "Traceback" not in err and len(err.strip().splitlines()) <= 2
+
+
+# ---------------------------------------------------------------- outputs
+
+
+@pytest.mark.parametrize("kind", ["symlink", "dangling", "fifo", "folder"])
+def test_output_that_is_not_a_regular_file_is_refused(tmp_path: Path, kind: str) -> None:
+    shutil.copy(SAMPLES / "loft.step", tmp_path)
+    target = tmp_path / "target"
+    target.write_bytes(b"keep me")
+    out = tmp_path / "out.nzc"
+    if kind == "symlink":
+        out.symlink_to(target)
+    elif kind == "dangling":
+        out.symlink_to(tmp_path / "nowhere")
+    elif kind == "fifo":
+        os.mkfifo(out)
+    else:
+        out.mkdir()
+    code, _, err = run("compress", "-f", "-q", str(tmp_path / "loft.step"), "-o", str(out))
+    assert code == 1
+    assert len(err.strip().splitlines()) == 1
+    if kind == "folder":
+        assert "is a directory" in err
+    else:
+        assert "never replaced" in err and ("symbolic link" in err or "FIFO" in err)
+    assert out.is_symlink() == (kind in ("symlink", "dangling"))
+    assert target.read_bytes() == b"keep me"
+    assert no_temporary_files(tmp_path)
+
+
+# ---------------------------------------------------------------- real processes
+
+
+def _cli(*args: str, **kw: Any) -> subprocess.CompletedProcess[bytes]:
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    return subprocess.run(
+        [sys.executable, "-m", "nurbscomp.cli", *args], env=env, capture_output=True, **kw
+    )
+
+
+def test_streams(tmp_path: Path) -> None:
+    """``cat part.step | nurbscomp compress - -c > part.nzc``, then
+    ``nurbscomp decompress -c --format step part.nzc``."""
+    step = (SAMPLES / "loft.step").read_bytes()
+    r = _cli("compress", "-q", "-", "-c", input=step, timeout=300)
+    assert r.returncode == 0, r.stderr
+    nzc = tmp_path / "part.nzc"
+    nzc.write_bytes(r.stdout)
+    assert container.unpack(r.stdout).minor == container.MINOR
+    r = _cli("decompress", "-c", "--format", "step", str(nzc), timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.startswith(b"ISO-10303-21;") and b"END-ISO-10303-21;" in r.stdout
+    r = _cli("decompress", "-", "-c", "--format", "iges", input=nzc.read_bytes(), timeout=300)
+    assert r.returncode == 0 and r.stdout[72:73] == b"S"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["part.nzc"]
+    # the passthrough of a stream: the same bytes back
+    r = _cli("compress", "-q", "-", "-c", input=TESSELLATED, timeout=300)
+    back = _cli("decompress", "-", "-c", "--format", "step", input=r.stdout, timeout=300)
+    assert back.returncode == 0 and back.stdout == TESSELLATED
+
+
+def test_workers_interrupted_then_resumed(tmp_path: Path) -> None:
+    """-j 2: Ctrl-C part-way exits 130 and leaves complete outputs only;
+    --skip-existing then does only the files left."""
+    src = tmp_path / "in"
+    src.mkdir()
+    for i in range(3):
+        shutil.copy(SAMPLES / "loft.step", src / f"loft{i}.step")
+        shutil.copy(SAMPLES / "bracket.step", src / f"bracket{i}.step")
+    out = tmp_path / "out"
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    cmd = [sys.executable, "-m", "nurbscomp.cli", "compress", "-q", "-r", str(src), "-d", str(out)]
+    p = subprocess.Popen([*cmd, "-j", "2"], env=env, stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + 300
+    while not list(out.rglob("*.nzc")) and p.poll() is None and time.time() < deadline:
+        time.sleep(0.01)
+    assert p.poll() is None, "the batch ended before it could be interrupted"
+    p.send_signal(signal.SIGINT)
+    _, err = p.communicate(timeout=120)
+    assert p.returncode == 130, err
+    assert err.strip().splitlines()[-1].endswith("interrupted")
+    assert no_temporary_files(tmp_path)
+    done = sorted(f.name for f in out.glob("*.nzc"))
+    assert 1 <= len(done) < 6
+    for f in out.glob("*.nzc"):
+        container.unpack(f.read_bytes())  # complete containers only
+    r = subprocess.run([*cmd, "-j", "2", "--skip-existing", "--json"], env=env, capture_output=True)
+    assert r.returncode == 0, r.stderr
+    recs, total = lines(r.stdout.decode())
+    assert sorted(n + ".nzc" for n, x in recs.items() if x["status"] == "skipped") == done
+    assert (total["files"], total["ok"] + total["skipped"], total["failed"]) == (6, 6, 0)
+    assert len(list(out.glob("*.nzc"))) == 6 and no_temporary_files(tmp_path)
+
+
+def test_dask_local_cluster_gives_the_same_containers(tmp_path: Path) -> None:
+    """The same batch through ``--scheduler`` on a LocalCluster of two workers:
+    the same records and byte-identical containers."""
+    distributed = pytest.importorskip("distributed")
+    src = mixed_folder(tmp_path)
+    code, out, _ = run(
+        "compress", "-r", str(src), "-d", str(tmp_path / "local"), "-j", "1", "--json"
+    )
+    local, _ = lines(out)
+    with distributed.LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+    ) as cluster:
+        args = [
+            "-r",
+            str(src),
+            "-d",
+            str(tmp_path / "dask"),
+            "--scheduler",
+            cluster.scheduler_address,
+        ]
+        code2, out, err = run("compress", *args, "--json")
+    remote, total = lines(out)
+    assert code2 == code == 1, err
+    assert sorted(remote) == sorted(local)
+    for name, r in remote.items():
+        assert (r["status"], r.get("error_class")) == (
+            local[name]["status"],
+            local[name].get("error_class"),
+        )
+        assert r["input"] == local[name]["input"]
+    assert total["ok"] == 3 and total["failed"] == 1
+    a = sorted(p.relative_to(tmp_path / "local") for p in (tmp_path / "local").rglob("*.nzc"))
+    b = sorted(p.relative_to(tmp_path / "dask") for p in (tmp_path / "dask").rglob("*.nzc"))
+    assert a == b and len(a) == 3
+    for rel in a:
+        assert (tmp_path / "local" / rel).read_bytes() == (tmp_path / "dask" / rel).read_bytes()
+    assert no_temporary_files(tmp_path)
