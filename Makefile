@@ -40,11 +40,16 @@ bench: install
 # The long fuzzing run (issue 5): mutated containers (raw, and re-packed with
 # valid CRCs) must decode or fail with a FormatError; each case in a worker
 # process with a time limit, so a crash or a hang is reported, not fatal.
-# About 2 minutes on 2 cores; not part of `make test` (tests/test_fuzz.py is the short run).
+# Then (issue 11) as many structure-aware cases: decoded models edited (shared
+# and deep nesting, instances, huge nets, extreme values and matrices, cycles,
+# META abuse) and packed again; each must decode within the budget or fail
+# with one FormatError, in 10 s and 1 GiB.  Minutes on 2 cores; not part of
+# `make test` (tests/test_fuzz.py is the short run).
 FUZZ_CASES ?= 10000
 FUZZ_SEED  ?= 1
 fuzz: install
 	$(PY) -m tests.fuzz --cases $(FUZZ_CASES) --seed $(FUZZ_SEED)
+	$(PY) -m tests.fuzz --structure --cases $(FUZZ_CASES) --seed $(FUZZ_SEED)
 
 # The stress corpus (issue 10): ~210 generated shapes (fillets, shells, lofts,
 # sweeps, periodic, rational and degenerate B-spline faces, trimmed faces with

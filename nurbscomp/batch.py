@@ -33,7 +33,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
-from . import pipeline
+from . import budget, pipeline
 from .errors import InputError, NurbscompError, OutputError
 from .formats import (
     BREP_SUFFIXES,
@@ -85,6 +85,7 @@ class Options:
     step_safe: bool = True
     fmt: str | None = None  # decompress: "STEP", "IGES" or "BREP"
     debug: bool = False  # failures carry their traceback
+    limit_scale: float = 1.0  # decompress: the decoding budget times this (--limit-scale)
 
 
 @dataclass(frozen=True)
@@ -243,7 +244,8 @@ def run_task(
                 stage=stage,
             )
         else:
-            r = pipeline.decompress_file(src, dst, force=opts.force, stage=stage)
+            limits = budget.DEFAULT.scaled(opts.limit_scale)
+            r = pipeline.decompress_file(src, dst, force=opts.force, limits=limits, stage=stage)
     except Exception as e:  # one file's failure, reported in its record (MemoryError too)
         return {**base, **_failure(e, opts)}
     if "input_bytes" not in r:

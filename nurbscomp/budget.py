@@ -47,35 +47,65 @@ _ENTITY_BYTES = 120
 _INSTANCE_BYTES = 5 * _ENTITY_BYTES
 
 
+#: Deepest nesting a scaled limit allows: OCCT walks nested shapes
+#: recursively (measured: 30,000 levels decode and write, 100,000 crash its
+#: STEP writer's stack).
+DEPTH_CEILING = 10_000
+
+
 @dataclass(frozen=True)
 class Limits:
     """What a reader decodes at most (``--limit-scale K`` multiplies each by K).
 
-    Defaults are about 100 times the largest of the public corpus's files
-    (docs/format.md §4 gives the measured values), except where OCCT's own
-    recursion sets the bound (``depth``).
+    Measured on the public corpus (11 files, docs/format.md §4): at most
+    10,482 references, depth 7, 44,620 poles and knots, 2,050 pcurves (if
+    every one were left out), estimated outputs of 8 MB and 160 bytes per
+    container byte.
     """
 
+    #: Rows of the tables the decoder loops over (shapes, sub-shape
+    #: references, edge and vertex representations, geometry rows), checked
+    #: before any loop: the sections may declare up to 256 MB of them.
+    rows: int = 1_000_000
     #: Sub-shape references with sharing unfolded: what OCCT's explorers,
-    #: counters and writers walk.
-    references: int = 20_000_000
+    #: counters and writers walk (95x the corpus's largest).
+    references: int = 1_000_000
     #: Longest chain of sub-shape references (OCCT walks it recursively).
     depth: int = 1_000
-    #: Poles and knots of every distinct B-spline OCCT builds.
-    poles: int = 30_000_000
+    #: Poles and knots of every distinct B-spline OCCT builds (90x).
+    poles: int = 4_000_000
+    #: Longest chain of geometry rows built on one another (a trimmed or
+    #: offset surface or curve on its basis; OCCT evaluates them recursively).
+    bases: int = 100
     #: Pcurves the decoder computes (``occ.topology.rebuild_pcurves``), one per
-    #: edge and face it projects onto.
-    pcurves: int = 20_000
-    #: Estimated size of a STEP output (instances written once).
-    step_bytes: int = 1 << 30
-    #: Estimated size of an IGES output (instances flattened).
-    iges_bytes: int = 1 << 30
+    #: representation and face it projects onto (100x).
+    pcurves: int = 200_000
+    #: Work of those projections: per projection, the poles of the surface
+    #: times (u degree + 1) x (v degree + 1) (16 for an analytic surface; a
+    #: trimmed or offset surface costs what its basis does).
+    #: Measured: about a microsecond each (a 300 x 300 bicubic net: 1.4 s
+    #: per projection; 200 x 300 of degree 25: over 30 s).
+    projection: int = 10_000_000
+    #: Estimated output size (STEP and BREP write instances once, IGES
+    #: flattens them): at most ``output_ratio`` bytes per byte of the
+    #: container, but ``output_floor`` whatever the container's size, and
+    #: never more than ``output_bytes``.
+    output_ratio: int = 2_000
+    output_floor: int = 32 << 20
+    output_bytes: int = 2 << 30
 
     def scaled(self, k: float) -> Limits:
-        """Every limit times ``k`` (the CLI's ``--limit-scale``)."""
+        """Every limit times ``k`` (the CLI's ``--limit-scale``); the depth at
+        most ``DEPTH_CEILING``."""
         if not k > 0:
             raise ValueError("the limit scale must be positive")
-        return Limits(**{f.name: int(getattr(self, f.name) * k) for f in dataclasses.fields(self)})
+        out = {f.name: int(getattr(self, f.name) * k) for f in dataclasses.fields(self)}
+        out["depth"] = min(out["depth"], max(self.depth, DEPTH_CEILING))
+        return Limits(**out)
+
+    def output(self, container_bytes: int) -> int:
+        """Largest estimated output a container of ``container_bytes`` may give."""
+        return min(self.output_bytes, max(self.output_floor, self.output_ratio * container_bytes))
 
 
 DEFAULT = Limits()
@@ -88,47 +118,64 @@ class Expansion:
     references: int
     depth: int
     poles: int
+    bases: int
     pcurves: int
+    projection: int
     step_bytes: int
     iges_bytes: int
 
 
-def _record_cost(g: Geometry, table: list[Geometry]) -> tuple[int, int]:
-    """(poles and knots, bytes) of one geometry record, its bases in the same
-    table included (they precede their row: checked on reading).  A swept
-    surface's basis is a 3-D curve, counted with the curves."""
-    poles = out = 0
-    while True:
+@dataclass
+class _Table:
+    """Per row of a geometry table: output bytes, bases deep, projection work;
+    and the poles and knots of its distinct B-spline records."""
+
+    bytes: list[int]
+    depth: list[int]
+    work: list[int]
+    poles: int
+
+
+def _table(table: list[Geometry]) -> _Table:
+    """One pass in row order: a derived row's basis precedes it (checked on
+    reading), so its figures are known when the row is reached (memoised:
+    chains of bases cost one step a row).  A swept surface's basis is a 3-D
+    curve, counted with the curves."""
+    out = _Table([], [], [], 0)
+    seen: set[int] = set()
+    for g in table:
         if isinstance(g, (BSplineSurface, BSplineCurve)):
             n = g.poles.size // g.poles.shape[-1]
             k = len(g.uknots) + len(g.vknots) if isinstance(g, BSplineSurface) else len(g.knots)
-            out += n * _POLE_BYTES + (n if g.weights is not None else 0) * _NUMBER_BYTES
-            return poles + n + k, out + 2 * k * _NUMBER_BYTES + _ENTITY_BYTES
+            b = n * _POLE_BYTES + (n if g.weights is not None else 0) * _NUMBER_BYTES
+            out.bytes.append(b + 2 * k * _NUMBER_BYTES + _ENTITY_BYTES)
+            out.depth.append(1)
+            if isinstance(g, BSplineSurface):
+                nu, nv = g.poles.shape[:2]
+                du, dv = (nu - 1, nv - 1) if g.bezier else (g.udegree, g.vdegree)
+                out.work.append(nu * nv * (du + 1) * (dv + 1))
+            else:
+                out.work.append(16)
+            if id(g) not in seen:
+                seen.add(id(g))
+                out.poles += n + k
+            continue
         assert isinstance(g, (Analytic, Derived))
-        out += _ENTITY_BYTES + (g.frame.size + g.params.size) * _NUMBER_BYTES
-        if not isinstance(g, Derived) or g.kind in (Kind.REVOLUTION, Kind.EXTRUSION):
-            return poles, out
-        g = table[g.basis]
-
-
-def _table_costs(table: list[Geometry]) -> tuple[list[int], int]:
-    """Bytes per row, and the poles and knots of the distinct records."""
-    seen: set[int] = set()
-    poles, costs = 0, []
-    for g in table:
-        p, b = _record_cost(g, table)
-        costs.append(b)
-        if id(g) not in seen:
-            seen.add(id(g))
-            poles += p
-    return costs, poles
+        own = _ENTITY_BYTES + (g.frame.size + g.params.size) * _NUMBER_BYTES
+        if isinstance(g, Derived) and g.kind not in (Kind.REVOLUTION, Kind.EXTRUSION):
+            out.bytes.append(min(own + out.bytes[g.basis], CAP))
+            out.depth.append(out.depth[g.basis] + 1)
+            out.work.append(out.work[g.basis])
+        else:
+            out.bytes.append(own)
+            out.depth.append(1)
+            out.work.append(16)
+    return out
 
 
 def _shape_costs(m: BRepModel) -> list[int]:
     """Bytes an output spends on each shape itself (its entity and its geometry)."""
-    surf, _ = _table_costs(m.surfaces)
-    c3, _ = _table_costs(m.curves3d)
-    c2, _ = _table_costs(m.curves2d)
+    surf, c3, c2 = (_table(t).bytes for t in (m.surfaces, m.curves3d, m.curves2d))
     types = m.shape_type.tolist()
     tidx = m.type_index().tolist()
     edge_bytes = [_ENTITY_BYTES] * len(m.edge_tol)
@@ -197,53 +244,95 @@ def expansion(m: BRepModel) -> Expansion:
             else:
                 inst[c] = min(inst[c] + inst[s], CAP)
     iges = sum(min(p * b, CAP) for p, b in zip(paths, cost))
-    poles = sum(_table_costs(t)[1] for t in (m.surfaces, m.curves3d, m.curves2d))
+    tables = [_table(t) for t in (m.surfaces, m.curves3d, m.curves2d)]
+    poles = sum(t.poles for t in tables)
+    bases = max((d for t in tables for d in t.depth), default=0)
+    pcurves, projection = pcurves_to_compute(m, tables[0].work)
     return Expansion(
         references=size[root] if 0 <= root < n else 0,
         depth=max(depth, default=0),
         poles=poles,
-        pcurves=pcurves_to_compute(m),
+        bases=bases,
+        pcurves=pcurves,
+        projection=projection,
         step_bytes=min(step, CAP),
         iges_bytes=min(iges, CAP),
     )
 
 
-def pcurves_to_compute(m: BRepModel) -> int:
-    """Projections ``occ.topology.rebuild_pcurves`` makes: each representation
-    whose pcurve is left out, onto every face with its surface row and location."""
+def pcurves_to_compute(m: BRepModel, work: list[int] | None = None) -> tuple[int, int]:
+    """Projections ``occ.topology.rebuild_pcurves`` makes (each representation
+    whose pcurve is left out, onto every face with its surface row and
+    location), and their work (``Limits.projection``; ``work`` per surface
+    row, as :func:`_table` gives it)."""
+    if work is None:
+        work = _table(m.surfaces).work
     faces = Counter(zip(m.face_surface.tolist(), m.face_loc.tolist()))
     reps = m.edge_reps
     todo = reps[(reps[:, 1] != RepKind.CURVE3D) & (reps[:, 2] == REBUILD)]
-    return sum(faces.get((s, loc), 0) for s, loc in todo[:, [4, 6]].tolist())
+    count = total = 0
+    for s, loc in todo[:, [4, 6]].tolist():
+        n = faces.get((s, loc), 0)
+        if n and 0 <= s < len(work):
+            count += n
+            total = min(total + n * work[s], CAP)
+    return count, total
 
 
-def check(m: BRepModel, limits: Limits = DEFAULT, fmt: str | None = None) -> Expansion:
-    """Refuse a model that expands past ``limits``: the references, depth, poles
-    and pcurves always; the output size of ``fmt`` (``"STEP"``, ``"IGES"``)
-    when one is given.
+def _refuse(value: int, what: str, limit: int) -> LimitError:
+    shown = f"{value:,}" if value < CAP else f"more than {CAP:,}"
+    return LimitError(
+        f"the shape holds {shown} {what}, more than the {limit:,} a reader decodes "
+        "(--limit-scale raises the limits)"
+    )
+
+
+def check_structure(m: BRepModel, limits: Limits = DEFAULT) -> Expansion:
+    """Refuse a model whose references, depth, poles or pcurves are past ``limits``.
 
     Raises
     ------
     LimitError
         One line naming the measure, its value and the limit.
     """
+    rows = len(m.shape_type) + len(m.child_shape) + len(m.edge_reps) + len(m.vertex_reps)
+    rows += len(m.surfaces) + len(m.curves3d) + len(m.curves2d)
+    if rows > limits.rows:
+        raise _refuse(
+            rows, "table rows (shapes, references, representations, geometry)", limits.rows
+        )
     e = expansion(m)
-    checks = [
-        ("references", "sub-shape references once sharing is unfolded"),
+    for name, what in (
         ("depth", "levels of nested sub-shapes"),
+        ("references", "sub-shape references once sharing is unfolded"),
         ("poles", "poles and knots"),
+        ("bases", "levels of geometry on geometry (trimmed, offset bases)"),
         ("pcurves", "pcurves to compute"),
-    ]
-    if fmt == "STEP":
-        checks.append(("step_bytes", "bytes of STEP (estimated)"))
-    elif fmt == "IGES":
-        checks.append(("iges_bytes", "bytes of IGES (estimated)"))
-    for name, what in checks:
-        value, limit = getattr(e, name), getattr(limits, name)
-        if value > limit:
-            shown = f"{value:,}" if value < CAP else f"more than {CAP:,}"
-            raise LimitError(
-                f"the shape holds {shown} {what}, more than the {limit:,} a reader "
-                "decodes (--limit-scale raises the limits)"
-            )
+        ("projection", "units of work projecting them (poles x degrees of their surfaces)"),
+    ):
+        if getattr(e, name) > getattr(limits, name):
+            raise _refuse(getattr(e, name), what, getattr(limits, name))
+    return e
+
+
+def check_output(
+    m: BRepModel, fmt: str, container_bytes: int, limits: Limits = DEFAULT
+) -> Expansion:
+    """Refuse a model whose ``fmt`` output (``"STEP"``, ``"IGES"``, ``"BREP"``)
+    is estimated past ``limits.output(container_bytes)``.
+
+    Raises
+    ------
+    LimitError
+        One line with the estimate and the limit.
+    """
+    e = expansion(m)
+    size = e.iges_bytes if fmt == "IGES" else e.step_bytes
+    limit = limits.output(container_bytes)
+    if size > limit:
+        raise LimitError(
+            f"the {fmt} output would take about {size:,} bytes, more than the {limit:,} a "
+            f"reader writes from a container of {container_bytes:,} bytes "
+            "(--limit-scale raises the limits)"
+        )
     return e

@@ -23,7 +23,7 @@ from typing import Any
 
 import click
 
-from . import __version__
+from . import __version__, budget
 from .errors import NurbscompError
 from .units import DEFAULT_TOL_MM, parse_length
 
@@ -147,6 +147,21 @@ def cli(ctx: click.Context, debug: bool) -> None:
     up (SIGHUP).
     """
     ctx.obj = _State(debug)
+
+
+def _limit_scale(f: Any) -> Any:
+    """``--limit-scale K``: the decoding budget times K (docs/format.md §4)."""
+    return click.option(
+        "--limit-scale",
+        type=click.FloatRange(min=0, min_open=True),
+        default=1.0,
+        show_default=True,
+        metavar="K",
+        help="Multiply the decoding limits (references once sharing is unfolded, "
+        f"nesting depth {budget.DEFAULT.depth:,}, poles {budget.DEFAULT.poles:,}, "
+        "pcurves to compute, estimated output size) by K, for a container that "
+        "is trusted and larger than they allow.",
+    )(f)
 
 
 def _batch_options(verbose_help: str) -> Callable[[Any], Any]:
@@ -465,6 +480,7 @@ def _compress_text(r: dict[str, Any], verbose: bool) -> str:
     type=click.Choice(["step", "iges", "brep"], case_sensitive=False),
     help="Output format (needed with -c; default: by -o's extension, else STEP).",
 )
+@_limit_scale
 @_batch_options("Print topology counts.")
 @click.pass_obj
 def decompress(
@@ -483,6 +499,7 @@ def decompress(
         skip_existing=kw["skip_existing"],
         fmt=fmt.upper() if fmt else None,
         debug=state.debug,
+        limit_scale=kw.pop("limit_scale"),
     )
 
     def text(r: dict[str, Any]) -> str:
@@ -498,12 +515,13 @@ def decompress(
 @cli.command()
 @click.argument("file", type=click.Path())
 @click.option("--json", "as_json", is_flag=True, help="Print the report as JSON.")
+@_limit_scale
 @click.pass_obj
-def info(state: _State, file: str, as_json: bool) -> None:
+def info(state: _State, file: str, as_json: bool, limit_scale: float) -> None:
     """Show what a .nzc container holds."""
     from . import pipeline
 
-    r = _run(state, file, lambda: pipeline.info(file))
+    r = _run(state, file, lambda: pipeline.info(file, budget.DEFAULT.scaled(limit_scale)))
     if r is None:
         sys.exit(1)
     if as_json:
@@ -533,20 +551,39 @@ def info(state: _State, file: str, as_json: bool) -> None:
         "sections:    "
         + ", ".join(f"{k} {v}" for k, v in r["section_raw_bytes"].items())
         + f" bytes raw; {r['body_stored_bytes']} bytes coded",
+        *_product_lines(r.get("product")),
     ]
     click.echo("\n".join(show(line) for line in lines))
+
+
+def _product_lines(p: dict[str, Any] | None) -> list[str]:
+    """``info``'s product summary (format 1.2), or a line saying there is none."""
+    if p is None:
+        return ["product:     none stored (a format 1.0/1.1 container, or none in the source)"]
+    coloured = ", ".join(f"{v} {k}s" for k, v in p["coloured"].items()) or "nothing"
+    return [
+        f"product:     {p['parts']} parts, {p['assemblies']} assemblies, "
+        f"{p['instances']} instances, depth {p['depth']}, {p['named']} names",
+        f"colours:     {p['colours']} colours on {coloured}",
+        f"layers:      {p['layers']}",
+        f"schema:      {', '.join(p['schema']) or '-'}",
+        f"dropped:     {'; '.join(p['dropped']) or 'nothing'}",
+    ]
 
 
 @cli.command("test")
 @click.argument("files", nargs=-1, required=True, type=click.Path())
 @click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
+@_limit_scale
 @click.pass_obj
-def test_cmd(state: _State, files: tuple[str, ...], quiet: bool) -> None:
-    """Check .nzc FILES: checksums, references, and a full rebuild (like xz -t)."""
+def test_cmd(state: _State, files: tuple[str, ...], quiet: bool, limit_scale: float) -> None:
+    """Check .nzc FILES: checksums, references, the decoding limits, and a full
+    rebuild (like xz -t)."""
     from . import pipeline
 
+    limits = budget.DEFAULT.scaled(limit_scale)
     for f in files:
-        r = _run(state, f, partial(pipeline.test_file, f))
+        r = _run(state, f, partial(pipeline.test_file, f, limits))
         if r is not None and not quiet:
             what = "stored verbatim" if r.get("passthrough") else f"{r['faces']} faces"
             click.echo(f"{show(f)}: OK ({what})")

@@ -88,6 +88,18 @@ class Container:
     def tags(self) -> list[str]:
         return [s.tag for s in self.sections]
 
+    @property
+    def file_bytes(self) -> int:
+        """Size of the container's bytes (header, directory, body)."""
+        return (
+            _HEADER.size
+            + 4
+            + len(self.sections) * _ENTRY.size
+            + _BODY.size
+            + 4
+            + self.stored_length
+        )
+
 
 def pack(
     sections: list[tuple[str, bytes]],

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from enum import IntEnum
+from typing import Any
 
 import numpy as np
 
@@ -266,6 +267,9 @@ class BRepModel:
         The source file's length unit name (``"MM"``, ``"CM"``, ``"INCH"``...).
     source_format : str
         ``"STEP"`` or ``"IGES"``.
+    product : ProductData or None
+        Format 1.2: the product data (``nurbscomp.product``): assembly tree,
+        names, colours, layers, STEP header; None where the file has none.
     """
 
     datums: np.ndarray = field(default_factory=lambda: np.zeros((0, 3, 4)))
@@ -300,6 +304,7 @@ class BRepModel:
     root_loc: int = 0
     unit: str = "MM"
     source_format: str = "STEP"
+    product: Any = None
 
     def type_index(self) -> np.ndarray:
         """Position of each shape within the rows of its own type, shape (S,).

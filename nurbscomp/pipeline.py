@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING, Any, TypeVar, cast
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from . import __version__, budget, container, passthrough, serialize, units
+from . import __version__, budget, container, passthrough, product, serialize, units
 from .errors import (
     CorruptError,
     InputError,
@@ -225,9 +225,10 @@ def decode(
 ) -> tuple[BRepModel, dict[str, Any]]:
     """The model and metadata a checked container holds.
 
-    ``limits`` is the decoding budget, with the output size of ``fmt`` (the
-    format about to be written) if given; None skips it (``compress``
-    verifying what it just wrote).
+    ``limits`` is the decoding budget (``budget.check_structure``), and the
+    estimated size of a ``fmt`` output (the format about to be written,
+    ``budget.check_output``) if given; None skips it (``compress`` verifying
+    what it just wrote).
 
     Raises
     ------
@@ -246,7 +247,7 @@ def decode(
         raise InputError("a passthrough container holds a file verbatim, not a B-rep")
     serialize.check_layout(c.tags(), c.minor, container.MINOR)
     try:
-        m, meta = serialize.sections_to_model(c.get, min(c.minor, container.MINOR), limits, fmt)
+        m, meta = serialize.sections_to_model(c.get, min(c.minor, container.MINOR), limits)
     except NurbscompError:
         raise
     except (ValueError, IndexError, KeyError, TypeError, ArithmeticError, RecursionError) as e:
@@ -255,6 +256,8 @@ def decode(
         ) from None
     if bool(c.flags & container.FLAG_LOSSLESS) != (meta["mode"] == "lossless"):
         raise CorruptError("the header's lossless flag (offset 6) disagrees with META's mode")
+    if limits is not None and fmt is not None:
+        budget.check_output(m, fmt, c.file_bytes, limits)
     return m, meta
 
 
@@ -266,12 +269,22 @@ def build(m: BRepModel) -> Any:
     return validity.build(m)
 
 
-def write(shape: Any, path: Path, fmt: str, unit: str, meta: dict[str, Any]) -> None:
+def write(
+    shape: Any,
+    path: Path,
+    fmt: str,
+    unit: str,
+    meta: dict[str, Any],
+    product_data: product.ProductData | None = None,
+) -> None:
     """Write a decoded shape; the STEP header is taken from the container's META.
 
     FILE_NAME's name is the source file's name and its originating system the
     writer named in META; the time stamp is fixed (``occ.files.STEP_TIME_STAMP``),
-    so the same container always gives the same bytes.
+    so the same container always gives the same bytes.  With product data
+    (format 1.2), STEP and IGES are written through OCCT's XDE writers with
+    the source's tree, names, colours, layers, schema and header
+    (``occ.xcaf.write``).
 
     Raises
     ------
@@ -283,7 +296,10 @@ def write(shape: Any, path: Path, fmt: str, unit: str, meta: dict[str, Any]) -> 
     name = meta.get("source_name") or ""
     name = name[: -len(SUFFIX)] if name.endswith(SUFFIX) else name
     try:
-        occ.write_shape(shape, path, fmt, unit, name=name, system=meta.get("writer") or "")
+        if product_data is not None and fmt != "BREP":
+            occ.write_product(product_data, shape, path, fmt, unit, name, meta.get("writer") or "")
+        else:
+            occ.write_shape(shape, path, fmt, unit, name=name, system=meta.get("writer") or "")
     except NurbscompError:
         raise
     except OSError as e:
@@ -366,7 +382,7 @@ def compress_file(
     check_output(dst_p, force, (src_p,))
     stage("read")
     try:
-        cad = occ.read_cad(src_p)
+        cad = occ.read_cad(src_p, product=True)
         if occ.counts(cad.shape)["faces"] == 0:
             raise NoBRepError(
                 f"the {cad.source_format} file holds no B-rep faces (only curves or points)"
@@ -380,7 +396,7 @@ def compress_file(
     t_read = time.perf_counter() - t0
     stage("code")
     m, warnings = occ.shape_to_model(cad.shape)
-    m.unit, m.source_format = cad.unit, cad.source_format
+    m.unit, m.source_format, m.product = cad.unit, cad.source_format, cad.product
     src_bytes = src_p.stat().st_size
     meta = {
         "mode": "lossless" if lossless else "tolerance",
@@ -403,6 +419,7 @@ def compress_file(
         if vreport.step_skipped:
             warnings.append(f"no STEP check: {vreport.step_skipped}")
         flags = 0
+    target.product = m.product  # exact in every mode, placements included
     data = container.pack(serialize.model_to_sections(target, meta, codes), flags)
     stage("write")
     verified = False
@@ -412,6 +429,10 @@ def compress_file(
             stage("check")
             back, _ = decode(read_container(tmp), limits=None)
             diff = differences(target, back)
+            if target.product is not None and not (
+                back.product is not None and back.product.same(target.product)
+            ):
+                diff.append("product data")
             if diff:
                 raise VerifyError(f"decoded container differs from the input: {', '.join(diff)}")
             worst = max_net_displacement(m, back)
@@ -451,6 +472,8 @@ def compress_file(
         "source_format": m.source_format,
         "counts": occ.counts(cad.shape),
         "faces_by_type": faces_by_type(m),
+        "product": product.summary(m.product) if m.product is not None else None,
+        "product_bytes": len(product.write(m.product)) if m.product is not None else 0,
         "verified": verified,
         "seconds": seconds,
         "read_seconds": t_read,
@@ -500,7 +523,7 @@ def decompress_file(
     shape, m, meta = decode_file(src_p, limits, fmt)
     stage("write")
     with atomic_output(dst_p, force, (src_p,)) as tmp:
-        write(shape, tmp, fmt, m.unit, meta)
+        write(shape, tmp, fmt, m.unit, meta, m.product)
         size = tmp.stat().st_size
     return {
         "command": "decompress",
@@ -546,6 +569,8 @@ def info(src: str | os.PathLike[str], limits: budget.Limits = budget.DEFAULT) ->
             "curves3d": len(m.curves3d),
             "curves2d": len(m.curves2d),
         },
+        "product": product.summary(m.product) if m.product is not None else None,
+        "product_tree": product.tree(m.product) if m.product is not None else None,
     }
 
 

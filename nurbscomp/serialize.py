@@ -15,6 +15,8 @@ SHAP  shape types, flags, and sub-shape references
 VERT  vertex points, tolerances, point representations
 EDGE  edge tolerances, flags, curve representations
 FACE  face surface, location, tolerance, natural-restriction flag
+SIDE  (1.1, optional) net sides set to another net's side
+PROD  (1.2, optional) product data: tree, names, colours, layers, header
 ====  ==========================================================
 """
 
@@ -25,7 +27,7 @@ from typing import Any, cast
 
 import numpy as np
 
-from . import budget, codec, coons, dmap, joins
+from . import budget, codec, coons, dmap, joins, product
 from .errors import BadReferenceError, CorruptError, LimitError, SectionError
 from .model import (
     REBUILD,
@@ -439,7 +441,9 @@ def _read_shapes(data: bytes, m: BRepModel) -> None:
     m.child_start = np.concatenate([[0], np.cumsum(nkids)]).astype(np.int64)
     parent = np.repeat(np.arange(n), nkids)
     if c and ((back < 1).any() or (back > parent).any()):
-        raise BadReferenceError("SHAP: a shape refers to a sub-shape that does not precede it")
+        raise BadReferenceError(
+            "SHAP: a shape refers to itself or to a later shape (a cycle, or out of order)"
+        )
     if c and (orient.min() < 0 or orient.max() > 3):
         raise SectionError("SHAP: unknown orientation")
     m.child_shape = parent - back
@@ -895,6 +899,7 @@ def model_to_sections(
         ("EDGE", _write_edges(m)),
         ("FACE", _write_faces(m)),
         *([("SIDE", _write_sides(m))] if len(m.side_joins) else []),
+        *([("PROD", product.write(m.product))] if m.product is not None else []),
     ]
 
 
@@ -988,7 +993,7 @@ def _curve_anchors(m: BRepModel, codes: dict[int, codec.NetCode]) -> dict[int, n
 #: The sections of format 1.0, in the order they are written and must be read.
 SECTIONS = ("META", "LOCS", "SURF", "SNET", "CRV3", "CNET", "CRV2", "SHAP", "VERT", "EDGE", "FACE")
 #: What each minor version adds, after the sections of the minors before it.
-ADDED = {1: ("SIDE",)}
+ADDED = {1: ("SIDE",), 2: ("PROD",)}
 
 
 def layout(minor: int) -> tuple[str, ...]:
@@ -1108,15 +1113,14 @@ def sections_to_model(
     get: Any,
     minor: int | None = None,
     limits: budget.Limits | None = budget.DEFAULT,
-    fmt: str | None = None,
 ) -> tuple[BRepModel, dict[str, Any]]:
     """Rebuild a model from a section lookup ``get(tag) -> bytes``; check every reference.
 
     ``minor`` is the file's minor version, capped at this reader's (default:
     the newest this reader knows, ``max(ADDED)``): it says which sections there are.
-    ``limits`` is the decoding budget (``budget.check``, with the output size
-    of ``fmt`` if given), checked on the tables before any net is decoded or
-    any walk over the shapes is made; None skips it (a container just written).
+    ``limits`` is the decoding budget (``budget.check_structure``), checked on
+    the tables before any net is decoded or any walk over the shapes is made;
+    None skips it (a container just written).
 
     Raises
     ------
@@ -1128,7 +1132,7 @@ def sections_to_model(
         Coded nets larger than a reader allocates, or a shape past ``limits``.
     """
     with np.errstate(all="ignore"):  # overflows become non-finite values, refused by name
-        return _sections_to_model(get, max(ADDED) if minor is None else minor, limits, fmt)
+        return _sections_to_model(get, max(ADDED) if minor is None else minor, limits)
 
 
 def _optional(get: Any, tag: str) -> bytes | None:
@@ -1141,7 +1145,7 @@ def _optional(get: Any, tag: str) -> bytes | None:
 
 
 def _sections_to_model(
-    get: Any, minor: int, limits: budget.Limits | None, fmt: str | None
+    get: Any, minor: int, limits: budget.Limits | None
 ) -> tuple[BRepModel, dict[str, Any]]:
     meta = read_meta(get("META"))
     m = BRepModel()
@@ -1160,7 +1164,7 @@ def _sections_to_model(
     _read_faces(get("FACE"), m)
     check_references(m)
     if limits is not None:
-        budget.check(m, limits, fmt)
+        budget.check_structure(m, limits)
     _resolve_ranges(m, range_how)
     coded_surfaces = set(coded_rows(m.surfaces))
     _read_nets(get("SNET"), m.surfaces, tol, "SNET")
@@ -1178,6 +1182,9 @@ def _sections_to_model(
         g = cast(BSplineCurve, m.curves3d[c])
         g.poles[...] = joins.pinned_poles(m, g, pins)
     _fill_copies(copies, m)
+    prod = _optional(get, "PROD") if "PROD" in layout(minor) else None
+    if prod is not None:
+        m.product = product.read(prod, len(m.shape_type))
     return m, meta
 
 

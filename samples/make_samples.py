@@ -14,6 +14,11 @@ writes them as AP214 STEP files (millimetres) next to this script:
 ``blob.step``
     A smooth, bumpy, closed freeform solid made of 63 bicubic B-spline
     patches (9 x 7), in the spirit of the 63-patch "bunny" model.
+``assembly.step``
+    A cadquery ``Assembly`` with product data (format 1.2's ``PROD``): a
+    plate with four bolts (one part placed three times, and a red one), a
+    nested sub-assembly of two brackets (one mirrored) used twice, names,
+    colours on parts, on an instance and on a single face, and two layers.
 
 The output is deterministic: random perturbations use a fixed seed and the
 STEP header (time stamp, author, organisation, ...) is fixed, so running the
@@ -51,7 +56,7 @@ from OCP.BRepCheck import BRepCheck_Analyzer
 from OCP.BRepGProp import BRepGProp
 from OCP.BRepLib import BRepLib
 from OCP.Geom import Geom_BSplineSurface
-from OCP.gp import gp_Pnt
+from OCP.gp import gp_Ax2, gp_Dir, gp_Pnt, gp_Trsf, gp_Vec
 from OCP.GProp import GProp_GProps
 from OCP.IFSelect import IFSelect_ReturnStatus
 from OCP.Interface import Interface_Static
@@ -60,6 +65,8 @@ from OCP.STEPControl import STEPControl_AsIs, STEPControl_Reader, STEPControl_Wr
 from OCP.TColgp import TColgp_Array2OfPnt
 from OCP.TCollection import TCollection_HAsciiString
 from OCP.TColStd import TColStd_Array1OfInteger, TColStd_Array1OfReal
+from OCP.TDataStd import TDataStd_Name
+from OCP.TDF import TDF_Label, TDF_LabelSequence
 from OCP.TopAbs import (
     TopAbs_EDGE,
     TopAbs_FACE,
@@ -185,6 +192,120 @@ def write_step(shape: TopoDS_Shape, path: Path, name: str) -> None:
     status = writer.Write(str(path))
     if status != IFSelect_ReturnStatus.IFSelect_RetDone:
         raise RuntimeError(f"STEP write failed for {path}: {status}")
+
+
+def make_assembly() -> tuple[cq.Assembly, dict[str, TopoDS_Shape]]:
+    """A plate, four bolts and two bracket sub-assemblies (see the module docstring).
+
+    Returns
+    -------
+    cadquery.Assembly
+    dict
+        Three faces of the plate part ("plate >Z", "plate <Z", "plate >X"),
+        which :func:`write_assembly_step` names, colours and puts on a layer.
+    """
+    bolt = cq.Workplane().cylinder(20, 3).faces(">Z").workplane().polygon(6, 10).extrude(4)
+    plate = cq.Workplane().box(60, 40, 5).edges("|Z").fillet(4)
+    bracket = cq.Workplane().box(20, 10, 15).faces(">Y").workplane().hole(5)
+    mirror, lift = gp_Trsf(), gp_Trsf()
+    mirror.SetMirror(gp_Ax2(gp_Pnt(0, 0, 0), gp_Dir(1, 0, 0)))
+    lift.SetTranslation(gp_Vec(0, 0, 10))
+    sub = cq.Assembly(name="bracket set")
+    left = cq.Location((-15, 0, 10))
+    sub.add(bracket, name="left bracket", loc=left, color=cq.Color(0.2, 0.4, 0.8))
+    sub.add(bracket, name="right bracket (mirrored)", loc=cq.Location(lift.Multiplied(mirror)))
+    top = cq.Assembly(name="plate assembly")
+    top.add(plate, name="plate", color=cq.Color(0.7, 0.7, 0.7))
+    for k, (x, y) in enumerate([(-25, -15), (25, -15), (-25, 15), (25, 15)]):
+        red = cq.Color(0.9, 0.1, 0.1) if k == 3 else None
+        top.add(
+            bolt, name=f"bolt {k + 1}", loc=cq.Location((x, y, 12), (0, 0, 1), 30 * k), color=red
+        )
+    top.add(sub, name="brackets", loc=cq.Location((0, 0, 2.5)))
+    top.add(sub, name="brackets 2", loc=cq.Location((0, 20, 2.5), (0, 0, 1), 90))
+    faces = {f"plate {sel}": plate.faces(sel).val().wrapped for sel in (">Z", "<Z", ">X")}
+    return top, faces
+
+
+def write_assembly_step(
+    assy: cq.Assembly, faces: dict[str, TopoDS_Shape], path: Path, name: str
+) -> None:
+    """Write an assembly through OCCT's XDE writer (AP214, millimetres, fixed
+    header), with what cadquery has no deterministic call for: the plate's
+    top face named "top face" and green, and a layer "machined" holding its
+    bottom face and its end face (named "end face").  (A colour or a layer
+    set on an instance label is not written by OCCT 7.9's STEP writer, nor
+    are sub-shape names: they are left out.)
+
+    Raises
+    ------
+    RuntimeError
+        If the transfer or the write fails.
+    """
+    from cadquery.occ_impl.assembly import toCAF
+    from OCP.Quantity import Quantity_Color, Quantity_TypeOfColor
+    from OCP.STEPCAFControl import STEPCAFControl_Writer
+    from OCP.TCollection import TCollection_ExtendedString
+    from OCP.XCAFDoc import XCAFDoc_ColorType, XCAFDoc_DocumentTool
+
+    top, doc = toCAF(assy, coloredSTEP=True)
+    tool = XCAFDoc_DocumentTool.ShapeTool_s(doc.Main())
+    colours = XCAFDoc_DocumentTool.ColorTool_s(doc.Main())
+    layers = XCAFDoc_DocumentTool.LayerTool_s(doc.Main())
+    rgb = Quantity_TypeOfColor.Quantity_TOC_RGB
+    surf = XCAFDoc_ColorType.XCAFDoc_ColorSurf
+    shapes = TDF_LabelSequence()
+    tool.GetShapes(shapes)
+    plate = next(
+        (
+            shapes.Value(i)
+            for i in range(1, shapes.Length() + 1)
+            if _name(shapes.Value(i)) == "plate"
+        ),
+        None,
+    )
+    if plate is None:
+        raise RuntimeError("the plate part is not in the document")
+    for key, face_name, colour, layer in (
+        ("plate >Z", "top face", (0.1, 0.8, 0.1), None),
+        ("plate <Z", None, None, "machined"),
+        ("plate >X", "end face", None, "machined"),
+    ):
+        sub = tool.AddSubShape(plate, faces[key])
+        if sub.IsNull():
+            raise RuntimeError(f"{key} is not a face of the plate")
+        if face_name:
+            TDataStd_Name.Set_s(sub, TCollection_ExtendedString(face_name))
+        if colour:
+            colours.SetColor(sub, Quantity_Color(*colour, rgb), surf)
+        if layer:
+            layers.SetLayer(sub, TCollection_ExtendedString(layer), False)
+    tool.UpdateAssemblies()
+    Interface_Static.SetCVal_s("write.step.schema", "AP214IS")
+    Interface_Static.SetCVal_s("write.step.unit", "MM")
+    Interface_Static.SetIVal_s("write.stepcaf.subshapes.name", 1)
+    writer = STEPCAFControl_Writer()
+    if not writer.Transfer(doc, STEPControl_AsIs):
+        raise RuntimeError(f"STEP transfer failed for {path}")
+    header = APIHeaderSection_MakeHeader(writer.ChangeWriter().Model())
+    header.SetName(TCollection_HAsciiString(name))
+    header.SetTimeStamp(TCollection_HAsciiString(FIXED_TIMESTAMP))
+    header.SetAuthorValue(1, TCollection_HAsciiString("nurbscomp"))
+    header.SetOrganizationValue(1, TCollection_HAsciiString("nurbscomp"))
+    header.SetOriginatingSystem(TCollection_HAsciiString("nurbscomp make_samples.py"))
+    header.SetAuthorisation(TCollection_HAsciiString("none"))
+    header.SetDescriptionValue(1, TCollection_HAsciiString(f"nurbscomp sample {name}"))
+    status = writer.Write(str(path))
+    if status != IFSelect_ReturnStatus.IFSelect_RetDone:
+        raise RuntimeError(f"STEP write failed for {path}: {status}")
+
+
+def _name(label: TDF_Label) -> str | None:
+    """A label's name (OCP crashes in ``FindAttribute`` when there is none)."""
+    n = TDataStd_Name()
+    if label.IsAttribute(TDataStd_Name.GetID_s()) and label.FindAttribute(n.GetID_s(), n):
+        return str(n.Get().ToExtString())
+    return None
 
 
 def read_step(path: Path) -> TopoDS_Shape:
@@ -759,6 +880,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         path = out_dir / f"{name}.step"
         write_step(build(), path, name)
         paths.append(path)
+    write_assembly_step(*make_assembly(), out_dir / "assembly.step", "assembly")
+    paths.append(out_dir / "assembly.step")
 
     all_valid = True
     for path in paths:

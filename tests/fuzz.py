@@ -26,8 +26,11 @@ case failed.
 from __future__ import annotations
 
 import argparse
+import copy
+import dataclasses
 import json
 import random
+import resource
 import signal
 import struct
 import subprocess
@@ -37,14 +40,29 @@ import time
 import traceback
 import zlib
 from pathlib import Path
+from typing import Any
 
-from nurbscomp import container, entropy, pipeline
+import numpy as np
+import zstandard
+
+from nurbscomp import container, entropy, pipeline, serialize
 from nurbscomp.errors import FormatError, UndiagnosedError
+from nurbscomp.model import (
+    REBUILD,
+    BRepModel,
+    BSplineCurve,
+    BSplineSurface,
+    Geometry,
+    Location,
+    RepKind,
+    ShapeType,
+)
 
 from .golden.make_golden import pack_raw
 
 ROOT = Path(__file__).resolve().parent.parent
 SAMPLES = ROOT / "samples"
+GOLDEN = ROOT / "tests" / "golden"
 
 #: (sample, options) the seed containers are made from.
 SEEDS = [
@@ -71,6 +89,8 @@ def make_seeds(folder: Path) -> list[bytes]:
     # format 1.1's parts (SIDE, copied curves): the golden surface models
     golden = Path(__file__).resolve().parent / "golden"
     out += [p.read_bytes() for p in sorted(golden.glob("*.faces.*.nzc"))]
+    # format 1.2's PROD (assembly tree, names, colours, layers): the golden assemblies
+    out += [p.read_bytes() for p in sorted(golden.glob("assembly.*.nzc"))]
     return out
 
 
@@ -269,6 +289,284 @@ def mutate(seeds: list[bytes], rng: random.Random) -> bytes:
     return mutate_sections(data, rng, seeds)
 
 
+# ---------------------------------------------------------------- structure-aware cases
+#
+# Issue 11: a container *built* by someone hostile.  A seed is decoded into
+# its model; the model is edited (shared and nested compounds, deep chains,
+# extreme counts, huge nets, many located instances, extreme coordinates,
+# weights and location matrices, cycles, META abuse) and packed again,
+# lossless, with valid CRCs.  The verdict is the same as for the mutations:
+# decode within the budget, or one FormatError.
+
+
+def decoded(data: bytes) -> tuple[BRepModel, dict[str, Any]]:
+    """The model and META of a valid container (no budget: seeds are trusted)."""
+    return pipeline.decode(container.unpack(data), limits=None)
+
+
+def pack_fast(sections: list[tuple[str, bytes]], flags: int) -> bytes:
+    """A container coded with zstd at a fast level (a reader takes any level):
+    as small as a writer's, in milliseconds even for a 24 MB net."""
+    d = b"".join(struct.pack("<4sII", t.encode(), len(r), zlib.crc32(r)) for t, r in sections)
+    body = b"".join(r for _, r in sections)
+    stored = zstandard.ZstdCompressor(level=3).compress(body)
+    head = struct.pack(
+        "<4sBBHHH", container.MAGIC, container.MAJOR, container.MINOR, flags, len(sections), 0
+    )
+    bh = struct.pack("<B3sII", int(entropy.Coder.ZSTD), b"\0\0\0", len(body), len(stored))
+    return fix_crcs(head + b"\0" * 4 + d + bh + b"\0" * 4 + stored)
+
+
+def pack_model(m: BRepModel, meta: dict[str, Any]) -> bytes:
+    """``m`` as a lossless container (its decoded poles stored as floats)."""
+    m.side_joins = np.zeros((0, 5), np.int64)
+    meta = {**meta, "mode": "lossless", "tolerance_mm": None}
+    return pack_fast(serialize.model_to_sections(m, meta), container.FLAG_LOSSLESS)
+
+
+def add_shapes(m: BRepModel, types: list[int], kids: list[list[tuple[int, int, int]]]) -> int:
+    """Append shapes (each with its (child, orientation, location) references);
+    return the index of the first.  Faces get a face row on surface 0."""
+    first = len(m.shape_type)
+    counts = [len(k) for k in kids]
+    flat = [r for k in kids for r in k]
+    m.shape_type = np.concatenate([m.shape_type, np.array(types, np.uint8)])
+    m.shape_flags = np.concatenate([m.shape_flags, np.zeros(len(types), np.uint8)])
+    ends = m.child_start[-1] + np.cumsum(counts, dtype=np.int64)
+    m.child_start = np.concatenate([m.child_start, ends])
+    arr = np.array(flat, np.int64).reshape(-1, 3)
+    m.child_shape = np.concatenate([m.child_shape, arr[:, 0]])
+    m.child_orient = np.concatenate([m.child_orient, arr[:, 1].astype(np.uint8)])
+    m.child_loc = np.concatenate([m.child_loc, arr[:, 2]])
+    nf = sum(t == ShapeType.FACE for t in types)
+    if nf:
+        m.face_surface = np.concatenate([m.face_surface, np.zeros(nf, np.int64)])
+        m.face_loc = np.concatenate([m.face_loc, np.zeros(nf, np.int64)])
+        m.face_tol = np.concatenate([m.face_tol, np.full(nf, 1e-7)])
+        m.face_natural = np.concatenate([m.face_natural, np.zeros(nf, bool)])
+    return first
+
+
+def nest(m: BRepModel, depth: int, width: int = 1, kind: int = ShapeType.COMPOUND) -> None:
+    """A chain of ``depth`` new shapes above the root, each holding the one
+    below ``width`` times (2 and 40: 2^40 references once unfolded)."""
+    below = (m.root_shape, m.root_orient, m.root_loc)
+    first = len(m.shape_type)
+    kids = [[below] * width] + [[(first + i, 0, 0)] * width for i in range(depth - 1)]
+    add_shapes(m, [kind] * depth, kids)
+    m.root_shape, m.root_orient, m.root_loc = first + depth - 1, 0, 0
+
+
+def unreached_wires(m: BRepModel, depth: int, width: int = 2) -> None:
+    """Wires nested ``width`` times per level under a new face that nothing
+    reaches (``joins.face_vertices`` used to walk every path)."""
+    wires = np.flatnonzero(m.shape_type == ShapeType.WIRE)
+    if not len(wires):
+        return
+    first = len(m.shape_type)
+    kids = [[(int(wires[0]), 0, 0)] * width]
+    kids += [[(first + i, 0, 0)] * width for i in range(depth - 1)]
+    add_shapes(m, [ShapeType.WIRE] * depth + [ShapeType.FACE], [*kids, [(first + depth - 1, 0, 0)]])
+
+
+def add_datums(m: BRepModel, rows: np.ndarray, form: int) -> list[int]:
+    """Append datums (n, 3, 4) of one ``gp_TrsfForm``, a location for each; their indices."""
+    n0 = len(m.datums)
+    m.datums = np.concatenate([m.datums.reshape(-1, 3, 4), rows])
+    m.datum_forms = np.concatenate([m.datum_forms, np.full(len(rows), form, np.uint8)])
+    first = len(m.locations)
+    m.locations = [*m.locations, *(Location((n0 + i,), (1,)) for i in range(len(rows)))]
+    return list(range(first, first + len(rows)))
+
+
+def instances(m: BRepModel, n: int) -> None:
+    """A compound of ``n`` translated copies of the root (IGES flattens them)."""
+    rows = np.tile(np.hstack([np.eye(3), np.zeros((3, 1))]), (n, 1, 1))
+    rows[:, :, 3] = np.arange(1, n + 1)[:, None] * np.array([10.0, 0.0, 0.0])
+    locs = add_datums(m, rows, 2)  # gp_Translation
+    r = add_shapes(m, [ShapeType.COMPOUND], [[(m.root_shape, m.root_orient, k) for k in locs]])
+    m.root_shape, m.root_orient, m.root_loc = r, 0, 0
+
+
+def odd_matrices(m: BRepModel, rng: random.Random) -> None:
+    """Located references with singular, non-orthogonal, huge or tiny matrices."""
+    choices = [
+        np.zeros((3, 4)),  # singular
+        np.array([[1.0, 0.5, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0]]),  # shear
+        np.array([[2.0, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0]]),  # non-uniform scale
+        np.array([[1e100, 0, 0, 1e100], [0, 1e100, 0, 0], [0, 0, 1e100, 0]]),
+        np.array([[1e-300, 0, 0, 0], [0, 1e-300, 0, 0], [0, 0, 1e-300, 0]]),
+        np.array([[0.0, 1, 0, 0], [1, 0, 0, 0], [0, 0, 1, 0]]),  # a mirror
+    ]
+    rows = np.array([rng.choice(choices) for _ in range(rng.randint(1, 3))])
+    locs = add_datums(m, rows, rng.choice([6, 7, 8]))
+    if rng.random() < 0.3:  # raised to a large power
+        k = locs[0]
+        m.locations[k] = Location(m.locations[k].datums, (rng.choice([2**31 - 1, -(2**20), 64]),))
+    refs = np.flatnonzero(m.child_shape >= 0)
+    for _ in range(rng.randint(1, 8)):
+        m.child_loc[int(rng.choice(refs))] = rng.choice(locs)
+    if rng.random() < 0.5:
+        m.root_loc = rng.choice(locs)
+
+
+def _bsplines(m: BRepModel) -> list[tuple[list[Geometry], int]]:
+    return [
+        (t, i)
+        for t in (m.surfaces, m.curves3d, m.curves2d)
+        for i, g in enumerate(t)
+        if isinstance(g, (BSplineSurface, BSplineCurve))
+    ]
+
+
+def huge_net(m: BRepModel, nu: int, nv: int, degree: int) -> None:
+    """Surface row 0 becomes a clamped nu x nv net of ``degree`` (a ramp of
+    equal rows, so that it packs small, like a coded net)."""
+
+    def knots(n: int) -> tuple[np.ndarray, np.ndarray]:
+        k = n - degree + 1
+        mults = np.ones(k, np.int64)
+        mults[[0, -1]] = degree + 1
+        return np.linspace(0.0, 1.0, k), mults
+
+    (uk, um), (vk, vm) = knots(nu), knots(nv)
+    poles = np.zeros((nu, nv, 3))
+    poles[:, :, 0] = np.arange(nu)[:, None]  # rows of equal poles: packs to a few KB
+    g = BSplineSurface(poles, None, uk, vk, um, vm, degree, degree, False, False, False)
+    old = m.surfaces[0]
+    m.surfaces = [g if x is old else x for x in m.surfaces]
+
+
+def computed_pcurves(m: BRepModel, faces: int) -> None:
+    """Every pcurve left for the decoder to compute, and ``faces`` more faces
+    on the surface of face 0 (each computed pcurve on it is projected on each)."""
+    reps = m.edge_reps
+    on = (reps[:, 1] == RepKind.ON_SURFACE) | (reps[:, 1] == RepKind.ON_CLOSED_SURFACE)
+    reps[on, 2] = REBUILD
+    reps[reps[:, 1] == RepKind.ON_CLOSED_SURFACE, 3] = REBUILD
+    m.edge_rep_range[on] = 0.0
+    m.edge_rep_uv[on] = 0.0
+    if len(m.face_surface):
+        s, loc = int(m.face_surface[0]), int(m.face_loc[0])
+        reps[on, 4], reps[on, 6] = s, loc
+        first = add_shapes(m, [ShapeType.FACE] * faces, [[] for _ in range(faces)])
+        del first
+        m.face_surface[-faces:] = s
+        m.face_loc[-faces:] = loc
+
+
+def extreme_values(m: BRepModel, rng: random.Random) -> None:
+    """Coordinates at ±1e100, weights at 1e-300 and 1e300."""
+    rows = _bsplines(m)
+    for _ in range(rng.randint(1, 4)):
+        if not rows:
+            break
+        t, i = rng.choice(rows)
+        g = t[i]
+        assert isinstance(g, (BSplineSurface, BSplineCurve))
+        what = rng.randrange(3)
+        if what == 0:
+            flat = g.poles.reshape(-1)
+            idx = rng.sample(range(flat.size), min(flat.size, rng.randint(1, 6)))
+            flat[idx] = [rng.choice([1e100, -1e100, 2e100 * 0.999]) for _ in idx]
+        else:
+            w = np.ones(g.poles.shape[:-1]) if g.weights is None else g.weights.copy()
+            flat = w.reshape(-1)
+            idx = rng.sample(range(flat.size), min(flat.size, rng.randint(1, 6)))
+            flat[idx] = [rng.choice([1e-300, 1e300, 5e-324]) for _ in idx]
+            t[i] = dataclasses.replace(g, weights=w)
+    if rng.random() < 0.5 and len(m.vertex_point):
+        m.vertex_point[rng.randrange(len(m.vertex_point))] = rng.choice([1e100, -1e100])
+
+
+def cycle(m: BRepModel, rng: random.Random) -> None:
+    """A reference to the shape itself or to one of its parents (the writer
+    stores the difference; the reader must refuse it)."""
+    parents = np.repeat(np.arange(len(m.shape_type)), np.diff(m.child_start))
+    if not len(parents):
+        return
+    k = rng.randrange(len(parents))
+    m.child_shape[k] = parents[k] + rng.choice([0, 0, 1, len(m.shape_type) - parents[k] - 1])
+
+
+def meta_abuse(meta: dict[str, Any], rng: random.Random) -> bytes:
+    key = rng.choice(["source_name", "writer", "source_bytes", "unit", "source_format", "extra"])
+    meta = dict(meta)
+    bad = [
+        "a\r\x07b",
+        "x\ud800",
+        "\x1b[2J",
+        "n" * rng.choice([1024, 1025, 60000]),
+        10**400,
+        -(10**19),
+        2**53 + 1,
+        1e308,
+        [[[]]],
+        {"a": "\x00"},
+    ]
+    meta[key] = rng.choice(bad)
+    raw = json.dumps(meta, ensure_ascii=rng.random() < 0.5).encode("utf-8", "surrogatepass")
+    if rng.random() < 0.2:  # integers longer than Python's int() takes
+        raw = raw[:-1] + b',"big":' + b"9" * rng.choice([21, 4301, 50000]) + b"}"
+    return raw
+
+
+#: The structure-aware edits, by name (``build_case`` picks one or two).
+EDITS = (
+    "shared_compounds",
+    "deep_chain",
+    "unreached_wires",
+    "instances",
+    "huge_net",
+    "computed_pcurves",
+    "extreme_values",
+    "odd_matrices",
+    "cycle",
+    "meta",
+)
+
+
+def build_case(
+    models: list[tuple[BRepModel, dict[str, Any]]],
+    rng: random.Random,
+    names: list[str] | None = None,
+) -> tuple[str, bytes]:
+    """One structure-aware case: (what was done, container bytes).  ``names``
+    forces the edits (default: one or two of ``EDITS`` at random)."""
+    base, meta = rng.choice(models)
+    m = copy.deepcopy(base)
+    names = names or rng.sample(EDITS, rng.choice([1, 1, 1, 2]))
+    meta_raw = None
+    for name in names:
+        if name == "shared_compounds":
+            nest(m, rng.choice([2, 10, 21, 40, 64]), rng.choice([2, 2, 3, 16]))
+        elif name == "deep_chain":
+            nest(m, rng.choice([999, 1001, 5000, 100_000]), 1, rng.choice([0, 0, 1, 3, 5]))
+        elif name == "unreached_wires":
+            unreached_wires(m, rng.choice([5, 40, 1000]), rng.choice([1, 2]))
+        elif name == "instances":
+            instances(m, rng.choice([2, 100, 1000, 10_000]))
+        elif name == "huge_net":
+            n = rng.choice([(30, 30), (200, 300), (1000, 1000), (1100, 1000)])
+            huge_net(m, n[0], n[1], rng.choice([1, 3, 25]))
+        elif name == "computed_pcurves":
+            computed_pcurves(m, rng.choice([1, 10, 100, 2000]))
+        elif name == "extreme_values":
+            extreme_values(m, rng)
+        elif name == "odd_matrices":
+            odd_matrices(m, rng)
+        elif name == "cycle":
+            cycle(m, rng)
+        else:
+            meta_raw = meta_abuse(meta, rng)
+    data = pack_model(m, meta)
+    if meta_raw is not None:
+        c = container.unpack(data)
+        secs = [(s.tag, meta_raw if s.tag == "META" else s.raw) for s in c.sections]
+        data = pack_fast(secs, c.flags)
+    return "+".join(names), data
+
+
 # ---------------------------------------------------------------- the property
 
 
@@ -280,17 +578,20 @@ def _alarm(signum: int, frame: object) -> None:
     raise Hang
 
 
-def check(data: bytes, seconds: float = 20.0, write: bool = False) -> str:
+def check(data: bytes, seconds: float = 20.0, write: bool = False, fmt: str = "STEP") -> str:
     """Decode and build ``data``: ``"ok"`` or the FormatError's class name.
 
-    With ``write``, a shape that builds is also written to STEP (in a temporary
-    folder), as ``nurbscomp decompress`` does.
+    With ``write``, a shape that builds is also written to ``fmt`` (in a
+    temporary folder), as ``nurbscomp decompress`` does, within the decoding
+    budget of that format.
 
     Raises
     ------
     Hang
         The case took longer than ``seconds`` (checked between Python bytecodes:
         a hang inside one OCCT call is caught by the worker's timeout instead).
+    MemoryError
+        Python or OCCT ran out of memory (the worker's memory limit).
     Exception
         Anything but a ``FormatError``, or an ``UndiagnosedError`` (the
         decoder's last-resort wrapper): the property is broken.
@@ -298,15 +599,18 @@ def check(data: bytes, seconds: float = 20.0, write: bool = False) -> str:
     old = signal.signal(signal.SIGALRM, _alarm)
     signal.setitimer(signal.ITIMER_REAL, seconds)
     try:
-        m, meta = pipeline.decode(container.unpack(data))
+        m, meta = pipeline.decode(container.unpack(data), fmt=fmt if write else None)
         shape = pipeline.build(m)
         if write:
+            suffix = {"STEP": ".step", "IGES": ".igs", "BREP": ".brep"}[fmt]
             with tempfile.TemporaryDirectory() as d:
-                pipeline.write(shape, Path(d) / "out.step", "STEP", m.unit, meta)
+                pipeline.write(shape, Path(d) / f"out{suffix}", fmt, m.unit, meta)
         return "ok"
     except UndiagnosedError:
         raise  # a FormatError, but one that no specific check caught: a failure
     except FormatError as e:
+        if "OutOfMemory" in str(e) or "bad_alloc" in str(e):
+            raise MemoryError(str(e)) from None  # OCCT's, turned into a RebuildError
         return type(e).__name__
     finally:
         signal.setitimer(signal.ITIMER_REAL, 0)
@@ -315,41 +619,88 @@ def check(data: bytes, seconds: float = 20.0, write: bool = False) -> str:
 
 # ---------------------------------------------------------------- the long run
 
+#: Seconds a structure-aware case may take in ``check`` (issue 11: 10 s).
+STRUCTURE_SECONDS = 10.0
 
-def _worker(seed: int, first: int, count: int, folder: Path) -> None:
+
+def _vm_bytes() -> int:
+    """The process's virtual size (Linux), the base of its address-space limit."""
+    for line in Path("/proc/self/status").read_text().splitlines():
+        if line.startswith("VmSize:"):
+            return int(line.split()[1]) * 1024
+    return 0
+
+
+def _limit_memory(mb: int) -> int:
+    """Allow the worker ``mb`` MiB of address space beyond what its imports
+    hold (``resource.setrlimit``); return its peak RSS so far, in KiB."""
+    if mb > 0:
+        cap = _vm_bytes() + (mb << 20)
+        resource.setrlimit(resource.RLIMIT_AS, (cap, cap))
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+
+
+def _verdict(data: bytes, seconds: float, fmt: str, base_kb: int, mb: int) -> str:
+    try:
+        result = check(data, seconds, write=True, fmt=fmt)
+    except Hang:
+        return f"FAIL hang (over {seconds:g} s)"
+    except MemoryError as e:
+        return f"FAIL out of memory ({e})"
+    except Exception as e:  # the property is broken: report, go on
+        tb = traceback.format_exc().strip().splitlines()
+        return f"FAIL {type(e).__name__}: {e} | {' / '.join(tb[-3:])}"
+    grown = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - base_kb
+    if mb > 0 and grown > mb * 1024:
+        return f"FAIL memory: peak {grown >> 10} MiB above the imports"
+    return result
+
+
+def _worker(seed: int, first: int, count: int, folder: Path, mode: str, mb: int) -> None:
     """Run cases ``first`` … ``first + count - 1``; one line per case on stdout."""
-    seeds = make_seeds(folder)
+    seeds = make_seeds(folder) if mode != "structure" else []
+    models = [decoded(p.read_bytes()) for p in sorted(GOLDEN.glob("*.nzc"))]
+    base_kb = _limit_memory(mb)
     for case in range(first, first + count):
         print(f"start {case}", flush=True)
+        rng = random.Random(f"{seed}:{case}")
+        name, fmt, seconds = "", "STEP", 20.0
         try:
-            data = mutate(seeds, random.Random(f"{seed}:{case}"))
+            if mode == "structure":
+                name, data = build_case(models, rng)
+                fmt, seconds = rng.choice(["STEP", "STEP", "IGES", "BREP"]), STRUCTURE_SECONDS
+            else:
+                data = mutate(seeds, rng)
         except Exception as e:  # a bug of the fuzzer itself: reported, not hidden
             print(f"done {case} FAIL fuzzer {type(e).__name__}: {e}", flush=True)
             continue
-        try:
-            result = check(data, write=True)
-        except Hang:
-            result = "FAIL hang"
-        except Exception as e:  # the property is broken: report, go on
-            tb = traceback.format_exc().strip().splitlines()
-            result = f"FAIL {type(e).__name__}: {e} | {' / '.join(tb[-3:])}"
-        print(f"done {case} {result}", flush=True)
+        result = _verdict(data, seconds, fmt, base_kb, mb)
+        print(f"done {case} {result}{f' [{name}, {fmt}]' if name else ''}", flush=True)
 
 
-def run(cases: int, seed: int, jobs: int, timeout: float, chunk: int = 500) -> int:
+def run(
+    cases: int,
+    seed: int,
+    jobs: int,
+    timeout: float,
+    chunk: int = 500,
+    mode: str = "mutate",
+    mb: int = 1024,
+) -> int:
     """Fuzz ``cases`` cases in ``jobs`` worker processes; print a summary; 1 if any failed."""
     t0 = time.time()
     results: dict[int, str] = {}
     with tempfile.TemporaryDirectory() as d:
         folder = Path(d)
-        make_seeds(folder)
+        if mode != "structure":
+            make_seeds(folder)
         todo = [(a, min(chunk, cases - a)) for a in range(0, cases, chunk)]
         running: list[tuple[subprocess.Popen[str], int, int]] = []
         while todo or running:
             while todo and len(running) < jobs:
                 first, n = todo.pop(0)
                 cmd = [sys.executable, "-m", "tests.fuzz", "--worker"]
-                cmd += [str(seed), str(first), str(n), str(folder)]
+                cmd += [str(seed), str(first), str(n), str(folder), mode, str(mb)]
                 p = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, text=True)
                 running.append((p, first, n))
             p, first, n = running.pop(0)
@@ -365,7 +716,7 @@ def run(cases: int, seed: int, jobs: int, timeout: float, chunk: int = 500) -> i
         kinds[v.split(" ")[0] if not v.startswith("FAIL") else "FAIL"] = (
             kinds.get(v.split(" ")[0] if not v.startswith("FAIL") else "FAIL", 0) + 1
         )
-    print(f"fuzz: {len(results)} cases, seed {seed}, {time.time() - t0:.0f} s")
+    print(f"fuzz ({mode}): {len(results)} cases, seed {seed}, {time.time() - t0:.0f} s")
     print("outcomes: " + ", ".join(f"{k} {v}" for k, v in sorted(kinds.items())))
     print(f"failures: {len(fails)}")
     for k, v in fails.items():
@@ -417,13 +768,26 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--timeout", type=float, default=60.0, help="seconds per case")
-    ap.add_argument("--worker", nargs=4, help=argparse.SUPPRESS)
+    ap.add_argument(
+        "--structure",
+        action="store_true",
+        help="structure-aware cases (decoded models edited and packed again) "
+        "instead of mutated bytes",
+    )
+    ap.add_argument(
+        "--memory-mb",
+        type=int,
+        default=1024,
+        help="address space a worker may use beyond its imports (0: no limit)",
+    )
+    ap.add_argument("--worker", nargs=6, help=argparse.SUPPRESS)
     a = ap.parse_args()
     if a.worker:
-        seed, first, count, folder = a.worker
-        _worker(int(seed), int(first), int(count), Path(folder))
+        seed, first, count, folder, mode, mb = a.worker
+        _worker(int(seed), int(first), int(count), Path(folder), mode, int(mb))
         return
-    sys.exit(run(a.cases, a.seed, a.jobs, a.timeout))
+    mode = "structure" if a.structure else "mutate"
+    sys.exit(run(a.cases, a.seed, a.jobs, a.timeout, mode=mode, mb=a.memory_mb))
 
 
 if __name__ == "__main__":

@@ -4,15 +4,29 @@ must end fast with one ``FormatError`` line, or decode within the budget."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
+import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from nurbscomp import container, entropy, pipeline, serialize
+from nurbscomp import budget, container, entropy, joins, model, occ, pipeline, serialize
 from nurbscomp.cli import cli, show
-from nurbscomp.errors import FormatError, LimitError, SectionError
+from nurbscomp.errors import (
+    BadReferenceError,
+    FormatError,
+    InputError,
+    LimitError,
+    SectionError,
+)
+from nurbscomp.model import BRepModel, RepKind, ShapeType
+from nurbscomp.occ import files
+
+from . import fuzz
+from .conftest import SAMPLES
 
 GOLDEN = Path(__file__).resolve().parent / "golden"
 BASE = GOLDEN / "bracket.lossless.nzc"
@@ -113,3 +127,274 @@ def test_all_meta_errors_are_format_errors() -> None:
     for raw in META_CASES.values():
         with pytest.raises(FormatError):
             serialize.read_meta(raw)
+
+
+# ---------------------------------------------------------------- the budget and the walks
+
+
+def _model(name: str = "loft.lossless.nzc") -> tuple[BRepModel, dict[str, object]]:
+    return fuzz.decoded((GOLDEN / name).read_bytes())
+
+
+def _decode(data: bytes, fmt: str | None = None) -> BRepModel:
+    return pipeline.decode(container.unpack(data), fmt=fmt)[0]
+
+
+def _paths(m: BRepModel, s: int) -> int:
+    """Sub-shape references below ``s``, the slow way (small models only)."""
+    a, b = int(m.child_start[s]), int(m.child_start[s + 1])
+    return 1 + sum(_paths(m, int(c)) for c in m.child_shape[a:b])
+
+
+@pytest.mark.parametrize(("depth", "width"), [(3, 2), (6, 3), (1, 5)])
+def test_references_are_counted_with_sharing_unfolded(depth: int, width: int) -> None:
+    m, _ = _model()
+    fuzz.nest(m, depth, width)
+    e = budget.expansion(m)
+    assert e.references == _paths(m, m.root_shape)
+    assert e.depth == budget.expansion(_model()[0]).depth + depth
+
+
+def test_shared_compounds_40_deep_fail_fast(tmp_path: Path) -> None:
+    """A compound holding the one below it twice, 40 levels: 2^40 x the loft."""
+    m, meta = _model()
+    fuzz.nest(m, 40, 2)
+    data = fuzz.pack_model(m, meta)
+    assert len(data) < 10_000
+    t = time.perf_counter()
+    with pytest.raises(LimitError, match="sub-shape references once sharing is unfolded"):
+        _decode(data)
+    assert time.perf_counter() - t < 5
+    for cmd in ("test", "info", "decompress"):
+        assert "sub-shape references" in _cli_one_line(tmp_path, data, cmd)
+
+
+def test_a_100000_deep_chain_fails_fast(tmp_path: Path) -> None:
+    m, meta = _model()
+    fuzz.nest(m, 100_000, 1)
+    data = fuzz.pack_model(m, meta)
+    assert len(data) < 10_000
+    t = time.perf_counter()
+    with pytest.raises(LimitError, match="levels of nested sub-shapes"):
+        _decode(data)
+    assert time.perf_counter() - t < 5
+    assert "levels of nested" in _cli_one_line(tmp_path, data, "test")
+
+
+def test_limit_scale_raises_the_limits(tmp_path: Path) -> None:
+    m, meta = _model()
+    fuzz.nest(m, 1_000, 1)
+    src = tmp_path / "chain.nzc"
+    src.write_bytes(fuzz.pack_model(m, meta))
+    r = CliRunner().invoke(cli, ["test", str(src)])
+    assert r.exit_code == 1 and "levels of nested" in r.stderr
+    r = CliRunner().invoke(cli, ["test", "--limit-scale", "2", str(src)])
+    assert r.exit_code == 0, r.stderr
+    r = CliRunner().invoke(cli, ["test", "--limit-scale", "0", str(src)])
+    assert r.exit_code == 2
+    # the limits scale down too: a golden file is then refused
+    g = GOLDEN / "teapot.lossless.nzc"
+    r = CliRunner().invoke(cli, ["info", "--limit-scale", "0.0001", str(g)])
+    assert r.exit_code == 1 and "table rows" in r.stderr and "more than the 100 " in r.stderr
+    assert budget.DEFAULT.scaled(1e6).depth == budget.DEPTH_CEILING
+
+
+def test_unreached_nested_wires_are_walked_once(tmp_path: Path) -> None:
+    """Wires nested twice per level, 40 levels, under a face nothing reaches:
+    ``info`` (which runs joins.face_vertices) returns at once."""
+    m, meta = _model()
+    fuzz.unreached_wires(m, 40, 2)
+    data = fuzz.pack_model(m, meta)
+    t = time.perf_counter()
+    src = tmp_path / "wires.nzc"
+    src.write_bytes(data)
+    r = CliRunner().invoke(cli, ["info", str(src)])
+    assert r.exit_code == 0, r.stderr
+    assert time.perf_counter() - t < 5
+    src.unlink()
+    verts = joins.face_vertices(_decode(data))
+    assert verts[-1] == verts[0] or verts[-1]  # the new face reaches the wire's vertices
+    line = _cli_one_line(tmp_path, data, "test")  # OCCT refuses a wire in a wire
+    assert "does not rebuild" in line
+
+
+def test_located_instances_are_flattened_by_iges_only() -> None:
+    m, meta = _model("bracket.lossless.nzc")
+    one = budget.expansion(m)
+    fuzz.instances(m, 1000)
+    data = fuzz.pack_model(m, meta)
+    e = budget.expansion(_decode(data))
+    assert e.references == 1000 * one.references + 1
+    assert e.iges_bytes > 900 * one.iges_bytes
+    assert e.step_bytes < 10 * one.step_bytes
+    with pytest.raises(LimitError, match="IGES output would take"):
+        _decode(data, "IGES")
+    assert _decode(data, "STEP") is not None
+    m, meta = _model("bracket.lossless.nzc")
+    fuzz.instances(m, 10_000)
+    with pytest.raises(LimitError):
+        _decode(fuzz.pack_model(m, meta), "STEP")
+
+
+def test_huge_net_and_computed_pcurves() -> None:
+    m, meta = _model()
+    fuzz.huge_net(m, 1000, 1000, 25)
+    data = fuzz.pack_model(m, meta)
+    assert len(data) < 20_000
+    with pytest.raises(LimitError, match="STEP output would take"):
+        _decode(data, "STEP")
+    m, meta = _model("teapot.tol0.01.nzc")
+    fuzz.huge_net(m, 200, 300, 25)  # OCCT's projection onto it: over 30 s a pcurve
+    with pytest.raises(LimitError, match="units of work projecting"):
+        _decode(fuzz.pack_model(m, meta))
+    m, meta = _model("bracket.lossless.nzc")
+    fuzz.computed_pcurves(m, 1000)
+    e = budget.expansion(m)
+    assert e.pcurves == budget.pcurves_to_compute(m)[0] > 50_000
+    limits = dataclasses.replace(budget.DEFAULT, pcurves=e.pcurves - 1)
+    with pytest.raises(LimitError, match="pcurves to compute"):
+        pipeline.decode(container.unpack(fuzz.pack_model(m, meta)), limits)
+
+
+@pytest.mark.parametrize("where", ["itself", "its parent"])
+def test_cycles_are_refused(tmp_path: Path, where: str) -> None:
+    m, meta = _model()
+    parents = np.repeat(np.arange(len(m.shape_type)), np.diff(m.child_start))
+    k = len(parents) - 1  # the root's last reference
+    m.child_shape[k] = parents[k] if where == "itself" else parents[k] + 1
+    if where == "its parent":
+        fuzz.nest(m, 1, 1)  # a parent for the root to point at
+    data = fuzz.pack_model(m, meta)
+    with pytest.raises(BadReferenceError, match="cycle"):
+        _decode(data)
+    assert "cycle" in _cli_one_line(tmp_path, data, "test")
+
+
+def test_curve_placements_match_the_paths() -> None:
+    """joins.curve_placements (one pass, parents first) against every path."""
+    for name in ("bracket.lossless.nzc", "loft.faces.tol0.01.nzc"):
+        m, _ = _model(name)
+        fuzz.instances(m, 2)  # every curve under two placements: none kept
+        assert joins.curve_placements(m) == {}
+        m, _ = _model(name)
+        got = joins.curve_placements(m)
+        want = _placements_by_paths(m)
+        assert got.keys() == want.keys() and got
+        assert all(np.array_equal(got[c], want[c]) for c in got)
+
+
+def _placements_by_paths(m: BRepModel) -> dict[int, np.ndarray]:
+    mats = [joins.location_matrix(m, k) for k in range(len(m.locations))]
+    tidx = m.type_index()
+    at: dict[int, list[np.ndarray]] = {}
+
+    def walk(s: int, t: np.ndarray) -> None:
+        if m.shape_type[s] == ShapeType.EDGE:
+            for q in np.flatnonzero(m.edge_reps[:, 0] == tidx[s]).tolist():
+                if m.edge_reps[q, 1] == RepKind.CURVE3D:
+                    c = int(m.edge_reps[q, 2])
+                    at.setdefault(c, []).append(t @ mats[int(m.edge_reps[q, 6])])
+            return
+        for k in range(m.child_start[s], m.child_start[s + 1]):
+            c = int(m.child_shape[k])
+            if m.shape_type[c] != ShapeType.VERTEX:
+                walk(c, t @ mats[int(m.child_loc[k])])
+
+    walk(m.root_shape, mats[m.root_loc])
+    return {c: ts[0] for c, ts in at.items() if all(np.array_equal(x, ts[0]) for x in ts)}
+
+
+def test_reader_walks_deep_shapes_without_recursion() -> None:
+    """OCCT shapes nested 3,000 deep (past Python's recursion limit) read back
+    into the same tables."""
+    m, _ = _model()
+    fuzz.nest(m, 3_000, 1)
+    shape = occ.model_to_shape(m)
+    back, _ = occ.shape_to_model(shape)
+    assert model.differences(m, back) == []
+
+
+# ---------------------------------------------------------------- STEP input screening
+
+
+def _deep_step(tmp_path: Path, n: int, quoted: str = "") -> Path:
+    text = (SAMPLES / "loft.step").read_text()
+    i = text.index("DATA;") + len("DATA;\n")
+    bad = f"#999999=CARTESIAN_POINT('{quoted}'," + "(" * n + "0.0" + ")" * n + ");\n"
+    p = tmp_path / f"deep{n}.step"
+    p.write_text(text[:i] + bad + text[i:])
+    return p
+
+
+def test_deeply_nested_step_is_screened(tmp_path: Path) -> None:
+    """100,000 nested parentheses crash OCCT's STEP parser: refused first."""
+    p = _deep_step(tmp_path, 100_000)
+    prefix = "#999999=CARTESIAN_POINT('',"  # its "(" is level 1
+    with pytest.raises(InputError, match="nested more than 1000 deep"):
+        files.screen_step(p)
+    r = CliRunner().invoke(cli, ["compress", "--lossless", str(p)])
+    assert r.exit_code == 1
+    assert r.stderr.strip().splitlines() == [
+        f"error: {p}: STEP parentheses nested more than 1000 deep (at byte "
+        f"{p.read_bytes().index(b'#999999=') + len(prefix) + files.MAX_STEP_NESTING - 1}); "
+        "OCCT's parser cannot read it"
+    ]
+    assert sorted(x.name for x in tmp_path.iterdir()) == [p.name]
+
+
+def test_screening_reads_strings_and_chunks(tmp_path: Path, monkeypatch) -> None:
+    """Parentheses inside a string (with an escaped apostrophe) do not count,
+    and the depth and the quoting carry across the scan's chunks."""
+    files.screen_step(_deep_step(tmp_path, 998, quoted="it''s " + "(" * 5000))
+    monkeypatch.setattr(files, "_SCAN_CHUNK", 7)
+    files.screen_step(_deep_step(tmp_path, 998, quoted="x''" + "(" * 2000))
+    with pytest.raises(InputError):
+        files.screen_step(_deep_step(tmp_path, 1000, quoted="''"))
+    for p in sorted(SAMPLES.glob("*.step")):
+        files.screen_step(p)
+
+
+def test_table_rows_are_bounded_before_any_loop() -> None:
+    """A container may declare millions of rows in a few KB (the body inflates
+    to 256 MB): refused by their count before the budget's own loops."""
+    m, meta = _model()
+    n = len(m.shape_type) + len(m.child_shape) + len(m.edge_reps) + len(m.vertex_reps)
+    n += len(m.surfaces) + len(m.curves3d) + len(m.curves2d)
+    data = fuzz.pack_model(m, meta)
+    pipeline.decode(container.unpack(data), dataclasses.replace(budget.DEFAULT, rows=n))
+    with pytest.raises(LimitError, match=f"{n:,} table rows"):
+        pipeline.decode(container.unpack(data), dataclasses.replace(budget.DEFAULT, rows=n - 1))
+    verts = 1_100_000  # unreached vertices: no reference, no path, only rows
+    fuzz.add_shapes(m, [ShapeType.VERTEX] * verts, [[] for _ in range(verts)])
+    m.vertex_point = np.zeros((len(m.vertex_point) + verts, 3))
+    m.vertex_tol = np.zeros(len(m.vertex_point))
+    m.vertex_reps = np.zeros((0, 5), np.int64)
+    m.vertex_rep_params = np.zeros((0, 2))
+    data = fuzz.pack_model(m, meta)
+    assert len(data) < 100_000
+    t = time.perf_counter()
+    with pytest.raises(LimitError, match="table rows"):
+        _decode(data)
+    assert time.perf_counter() - t < 10
+
+
+def test_chains_of_geometry_bases_are_bounded() -> None:
+    """A trimmed surface on a trimmed surface on …, 10,000 deep, under face 0:
+    its depth is counted in one pass (memoised) and refused."""
+    from nurbscomp.model import Derived, Kind
+
+    m, meta = _model()
+    s = int(m.face_surface[0])
+    first = len(m.surfaces)
+    box = np.array([0.0, 1.0, 0.0, 1.0])
+    m.surfaces += [
+        Derived(Kind.TRIMMED_SURFACE, s if i == 0 else first + i - 1, np.zeros((0, 3)), box)
+        for i in range(10_000)
+    ]
+    m.face_surface[0] = len(m.surfaces) - 1
+    data = fuzz.pack_model(m, meta)
+    t = time.perf_counter()
+    with pytest.raises(LimitError, match="10,001 levels of geometry on geometry"):
+        _decode(data)
+    assert time.perf_counter() - t < 5
+    assert budget.expansion(_model()[0]).bases <= 2

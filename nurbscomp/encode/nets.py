@@ -180,7 +180,7 @@ def tighten(coded: Coded, records: list[Geometry], level: int = 1) -> None:
     """
     for g in records:
         for done, methods in (
-            (coded.surfaces, codec.SURFACE_METHODS),
+            (coded.surfaces, codec.SURFACE_SEARCH),
             (coded.curves, codec.CURVE_METHODS),
         ):
             if id(g) in done and coded.tight.get(id(g), 0) < level:
@@ -215,6 +215,9 @@ def code_model(
     ``points`` (edges sampled along their ranges, :func:`occ.edge_points`)
     finds coincident edges no copy covers (another representation of the
     same curve): their curves stay exact (:func:`_lonely_curves`).
+
+    Surface nets are searched with ``codec.SURFACE_SEARCH``, or with every
+    method of the paper and its quantizer when ``paper`` is set.
     """
     eps = min(joins.TWIN_EPS, tol / 64)
     keep_s = _offset_bases(m.surfaces, Kind.OFFSET_SURFACE, TRIM_S)
@@ -226,11 +229,12 @@ def code_model(
     # side needs joining there (joining would only move them off their other edges)
     on = _edges_by_surface(m)
     sides = {k: v for k, v in sides.items() if not on[k[0]] & on[v[0][0]]}
+    searched = codec.SURFACE_METHODS if paper else codec.SURFACE_SEARCH
     surfaces = _code_table(
         m.surfaces,
         tol,
         keep_s,
-        codec.SURFACE_METHODS,
+        searched,
         paper,
         limits=_leader_limits(m.surfaces, sides, tol),
     )
@@ -274,9 +278,7 @@ def code_model(
             code = surfaces[id(sg)][0] if id(sg) in surfaces else None
             if code is not None and code.bound > need:
                 assert isinstance(sg, BSplineSurface)
-                surfaces[id(sg)] = _code_one(
-                    sg, tol, codec.SURFACE_METHODS, paper, code.origin, need
-                )
+                surfaces[id(sg)] = _code_one(sg, tol, searched, paper, code.origin, need)
     at = joins.anchors(m, m.curves3d, crows)
     coded = Coded(
         surfaces,

@@ -183,7 +183,7 @@ class _Floor:
             back = occ.step_round_trip(shape, self.unit)
         except InputError as e:
             log.debug("STEP round trip of the candidate fails: %s", e)
-            return set(range(self.counts["faces"]))
+            return {int(f) for f in self.model_face}
         return self.losses(back, tol)
 
     def losses(self, back: Any, tol: float) -> set[int] | None:
@@ -197,13 +197,19 @@ class _Floor:
         if not faulty and step_keeps(self.counts, floor, got):
             return None
         log.debug("STEP round trip %s != %s", got, floor)
-        return step_losses(
+        lost = step_losses(
             self.signatures("source"),
             self.signatures("floor"),
             occ.face_signatures(back),
             tol,
             faulty,
         )
+        return {int(self.model_face[f]) for f in lost}
+
+    @functools.cached_property
+    def model_face(self) -> np.ndarray:
+        """Per source face in signature order, its model face (:func:`occ.model_order`)."""
+        return occ.model_order(self.source, "face")
 
 
 class _Plan:
@@ -470,7 +476,8 @@ def step_losses(
     nearest centroid.  A face of ``back`` that is no source face's version and
     is not like an extra face of the floor (a split piece, a new sliver), or
     that is in ``faulty`` (BRepCheck faults, indices of ``back``), blames its
-    source face.  Every index returned is a source face's.
+    source face.  Every index returned is a source face's, in signature order
+    (:meth:`_Floor.losses` maps it to the model's face).
     """
     from scipy.spatial import cKDTree
 

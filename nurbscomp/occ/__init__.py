@@ -26,8 +26,10 @@ from .measure import (
     free_edges,
     free_edges_sewn,
     is_valid,
+    model_order,
 )
 from .topology import model_to_shape, shape_to_model
+from .xcaf import write as write_product
 
 __all__ = [
     "UNITS_MM",
@@ -45,10 +47,12 @@ __all__ = [
     "free_edges",
     "free_edges_sewn",
     "is_valid",
+    "model_order",
     "model_to_shape",
     "output_format",
     "read_cad",
     "shape_to_model",
     "step_round_trip",
+    "write_product",
     "write_shape",
 ]

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 from OCP.APIHeaderSection import APIHeaderSection_MakeHeader
 from OCP.BinTools import BinTools
 from OCP.BRepTools import BRepTools
@@ -26,6 +27,7 @@ from OCP.STEPControl import STEPControl_AsIs, STEPControl_Reader, STEPControl_Wr
 from OCP.StepRepr import StepRepr_NextAssemblyUsageOccurrence
 from OCP.TCollection import TCollection_HAsciiString
 from OCP.TColStd import TColStd_SequenceOfAsciiString
+from OCP.TopAbs import TopAbs_COMPOUND
 
 from ..errors import InputError, NoBRepError, OutputError, RebuildError
 from ..formats import (  # noqa: F401 (re-exported: they were defined here)
@@ -93,6 +95,9 @@ class CadFile:
     unit: str
     source_format: str
     warnings: list[str] = field(default_factory=list)
+    #: Product data (names, tree, colours, layers, header) when read with
+    #: ``product=True``: a ``nurbscomp.product.ProductData``.
+    product: Any = None
 
 
 def _check_readable(path: Path) -> bytes:
@@ -110,8 +115,50 @@ def _check_readable(path: Path) -> bytes:
     return head
 
 
-def read_cad(path: str | os.PathLike[str]) -> CadFile:
+#: Deepest nesting of parentheses a STEP file may have (real files: under 10).
+#: OCCT's STEP parser recurses on it: measured, 10,000 levels parse and
+#: 100,000 crash the process (SIGSEGV).
+MAX_STEP_NESTING = 1_000
+_SCAN_CHUNK = 1 << 24
+
+
+def screen_step(path: Path) -> None:
+    """Refuse a STEP file that would crash OCCT's parser, with a byte scan
+    (not a parser): parentheses outside strings nested deeper than
+    ``MAX_STEP_NESTING``.  A string is what lies between an odd apostrophe and
+    the next (``''`` inside a string toggles twice, as it should).
+
+    Raises
+    ------
+    InputError
+        The nesting is too deep (the message gives the byte offset).
+    """
+    depth, quoted, at = 0, False, 0
+    with open(path, "rb") as fh:
+        while chunk := fh.read(_SCAN_CHUNK):
+            b = np.frombuffer(chunk, np.uint8)
+            q = np.cumsum(b == ord("'"), dtype=np.int64)
+            inside = (q + quoted) % 2 == 1
+            step = (b == ord("(")).astype(np.int64) - (b == ord(")"))
+            step[inside] = 0
+            level = depth + np.cumsum(step)
+            if len(level) and level.max() > MAX_STEP_NESTING:
+                where = at + int(np.argmax(level > MAX_STEP_NESTING))
+                raise InputError(
+                    f"STEP parentheses nested more than {MAX_STEP_NESTING} deep "
+                    f"(at byte {where}); OCCT's parser cannot read it"
+                )
+            depth = int(level[-1]) if len(level) else depth
+            quoted = bool((int(q[-1]) + quoted) % 2) if len(q) else quoted
+            at += len(chunk)
+
+
+def read_cad(path: str | os.PathLike[str], product: bool = False) -> CadFile:
     """Read a STEP (AP203/214/242) or IGES file into one shape, in millimetres.
+
+    With ``product``, the file is read through OCCT's XDE readers
+    (``xcaf.caf_reader``): the shape is the same, and ``CadFile.product``
+    holds the product data; the warnings then name what that leaves out.
 
     Raises
     ------
@@ -123,13 +170,22 @@ def read_cad(path: str | os.PathLike[str]) -> CadFile:
     head = _check_readable(p)
     fmt = sniff_format(p, head)
     if fmt == "STEP":
-        reader: Any = STEPControl_Reader()
+        screen_step(p)
+    caf: Any = None
+    reader: Any = None
+    if product:
+        from . import xcaf
+
+        caf, reader = xcaf.caf_reader(fmt)
+    elif fmt == "STEP":
+        reader = STEPControl_Reader()
+    else:
+        reader = IGESControl_Reader()
+    if fmt == "STEP":
         # tessellated entities (AP242) hold no B-rep to store, and OCCT 7.9's
         # transfer of a malformed one can crash the process: never read them
         # (set after the reader exists: its controller's first set-up resets it)
         Interface_Static.SetIVal_s("read.step.tessellated", 0)
-    else:
-        reader = IGESControl_Reader()
     status = reader.ReadFile(str(p))
     if status != IFSelect_ReturnStatus.IFSelect_RetDone:
         raise InputError(f"cannot parse {fmt} file ({status.name.removeprefix('IFSelect_')})")
@@ -142,12 +198,24 @@ def read_cad(path: str | os.PathLike[str]) -> CadFile:
         unit = _IGES_UNIT_FLAGS.get(reader.IGESModel().GlobalSection().UnitFlag(), "MM")
     if reader.NbRootsForTransfer() == 0:
         raise NoBRepError(f"the {fmt} file holds no shape to transfer")
-    reader.TransferRoots()
+    doc = None
+    if caf is not None:
+        from . import xcaf
+
+        doc = xcaf.new_document()
+        caf.Transfer(doc)
+    else:
+        reader.TransferRoots()
     if reader.NbShapes() == 0:
         raise NoBRepError(f"nothing in the {fmt} file transfers to a B-rep")
     shape = reader.OneShape()
-    if shape.IsNull():
+    # XDE's transfer of nothing is an empty compound
+    if shape.IsNull() or (shape.ShapeType() == TopAbs_COMPOUND and shape.NbChildren() == 0):
         raise NoBRepError(f"nothing in the {fmt} file transfers to a B-rep")
+    if doc is not None:
+        data = xcaf.product_data(doc, shape, fmt, reader)
+        warnings = [f"not stored: {', '.join(data.dropped)}"] if data.dropped else []
+        return CadFile(shape, unit, fmt, warnings, data)
     warnings = []
     if fmt == "STEP":
         warnings = _step_losses(p)
@@ -221,10 +289,7 @@ def write_shape(
         if not w.AddShape(shape):
             raise RebuildError("the IGES writer refused the shape")
         w.ComputeModel()
-        gs = w.Model().GlobalSection()  # dates fixed, like STEP's time stamp
-        gs.SetDate(TCollection_HAsciiString(IGES_DATE))
-        gs.SetLastChangeDate(TCollection_HAsciiString(IGES_DATE))
-        w.Model().SetGlobalSection(gs)
+        fix_iges_dates(w.Model())
         if not w.Write(str(p)):
             raise OutputError("cannot write IGES")
         return
@@ -244,11 +309,18 @@ def write_shape(
         raise OutputError(f"cannot write STEP ({status.name})")
 
 
+def fix_iges_dates(model: Any) -> None:
+    """Set an IGES model's dates to the fixed ``IGES_DATE``, like STEP's time stamp."""
+    gs = model.GlobalSection()
+    gs.SetDate(TCollection_HAsciiString(IGES_DATE))
+    gs.SetLastChangeDate(TCollection_HAsciiString(IGES_DATE))
+    model.SetGlobalSection(gs)
+
+
 def _name_products(model: Any, name: str) -> None:
     """Name the PRODUCTs of a STEP model after ``name`` (``name``, ``name 2`` …)
-    and number its assembly occurrences 1, 2 … in entity order: OCCT's own
-    names and ids count what was written before in the same process."""
-    products = occurrences = 0
+    and number its assembly occurrences (:func:`number_occurrences`)."""
+    products = 0
     for i in range(1, model.NbEntities() + 1):
         e = model.Value(i)
         if isinstance(e, StepBasic_Product):
@@ -256,7 +328,16 @@ def _name_products(model: Any, name: str) -> None:
             label = TCollection_HAsciiString(name if products == 1 else f"{name} {products}")
             e.SetName(label)
             e.SetId(label)
-        elif isinstance(e, StepRepr_NextAssemblyUsageOccurrence):
+    number_occurrences(model)
+
+
+def number_occurrences(model: Any) -> None:
+    """Number a STEP model's assembly occurrences 1, 2 … in entity order:
+    OCCT's own ids count what was written before in the same process."""
+    occurrences = 0
+    for i in range(1, model.NbEntities() + 1):
+        e = model.Value(i)
+        if isinstance(e, StepRepr_NextAssemblyUsageOccurrence):
             occurrences += 1
             e.SetId(TCollection_HAsciiString(str(occurrences)))
 

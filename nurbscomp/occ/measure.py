@@ -183,9 +183,29 @@ def deviation_stats(original: Any, decoded: Any, n: int = 7) -> tuple[np.ndarray
     return np.array([x.max() for x in d]), np.array([x.mean() for x in d])
 
 
-def failures(shape: Any) -> tuple[set[int], set[int]]:
+_KINDS = {"face": TopAbs_FACE, "edge": TopAbs_EDGE, "vertex": TopAbs_VERTEX}
+
+
+def model_order(shape: Any, kind: str) -> np.ndarray:
+    """Per ``kind`` (``"face"``, ``"edge"``, ``"vertex"``) in
+    ``TopExp.MapShapes`` order, 0-based, the index of its
+    TShape among the shape's distinct TShapes of that kind in the order first
+    met: the model's index (:func:`nurbscomp.occ.shape_to_model` keeps one row
+    per TShape, so the faces of a located instance are the model's faces)."""
+    from OCP.TopAbs import TopAbs_FORWARD
+    from OCP.TopLoc import TopLoc_Location
+
+    m, distinct = _map(shape, _KINDS[kind]), TopTools_IndexedMapOfShape()
+    plain = TopLoc_Location()
+    out = np.empty(m.Extent(), np.int64)
+    for i in range(1, m.Extent() + 1):
+        out[i - 1] = distinct.Add(m.FindKey(i).Located(plain).Oriented(TopAbs_FORWARD)) - 1
+    return out
+
+
+def _failures(shape: Any) -> tuple[set[int], set[int]]:
     """Where BRepCheck finds fault: (edge indices, face indices), 0-based in
-    ``TopExp.MapShapes`` order (the model's own order).
+    ``TopExp.MapShapes`` order.
 
     A fault on a vertex counts against its edges; one on a wire, or on an edge
     in the context of a face, counts against that face too.
@@ -261,6 +281,20 @@ def failures(shape: Any) -> tuple[set[int], set[int]]:
     return bad_e, bad_f
 
 
+def failures(shape: Any) -> tuple[set[int], set[int]]:
+    """Where BRepCheck finds fault: (edge indices, face indices) of the model,
+    0-based (:func:`model_order`: a fault on any instance of a located face
+    counts against the model's one face).
+
+    See :func:`_failures` for what is walked.
+    """
+    bad_e, bad_f = _failures(shape)
+    if not bad_e and not bad_f:
+        return bad_e, bad_f
+    eo, fo = model_order(shape, "edge"), model_order(shape, "face")
+    return {int(eo[e]) for e in bad_e}, {int(fo[f]) for f in bad_f}
+
+
 def edges_per_face(shape: Any) -> list[int]:
     """Number of distinct edges of each face, in face order."""
     return [_map(f, TopAbs_EDGE).Extent() for f in faces(shape)]
@@ -299,7 +333,7 @@ def faulty_faces(shape: Any) -> set[int]:
     """Faces (0-based, face order) with a BRepCheck fault of their own or on one of their edges."""
     from OCP.TopTools import TopTools_IndexedDataMapOfShapeListOfShape
 
-    bad_e, bad_f = failures(shape)
+    bad_e, bad_f = _failures(shape)
     if bad_e:
         em, fm = _map(shape, TopAbs_EDGE), _map(shape, TopAbs_FACE)
         e2f = TopTools_IndexedDataMapOfShapeListOfShape()

@@ -14,6 +14,8 @@ Written here:
 * ``expected.json``: per container, the format version, topology counts, a
   SHA-256 of the decoded integer tables (:func:`int_digest`) and of the
   decoded floats (:func:`float_digest`, informative only);
+* (format 1.2) ``product_digest``: a SHA-256 of the decoded product data
+  (:func:`product_digest`), for the containers that hold some;
 * ``<sample>.<mode>.npz``: the decoded floats (:func:`model_floats`), compared
   within 1e-12 (relative to max(1, |x|));
 * ``errors/*.nzc`` and ``errors/expected.json``: damaged containers, each with
@@ -32,7 +34,7 @@ from typing import Any
 
 import numpy as np
 
-from nurbscomp import container, entropy, occ, pipeline
+from nurbscomp import container, entropy, occ, pipeline, product
 from nurbscomp.model import BRepModel, BSplineCurve, BSplineSurface
 from nurbscomp.streams import BlockReader, BlockWriter
 
@@ -51,11 +53,18 @@ GOLDEN = [
     # format 1.1
     ("teapot.step", "faces.tol0.01", {"tol": 0.01}),  # SIDE: joined net sides
     ("loft.step", "faces.tol0.01", {"tol": 0.01}),  # CNET method 9: a copied curve
+    # format 1.2: PROD (assembly tree, names, colours, layers, header)
+    ("assembly.step", "lossless", {"lossless": True}),
+    ("assembly.step", "tol0.01", {"tol": 0.01}),
 ]
 #: The format version each golden file was written in (the files of an older
 #: version are never rewritten: ``main`` only adds missing ones).
 VERSION = {
-    golden: "1.1" if golden.split(".", 1)[1].startswith("faces.") else "1.0"
+    golden: "1.2"
+    if golden.startswith("assembly.")
+    else "1.1"
+    if golden.split(".", 1)[1].startswith("faces.")
+    else "1.0"
     for golden in (f"{Path(s).stem}.{m}" for s, m, _ in GOLDEN)
 }
 
@@ -151,11 +160,20 @@ def float_digest(m: BRepModel) -> str:
     return h.hexdigest()
 
 
+def product_digest(m: BRepModel) -> str | None:
+    """SHA-256 of the decoded product data written back as a PROD section
+    (format 1.2), or None when the container holds none."""
+    if m.product is None:
+        return None
+    return hashlib.sha256(product.write(m.product)).hexdigest()
+
+
 def describe(data: bytes) -> dict:
-    """What the test compares: version, counts, digests."""
+    """What the test compares: version, counts, digests (the product data's
+    only where there is some: older golden files have no such key)."""
     c = container.unpack(data)
     m, meta = pipeline.decode(c)
-    return {
+    out = {
         "format_version": f"{c.major}.{c.minor}",
         "mode": meta["mode"],
         "counts": m.counts(),
@@ -163,6 +181,11 @@ def describe(data: bytes) -> dict:
         "int_digest": int_digest(m),
         "float_digest": float_digest(m),
     }
+    if m.product is not None:
+        out["product_digest"] = product_digest(m)
+        # faces as placed in the built shape (an assembly places a part's faces many times)
+        out["placed_faces"] = occ.counts(pipeline.build(m))["faces"]
+    return out
 
 
 # ---------------------------------------------------------------- damaged files

@@ -1,0 +1,273 @@
+"""Product data (format 1.2): what OCCT's XCAF reader sees in a decompressed
+file is what it sees after OCCT's own XCAF read -> write of the source.
+
+Compared (``occ.xcaf.view``): the tree from the free shapes (assembly, part and
+instance names, placements rounded to 1e-6), the multisets of part and
+instance names, the surface colour of every face of every leaf occurrence
+(its own, else its part's or an instance's above it), and the layers with
+their members.  The STEP text is checked too: PRODUCT names,
+NEXT_ASSEMBLY_USAGE_OCCURRENCE and STYLED_ITEM counts, FILE_SCHEMA.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from collections import Counter
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from nurbscomp import errors, pipeline, product
+from nurbscomp.cli import cli
+from nurbscomp.occ import xcaf
+from nurbscomp.occ.files import read_cad
+
+from .conftest import CORPUS, SAMPLES, corpus_files
+
+ASSEMBLY = SAMPLES / "assembly.step"
+MODES = {"lossless": {"lossless": True}, "tol0.01": {"tol": 0.01}}
+
+
+def _compress(src: Path, tmp: Path, mode: str) -> Path:
+    dst = tmp / f"{src.name}.{mode}.nzc"
+    pipeline.compress_file(src, dst, force=True, **MODES[mode])  # type: ignore[arg-type]
+    return dst
+
+
+def _step_text(path: Path) -> dict:
+    t = path.read_text(errors="replace")
+    return {
+        "products": Counter(re.findall(r"PRODUCT\s*\(\s*'((?:[^']|'')*)'", t)),
+        "nauo": len(re.findall(r"NEXT_ASSEMBLY_USAGE_OCCURRENCE\s*\(", t)),
+        "styled": len(re.findall(r"STYLED_ITEM\s*\(", t)),
+        "layers": len(re.findall(r"PRESENTATION_LAYER_ASSIGNMENT\s*\(", t)),
+        "schema": re.findall(r"FILE_SCHEMA\s*\(\s*\(\s*'([^']*)'", t),
+    }
+
+
+def assert_same_product(src: Path, nzc: Path, tmp: Path, ext: str = ".step") -> dict:
+    """Decompress ``nzc`` and compare it with OCCT's XCAF round trip of ``src``."""
+    ref, out = tmp / f"ref{ext}", tmp / f"out{ext}"
+    xcaf.round_trip(src, ref)
+    pipeline.decompress_file(nzc, out, force=True)
+    want, got = xcaf.view(ref), xcaf.view(out)
+    for key in ("tree", "parts", "instances", "face_colours", "layers"):
+        assert got[key] == want[key], key
+    if ext == ".step":
+        assert _step_text(out) == _step_text(ref)
+    return got
+
+
+# ---------------------------------------------------------------- the assembly sample
+
+
+@pytest.mark.parametrize("mode", sorted(MODES))
+def test_assembly_sample_matches_occt_round_trip(tmp_path: Path, mode: str) -> None:
+    got = assert_same_product(ASSEMBLY, _compress(ASSEMBLY, tmp_path, mode), tmp_path)
+    # what the sample is made of survives: a part placed three times, a
+    # nested sub-assembly used twice, a face colour, a layer
+    assert got["parts"]["bolt 1"] == 3
+    assert got["parts"]["left bracket"] == 2
+    assert {"bolt 1", "bolt 2", "bolt 3", "bolt 4", "plate"} <= set(got["instances"])
+    colours = Counter(c for _, _, c in got["face_colours"])
+    assert (0.1, 0.8, 0.1, 1.0) in colours  # the plate's top face
+    assert len(colours) >= 4
+    assert got["layers"] and all(len(m) == 2 for m in got["layers"].values())
+
+
+def test_assembly_product_stored_once(tmp_path: Path) -> None:
+    cad = read_cad(ASSEMBLY, product=True)
+    p = cad.product
+    s = product.summary(p)
+    # 5 parts (plate, bolt, red bolt, two brackets), 3 assemblies, 11 instances
+    assert (s["parts"], s["assemblies"], s["instances"], s["depth"]) == (5, 3, 11, 3)
+    names = [p.names[i] for i in np.flatnonzero(p.kind == product.PRODUCT)]
+    assert names.count("bolt 1") == 1  # one product, three instances
+    bolt = names.index("bolt 1")
+    assert int((p.ref[p.kind == product.INSTANCE] == bolt).sum()) == 3
+
+
+@pytest.mark.parametrize("mode", sorted(MODES))
+def test_placements_exact_in_every_mode(tmp_path: Path, mode: str) -> None:
+    src = read_cad(ASSEMBLY, product=True).product
+    m, _ = pipeline.decode(pipeline.read_container(_compress(ASSEMBLY, tmp_path, mode)))
+    assert m.product is not None and m.product.same(src)
+    assert m.product.placements.tobytes() == src.placements.tobytes()
+
+
+def test_assembly_to_iges_keeps_colours(tmp_path: Path) -> None:
+    assert_same_product(ASSEMBLY, _compress(ASSEMBLY, tmp_path, "lossless"), tmp_path, ".igs")
+
+
+def test_generated_assembly_with_cadquery_export(tmp_path: Path) -> None:
+    """An assembly written by cadquery's own exporter (not the sample's writer)."""
+    import cadquery as cq
+
+    cube = cq.Workplane().box(5, 5, 5)
+    pin = cq.Workplane().cylinder(8, 1)
+    inner = cq.Assembly(name="inner")
+    inner.add(pin, name="pin a", loc=cq.Location((0, 0, 4)), color=cq.Color("green"))
+    inner.add(pin, name="pin b", loc=cq.Location((2, 0, 4), (1, 0, 0), 90))
+    top = cq.Assembly(name="top")
+    top.add(cube, name="cube", color=cq.Color("yellow"))
+    top.add(inner, name="inner 1", loc=cq.Location((10, 0, 0)))
+    top.add(inner, name="inner 2", loc=cq.Location((-10, 0, 0), (0, 0, 1), 45))
+    src = tmp_path / "gen.step"
+    top.export(str(src))
+    for mode in MODES:
+        got = assert_same_product(src, _compress(src, tmp_path, mode), tmp_path)
+    assert "pin a" in got["instances"] and got["parts"]
+
+
+# ---------------------------------------------------------------- schema, header, IGES
+
+
+def test_ap203_source_comes_back_ap203(tmp_path: Path) -> None:
+    src = tmp_path / "bracket203.step"
+    text = (SAMPLES / "bracket.step").read_text()
+    src.write_text(
+        re.sub(r"FILE_SCHEMA\(\(.*?\)\);", "FILE_SCHEMA(('CONFIG_CONTROL_DESIGN'));", text)
+    )
+    got = assert_same_product(src, _compress(src, tmp_path, "lossless"), tmp_path)
+    out = _step_text(tmp_path / "out.step")
+    assert out["schema"] == ["CONFIG_CONTROL_DESIGN"]
+    assert got["parts"] == {read_cad(src, product=True).product.names[0]: 1}
+    header = (tmp_path / "out.step").read_text()
+    assert "nurbscomp sample bracket" in header and "Open CASCADE Shape Model" not in header
+
+
+def test_iges_face_colours(tmp_path: Path) -> None:
+    src = CORPUS / "occt__occ22470.igs"
+    nzc = _compress(src, tmp_path, "lossless")
+    got = assert_same_product(src, nzc, tmp_path, ".igs")
+    assert sum(c is not None for _, _, c in got["face_colours"]) >= 18
+
+
+# ---------------------------------------------------------------- info, warnings
+
+
+def test_info_shows_the_product(tmp_path: Path) -> None:
+    nzc = _compress(ASSEMBLY, tmp_path, "lossless")
+    r = CliRunner().invoke(cli, ["info", str(nzc)])
+    assert r.exit_code == 0
+    assert "product:     5 parts, 3 assemblies, 11 instances, depth 3" in r.output
+    assert "layers:      1" in r.output and "dropped:     nothing" in r.output
+    r = CliRunner().invoke(cli, ["info", "--json", str(nzc)])
+    tree = json.loads(r.output)["product_tree"]
+    top = next(p for p in tree["products"] if p.get("name") == "plate assembly")
+    assert [c["name"] for c in top["children"]][:5] == [
+        "plate",
+        "bolt 1",
+        "bolt 2",
+        "bolt 3",
+        "bolt 4",
+    ]
+    assert tree["layers"][0]["name"] == "machined"
+
+
+def test_an_older_container_has_no_product(tmp_path: Path) -> None:
+    old = Path(__file__).resolve().parent / "golden" / "teapot.lossless.nzc"
+    r = CliRunner().invoke(cli, ["info", str(old)])
+    assert r.exit_code == 0 and "product:     none stored" in r.output
+    r = CliRunner().invoke(cli, ["info", "--json", str(old)])
+    assert json.loads(r.output)["product"] is None
+
+
+def test_compress_warning_names_what_is_dropped(tmp_path: Path) -> None:
+    src = CORPUS / "occt__trj5_k1-pe-214.stp"
+    r = pipeline.compress_file(src, tmp_path / "k.nzc", lossless=True)
+    assert r["warnings"] == ["not stored: 1 validation properties (area)"]
+    assert r["product"]["dropped"] == ["1 validation properties (area)"]
+    back = assert_same_product(src, tmp_path / "k.nzc", tmp_path)
+    assert back["parts"] == {"K1-PE": 1}  # the product's own name, not the file's
+
+
+# ---------------------------------------------------------------- the PROD reader
+
+
+def _prod() -> product.ProductData:
+    return read_cad(ASSEMBLY, product=True).product
+
+
+def test_prod_section_round_trip() -> None:
+    p = _prod()
+    q = product.read(product.write(p), 10**6)
+    assert q.same(p)
+
+
+def _first(p: product.ProductData, kind: int) -> int:
+    return int(np.flatnonzero(p.kind == kind)[0])
+
+
+def _damaged(edit, nshapes: int = 10**6) -> None:
+    p = _prod()
+    edit(p)
+    product.read(product.write(p), nshapes)
+
+
+@pytest.mark.parametrize(
+    "edit, error, fragment",
+    [
+        (lambda p: p.kind.__setitem__(0, 7), errors.SectionError, "unknown node kind"),
+        (lambda p: p.orient.__setitem__(0, 4), errors.SectionError, "orientation"),
+        (lambda p: p.colours.__setitem__((0, 0), 1.5), errors.SectionError, "colour component"),
+        (lambda p: p.placements.__setitem__((0, 0, 0), np.nan), errors.SectionError, "placement"),
+        (
+            lambda p: p.parent.__setitem__(0, 3),
+            errors.BadReferenceError,
+            "product node has a parent",
+        ),
+        (lambda p: p.ref.__setitem__(_first(p, 2), 10**6), errors.BadReferenceError, "sub-shape's"),
+        (
+            lambda p: p.ref.__setitem__(_first(p, 1), _first(p, 1)),
+            errors.BadReferenceError,
+            "not a product",
+        ),
+        (lambda p: p.place.__setitem__(-1, 99), errors.BadReferenceError, "placement"),
+        (lambda p: p.layer_members[0].append(999), errors.BadReferenceError, "layer member"),
+        (lambda p: p.names.__setitem__(0, "x" * 70000), errors.SectionError, "longer than"),
+    ],
+)
+def test_prod_reader_refuses(edit, error, fragment) -> None:
+    with pytest.raises(error, match=re.escape(fragment)) as info:
+        _damaged(edit)
+    assert type(info.value) is error and "\n" not in str(info.value)
+
+
+def test_prod_reader_refuses_a_cycle() -> None:
+    def cycle(p: product.ProductData) -> None:
+        inst = int(np.flatnonzero(p.kind == product.INSTANCE)[-1])
+        p.ref[inst] = p.parent[inst]  # the assembly uses itself
+
+    with pytest.raises(errors.BadReferenceError, match="contains itself"):
+        _damaged(cycle)
+
+
+def test_prod_reader_refuses_bad_utf8_and_rows() -> None:
+    raw = product.write(_prod())
+    with pytest.raises(errors.BadReferenceError, match="product's shape"):
+        product.read(raw, 10)  # rows past a 10-row SHAP table
+    with pytest.raises(errors.SectionError):
+        product.read(raw[:-3], 10**6)
+    from .golden.make_golden import _arrays, _write_arrays
+
+    arrays = _arrays(raw, "PROD")
+    kind, data = arrays[-1]  # the strings' bytes
+    data = data.copy()
+    data[0] = 0xFF  # never a UTF-8 byte
+    arrays[-1] = (kind, data)
+    with pytest.raises(errors.SectionError, match="is not UTF-8"):
+        product.read(_write_arrays(arrays), 10**6)
+
+
+# ---------------------------------------------------------------- corpus
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("mode", sorted(MODES))
+@pytest.mark.parametrize("path", corpus_files(), ids=lambda p: p.name)
+def test_corpus_product_matches_occt_round_trip(tmp_path: Path, path: Path, mode: str) -> None:
+    assert_same_product(path, _compress(path, tmp_path, mode), tmp_path)
