@@ -23,7 +23,7 @@ from typing import Any
 
 import click
 
-from . import __version__, budget
+from . import __version__
 from .errors import NurbscompError
 from .units import DEFAULT_TOL_MM, parse_length
 
@@ -157,10 +157,12 @@ def _limit_scale(f: Any) -> Any:
         default=1.0,
         show_default=True,
         metavar="K",
+        # the limits' values are not printed: budget imports numpy, and --help
+        # starts without it
         help="Multiply the decoding limits (references once sharing is unfolded, "
-        f"nesting depth {budget.DEFAULT.depth:,}, poles {budget.DEFAULT.poles:,}, "
-        "pcurves to compute, estimated output size) by K, for a container that "
-        "is trusted and larger than they allow.",
+        "nesting depth, poles, pcurves to compute, estimated output size; "
+        "docs/format.md §4) by K, for a container that is trusted and larger "
+        "than they allow.",
     )(f)
 
 
@@ -519,7 +521,7 @@ def decompress(
 @click.pass_obj
 def info(state: _State, file: str, as_json: bool, limit_scale: float) -> None:
     """Show what a .nzc container holds."""
-    from . import pipeline
+    from . import budget, pipeline
 
     r = _run(state, file, lambda: pipeline.info(file, budget.DEFAULT.scaled(limit_scale)))
     if r is None:
@@ -579,7 +581,7 @@ def _product_lines(p: dict[str, Any] | None) -> list[str]:
 def test_cmd(state: _State, files: tuple[str, ...], quiet: bool, limit_scale: float) -> None:
     """Check .nzc FILES: checksums, references, the decoding limits, and a full
     rebuild (like xz -t)."""
-    from . import pipeline
+    from . import budget, pipeline
 
     limits = budget.DEFAULT.scaled(limit_scale)
     for f in files:
