@@ -481,6 +481,9 @@ class Runner:
         futures: dict[Any, Task] = {}
         try:
             for t in self.tasks:
+                if t.src == STDIO or t.dst is None:  # a stream: done here
+                    yield self._via_bytes(t)
+                    continue
                 rec = self._client_side_checks(t)
                 if rec is not None:
                     yield rec, None
