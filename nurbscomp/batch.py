@@ -250,6 +250,7 @@ def run_task(
         return {**base, **_failure(e, opts)}
     if "input_bytes" not in r:
         r["input_bytes"] = src.stat().st_size
+    r.setdefault("passthrough", False)
     return {**r, **base, "status": "ok", "exit_code": 0}
 
 

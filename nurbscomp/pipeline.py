@@ -549,6 +549,7 @@ def info(src: str | os.PathLike[str], limits: budget.Limits = budget.DEFAULT) ->
         "input": str(p),
         "format_version": f"{c.major}.{c.minor}",
         "lossless": bool(c.flags & container.FLAG_LOSSLESS),
+        "passthrough": False,
         "mode": meta.get("mode"),
         "tolerance_mm": meta.get("tolerance_mm"),
         "unit": m.unit,

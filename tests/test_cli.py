@@ -65,6 +65,7 @@ def test_json_info_and_test(work: Path) -> None:
     assert code == 0
     info = json.loads(out)
     assert info["lossless"] and info["unit"] == "MM" and info["shapes"]["face"] == 3
+    assert info["passthrough"] is False and rep["passthrough"] is False
     assert set(info["section_raw_bytes"]) >= {"META", "SURF", "SHAP", "EDGE"}
     code, out, _ = run("info", str(work / "part.step.nzc"))
     assert code == 0 and "format:      .nzc 1.2," in out
