@@ -8,6 +8,7 @@ from __future__ import annotations
 import builtins
 import json
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -404,3 +405,50 @@ def test_corpus_archive_round_trip(tmp_path: Path) -> None:
     from .conftest import CORPUS
 
     archive_round_trip(CORPUS, tmp_path / "work")
+
+
+def _on_a_terminal(args: list[str], cwd: Path) -> tuple[int, str]:
+    """Run the CLI with stderr on a pseudo-terminal (120 columns); its exit
+    code and what the terminal showed."""
+    import fcntl
+    import pty
+    import struct
+    import termios
+
+    master, slave = pty.openpty()
+    fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", 40, 120, 0, 0))
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    p = subprocess.Popen(
+        [sys.executable, "-m", "nurbscomp.cli", *args],
+        env=env,
+        cwd=cwd,
+        stdout=subprocess.DEVNULL,
+        stderr=slave,
+    )
+    os.close(slave)
+    shown = b""
+    while True:
+        try:
+            chunk = os.read(master, 4096)
+        except OSError:  # the child closed the terminal
+            break
+        if not chunk:
+            break
+        shown += chunk
+    os.close(master)
+    return p.wait(timeout=300), shown.decode(errors="replace")
+
+
+def test_progress_bar_only_on_a_terminal(tmp_path: Path) -> None:
+    """Files done, bytes and ratio so far, the file's stage: on a terminal
+    once the batch has run a second; nothing with -q."""
+    for name in ("bracket.step", "teapot.step"):
+        shutil.copy(SAMPLES / name, tmp_path / name)
+    args = ["compress", "-r", ".", "-d", "out", "-j", "1", "--no-verify"]
+    code, shown = _on_a_terminal(args, tmp_path)
+    assert code == 0, shown
+    assert "file/s]" in shown or "s/file" in shown, shown
+    assert "/2 [" in shown and "x]" in shown  # files done of 2, and the ratio so far
+    assert re.search(r"(teapot|bracket)\.step: (read|code|write|check)", shown), shown
+    code, shown = _on_a_terminal([*args, "-q", "-f"], tmp_path)
+    assert code == 0 and shown == "", shown
