@@ -32,7 +32,9 @@ samples: install
 # Benchmarks against the lossless peers, a naive quantizer and OCCT (issue 4):
 # rewrites docs/benchmarks.md, docs/benchmarks.png and the README's "How small,
 # how fast" figures, all from one run over ../shared/corpus.  Minutes, not part
-# of `make test`.  matplotlib (the `bench` extra) draws the plot.
+# of `make test`.  matplotlib (the `bench` extra) draws the plot.  It also
+# times `--help`, `--version` and `info` (goal < 0.5 s) and the corpus as one
+# batch with -j 1 and -j 2 (goal >= 1.8x on 2 cores).
 bench: install
 	@$(PY) -c "import matplotlib" 2>/dev/null || $(PIP) install --quiet -e '.[bench]'
 	$(PY) benchmarks/bench.py
