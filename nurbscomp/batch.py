@@ -10,9 +10,9 @@ The CLI (``cli.py``) is thin wiring over this module:
   plain dict: the pipeline's report with ``status`` ``"ok"``, or, for a file
   that failed, ``status`` ``"failed"`` with the error's class, message and
   exit code (an unexpected exception is an ``internal`` error with its class);
-* :class:`Runner` runs the tasks serially, in a process pool (each worker
-  imports OCP once and takes many files) or on a Dask cluster (files sent as
-  bytes), and yields the records as files finish;
+* :class:`Runner` runs the tasks serially, in a process pool (workers forked
+  from a fork server that imported OCP once, each taking many files) or on a
+  Dask cluster (files sent as bytes), and yields the records as files finish;
 * :func:`summary` adds them up.
 
 Nothing here prints: the caller does, from the records.
@@ -327,7 +327,8 @@ def _stop_worker(signum: int, frame: Any) -> None:
 
 
 def _init_worker() -> None:
-    """A pool worker: handle the stop signals, import OCP once for all its files."""
+    """A pool worker: handle the stop signals; OCP is imported already (the fork
+    server preloads it, ``WORKER_PRELOAD``), or here, once for all its files."""
     for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
         signal.signal(sig, _stop_worker)
     from . import occ
