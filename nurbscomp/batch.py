@@ -111,6 +111,14 @@ def default_output(src: Path, opts: Options) -> Path:
     return out
 
 
+def cores() -> int:
+    """The cores this process may run on (the default ``-j``)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
+
+
 def walk(folder: Path, command: str) -> list[Path]:
     """The files under ``folder`` that ``command`` takes, sorted, links to folders not followed."""
     suffixes = WALK_SUFFIXES[command]
@@ -138,7 +146,7 @@ def plan(
         ``output`` with several inputs or a folder, ``output`` with
         ``output_dir``, ``-`` twice, standard output with several files,
         ``decompress`` to standard output without a format, ``force`` with
-        ``skip_existing``.
+        ``skip_existing``, standard input with ``output_dir``.
     """
     if opts.force and opts.skip_existing:
         raise UsageError("--force and --skip-existing exclude each other")
@@ -151,8 +159,9 @@ def plan(
     tasks: list[Task] = []
     for name in inputs:
         if name == STDIO:
-            dst = output if output is not None else None  # stdin goes to stdout by default
-            tasks.append(Task(STDIO, dst))
+            if output_dir is not None:
+                raise UsageError("standard input (-) goes to standard output or -o, not -d")
+            tasks.append(Task(STDIO, output))  # to standard output unless -o
             continue
         p = Path(name)
         if recursive and p.is_dir():

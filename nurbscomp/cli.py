@@ -11,7 +11,6 @@ SIGTERM).  Errors are one line,
 from __future__ import annotations
 
 import json
-import os
 import signal
 import sys
 import threading
@@ -313,7 +312,7 @@ def _batch(
                 f"tolerance {opts.tol} mm (default; --tol to change)",
                 err=True,
             )
-    jobs = kw["jobs"] or os.cpu_count() or 1
+    jobs = kw["jobs"] or batch.cores()
     show_bar = not quiet and len(tasks) > 0 and sys.stderr.isatty()
     bar = _Bar(len(tasks), show_bar)
     runner = batch.Runner(

@@ -92,6 +92,7 @@ def test_plan_mirrors_the_tree(tmp_path: Path) -> None:
         (["a", "b"], {"to_stdout": True}, {}, "single input"),
         (["a"], {"output": "x", "output_dir": "d"}, {}, "exclude"),
         (["-", "-"], {}, {}, "once"),
+        (["-"], {"output_dir": "d"}, {}, "not -d"),
         (["a"], {}, {"force": True, "skip_existing": True}, "exclude"),
         (["a.nzc"], {"to_stdout": True}, {"command": "decompress"}, "--format"),
     ],
