@@ -386,15 +386,18 @@ def below(m: BRepModel, s: int, kind: ShapeType) -> set[int]:
     """Shape indices of type ``kind`` reachable below shape ``s`` (each shape
     visited once, with a stack of its own: no recursion)."""
     out, stack, seen = set(), [s], {s}
+    types, children, start = m.shape_type, m.child_shape, m.child_start
+    k = int(kind)  # a plain int: comparing numpy scalars with an enum is slow
     while stack:
         x = stack.pop()
-        for c in m.child_shape[m.child_start[x] : m.child_start[x + 1]].tolist():
+        for c in children[start[x] : start[x + 1]].tolist():
             if c in seen:
                 continue
             seen.add(c)
-            if m.shape_type[c] == kind:
+            t = int(types[c])
+            if t == k:
                 out.add(c)
-            elif m.shape_type[c] < kind:
+            elif t < k:
                 stack.append(c)
     return out
 

@@ -25,6 +25,7 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from . import __version__, budget, container, passthrough, product, serialize, units
+from .decode import model_to_sections, sections_to_model
 from .errors import (
     CorruptError,
     InputError,
@@ -235,7 +236,7 @@ def decode(
     FormatError
         A subclass: ``CorruptError`` (sections missing, out of order, or
         disagreeing with the header), ``SectionError``, ``BadReferenceError``,
-        ``LimitError`` (see :func:`serialize.sections_to_model`).
+        ``LimitError`` (see :func:`nurbscomp.decode.sections_to_model`).
     UndiagnosedError
         The last resort: a ``ValueError``, ``IndexError``, ``KeyError``,
         ``TypeError``, ``ArithmeticError`` or ``RecursionError`` that no
@@ -247,7 +248,7 @@ def decode(
         raise InputError("a passthrough container holds a file verbatim, not a B-rep")
     serialize.check_layout(c.tags(), c.minor, container.MINOR)
     try:
-        m, meta = serialize.sections_to_model(c.get, min(c.minor, container.MINOR), limits)
+        m, meta = sections_to_model(c.get, min(c.minor, container.MINOR), limits)
     except NurbscompError:
         raise
     except (ValueError, IndexError, KeyError, TypeError, ArithmeticError, RecursionError) as e:
@@ -420,7 +421,7 @@ def compress_file(
             warnings.append(f"no STEP check: {vreport.step_skipped}")
         flags = 0
     target.product = m.product  # exact in every mode, placements included
-    data = container.pack(serialize.model_to_sections(target, meta, codes), flags)
+    data = container.pack(model_to_sections(target, meta, codes), flags)
     stage("write")
     verified = False
     with atomic_output(dst_p, force, (src_p,)) as tmp:

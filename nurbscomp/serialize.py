@@ -23,11 +23,12 @@ PROD  (1.2, optional) product data: tree, names, colours, layers, header
 from __future__ import annotations
 
 import json
+from dataclasses import dataclass
 from typing import Any, cast
 
 import numpy as np
 
-from . import budget, codec, coons, dmap, joins, product
+from . import budget, product
 from .errors import BadReferenceError, CorruptError, LimitError, SectionError
 from .model import (
     REBUILD,
@@ -91,7 +92,7 @@ MAX_COORD = 2e100
 MAX_LEVEL = 96
 
 
-def _finite(a: np.ndarray, where: str, bound: float = np.inf) -> None:
+def finite(a: np.ndarray, where: str, bound: float = np.inf) -> None:
     """Raise ``SectionError`` unless every value of ``a`` is finite (and below ``bound``)."""
     with np.errstate(invalid="ignore"):
         if a.size and not (np.abs(a) < bound).all():
@@ -100,7 +101,7 @@ def _finite(a: np.ndarray, where: str, bound: float = np.inf) -> None:
 
 def _tolerances(a: np.ndarray, where: str) -> None:
     """Raise ``SectionError`` unless every tolerance is finite and not negative."""
-    _finite(a, where, MAX_COORD)
+    finite(a, where, MAX_COORD)
     if a.size and a.min() < 0:
         raise SectionError(f"{where}: a tolerance is negative")
 
@@ -134,7 +135,7 @@ def _check_bspline(
         raise SectionError(f"{where}: degree {degree} is out of range")
     if len(knots) < 2 or len(mults) != len(knots):
         raise SectionError(f"{where}: too few knots")
-    _finite(knots, where, MAX_COORD)
+    finite(knots, where, MAX_COORD)
     if not (np.diff(knots) > 0).all():
         raise SectionError(f"{where}: knots do not increase")
     inner = mults[1:-1]
@@ -262,9 +263,9 @@ def _read_geometry(data: bytes, tag: str, dim: int) -> list[Geometry]:
         _Cursor(r.floats(), f"{tag} {n}") for n in ("frame", "param", "pole", "weight", "knot")
     )
     r.done()
-    _finite(frames.a, f"{tag} frames", MAX_COORD)
-    _finite(params.a, f"{tag} params", MAX_COORD)
-    _finite(poles.a, f"{tag} poles", MAX_COORD)
+    finite(frames.a, f"{tag} frames", MAX_COORD)
+    finite(params.a, f"{tag} params", MAX_COORD)
+    finite(poles.a, f"{tag} poles", MAX_COORD)
     out: list[Geometry] = []
     surface = tag == "SURF"
     coded_poles = 0
@@ -384,7 +385,7 @@ def _read_locations(data: bytes, m: BRepModel) -> None:
     m.datum_forms = forms.astype(np.uint8)
     nd = len(m.datum_forms)
     m.datums = r.floats(nd * 12).reshape(nd, 3, 4)
-    _finite(m.datums, "LOCS datums", MAX_COORD)
+    finite(m.datums, "LOCS datums", MAX_COORD)
     lengths = r.ints()
     total = _counts(lengths, r, "LOCS lengths")
     datums, powers = r.ints(total), r.ints(total)
@@ -498,7 +499,7 @@ def _read_vertices(data: bytes, m: BRepModel, tol: float = 0.0) -> None:
     if ng:
         with np.errstate(over="ignore"):
             pts[on_grid] = q * vertex_grid(tol)
-    _finite(pts, "VERT points", MAX_COORD)
+    finite(pts, "VERT points", MAX_COORD)
     m.vertex_point = pts
     m.vertex_tol = r.floats(nv)
     _tolerances(m.vertex_tol, "VERT tolerances")
@@ -509,12 +510,13 @@ def _read_vertices(data: bytes, m: BRepModel, tol: float = 0.0) -> None:
     cols = [r.ints(nrep) for _ in range(4)]
     m.vertex_rep_params = r.floats(2 * nrep).reshape(-1, 2)
     r.done()
-    _finite(m.vertex_rep_params, "VERT parameters", MAX_COORD)
+    finite(m.vertex_rep_params, "VERT parameters", MAX_COORD)
     cols.insert(0, np.repeat(np.arange(len(per)), per))
     m.vertex_reps = np.stack(cols, axis=1).astype(np.int64).reshape(-1, 5)
 
 
-def _write_edges(m: BRepModel) -> bytes:
+def _write_edges(m: BRepModel, how: np.ndarray) -> bytes:
+    """EDGE; ``how`` is each representation's range kind (``decode.range_kinds``)."""
     w = BlockWriter()
     w.floats(m.edge_tol)
     w.ints(m.edge_flags)
@@ -533,7 +535,6 @@ def _write_edges(m: BRepModel) -> bytes:
     cont = (kind == RepKind.ON_CLOSED_SURFACE) | (kind == RepKind.ON_TWO_SURFACES)
     w.ints(m.edge_rep_cont[cont])
     ranged = kind != RepKind.ON_TWO_SURFACES
-    how = range_kinds(m)
     w.ints(how[ranged])
     w.floats(m.edge_rep_range[ranged & (how == RANGE_STORED)].reshape(-1))
     on = (kind == RepKind.ON_SURFACE) | (kind == RepKind.ON_CLOSED_SURFACE)
@@ -543,7 +544,8 @@ def _write_edges(m: BRepModel) -> bytes:
 
 
 def _read_edges(data: bytes, m: BRepModel) -> np.ndarray:
-    """Fill ``m``'s edge tables; return the range kinds (see :func:`range_kinds`)."""
+    """Fill ``m``'s edge tables; return the range kinds (``decode.range_kinds``:
+    ranges of any kind but ``RANGE_STORED`` are left for ``decode.resolve_ranges``)."""
     r = BlockReader(data, "EDGE")
     m.edge_tol = r.floats()
     _tolerances(m.edge_tol, "EDGE tolerances")
@@ -594,90 +596,14 @@ def _read_edges(data: bytes, m: BRepModel) -> np.ndarray:
     r.done()
     # an edge without a 3-D curve (degenerated) has OCCT's default range, ±DBL_MAX
     curveless = (kind == RepKind.CURVE3D) & (reps[:, 2] == -1)
-    _finite(m.edge_rep_range, "EDGE ranges")
-    _finite(m.edge_rep_range[~curveless], "EDGE ranges", MAX_COORD)
-    _finite(m.edge_rep_uv, "EDGE uv points", MAX_COORD)
+    finite(m.edge_rep_range, "EDGE ranges")
+    finite(m.edge_rep_range[~curveless], "EDGE ranges", MAX_COORD)
+    finite(m.edge_rep_uv, "EDGE uv points", MAX_COORD)
     return how
 
 
 #: How an edge representation's range is stored (EDGE, format 0.3; VERTICES 0.4).
 RANGE_STORED, RANGE_NATURAL, RANGE_OF_3D, RANGE_ZERO, RANGE_VERTICES = 0, 1, 2, 3, 4
-
-
-def _natural_range(g: Geometry | None) -> tuple[float, float] | None:
-    """The parameter range a curve record carries in itself, if any."""
-    if isinstance(g, BSplineCurve):
-        return (0.0, 1.0) if g.bezier else (float(g.knots[0]), float(g.knots[-1]))
-    if isinstance(g, Derived) and g.kind == Kind.TRIMMED_CURVE:
-        return float(g.params[0]), float(g.params[1])
-    return None
-
-
-def _curve_of(m: BRepModel, q: int) -> Geometry | None:
-    kind, c = int(m.edge_reps[q, 1]), int(m.edge_reps[q, 2])
-    table = m.curves3d if kind == RepKind.CURVE3D else m.curves2d
-    return table[c] if 0 <= c < len(table) else None
-
-
-def _range_of_3d(m: BRepModel) -> dict[int, int]:
-    """Per edge, its first 3-D curve representation's row."""
-    out: dict[int, int] = {}
-    for q in np.flatnonzero(m.edge_reps[:, 1] == RepKind.CURVE3D).tolist():
-        out.setdefault(int(m.edge_reps[q, 0]), q)
-    return out
-
-
-def range_kinds(m: BRepModel) -> np.ndarray:
-    """Per representation, how its range is stored: the curve's own range
-    (``RANGE_NATURAL``), the same as the edge's 3-D curve (``RANGE_OF_3D``),
-    zeros (a pcurve the decoder computes), the projections of its vertices
-    on its line or circle (``RANGE_VERTICES``, :func:`joins.vertex_ranges`), or the two
-    floats.  Only a bit for bit equal prediction is used, so the format stays
-    lossless."""
-    reps, rng = m.edge_reps, m.edge_rep_range
-    bits = rng.view(np.int64)
-    of3d = _range_of_3d(m)
-    by_vertices = joins.vertex_ranges(m)
-    out = np.full(len(reps), RANGE_STORED, np.int64)
-    for q in range(len(reps)):
-        if reps[q, 1] == RepKind.ON_TWO_SURFACES:
-            continue
-        if not bits[q].any():
-            out[q] = RANGE_ZERO
-            continue
-        nat = _natural_range(_curve_of(m, q))
-        if nat is not None and (np.array(nat).view(np.int64) == bits[q]).all():
-            out[q] = RANGE_NATURAL
-            continue
-        r3 = of3d.get(int(reps[q, 0]))
-        if reps[q, 1] != RepKind.CURVE3D and r3 is not None and (bits[r3] == bits[q]).all():
-            out[q] = RANGE_OF_3D
-        elif q in by_vertices and (np.array(by_vertices[q]).view(np.int64) == bits[q]).all():
-            out[q] = RANGE_VERTICES
-    return out
-
-
-def _resolve_ranges(m: BRepModel, how: np.ndarray) -> None:
-    """Fill the ranges :func:`range_kinds` left out (needs the curve tables)."""
-    for q in np.flatnonzero(how == RANGE_NATURAL).tolist():
-        nat = _natural_range(_curve_of(m, q))
-        if nat is None:
-            raise SectionError(f"EDGE: representation {q} has a curve without a range of its own")
-        m.edge_rep_range[q] = nat
-    by_vertices = joins.vertex_ranges(m) if (how == RANGE_VERTICES).any() else {}
-    for q in np.flatnonzero(how == RANGE_VERTICES).tolist():
-        if q not in by_vertices:
-            raise BadReferenceError("EDGE: a range from vertices on an edge on no line or circle")
-        m.edge_rep_range[q] = by_vertices[q]
-    _finite(m.edge_rep_range[how == RANGE_VERTICES], "EDGE: ranges from vertices", MAX_COORD)
-    of3d = _range_of_3d(m)
-    for q in np.flatnonzero(how == RANGE_OF_3D).tolist():
-        r3 = of3d.get(int(m.edge_reps[q, 0]))
-        if r3 is None or how[r3] == RANGE_OF_3D:
-            raise BadReferenceError(
-                f"EDGE: representation {q}'s range refers to a missing 3-D curve"
-            )
-        m.edge_rep_range[q] = m.edge_rep_range[r3]
 
 
 def _write_faces(m: BRepModel) -> bytes:
@@ -718,185 +644,79 @@ def coded_rows(records: list[Geometry]) -> list[int]:
     return out
 
 
-def net_basis(g: Geometry) -> dmap.Basis | None:
-    """What the D-map needs of a surface record: clamped, non-periodic B-splines only."""
-    if not joins.clamped_surface(g):
-        return None
-    assert isinstance(g, BSplineSurface)
-    if g.bezier:
-        nu, nv = g.poles.shape[:2]
-        ends = np.array([0.0, 1.0])
-        nus, nvs = np.array([nu, nu]), np.array([nv, nv])
-        return dmap.Basis.of(ends, nus, ends, nvs, nu - 1, nv - 1, g.weights)
-    return dmap.Basis.of(g.uknots, g.umults, g.vknots, g.vmults, g.udegree, g.vdegree, g.weights)
+@dataclass
+class NetTable:
+    """A SNET or CNET section as numbers: per coded row, in row order
+    (:func:`coded_rows`), its method, quantizer, level and slope, and its
+    integers; the DC coefficients of all of them, in order (how many each
+    takes is known only as it is decoded: ``decode.apply``)."""
+
+    method: np.ndarray
+    quant: np.ndarray
+    level: np.ndarray
+    slope: np.ndarray
+    ints: list[np.ndarray]
+    dcs: np.ndarray
 
 
-def net_abscissae(g: Geometry) -> tuple[np.ndarray | None, np.ndarray | None]:
-    """Normalised Greville abscissae of a surface's net (Coons blending); None for curves."""
-    if not isinstance(g, BSplineSurface):
-        return None, None
-    nu, nv = g.poles.shape[:2]
-    s = coons.unit_abscissae(coons.greville(g.uknots, g.umults, g.udegree, nu))
-    t = coons.unit_abscissae(coons.greville(g.vknots, g.vmults, g.vdegree, nv))
-    return s, t
-
-
-def _write_nets(
-    records: list[Geometry],
-    codes: dict[int, codec.NetCode],
-    tol: float,
-    anchors: dict[int, np.ndarray] | None = None,
-) -> bytes:
-    """The codes of a table's coded records, in the order of their first rows.
-
-    Each code is re-based on the origin the decoder will use: the previous
-    coded row's decoded first pole (:func:`codec.reorigin`), or the row's
-    anchor point where it has one (:func:`joins.anchors`).
-    """
-    anchors = anchors or {}
-    order = []
-    seen: set[int] = set()
-    origin = None
-    for row, g in enumerate(records):
-        if id(g) in codes and id(g) not in seen:
-            seen.add(id(g))
-            code = codes[id(g)]
-            if code.method == codec.Method.COPY:  # filled last: not on the origin chain
-                order.append(code)
-                continue
-            if code.method != codec.Method.ISO:  # an ISO code holds references, no point
-                code = codec.reorigin(code, anchors.get(row, origin), tol)
-            order.append(code)
-            poles = cast(BSplineCurve | BSplineSurface, g).poles
-            origin = poles.reshape(-1, poles.shape[-1])[0] if code.first is None else code.first
+def _write_nets(t: NetTable) -> bytes:
     w = BlockWriter()
-    for field in ("method", "quant", "level", "slope"):
-        w.ints([int(getattr(c, field)) for c in order])
-    w.ints([len(c.ints) for c in order])
-    w.ints(np.concatenate([c.ints for c in order]) if order else [])
-    w.floats(np.concatenate([c.dcs for c in order]) if order else [])
+    for col in (t.method, t.quant, t.level, t.slope):
+        w.ints(col)
+    w.ints([len(x) for x in t.ints])
+    w.ints(np.concatenate(t.ints) if t.ints else [])
+    w.floats(t.dcs)
     return bytes(w)
 
 
-def _read_nets(
-    data: bytes,
-    records: list[Geometry],
-    tol: float,
-    tag: str,
-    anchors: dict[int, np.ndarray] | None = None,
-    surfaces: list[Geometry] | None = None,
-) -> list[tuple[int, int, codec.NetCode]]:
-    """Decode a SNET/CNET section into the poles of the coded rows, in row order.
-
-    ``Method.COPY`` rows are left for :func:`_fill_copies` and returned as
-    (net number, row, code).
-
-    Each net's first pole is coded against the previous net's decoded first
-    pole (the origin chain of :func:`codec.encode_net`).
-    """
-    rows = coded_rows(records)
+def _read_nets(data: bytes, n: int, tag: str) -> NetTable:
+    """A SNET/CNET section of ``n`` coded rows; the integers split per row."""
     r = BlockReader(data, tag)
-    n = len(rows)
     method, quant, level, slope, counts = (r.ints(n) for _ in range(5))
     ints = _Cursor(r.ints(), f"{tag} ints")
     dcs = r.floats()
     r.done()
-    _finite(dcs, f"{tag} DC coefficients", MAX_COORD)
-    if n and not 0 < tol < MAX_COORD:
-        raise SectionError(f"{tag}: coded nets need a positive, finite tolerance")
-    if (counts < 0).any() or (quant < 0).any() or (quant > 1).any():
+    finite(dcs, f"{tag} DC coefficients", MAX_COORD)
+    if (counts < 0).any():
         raise SectionError(f"{tag}: bad net header")
-    if (slope < 0).any() or (slope >= len(codec.SLOPES)).any():
-        raise SectionError(f"{tag}: bad quantizer slope")
-    if n and np.abs(level).max() > MAX_LEVEL:
-        raise SectionError(f"{tag}: quantizer level out of range")
-    allowed = codec.SURFACE_METHODS if tag == "SNET" else codec.CURVE_COPIES
-    if n and not np.isin(method, [int(x) for x in allowed]).all():
-        raise SectionError(f"{tag}: a coding method that does not apply to this table")
-    origin = None
-    dpos = 0
-    copies: list[tuple[int, int, codec.NetCode]] = []
-    for k, row in enumerate(rows):
-        g = records[row]
-        try:
-            code = codec.NetCode(
-                codec.Method(int(method[k])),
-                codec.Quant(int(quant[k])),
-                int(level[k]),
-                int(slope[k]),
-                ints.take(int(counts[k])),
-                dcs[dpos:],
-                0.0,
-                0.0,
-            )
-            s, t = net_abscissae(g)
-            if code.method == codec.Method.COPY:
-                copies.append((k, row, code))
-                continue
-            if code.method == codec.Method.ISO:
-                net, used = _iso_copy(code, g, surfaces or []), 0
-            else:
-                at = (anchors or {}).get(row, origin)
-                shape = cast(BSplineCurve | BSplineSurface, g).poles.shape
-                net, used = codec.decode_net(code, shape, s, t, tol, at, net_basis(g))
-        except (ValueError, ArithmeticError) as e:  # LinAlgError is a ValueError
-            raise SectionError(f"{tag}: net {k} (table row {row}): {e}") from None
-        _finite(net, f"{tag}: net {k} (table row {row})", MAX_COORD)
-        dpos += used
-        cast(BSplineCurve | BSplineSurface, g).poles[...] = net
-        origin = net.reshape(-1, net.shape[-1])[0]
+    per = [ints.take(int(c)) for c in counts]
     ints.done()
-    if dpos != len(dcs):
-        raise SectionError(f"{tag}: unread DC coefficients from value {dpos}")
-    return copies
+    return NetTable(method, quant, level, slope, per, dcs)
 
 
-def _fill_copies(copies: list[tuple[int, int, codec.NetCode]], m: BRepModel) -> None:
-    """Set the poles of ``Method.COPY`` rows (CNET), after every other row is
-    decoded and pinned: each is its leader row's final poles, moved by
-    :func:`joins.copy_matrix` where the two sit in frames of their own."""
-    if not copies:
-        return
-    records = m.curves3d
-    where = joins.curve_placements(m)
-    leaders = {row for _, row, _ in copies}
-    for k, row, code in copies:
-        try:
-            net = _twin_copy(code, row, records, leaders)
-            t = joins.copy_matrix(where, row, row - int(code.ints[0]))
-            if t is not None:
-                net = joins.placed(net, t)
-        except ValueError as e:
-            raise SectionError(f"CNET: net {k} (table row {row}): {e}") from None
-        records[row].poles[...] = net  # type: ignore[union-attr]
+@dataclass
+class Tables:
+    """What a container stores besides the model's own tables, for the
+    decoder's geometric steps (``decode.apply``): the coded nets, and how
+    each edge representation's range is stored (``RANGE_*``)."""
+
+    snet: NetTable
+    cnet: NetTable
+    range_how: np.ndarray
+    #: ids of the coded B-spline records (written with NaN poles: SNET/CNET hold them)
+    coded: frozenset[int] = frozenset()
 
 
 # ---------------------------------------------------------------- whole model
 
 
-def model_to_sections(
-    m: BRepModel, meta: dict[str, Any], codes: dict[int, codec.NetCode] | None = None
-) -> list[tuple[str, bytes]]:
-    """The sections of a container holding ``m``.
-
-    ``codes`` maps the ids of B-spline surface records to their net codes
-    (tolerance mode); those nets go into SNET, and ``m`` must already hold
-    their *decoded* poles, so that what the decoder rebuilds is ``m``.
-    """
+def model_to_sections(m: BRepModel, meta: dict[str, Any], t: Tables) -> list[tuple[str, bytes]]:
+    """The sections of a container holding ``m`` and the tables ``t`` (made by
+    ``decode.tables``: in tolerance mode, ``m`` holds the *decoded* poles of
+    the nets ``t`` codes, so that what the decoder rebuilds is ``m``)."""
     meta = {**meta, "unit": m.unit, "source_format": m.source_format}
-    codes = codes or {}
     tol = float(meta.get("tolerance_mm") or 0.0)
     return [
         ("META", json.dumps(meta, sort_keys=True, separators=(",", ":")).encode()),
         ("LOCS", _write_locations(m)),
-        ("SURF", _write_geometry(m.surfaces, 3, frozenset(codes))),
-        ("SNET", _write_nets(m.surfaces, codes, tol)),
-        ("CRV3", _write_geometry(m.curves3d, 3, frozenset(codes))),
-        ("CNET", _write_nets(m.curves3d, codes, tol, _curve_anchors(m, codes))),
+        ("SURF", _write_geometry(m.surfaces, 3, t.coded)),
+        ("SNET", _write_nets(t.snet)),
+        ("CRV3", _write_geometry(m.curves3d, 3, t.coded)),
+        ("CNET", _write_nets(t.cnet)),
         ("CRV2", _write_geometry(m.curves2d, 2)),
         ("SHAP", _write_shapes(m)),
         ("VERT", _write_vertices(m, tol)),
-        ("EDGE", _write_edges(m)),
+        ("EDGE", _write_edges(m, t.range_how)),
         ("FACE", _write_faces(m)),
         *([("SIDE", _write_sides(m))] if len(m.side_joins) else []),
         *([("PROD", product.write(m.product))] if m.product is not None else []),
@@ -919,8 +739,8 @@ def _write_sides(m: BRepModel) -> bytes:
 
 
 def _read_sides(data: bytes, m: BRepModel, coded: set[int]) -> None:
-    """Read SIDE into ``m.side_joins`` and apply each join, in order, to the
-    decoded nets (after SNET and the corner pins, before CNET)."""
+    """Read SIDE into ``m.side_joins`` (``decode.apply`` joins the sides),
+    checking that each row joins a coded surface row to a surface row."""
     r = BlockReader(data, "SIDE")
     (n,) = r.ints(1)
     if n < 0:
@@ -929,65 +749,10 @@ def _read_sides(data: bytes, m: BRepModel, coded: set[int]) -> None:
     r.done()
     cols[2] = cols[0] - cols[2]
     rows = np.stack(cols, axis=1).astype(np.int64).reshape(-1, 5)
-    for k, (b, side, a, lside, rev) in enumerate(rows.tolist()):
-        where = f"SIDE row {k}"
+    for k, (b, _, a, _, _) in enumerate(rows.tolist()):
         if b not in coded or not 0 <= a < len(m.surfaces):
-            raise BadReferenceError(f"{where}: refers to a missing or uncoded surface row")
-        if not (0 <= side < joins.SIDES and 0 <= lside < joins.SIDES and rev in (0, 1)):
-            raise SectionError(f"{where}: no such side")
-        g, lead = m.surfaces[b], m.surfaces[a]
-        if not (joins.clamped_surface(g) and joins.clamped_surface(lead)):
-            raise SectionError(f"{where}: joins a surface that is not a clamped B-spline")
-        try:
-            g.poles[...] = joins.joined_sides(g, lead, np.array([b, side, a, lside, rev]))  # type: ignore[arg-type,union-attr]
-        except ValueError as e:
-            raise SectionError(f"{where}: {e}") from None
+            raise BadReferenceError(f"SIDE row {k}: refers to a missing or uncoded surface row")
     m.side_joins = rows
-
-
-def _iso_copy(code: codec.NetCode, g: Geometry, surfaces: list[Geometry]) -> np.ndarray:
-    """The poles of a curve coded as a decoded surface's boundary (``Method.ISO``)."""
-    if len(code.ints) != 3:
-        raise ValueError("an ISO code holds three integers")
-    r, side, rev = (int(x) for x in code.ints)
-    if not 0 <= r < len(surfaces) or not isinstance(surfaces[r], BSplineSurface):
-        raise ValueError("an ISO code refers to a missing B-spline surface")
-    if not 0 <= side < joins.SIDES or rev not in (0, 1):
-        raise ValueError("an ISO code names no boundary")
-    poles = joins.boundary(surfaces[r].poles, side, bool(rev))  # type: ignore[union-attr]
-    if poles.shape != g.poles.shape:  # type: ignore[union-attr]
-        raise ValueError("an ISO code's boundary has another number of poles")
-    return poles.copy()
-
-
-def _twin_copy(
-    code: codec.NetCode, row: int, curves: list[Geometry], copies: set[int]
-) -> np.ndarray:
-    """The poles of a curve row coded as a copy of another row's (``Method.COPY``,
-    ints: this row minus the other, reversed flag): the other row's final
-    poles (decoded and pinned), reversed if the flag says so.  The other row
-    is a B-spline curve that is not a copy itself."""
-    g = curves[row]
-    if len(code.ints) != 2:
-        raise ValueError("a COPY code holds two integers")
-    back, rev = (int(x) for x in code.ints)
-    r = row - back
-    if not 0 <= r < len(curves) or r in copies or not isinstance(curves[r], BSplineCurve):
-        raise ValueError("a COPY code refers to no B-spline curve that is not a copy")
-    if rev not in (0, 1):
-        raise ValueError("a COPY code's reversed flag is not 0 or 1")
-    poles = curves[r].poles  # type: ignore[union-attr]
-    if poles.shape != g.poles.shape:  # type: ignore[union-attr]
-        raise ValueError("a COPY code's curve has another number of poles")
-    return (poles[::-1] if rev else poles).copy()
-
-
-def _curve_anchors(m: BRepModel, codes: dict[int, codec.NetCode]) -> dict[int, np.ndarray]:
-    rows: dict[int, int] = {}
-    for i, g in enumerate(m.curves3d):
-        if id(g) in codes:
-            rows.setdefault(id(g), i)
-    return joins.anchors(m, m.curves3d, set(rows.values()))
 
 
 #: The sections of format 1.0, in the order they are written and must be read.
@@ -1109,12 +874,20 @@ def read_meta(raw: bytes) -> dict[str, Any]:
     return meta
 
 
-def sections_to_model(
+def tolerance(meta: dict[str, Any]) -> float:
+    """The tolerance (mm) a container's META gives, 0.0 if none (lossless)."""
+    tol = meta.get("tolerance_mm")
+    return float(cast(float, tol)) if _number(tol) else 0.0
+
+
+def read_sections(
     get: Any,
     minor: int | None = None,
     limits: budget.Limits | None = budget.DEFAULT,
-) -> tuple[BRepModel, dict[str, Any]]:
-    """Rebuild a model from a section lookup ``get(tag) -> bytes``; check every reference.
+) -> tuple[BRepModel, dict[str, Any], Tables]:
+    """The tables of a container from a section lookup ``get(tag) -> bytes``,
+    every reference checked: the model (coded poles still NaN, ranges left to
+    rules still zero) and the :class:`Tables` for ``decode.apply``.
 
     ``minor`` is the file's minor version, capped at this reader's (default:
     the newest this reader knows, ``max(ADDED)``): it says which sections there are.
@@ -1132,7 +905,7 @@ def sections_to_model(
         Coded nets larger than a reader allocates, or a shape past ``limits``.
     """
     with np.errstate(all="ignore"):  # overflows become non-finite values, refused by name
-        return _sections_to_model(get, max(ADDED) if minor is None else minor, limits)
+        return _read_sections(get, max(ADDED) if minor is None else minor, limits)
 
 
 def _optional(get: Any, tag: str) -> bytes | None:
@@ -1144,16 +917,14 @@ def _optional(get: Any, tag: str) -> bytes | None:
         return None
 
 
-def _sections_to_model(
+def _read_sections(
     get: Any, minor: int, limits: budget.Limits | None
-) -> tuple[BRepModel, dict[str, Any]]:
+) -> tuple[BRepModel, dict[str, Any], Tables]:
     meta = read_meta(get("META"))
     m = BRepModel()
     m.unit = str(meta.get("unit", "MM"))
     m.source_format = str(meta.get("source_format", "STEP"))
-    tol_mm = meta.get("tolerance_mm")
-    tol = float(cast(float, tol_mm)) if _number(tol_mm) else 0.0
-    # the tables first, coded poles last: nets are coded against vertices
+    tol = tolerance(meta)
     _read_locations(get("LOCS"), m)
     m.surfaces = _read_geometry(get("SURF"), "SURF", 3)
     m.curves3d = _read_geometry(get("CRV3"), "CRV3", 3)
@@ -1165,27 +936,16 @@ def _sections_to_model(
     check_references(m)
     if limits is not None:
         budget.check_structure(m, limits)
-    _resolve_ranges(m, range_how)
-    coded_surfaces = set(coded_rows(m.surfaces))
-    _read_nets(get("SNET"), m.surfaces, tol, "SNET")
-    for r, pins in joins.surface_corner_pins(m, m.surfaces, coded_surfaces, tol).items():
-        g = m.surfaces[r]
-        g.poles[...] = joins.pinned_corners(m, g, pins)  # type: ignore[union-attr,arg-type]
+    coded_surfaces = coded_rows(m.surfaces)
+    snet = _read_nets(get("SNET"), len(coded_surfaces), "SNET")
     sides = _optional(get, "SIDE") if "SIDE" in layout(minor) else None
     if sides is not None:
-        _read_sides(sides, m, coded_surfaces)
-    coded_curves = set(coded_rows(m.curves3d))
-    anchors = joins.anchors(m, m.curves3d, coded_curves)
-    copies = _read_nets(get("CNET"), m.curves3d, tol, "CNET", anchors, m.surfaces)
-    pinned = coded_curves - {row for _, row, _ in copies}
-    for c, pins in joins.curve_end_pins(m, m.curves3d, pinned, tol).items():
-        g = cast(BSplineCurve, m.curves3d[c])
-        g.poles[...] = joins.pinned_poles(m, g, pins)
-    _fill_copies(copies, m)
+        _read_sides(sides, m, set(coded_surfaces))
+    cnet = _read_nets(get("CNET"), len(coded_rows(m.curves3d)), "CNET")
     prod = _optional(get, "PROD") if "PROD" in layout(minor) else None
     if prod is not None:
         m.product = product.read(prod, len(m.shape_type))
-    return m, meta
+    return m, meta, Tables(snet, cnet, range_how)
 
 
 def check_references(m: BRepModel) -> None:

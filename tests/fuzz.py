@@ -11,7 +11,7 @@ The mutations are shared with ``tests/test_fuzz.py``.  Two families:
   order, duplicates, drops, renames, swaps between samples, META's JSON, the
   lossless flag, a newer minor version), and it is
   packed again with valid CRCs, so the section decoders
-  (``serialize.sections_to_model``) and the shape builder see it.
+  (``decode.sections_to_model``) and the shape builder see it.
 
 The property (:func:`check`): decoding, building (and in the long run,
 writing STEP) either succeed or raise a ``FormatError`` subclass; anything
@@ -45,7 +45,7 @@ from typing import Any
 import numpy as np
 import zstandard
 
-from nurbscomp import container, entropy, pipeline, serialize
+from nurbscomp import container, decode, entropy, pipeline
 from nurbscomp.errors import FormatError, UndiagnosedError
 from nurbscomp.model import (
     REBUILD,
@@ -321,7 +321,7 @@ def pack_model(m: BRepModel, meta: dict[str, Any]) -> bytes:
     """``m`` as a lossless container (its decoded poles stored as floats)."""
     m.side_joins = np.zeros((0, 5), np.int64)
     meta = {**meta, "mode": "lossless", "tolerance_mm": None}
-    return pack_fast(serialize.model_to_sections(m, meta), container.FLAG_LOSSLESS)
+    return pack_fast(decode.model_to_sections(m, meta), container.FLAG_LOSSLESS)
 
 
 def add_shapes(m: BRepModel, types: list[int], kids: list[list[tuple[int, int, int]]]) -> int:

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from nurbscomp import codec, container, joins, occ, pipeline, serialize
+from nurbscomp import codec, container, decode, joins, occ, pipeline, serialize
 from nurbscomp.errors import BadReferenceError, SectionError
 from nurbscomp.model import BSplineCurve, BSplineSurface
 
@@ -90,7 +90,7 @@ def _golden_sections(name: str) -> tuple[int, dict[str, bytes]]:
 
 
 def _decode(minor: int, secs: dict[str, bytes]):
-    return serialize.sections_to_model(secs.__getitem__, minor)
+    return decode.sections_to_model(secs.__getitem__, minor)
 
 
 def test_side_section_is_checked() -> None:
@@ -116,12 +116,12 @@ def test_copy_code_is_checked() -> None:
     )
     curves = [_curve(np.zeros((4, 3))) for _ in range(3)]
     with pytest.raises(ValueError, match="no B-spline curve"):
-        serialize._twin_copy(code, 2, curves, set())  # row 2 - 3 = -1
+        decode.twin_copy(code, 2, curves, set())  # row 2 - 3 = -1
     ok = replace(code, ints=np.array([2, 1]))
     curves[0] = _curve(np.arange(12, dtype=float).reshape(4, 3))
-    assert np.array_equal(serialize._twin_copy(ok, 2, curves, set()), curves[0].poles[::-1])
+    assert np.array_equal(decode.twin_copy(ok, 2, curves, set()), curves[0].poles[::-1])
     with pytest.raises(ValueError, match="not a copy"):
-        serialize._twin_copy(ok, 2, curves, {0})  # a copy of a copy
+        decode.twin_copy(ok, 2, curves, {0})  # a copy of a copy
 
 
 def test_curve_placements_match_occt(tmp_path: Path) -> None:

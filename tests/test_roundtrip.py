@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from nurbscomp import container, occ, pipeline, serialize
+from nurbscomp import container, decode, occ, pipeline, serialize
 from nurbscomp.errors import CorruptError
 from nurbscomp.model import differences
 
@@ -41,8 +41,8 @@ def test_model_round_trip_is_exact(path: Path) -> None:
 @pytest.mark.parametrize("path", sample_files(), ids=lambda p: p.name)
 def test_container_round_trip_of_model_is_exact(path: Path) -> None:
     _, m = _model(path)
-    data = container.pack(serialize.model_to_sections(m, {"x": 1, "mode": "lossless"}))
-    back, meta = serialize.sections_to_model(container.unpack(data).get)
+    data = container.pack(decode.model_to_sections(m, {"x": 1, "mode": "lossless"}))
+    back, meta = decode.sections_to_model(container.unpack(data).get)
     assert differences(m, back) == []
     assert meta["x"] == 1
 
@@ -105,12 +105,12 @@ def test_ranges_from_vertices_are_exact_and_checked() -> None:
     """Edges on lines and circles whose ranges are what their vertices give, bit
     for bit, store no floats (RANGE_VERTICES); the rule is refused elsewhere."""
     cad, m = _model(next(p for p in sample_files() if p.name == "bracket.step"))
-    how = serialize.range_kinds(m)
+    how = decode.range_kinds(m)
     assert (how == serialize.RANGE_VERTICES).sum() > 0
-    sections = dict(serialize.model_to_sections(m, {"mode": "lossless"}))
-    back, _ = serialize.sections_to_model(sections.__getitem__)
+    sections = dict(decode.model_to_sections(m, {"mode": "lossless"}))
+    back, _ = decode.sections_to_model(sections.__getitem__)
     assert not differences(m, back)
     # a "from vertices" range on a curve that is no line does not decode
     assert (how == serialize.RANGE_NATURAL).any() or (how == serialize.RANGE_STORED).any()
     with pytest.raises(CorruptError, match="no line or circle"):
-        serialize._resolve_ranges(back, np.full(len(how), serialize.RANGE_VERTICES))
+        decode.resolve_ranges(back, np.full(len(how), serialize.RANGE_VERTICES))

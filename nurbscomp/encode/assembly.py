@@ -226,10 +226,23 @@ def _merging(exact: np.ndarray, snapped: np.ndarray) -> np.ndarray:
     return out
 
 
-def _replace_all(table: list[Geometry], old: Geometry, new: Geometry) -> None:
-    for i, g in enumerate(table):
-        if g is old:
-            table[i] = new
+class _Rows:
+    """A geometry table whose records are replaced everywhere they are used
+    (the rows that share a record keep sharing its replacement), with an
+    index of the rows each record is in: one pass over the table, not one
+    per replacement."""
+
+    def __init__(self, table: list[Geometry]) -> None:
+        self.table = table
+        self.rows: dict[int, list[int]] = {}
+        for i, g in enumerate(table):
+            self.rows.setdefault(id(g), []).append(i)
+
+    def replace(self, old: Geometry, new: Geometry) -> None:
+        rows = self.rows.pop(id(old))
+        for i in rows:
+            self.table[i] = new
+        self.rows[id(new)] = rows
 
 
 def _moved(a: np.ndarray, b: np.ndarray) -> float:
@@ -240,13 +253,14 @@ def _pin_surfaces(
     m: BRepModel, surfaces: list[Geometry], codes: dict[int, codec.NetCode], tol: float
 ) -> None:
     """Apply :func:`joins.surface_corner_pins` as the decoder will, raising bounds."""
+    rows = _Rows(surfaces)
     for r, pins in joins.surface_corner_pins(m, surfaces, first_rows(surfaces, codes), tol).items():
         old, original = surfaces[r], m.surfaces[r]
         assert isinstance(old, BSplineSurface) and isinstance(original, BSplineSurface)
         new = replace(old, poles=joins.pinned_corners(m, old, pins))
         code = codes.pop(id(old))
         codes[id(new)] = replace(code, bound=max(code.bound, _moved(new.poles, original.poles)))
-        _replace_all(surfaces, old, new)
+        rows.replace(old, new)
 
 
 def _copy_iso(
@@ -258,6 +272,7 @@ def _copy_iso(
     exact: set[int],
 ) -> None:
     """Curves that are a coded surface's boundary become copies of the decoded boundary."""
+    rows = _Rows(curves)
     for c, g in enumerate(m.curves3d):
         src = coded.iso.get(id(g))
         if src is None or id(g) in exact or curves[c] is not g:
@@ -272,7 +287,7 @@ def _copy_iso(
         bound = _moved(poles, g.poles)
         code = codec.NetCode(codec.Method.ISO, codec.Quant.TOL, 0, 0, ints, np.zeros(0), bound, 0.0)
         codes[id(new)] = replace(code, first=poles[0].copy())
-        _replace_all(curves, g, new)
+        rows.replace(g, new)
 
 
 def _join_sides(
@@ -280,7 +295,7 @@ def _join_sides(
 ) -> np.ndarray:
     """Set each coded net's twin sides to their leaders' (as the decoder does after
     the corner pins); the rows of ``BRepModel.side_joins``, shape (J, 5)."""
-    rows = []
+    rows, table = [], _Rows(surfaces)
     for (b, j), ((a, i), rev) in sorted(coded.sides.items()):
         old, original = surfaces[b], m.surfaces[b]
         if id(old) not in codes:
@@ -290,7 +305,7 @@ def _join_sides(
         new = replace(old, poles=joins.joined_sides(old, surfaces[a], row))  # type: ignore[arg-type]
         code = codes.pop(id(old))
         codes[id(new)] = replace(code, bound=max(code.bound, _moved(new.poles, original.poles)))
-        _replace_all(surfaces, old, new)
+        table.replace(old, new)
         rows.append(row)
     return np.array(rows, np.int64).reshape(-1, 5)
 
@@ -308,6 +323,7 @@ def _copy_twins(
     coincides with its leader, ends included.  A copy that would move further
     than its limit (a leader that is a coded surface's boundary, coded to the
     surface's limit) stays exact."""
+    rows = _Rows(curves)
     for c, g in enumerate(m.curves3d):
         twin = coded.twins.get(id(g))
         if twin is None or id(g) in exact or curves[c] is not g:
@@ -330,7 +346,7 @@ def _copy_twins(
         )
         new = replace(g, poles=poles)
         codes[id(new)] = code
-        _replace_all(curves, g, new)
+        rows.replace(g, new)
 
 
 def _pin_curves(
@@ -338,6 +354,7 @@ def _pin_curves(
 ) -> None:
     """Apply :func:`joins.curve_end_pins` as the decoder will, raising each pinned curve's bound."""
     pins = joins.curve_end_pins(m, curves, first_rows(curves, codes), tol)
+    rows = _Rows(curves)
     for c, places in pins.items():
         old = curves[c]
         assert isinstance(old, BSplineCurve)
@@ -347,7 +364,7 @@ def _pin_curves(
         moved = float(np.sqrt(((new.poles - original.poles) ** 2).sum(-1)).max())
         code = codes.pop(id(old))
         codes[id(new)] = replace(code, bound=max(code.bound, moved))
-        _replace_all(curves, old, new)
+        rows.replace(old, new)
 
 
 #: BRepCheck measures an edge's distance to its surfaces with a 5% margin

@@ -22,6 +22,7 @@ from typing import Any, cast
 import numpy as np
 
 from .. import codec, joins, serialize
+from ..decode import net_abscissae, net_basis
 from ..model import (
     BRepModel,
     BSplineCurve,
@@ -33,7 +34,7 @@ from ..model import (
     ShapeType,
     faces_around,
 )
-from ..serialize import SWEPT, net_abscissae, net_basis
+from ..serialize import SWEPT
 
 
 def resolve(table: list[Geometry], i: int, through: tuple[Kind, ...]) -> Geometry:

@@ -1,0 +1,412 @@
+"""Tables -> model: the decoder's geometric steps, in the documented order.
+
+:mod:`nurbscomp.serialize` turns a container's bytes into tables and back and
+does no geometry.  This module does what those tables mean (docs/format.md
+§2.4, §2.7, §2.9, §2.10), in the order :func:`apply` runs them:
+
+1. edge ranges the EDGE section left to rules (the curve's own range, the
+   edge's 3-D curve's, the projections of its vertices: :func:`range_kinds`);
+2. SNET: every coded surface net, each first pole against the previous net's
+   (:func:`codec.decode_net`, the one closed-loop function the encoder uses);
+3. net corners pinned to their vertices (:func:`joins.surface_corner_pins`);
+4. SIDE: net sides set to another net's decoded side;
+5. CNET: every coded curve, anchored at its vertices (:func:`joins.anchors`),
+   its ends then pinned to them, and the copies of other curves last.
+
+:func:`tables` is the writer's side of the same steps: the range rules that
+predict each range bit for bit, and the net codes in the order and on the
+origins these steps will use (:func:`codec.reorigin`).
+"""
+
+from __future__ import annotations
+
+from typing import Any, cast
+
+import numpy as np
+
+from . import budget, codec, coons, dmap, joins, serialize
+from .errors import BadReferenceError, SectionError
+from .model import BRepModel, BSplineCurve, BSplineSurface, Derived, Geometry, Kind, RepKind
+from .serialize import (
+    MAX_COORD,
+    MAX_LEVEL,
+    RANGE_NATURAL,
+    RANGE_OF_3D,
+    RANGE_STORED,
+    RANGE_VERTICES,
+    RANGE_ZERO,
+    NetTable,
+    Tables,
+    coded_rows,
+    finite,
+)
+
+# ---------------------------------------------------------------- net geometry
+
+
+def net_basis(g: Geometry) -> dmap.Basis | None:
+    """What the D-map needs of a surface record: clamped, non-periodic B-splines only."""
+    if not joins.clamped_surface(g):
+        return None
+    assert isinstance(g, BSplineSurface)
+    if g.bezier:
+        nu, nv = g.poles.shape[:2]
+        ends = np.array([0.0, 1.0])
+        nus, nvs = np.array([nu, nu]), np.array([nv, nv])
+        return dmap.Basis.of(ends, nus, ends, nvs, nu - 1, nv - 1, g.weights)
+    return dmap.Basis.of(g.uknots, g.umults, g.vknots, g.vmults, g.udegree, g.vdegree, g.weights)
+
+
+def net_abscissae(g: Geometry) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """Normalised Greville abscissae of a surface's net (Coons blending); None for curves."""
+    if not isinstance(g, BSplineSurface):
+        return None, None
+    nu, nv = g.poles.shape[:2]
+    s = coons.unit_abscissae(coons.greville(g.uknots, g.umults, g.udegree, nu))
+    t = coons.unit_abscissae(coons.greville(g.vknots, g.vmults, g.vdegree, nv))
+    return s, t
+
+
+# ---------------------------------------------------------------- edge ranges
+
+
+def _natural_range(g: Geometry | None) -> tuple[float, float] | None:
+    """The parameter range a curve record carries in itself, if any."""
+    if isinstance(g, BSplineCurve):
+        return (0.0, 1.0) if g.bezier else (float(g.knots[0]), float(g.knots[-1]))
+    if isinstance(g, Derived) and g.kind == Kind.TRIMMED_CURVE:
+        return float(g.params[0]), float(g.params[1])
+    return None
+
+
+def _curve_of(m: BRepModel, q: int) -> Geometry | None:
+    kind, c = int(m.edge_reps[q, 1]), int(m.edge_reps[q, 2])
+    table = m.curves3d if kind == RepKind.CURVE3D else m.curves2d
+    return table[c] if 0 <= c < len(table) else None
+
+
+def _range_of_3d(m: BRepModel) -> dict[int, int]:
+    """Per edge, its first 3-D curve representation's row."""
+    out: dict[int, int] = {}
+    for q in np.flatnonzero(m.edge_reps[:, 1] == RepKind.CURVE3D).tolist():
+        out.setdefault(int(m.edge_reps[q, 0]), q)
+    return out
+
+
+def range_kinds(m: BRepModel) -> np.ndarray:
+    """Per representation, how its range is stored: the curve's own range
+    (``RANGE_NATURAL``), the same as the edge's 3-D curve (``RANGE_OF_3D``),
+    zeros (a pcurve the decoder computes), the projections of its vertices
+    on its line or circle (``RANGE_VERTICES``, :func:`joins.vertex_ranges`), or the two
+    floats.  Only a bit for bit equal prediction is used, so the format stays
+    lossless."""
+    reps, rng = m.edge_reps, m.edge_rep_range
+    bits = rng.view(np.int64)
+    of3d = _range_of_3d(m)
+    by_vertices = joins.vertex_ranges(m)
+    out = np.full(len(reps), RANGE_STORED, np.int64)
+    for q in range(len(reps)):
+        if reps[q, 1] == RepKind.ON_TWO_SURFACES:
+            continue
+        if not bits[q].any():
+            out[q] = RANGE_ZERO
+            continue
+        nat = _natural_range(_curve_of(m, q))
+        if nat is not None and (np.array(nat).view(np.int64) == bits[q]).all():
+            out[q] = RANGE_NATURAL
+            continue
+        r3 = of3d.get(int(reps[q, 0]))
+        if reps[q, 1] != RepKind.CURVE3D and r3 is not None and (bits[r3] == bits[q]).all():
+            out[q] = RANGE_OF_3D
+        elif q in by_vertices and (np.array(by_vertices[q]).view(np.int64) == bits[q]).all():
+            out[q] = RANGE_VERTICES
+    return out
+
+
+def resolve_ranges(m: BRepModel, how: np.ndarray) -> None:
+    """Fill the ranges :func:`range_kinds` left out (needs the curve tables)."""
+    for q in np.flatnonzero(how == RANGE_NATURAL).tolist():
+        nat = _natural_range(_curve_of(m, q))
+        if nat is None:
+            raise SectionError(f"EDGE: representation {q} has a curve without a range of its own")
+        m.edge_rep_range[q] = nat
+    by_vertices = joins.vertex_ranges(m) if (how == RANGE_VERTICES).any() else {}
+    for q in np.flatnonzero(how == RANGE_VERTICES).tolist():
+        if q not in by_vertices:
+            raise BadReferenceError("EDGE: a range from vertices on an edge on no line or circle")
+        m.edge_rep_range[q] = by_vertices[q]
+    finite(m.edge_rep_range[how == RANGE_VERTICES], "EDGE: ranges from vertices", MAX_COORD)
+    of3d = _range_of_3d(m)
+    for q in np.flatnonzero(how == RANGE_OF_3D).tolist():
+        r3 = of3d.get(int(m.edge_reps[q, 0]))
+        if r3 is None or how[r3] == RANGE_OF_3D:
+            raise BadReferenceError(
+                f"EDGE: representation {q}'s range refers to a missing 3-D curve"
+            )
+        m.edge_rep_range[q] = m.edge_rep_range[r3]
+
+
+# ---------------------------------------------------------------- the writer's side
+
+
+def _net_table(
+    records: list[Geometry],
+    codes: dict[int, codec.NetCode],
+    tol: float,
+    anchors: dict[int, np.ndarray] | None = None,
+) -> NetTable:
+    """The codes of a table's coded records, in the order of their first rows.
+
+    Each code is re-based on the origin the decoder will use: the previous
+    coded row's decoded first pole (:func:`codec.reorigin`), or the row's
+    anchor point where it has one (:func:`joins.anchors`).
+    """
+    anchors = anchors or {}
+    order = []
+    seen: set[int] = set()
+    origin = None
+    for row, g in enumerate(records):
+        if id(g) in codes and id(g) not in seen:
+            seen.add(id(g))
+            code = codes[id(g)]
+            if code.method == codec.Method.COPY:  # filled last: not on the origin chain
+                order.append(code)
+                continue
+            if code.method != codec.Method.ISO:  # an ISO code holds references, no point
+                code = codec.reorigin(code, anchors.get(row, origin), tol)
+            order.append(code)
+            poles = cast(BSplineCurve | BSplineSurface, g).poles
+            origin = poles.reshape(-1, poles.shape[-1])[0] if code.first is None else code.first
+
+    def col(name: str) -> np.ndarray:
+        return np.array([int(getattr(c, name)) for c in order], np.int64)
+
+    return NetTable(
+        col("method"),
+        col("quant"),
+        col("level"),
+        col("slope"),
+        [c.ints for c in order],
+        np.concatenate([c.dcs for c in order]) if order else np.zeros(0),
+    )
+
+
+def _curve_anchors(m: BRepModel, codes: dict[int, codec.NetCode]) -> dict[int, np.ndarray]:
+    rows: dict[int, int] = {}
+    for i, g in enumerate(m.curves3d):
+        if id(g) in codes:
+            rows.setdefault(id(g), i)
+    return joins.anchors(m, m.curves3d, set(rows.values()))
+
+
+def tables(m: BRepModel, codes: dict[int, codec.NetCode] | None, tol: float) -> Tables:
+    """What the writer stores besides ``m``'s own tables so that :func:`apply`
+    rebuilds ``m``: the range rules, and the net codes (``codes`` maps the ids
+    of B-spline records to their codes; ``m`` holds their *decoded* poles)."""
+    codes = codes or {}
+    return Tables(
+        _net_table(m.surfaces, codes, tol),
+        _net_table(m.curves3d, codes, tol, _curve_anchors(m, codes)),
+        range_kinds(m),
+        frozenset(codes),
+    )
+
+
+def model_to_sections(
+    m: BRepModel, meta: dict[str, Any], codes: dict[int, codec.NetCode] | None = None
+) -> list[tuple[str, bytes]]:
+    """The sections of a container holding ``m`` (:func:`serialize.model_to_sections`
+    of ``m`` and its :func:`tables`)."""
+    tol = float(meta.get("tolerance_mm") or 0.0)
+    return serialize.model_to_sections(m, meta, tables(m, codes, tol))
+
+
+# ---------------------------------------------------------------- the reader's side
+
+
+def _iso_copy(code: codec.NetCode, g: Geometry, surfaces: list[Geometry]) -> np.ndarray:
+    """The poles of a curve coded as a decoded surface's boundary (``Method.ISO``)."""
+    if len(code.ints) != 3:
+        raise ValueError("an ISO code holds three integers")
+    r, side, rev = (int(x) for x in code.ints)
+    if not 0 <= r < len(surfaces) or not isinstance(surfaces[r], BSplineSurface):
+        raise ValueError("an ISO code refers to a missing B-spline surface")
+    if not 0 <= side < joins.SIDES or rev not in (0, 1):
+        raise ValueError("an ISO code names no boundary")
+    poles = joins.boundary(surfaces[r].poles, side, bool(rev))  # type: ignore[union-attr]
+    if poles.shape != g.poles.shape:  # type: ignore[union-attr]
+        raise ValueError("an ISO code's boundary has another number of poles")
+    return poles.copy()
+
+
+def twin_copy(
+    code: codec.NetCode, row: int, curves: list[Geometry], copies: set[int]
+) -> np.ndarray:
+    """The poles of a curve row coded as a copy of another row's (``Method.COPY``,
+    ints: this row minus the other, reversed flag): the other row's final
+    poles (decoded and pinned), reversed if the flag says so.  The other row
+    is a B-spline curve that is not a copy itself."""
+    g = curves[row]
+    if len(code.ints) != 2:
+        raise ValueError("a COPY code holds two integers")
+    back, rev = (int(x) for x in code.ints)
+    r = row - back
+    if not 0 <= r < len(curves) or r in copies or not isinstance(curves[r], BSplineCurve):
+        raise ValueError("a COPY code refers to no B-spline curve that is not a copy")
+    if rev not in (0, 1):
+        raise ValueError("a COPY code's reversed flag is not 0 or 1")
+    poles = curves[r].poles  # type: ignore[union-attr]
+    if poles.shape != g.poles.shape:  # type: ignore[union-attr]
+        raise ValueError("a COPY code's curve has another number of poles")
+    return (poles[::-1] if rev else poles).copy()
+
+
+def _check_headers(t: NetTable, tag: str, tol: float) -> None:
+    """The quantizer settings and methods of a net table (docs/format.md §2.4)."""
+    n = len(t.method)
+    if n and not 0 < tol < MAX_COORD:
+        raise SectionError(f"{tag}: coded nets need a positive, finite tolerance")
+    if (t.quant < 0).any() or (t.quant > 1).any():
+        raise SectionError(f"{tag}: bad net header")
+    if (t.slope < 0).any() or (t.slope >= len(codec.SLOPES)).any():
+        raise SectionError(f"{tag}: bad quantizer slope")
+    if n and np.abs(t.level).max() > MAX_LEVEL:
+        raise SectionError(f"{tag}: quantizer level out of range")
+    allowed = codec.SURFACE_METHODS if tag == "SNET" else codec.CURVE_COPIES
+    if n and not np.isin(t.method, [int(x) for x in allowed]).all():
+        raise SectionError(f"{tag}: a coding method that does not apply to this table")
+
+
+def _decode_nets(
+    t: NetTable,
+    records: list[Geometry],
+    tol: float,
+    tag: str,
+    anchors: dict[int, np.ndarray] | None = None,
+    surfaces: list[Geometry] | None = None,
+) -> list[tuple[int, int, codec.NetCode]]:
+    """Decode a net table into the poles of the coded rows, in row order.
+
+    ``Method.COPY`` rows are left for :func:`_fill_copies` and returned as
+    (net number, row, code).
+
+    Each net's first pole is coded against the previous net's decoded first
+    pole (the origin chain of :func:`codec.encode_net`).
+    """
+    _check_headers(t, tag, tol)
+    rows = coded_rows(records)
+    origin = None
+    dpos = 0
+    copies: list[tuple[int, int, codec.NetCode]] = []
+    for k, row in enumerate(rows):
+        g = records[row]
+        try:
+            code = codec.NetCode(
+                codec.Method(int(t.method[k])),
+                codec.Quant(int(t.quant[k])),
+                int(t.level[k]),
+                int(t.slope[k]),
+                t.ints[k],
+                t.dcs[dpos:],
+                0.0,
+                0.0,
+            )
+            s, u = net_abscissae(g)
+            if code.method == codec.Method.COPY:
+                copies.append((k, row, code))
+                continue
+            if code.method == codec.Method.ISO:
+                net, used = _iso_copy(code, g, surfaces or []), 0
+            else:
+                at = (anchors or {}).get(row, origin)
+                shape = cast(BSplineCurve | BSplineSurface, g).poles.shape
+                net, used = codec.decode_net(code, shape, s, u, tol, at, net_basis(g))
+        except (ValueError, ArithmeticError) as e:  # LinAlgError is a ValueError
+            raise SectionError(f"{tag}: net {k} (table row {row}): {e}") from None
+        finite(net, f"{tag}: net {k} (table row {row})", MAX_COORD)
+        dpos += used
+        cast(BSplineCurve | BSplineSurface, g).poles[...] = net
+        origin = net.reshape(-1, net.shape[-1])[0]
+    if dpos != len(t.dcs):
+        raise SectionError(f"{tag}: unread DC coefficients from value {dpos}")
+    return copies
+
+
+def _fill_copies(copies: list[tuple[int, int, codec.NetCode]], m: BRepModel) -> None:
+    """Set the poles of ``Method.COPY`` rows (CNET), after every other row is
+    decoded and pinned: each is its leader row's final poles, moved by
+    :func:`joins.copy_matrix` where the two sit in frames of their own."""
+    if not copies:
+        return
+    records = m.curves3d
+    where = joins.curve_placements(m)
+    leaders = {row for _, row, _ in copies}
+    for k, row, code in copies:
+        try:
+            net = twin_copy(code, row, records, leaders)
+            t = joins.copy_matrix(where, row, row - int(code.ints[0]))
+            if t is not None:
+                net = joins.placed(net, t)
+        except ValueError as e:
+            raise SectionError(f"CNET: net {k} (table row {row}): {e}") from None
+        records[row].poles[...] = net  # type: ignore[union-attr]
+
+
+def _join_sides(m: BRepModel) -> None:
+    """Apply each row of ``m.side_joins``, in order, to the decoded nets (after
+    SNET and the corner pins, before CNET)."""
+    for k, (b, side, a, lside, rev) in enumerate(m.side_joins.tolist()):
+        where = f"SIDE row {k}"
+        if not (0 <= side < joins.SIDES and 0 <= lside < joins.SIDES and rev in (0, 1)):
+            raise SectionError(f"{where}: no such side")
+        g, lead = m.surfaces[b], m.surfaces[a]
+        if not (joins.clamped_surface(g) and joins.clamped_surface(lead)):
+            raise SectionError(f"{where}: joins a surface that is not a clamped B-spline")
+        assert isinstance(g, BSplineSurface) and isinstance(lead, BSplineSurface)
+        try:
+            g.poles[...] = joins.joined_sides(g, lead, np.array([b, side, a, lside, rev]))
+        except ValueError as e:
+            raise SectionError(f"{where}: {e}") from None
+
+
+def apply(m: BRepModel, t: Tables, tol: float) -> None:
+    """Run the decoder's geometric steps (module docstring) on ``m``, in place."""
+    resolve_ranges(m, t.range_how)
+    coded_surfaces = set(coded_rows(m.surfaces))
+    _decode_nets(t.snet, m.surfaces, tol, "SNET")
+    for r, pins in joins.surface_corner_pins(m, m.surfaces, coded_surfaces, tol).items():
+        g = m.surfaces[r]
+        g.poles[...] = joins.pinned_corners(m, g, pins)  # type: ignore[union-attr,arg-type]
+    _join_sides(m)
+    coded_curves = set(coded_rows(m.curves3d))
+    anchors = joins.anchors(m, m.curves3d, coded_curves)
+    copies = _decode_nets(t.cnet, m.curves3d, tol, "CNET", anchors, m.surfaces)
+    pinned = coded_curves - {row for _, row, _ in copies}
+    for c, pins in joins.curve_end_pins(m, m.curves3d, pinned, tol).items():
+        g = cast(BSplineCurve, m.curves3d[c])
+        g.poles[...] = joins.pinned_poles(m, g, pins)
+    _fill_copies(copies, m)
+
+
+def sections_to_model(
+    get: Any,
+    minor: int | None = None,
+    limits: budget.Limits | None = budget.DEFAULT,
+) -> tuple[BRepModel, dict[str, Any]]:
+    """Rebuild a model from a section lookup ``get(tag) -> bytes``: the tables
+    (:func:`serialize.read_sections`, every reference and the decoding budget
+    checked), then :func:`apply`.
+
+    Raises
+    ------
+    CorruptError
+        A section is missing, or a subclass: ``SectionError`` (a section does
+        not decode; its tag and where), ``BadReferenceError`` (an index points
+        outside its table).
+    LimitError
+        Coded nets larger than a reader allocates, or a shape past ``limits``.
+    """
+    m, meta, t = serialize.read_sections(get, minor, limits)
+    with np.errstate(all="ignore"):  # overflows become non-finite values, refused by name
+        apply(m, t, serialize.tolerance(meta))
+    return m, meta
