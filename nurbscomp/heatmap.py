@@ -227,8 +227,8 @@ def render(
         f"{dev.mean() if len(dev) else 0.0:.3g} mm, {len(dev)} faces",
         (f"tolerance {tol:g} mm: {over} faces beyond it" if tol is not None else "no tolerance"),
     ]
-    main.AddActor2D(_text(vtk, lines[0], 0.02, 0.98, 20, bold=True))
-    main.AddActor2D(_text(vtk, "\n".join(lines[1:]), 0.02, 0.935, 15))
+    main.AddViewProp(_text(vtk, lines[0], 0.02, 0.98, 20, bold=True))
+    main.AddViewProp(_text(vtk, "\n".join(lines[1:]), 0.02, 0.935, 15))
 
     side = vtk.vtkRenderer()
     side.SetViewport(0.64, 0.34, 1.0, 1.0)
@@ -256,7 +256,7 @@ def render(
         bounds = (lo[0], hi[0], lo[1], hi[1], lo[2], hi[2])
         _look_at(side, tuple(float(b) for b in bounds), direction * diag * 3, 0.8)
         side.ResetCameraClippingRange()
-    side.AddActor2D(
+    side.AddViewProp(
         _text(
             vtk,
             f"worst face #{worst + 1}: {dev.max(initial=0.0):.3g} mm" if worst >= 0 else "no face",
@@ -295,7 +295,7 @@ def render(
     bar.GetAnnotationTextProperty().SetFontSize(15)
     bar.GetAnnotationTextProperty().SetBold(True)
     bar.GetAnnotationTextProperty().SetItalic(False)
-    legend.AddActor2D(bar)
+    legend.AddViewProp(bar)
 
     window.Render()
     grab = vtk.vtkWindowToImageFilter()
