@@ -27,6 +27,8 @@ _VIRIDIS = (
 #: Faces beyond the tolerance.
 _OVER = (0.85, 0.10, 0.10)
 _TEXT = (0.1, 0.1, 0.1)
+#: The worst face's outline.
+_MARK = (0.9, 0.0, 0.75)
 
 
 def _vtk() -> Any:
@@ -59,7 +61,7 @@ def _polydata(vtk: Any, meshes: list[tuple[np.ndarray, np.ndarray]], values: np.
         if len(t) == 0:
             continue
         pts.append(p)
-        cells.append(np.hstack([np.full((len(t), 1), 3), t + base]))
+        cells.append(t + base)
         scal.append(np.full(len(t), v))
         base += len(p)
     poly = vtk.vtkPolyData()
@@ -69,8 +71,11 @@ def _polydata(vtk: Any, meshes: list[tuple[np.ndarray, np.ndarray]], values: np.
     points.SetData(numpy_to_vtk(np.ascontiguousarray(np.vstack(pts)), deep=True))
     poly.SetPoints(points)
     conn = np.ascontiguousarray(np.vstack(cells).ravel().astype(np.int64))
+    offsets = np.arange(0, len(conn) + 1, 3, dtype=np.int64)
     tris = vtk.vtkCellArray()
-    tris.SetCells(len(conn) // 4, numpy_to_vtkIdTypeArray(conn, deep=True))
+    tris.SetData(
+        numpy_to_vtkIdTypeArray(offsets, deep=True), numpy_to_vtkIdTypeArray(conn, deep=True)
+    )
     poly.SetPolys(tris)
     s = numpy_to_vtk(np.concatenate(scal), deep=True)
     s.SetName("deviation")
@@ -115,7 +120,12 @@ def _surface_actor(vtk: Any, poly: Any, lut: Any, top: float) -> Any:
     return actor
 
 
-def _edges_actor(vtk: Any, poly: Any, opacity: float = 1.0) -> Any:
+def _edges_actor(
+    vtk: Any,
+    poly: Any,
+    colour: tuple[float, float, float] = (0.15, 0.15, 0.15),
+    width: float = 1.0,
+) -> Any:
     """The faces' borders (every face is meshed apart, so its border is a boundary)."""
     fe = vtk.vtkFeatureEdges()
     fe.SetInputData(poly)
@@ -129,9 +139,8 @@ def _edges_actor(vtk: Any, poly: Any, opacity: float = 1.0) -> Any:
     mapper.ScalarVisibilityOff()
     actor = vtk.vtkActor()
     actor.SetMapper(mapper)
-    actor.GetProperty().SetColor(0.15, 0.15, 0.15)
-    actor.GetProperty().SetLineWidth(1.0)
-    actor.GetProperty().SetOpacity(opacity)
+    actor.GetProperty().SetColor(*colour)
+    actor.GetProperty().SetLineWidth(width)
     return actor
 
 
@@ -219,7 +228,7 @@ def render(
     main.AddActor(_edges_actor(vtk, poly))
     window.AddRenderer(main)
     if poly.GetNumberOfPoints():
-        _look_at(main, poly.GetBounds(), np.array([1.0, -1.3, 0.9]), 0.85)
+        _look_at(main, poly.GetBounds(), np.array([1.0, -1.3, 0.9]), 1.0)
     over = int((dev > tol).sum()) if tol is not None else 0
     lines = [
         title or "deviation per face",
@@ -230,13 +239,16 @@ def render(
     main.AddViewProp(_text(vtk, lines[0], 0.02, 0.98, 20, bold=True))
     main.AddViewProp(_text(vtk, "\n".join(lines[1:]), 0.02, 0.935, 15))
 
+    if worst >= 0 and len(meshes[worst][1]):  # the worst face outlined where it is
+        one = _polydata(vtk, [meshes[worst]], dev[worst : worst + 1])
+        main.AddActor(_edges_actor(vtk, one, _MARK, 3.0))
+
     side = vtk.vtkRenderer()
     side.SetViewport(0.64, 0.34, 1.0, 1.0)
     side.SetBackground(0.95, 0.95, 0.95)
     window.AddRenderer(side)
     if worst >= 0 and len(meshes[worst][1]):
         p, t = meshes[worst]
-        one = _polydata(vtk, [(p, t)], dev[worst : worst + 1])
         side.AddActor(_surface_actor(vtk, one, lut, top))
         side.AddActor(_edges_actor(vtk, one))
         ghost = vtk.vtkPolyDataMapper()
@@ -259,7 +271,9 @@ def render(
     side.AddViewProp(
         _text(
             vtk,
-            f"worst face #{worst + 1}: {dev.max(initial=0.0):.3g} mm" if worst >= 0 else "no face",
+            f"worst face #{worst + 1}: {dev.max(initial=0.0):.3g} mm\n(outlined in magenta on the left)"
+            if worst >= 0
+            else "no face",
             0.03,
             0.97,
             16,
@@ -274,25 +288,26 @@ def render(
     bar = vtk.vtkScalarBarActor()
     bar.SetLookupTable(lut)
     bar.SetOrientationToHorizontal()
-    bar.SetTitle("max deviation per face (mm)")
+    bar.SetTitle("max deviation per face (mm)\n")
     bar.SetNumberOfLabels(5)
     bar.SetLabelFormat("%.3g")
     bar.SetDrawAnnotations(tol is not None)
     bar.SetAnnotationTextScaling(False)
     bar.GetPositionCoordinate().SetCoordinateSystemToNormalizedViewport()
-    bar.GetPositionCoordinate().SetValue(0.06, 0.12)
+    bar.GetPositionCoordinate().SetValue(0.06, 0.2)
     bar.SetWidth(0.88)
-    bar.SetHeight(0.7)
-    bar.SetBarRatio(0.25)
+    bar.SetHeight(0.55)
+    bar.SetBarRatio(0.3)
+    bar.UnconstrainedFontSizeOn()
     for prop in (bar.GetTitleTextProperty(), bar.GetLabelTextProperty()):
         prop.SetColor(*_TEXT)
         prop.SetShadow(False)
         prop.SetItalic(False)
         prop.SetBold(False)
-    bar.GetTitleTextProperty().SetFontSize(16)
-    bar.GetLabelTextProperty().SetFontSize(13)
+    bar.GetTitleTextProperty().SetFontSize(18)
+    bar.GetLabelTextProperty().SetFontSize(15)
     bar.GetAnnotationTextProperty().SetColor(*_OVER)
-    bar.GetAnnotationTextProperty().SetFontSize(15)
+    bar.GetAnnotationTextProperty().SetFontSize(17)
     bar.GetAnnotationTextProperty().SetBold(True)
     bar.GetAnnotationTextProperty().SetItalic(False)
     legend.AddViewProp(bar)
