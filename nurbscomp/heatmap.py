@@ -271,7 +271,8 @@ def render(
     side.AddViewProp(
         _text(
             vtk,
-            f"worst face #{worst + 1}: {dev.max(initial=0.0):.3g} mm\n(outlined in magenta on the left)"
+            f"worst face #{worst + 1}: {dev.max(initial=0.0):.3g} mm\n"
+            "(outlined in magenta on the left)"
             if worst >= 0
             else "no face",
             0.03,
