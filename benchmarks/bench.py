@@ -253,6 +253,47 @@ def task_compress(
     return out
 
 
+def api_model() -> Any:
+    """The generated cadquery model of the API round trip: a filleted plate with
+    four holes and a lofted B-spline boss (planes, cylinders, tori, B-splines)."""
+    import cadquery as cq
+
+    plate = (
+        cq.Workplane()
+        .box(40, 30, 8)
+        .edges("|Z")
+        .fillet(4)
+        .faces(">Z")
+        .workplane()
+        .rarray(28, 18, 2, 2)
+        .hole(4)
+    )
+    boss = cq.Workplane(origin=(0, 0, 4)).rect(14, 10).workplane(offset=12).circle(4).loft()
+    return plate.union(boss).val()
+
+
+def task_api(tmp: str) -> dict[str, Any]:
+    """The Python API's round trip of a generated cadquery model (``api_model``):
+    ``nurbscomp.compress`` of the shape at the default tolerance and
+    ``nurbscomp.decompress`` of the bytes, against OCCT writing the same shape
+    to STEP and reading it back; sizes and the deviation of the decoded shape."""
+    model = api_model()
+    step = Path(tmp) / "api_model.step"
+    out: dict[str, Any] = {"faces": len(model.Faces())}
+    out["write_s"] = median_time(REPEATS, occ.write_shape, model.wrapped, step, "STEP")
+    out["read_s"] = median_time(REPEATS, occ.read_cad, step)
+    out["step_bytes"] = step.stat().st_size
+    out["compress_s"], data = timed(nurbscomp.compress, model, tol=DEFAULT_TOL)
+    out["nzc_bytes"] = len(data)
+    out["decompress_s"] = median_time(REPEATS, nurbscomp.decompress, data)
+    back = nurbscomp.decompress(data)
+    rep = nurbscomp.evaluate(model, data)
+    out["max_dev"] = rep.max_deviation_mm
+    out["valid"] = bool(back.isValid())
+    out["volume_error"] = abs(back.Volume() - model.Volume())
+    return out
+
+
 def task_mem(kind: str, name: str, path: str | None) -> dict[str, Any]:
     """Peak RSS of one operation in a fresh process (``import`` = the imports alone)."""
     if kind == "read":
@@ -270,7 +311,7 @@ def task_count(paths: list[str]) -> dict[str, Any]:
     return {"counts": out}
 
 
-TASKS = {f.__name__: f for f in (task_peers, task_compress, task_mem, task_count)}
+TASKS = {f.__name__: f for f in (task_peers, task_compress, task_mem, task_count, task_api)}
 
 
 def run_task_file(spec: str) -> None:
@@ -382,14 +423,21 @@ def measure(corpus: list[Path], samples: list[Path], tmp: str, pool: Pool) -> di
         groups.append([(task_compress, str(f), tmp, t, True, False) for t in (None, *TOLS)])
     groups += [[(task_peers, str(f), tmp)] for f in heavy if f.stat().st_size >= SMALL]
     groups.append([(task_peers, str(f), tmp) for f in heavy if f.stat().st_size < SMALL])
+    groups.append([(task_api, tmp)])
     groups = [g for g in groups if g]
     jobs = [j for g in groups for j in g]
     results = [r for rs in pool.run(groups) for r in rs]
     t1 = time.perf_counter()
     comp: dict[tuple[str, str], dict[str, Any]] = {}
     peers: dict[str, dict[str, Any]] = {}
+    api: dict[str, Any] = {}
     errors = []
     for j, r in zip(jobs, results):
+        if j[0] is task_api:
+            if "error" in r:
+                errors.append(r)
+            api = r
+            continue
         if "error" in r and "name" not in r:
             errors.append(r)
             if j[0] is task_compress:  # keep the cell, marked failed
@@ -419,6 +467,7 @@ def measure(corpus: list[Path], samples: list[Path], tmp: str, pool: Pool) -> di
     return {
         "comp": comp,
         "peers": peers,
+        "api": api,
         "mem": mem,
         "errors": errors,
         "phase_s": {"sizes, deviation, baseline, timings": t1 - t0, "peak memory": t2 - t1},
@@ -1137,6 +1186,45 @@ def report(
         )
     w(table(["mode", "compress ÷ read", "decode ÷ read", "decompress ÷ write"], rows))
     w("")
+    api = res.get("api") or {}
+    if "decompress_s" in api:
+        w(
+            "The Python API's round trip of a generated cadquery model (a filleted plate "
+            f"with four holes and a lofted boss, {api['faces']} faces; `benchmarks/bench.py`, "
+            f"`api_model`): `nurbscomp.compress(shape, tol={DEFAULT_TOL:g})` (one run) and "
+            f"`nurbscomp.decompress(data)` (median of {REPEATS}), against OCCT writing the "
+            "shape to STEP and reading that file back (medians):"
+        )
+        w("")
+        w(
+            table(
+                [
+                    "STEP bytes",
+                    ".nzc bytes",
+                    "write (s)",
+                    "read (s)",
+                    "compress (s)",
+                    "decompress (s)",
+                    "decompress ÷ read",
+                    "max deviation (mm)",
+                    "valid",
+                ],
+                [
+                    [
+                        fb(api["step_bytes"]),
+                        fb(api["nzc_bytes"]),
+                        fx(api["write_s"], 3),
+                        fx(api["read_s"], 3),
+                        fx(api["compress_s"], 2),
+                        fx(api["decompress_s"], 3),
+                        ratio_cell(api["decompress_s"], api["read_s"]),
+                        fdev(api["max_dev"]),
+                        str(api["valid"]),
+                    ]
+                ],
+            )
+        )
+        w("")
 
     # ---- how
     w("## How this was measured")
