@@ -151,3 +151,14 @@ def test_no_brep_bytes_are_stored_verbatim() -> None:
     data = nurbscomp.compress(src)
     r = nurbscomp.info(data)
     assert r["passthrough"] and r["source_bytes"] == len(src)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["assembly.step", "blob.step", "bracket.step", "teapot.step"])
+def test_every_sample_gives_the_cli_bytes(name: str, tmp_path: Path) -> None:
+    """``compress(path)`` and ``compress_file`` write the same container, in both modes."""
+    src = SAMPLES / name
+    for kw in ({"tol": 0.01}, {"lossless": True}):
+        out = tmp_path / f"{name}.nzc"
+        pipeline.compress_file(src, out, force=True, **kw)
+        assert nurbscomp.compress(src, **kw) == out.read_bytes(), kw
