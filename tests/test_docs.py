@@ -25,3 +25,13 @@ def test_example_runs(n: int, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -
     monkeypatch.chdir(tmp_path)
     code = compile(BLOCKS[n], f"{API_MD.name} example {n}", "exec")
     exec(code, {"__name__": f"api_md_{n}"})
+
+
+def test_docstring_examples_run() -> None:
+    """The ``Examples`` sections of the API's docstrings (doctest)."""
+    import doctest
+
+    from nurbscomp import _api
+
+    failed, tried = doctest.testmod(_api, optionflags=doctest.ELLIPSIS)
+    assert tried >= 6 and failed == 0
