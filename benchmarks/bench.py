@@ -53,6 +53,7 @@ import zstandard
 
 import nurbscomp
 from nurbscomp import entropy, occ, pipeline, spatial
+from nurbscomp.encode.nets import feature_limit
 from nurbscomp.model import BSplineSurface
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -121,7 +122,7 @@ def baseline_stream(nets: list[np.ndarray], tol: float) -> bytes:
     prev = np.zeros(3)
     parts = []
     for p in nets:
-        h = 2.0 * nets.feature_limit(p, tol) / math.sqrt(3.0)
+        h = 2.0 * feature_limit(p, tol) / math.sqrt(3.0)
         r = spatial.encode(p, h)
         first = r[0, 0].copy()
         r[0, 0] -= np.rint(prev / h).astype(np.int64)
@@ -251,6 +252,53 @@ def task_compress(
         out["decode_s"] = median_time(REPEATS, pipeline.decode_file, dst)
         back = Path(tmp) / f"{p.name}.{label}.back.step"
         out["decompress_s"] = median_time(REPEATS, pipeline.decompress_file, dst, back, force=True)
+        # OCCT's plain STEP write of the decoded shape (issue 14's yardstick)
+        shape = pipeline.decode_file(dst)[0]
+        occt_back = Path(tmp) / f"{p.name}.{label}.occt-decoded.step"
+        out["write_decoded_s"] = median_time(
+            REPEATS, occ.write_shape, shape, occt_back, "STEP", r["unit"]
+        )
+    return out
+
+
+def api_model() -> Any:
+    """The generated cadquery model of the API round trip: a filleted plate with
+    four holes and a lofted B-spline boss (planes, cylinders, tori, B-splines)."""
+    import cadquery as cq
+
+    plate = (
+        cq.Workplane()
+        .box(40, 30, 8)
+        .edges("|Z")
+        .fillet(4)
+        .faces(">Z")
+        .workplane()
+        .rarray(28, 18, 2, 2)
+        .hole(4)
+    )
+    boss = cq.Workplane(origin=(0, 0, 4)).rect(14, 10).workplane(offset=12).circle(4).loft()
+    return plate.union(boss).val()
+
+
+def task_api(tmp: str) -> dict[str, Any]:
+    """The Python API's round trip of a generated cadquery model (``api_model``):
+    ``nurbscomp.compress`` of the shape at the default tolerance and
+    ``nurbscomp.decompress`` of the bytes, against OCCT writing the same shape
+    to STEP and reading it back; sizes and the deviation of the decoded shape."""
+    model = api_model()
+    step = Path(tmp) / "api_model.step"
+    out: dict[str, Any] = {"faces": len(model.Faces())}
+    out["write_s"] = median_time(REPEATS, occ.write_shape, model.wrapped, step, "STEP")
+    out["read_s"] = median_time(REPEATS, occ.read_cad, step)
+    out["step_bytes"] = step.stat().st_size
+    out["compress_s"], data = timed(nurbscomp.compress, model, tol=DEFAULT_TOL)
+    out["nzc_bytes"] = len(data)
+    out["decompress_s"] = median_time(REPEATS, nurbscomp.decompress, data)
+    back = nurbscomp.decompress(data)
+    rep = nurbscomp.evaluate(model, data)
+    out["max_dev"] = rep.max_deviation_mm
+    out["valid"] = bool(back.isValid())
+    out["volume_error"] = abs(back.Volume() - model.Volume())
     return out
 
 
@@ -271,7 +319,7 @@ def task_count(paths: list[str]) -> dict[str, Any]:
     return {"counts": out}
 
 
-TASKS = {f.__name__: f for f in (task_peers, task_compress, task_mem, task_count)}
+TASKS = {f.__name__: f for f in (task_peers, task_compress, task_mem, task_count, task_api)}
 
 
 def run_task_file(spec: str) -> None:
@@ -383,14 +431,21 @@ def measure(corpus: list[Path], samples: list[Path], tmp: str, pool: Pool) -> di
         groups.append([(task_compress, str(f), tmp, t, True, False) for t in (None, *TOLS)])
     groups += [[(task_peers, str(f), tmp)] for f in heavy if f.stat().st_size >= SMALL]
     groups.append([(task_peers, str(f), tmp) for f in heavy if f.stat().st_size < SMALL])
+    groups.append([(task_api, tmp)])
     groups = [g for g in groups if g]
     jobs = [j for g in groups for j in g]
     results = [r for rs in pool.run(groups) for r in rs]
     t1 = time.perf_counter()
     comp: dict[tuple[str, str], dict[str, Any]] = {}
     peers: dict[str, dict[str, Any]] = {}
+    api: dict[str, Any] = {}
     errors = []
     for j, r in zip(jobs, results):
+        if j[0] is task_api:
+            if "error" in r:
+                errors.append(r)
+            api = r
+            continue
         if "error" in r and "name" not in r:
             errors.append(r)
             if j[0] is task_compress:  # keep the cell, marked failed
@@ -420,6 +475,7 @@ def measure(corpus: list[Path], samples: list[Path], tmp: str, pool: Pool) -> di
     return {
         "comp": comp,
         "peers": peers,
+        "api": api,
         "mem": mem,
         "errors": errors,
         "phase_s": {"sizes, deviation, baseline, timings": t1 - t0, "peak memory": t2 - t1},
@@ -1121,7 +1177,8 @@ def report(
         f"*write* are OCCT reading the source (STEP or IGES) and writing its shape to STEP "
         f"(`occ.read_cad`, `occ.write_shape`), *decode* is `.nzc` → in-memory OCCT shape "
         f"(`pipeline.decode_file`), *decompress* is `.nzc` → STEP file "
-        f"(`pipeline.decompress_file`): medians of {REPEATS} runs. *compress* "
+        f"(`pipeline.decompress_file`), set against OCCT's write of the source's shape "
+        f"and of the decoded shape: medians of {REPEATS} runs. *compress* "
         "(`pipeline.compress_file` with its defaults: read, code, validity loop, STEP round "
         "trip checks, write, verify) is a single run. Peak memory is `ru_maxrss` of a fresh "
         "process that did only that one thing (compress, read or decode); every such process "
@@ -1149,6 +1206,7 @@ def report(
                 ratio_cell(r.get("decode_s"), p["read_s"]),
                 fx(p["write_s"]),
                 ratio_cell(r.get("decompress_s"), p["write_s"]),
+                ratio_cell(r.get("decompress_s"), r.get("write_decoded_s")),
                 fmib(rmem),
                 fmib(cmem),
                 ratio_cell(cmem, rmem),
@@ -1166,6 +1224,7 @@ def report(
             f"**{ratio_cell(rd, rr)}**",
             fx(rw),
             f"**{ratio_cell(f.time_sum('decompress_s', dm), rw)}**",
+            f"**{ratio_cell(f.time_sum('decompress_s', dm), f.time_sum('write_decoded_s', dm))}**",
             "",
             "",
             f"**{fx(mem_med)}×** (median)",
@@ -1183,6 +1242,7 @@ def report(
                 "decode ÷ read",
                 "write (s)",
                 "decompress ÷ write",
+                "decompress ÷ OCCT write of the decoded shape",
                 "read peak (MiB)",
                 "compress peak (MiB)",
                 "compress peak ÷ read peak",
@@ -1208,6 +1268,45 @@ def report(
         )
     w(table(["mode", "compress ÷ read", "decode ÷ read", "decompress ÷ write"], rows))
     w("")
+    api = res.get("api") or {}
+    if "decompress_s" in api:
+        w(
+            "The Python API's round trip of a generated cadquery model (a filleted plate "
+            f"with four holes and a lofted boss, {api['faces']} faces; `benchmarks/bench.py`, "
+            f"`api_model`): `nurbscomp.compress(shape, tol={DEFAULT_TOL:g})` (one run) and "
+            f"`nurbscomp.decompress(data)` (median of {REPEATS}), against OCCT writing the "
+            "shape to STEP and reading that file back (medians):"
+        )
+        w("")
+        w(
+            table(
+                [
+                    "STEP bytes",
+                    ".nzc bytes",
+                    "write (s)",
+                    "read (s)",
+                    "compress (s)",
+                    "decompress (s)",
+                    "decompress ÷ read",
+                    "max deviation (mm)",
+                    "valid",
+                ],
+                [
+                    [
+                        fb(api["step_bytes"]),
+                        fb(api["nzc_bytes"]),
+                        fx(api["write_s"], 3),
+                        fx(api["read_s"], 3),
+                        fx(api["compress_s"], 2),
+                        fx(api["decompress_s"], 3),
+                        ratio_cell(api["decompress_s"], api["read_s"]),
+                        fdev(api["max_dev"]),
+                        str(api["valid"]),
+                    ]
+                ],
+            )
+        )
+        w("")
 
     # ---- how
     w("## How this was measured")

@@ -1,8 +1,59 @@
-"""nurbscomp: compress STEP/IGES B-reps by re-encoding their NURBS faces within a tolerance."""
+"""nurbscomp: compress STEP/IGES B-reps by re-encoding their NURBS faces within a tolerance.
+
+The Python API (docs/api.md)::
+
+    import nurbscomp
+    data = nurbscomp.compress("part.step", tol=0.01)   # or a cadquery / OCP shape, or bytes
+    shape = nurbscomp.decompress(data)                  # a cadquery.Shape (or Assembly)
+    nurbscomp.info(data)                                # what the container holds
+    nurbscomp.evaluate("part.step", data)               # a Report of the deviation
+
+Importing ``nurbscomp`` is fast: the functions are loaded on first use, and
+OCP (OpenCASCADE) when a function needs it.
+"""
+
+from __future__ import annotations
 
 from importlib.metadata import PackageNotFoundError, version
+from typing import TYPE_CHECKING, Any
 
 try:
     __version__ = version("nurbscomp")
 except PackageNotFoundError:  # running from a source tree without install
     __version__ = "0.0.0"
+
+if TYPE_CHECKING:
+    from ._api import compress, decompress, evaluate, info
+    from .report import Counts, FaceDeviation, Report
+
+__all__ = [
+    "Counts",
+    "FaceDeviation",
+    "Report",
+    "__version__",
+    "compress",
+    "decompress",
+    "evaluate",
+    "info",
+]
+
+_API = {"compress", "decompress", "evaluate", "info"}
+_REPORT = {"Counts", "FaceDeviation", "Report"}
+
+
+def __getattr__(name: str) -> Any:
+    """The API's names, imported on first use (PEP 562): ``import nurbscomp``
+    loads neither numpy's users nor OCP."""
+    if name in _API:
+        from . import _api
+
+        return getattr(_api, name)
+    if name in _REPORT:
+        from . import report
+
+        return getattr(report, name)
+    raise AttributeError(f"module 'nurbscomp' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *__all__})

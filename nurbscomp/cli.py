@@ -595,16 +595,43 @@ def test_cmd(state: _State, files: tuple[str, ...], quiet: bool, limit_scale: fl
 @click.argument("original", type=click.Path())
 @click.argument("reconstructed", type=click.Path())
 @click.option("--json", "as_json", is_flag=True, help="Print the report as JSON.")
+@click.option(
+    "--heatmap",
+    type=click.Path(dir_okay=False),
+    metavar="PNG",
+    help="Also draw the reconstructed model, each face coloured by its deviation, to PNG.",
+)
+@click.option(
+    "--tol",
+    type=_Length(),
+    default=None,
+    help="Tolerance marked on the heatmap (default: the container's, if RECONSTRUCTED is one).",
+)
+@click.option("-f", "--force", is_flag=True, help="Overwrite an existing PNG.")
 @click.pass_obj
-def eval_cmd(state: _State, original: str, reconstructed: str, as_json: bool) -> None:
+def eval_cmd(
+    state: _State,
+    original: str,
+    reconstructed: str,
+    as_json: bool,
+    heatmap: str | None,
+    tol: float | None,
+    force: bool,
+) -> None:
     """Compare two CAD files (STEP, IGES or .nzc): deviation, topology, validity.
 
     Faces are paired by index; points sampled inside each ORIGINAL face are
-    measured against the RECONSTRUCTED face of the same index.
+    measured against the RECONSTRUCTED face of the same index.  --heatmap
+    renders the RECONSTRUCTED model offscreen with a colour bar in mm, the
+    tolerance marked and the worst face on its own.
     """
     from . import pipeline
 
-    r = _run(state, reconstructed, lambda: pipeline.evaluate(original, reconstructed))
+    r = _run(
+        state,
+        reconstructed,
+        lambda: pipeline.evaluate(original, reconstructed, tol=tol, heatmap=heatmap, force=force),
+    )
     if r is None:
         sys.exit(1)
     if as_json:
@@ -625,6 +652,8 @@ def eval_cmd(state: _State, original: str, reconstructed: str, as_json: bool) ->
             "worst faces: "
             + ", ".join(f"#{w['face']} {w['max_mm']:.3g} mm" for w in r["worst_faces"])
         )
+    if heatmap:
+        lines.append(f"heatmap:     {heatmap}")
     click.echo("\n".join(lines))
 
 

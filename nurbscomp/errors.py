@@ -94,3 +94,9 @@ class VerifyError(NurbscompError):
 
 class UnsupportedError(NurbscompError):
     """The B-rep holds an entity this version cannot store."""
+
+
+class ArgumentError(NurbscompError, ValueError):
+    """The Python API was given an argument it cannot take (an object that is no
+    path, bytes or shape; a tolerance that is not a positive number).  Never
+    raised by the CLI, whose options are checked by click."""

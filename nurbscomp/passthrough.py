@@ -139,6 +139,23 @@ def read(c: container.Container) -> tuple[dict[str, Any], bytes]:
     return meta, data
 
 
+def pack_file(data: bytes, name: str, reason: str) -> tuple[bytes, str]:
+    """The passthrough container of a STEP/IGES file's bytes, and its format.
+
+    Raises
+    ------
+    InputError
+        ``data`` is not laid out as STEP or IGES (:func:`well_formed`), or is
+        too large to store.
+    """
+    from .formats import sniff_format
+
+    fmt = sniff_format(Path(name), data[: 1 << 16])
+    if not well_formed(data, fmt):
+        raise InputError(f"not a well-formed {fmt} file ({reason})")
+    return pack(data, fmt, name, reason), fmt
+
+
 def compress_file(
     src: Path, dst: Path, reason: str, *, force: bool, t0: float, verify: bool = True
 ) -> dict[str, Any]:
@@ -155,17 +172,13 @@ def compress_file(
     OutputError
         ``dst`` cannot be written (see ``pipeline.atomic_output``).
     """
-    from .formats import sniff_format
     from .pipeline import atomic_output, read_container
 
     try:
         data = src.read_bytes()
     except OSError as e:
         raise InputError(e.strerror or str(e)) from None
-    fmt = sniff_format(src, data[: 1 << 16])
-    if not well_formed(data, fmt):
-        raise InputError(f"not a well-formed {fmt} file ({reason})")
-    blob = pack(data, fmt, src.name, reason)
+    blob, fmt = pack_file(data, src.name, reason)
     with atomic_output(dst, force, (src,)) as tmp:
         tmp.write_bytes(blob)
         if verify and read(read_container(tmp))[1] != data:

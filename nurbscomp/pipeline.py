@@ -322,6 +322,16 @@ def decode_file(
     return build(m), m, meta
 
 
+def decode_data(
+    data: bytes,
+    limits: budget.Limits = budget.DEFAULT,
+    fmt: str | None = None,
+) -> tuple[Any, BRepModel, dict[str, Any]]:
+    """:func:`decode_file` for a container's bytes in memory."""
+    m, meta = decode(container.unpack(data), limits, fmt)
+    return build(m), m, meta
+
+
 # ---------------------------------------------------------------- compress
 
 
@@ -340,7 +350,181 @@ def faces_by_type(m: BRepModel) -> dict[str, int]:
     return dict(sorted(out.items()))
 
 
+@dataclasses.dataclass
+class Encoded:
+    """A model coded into container bytes, with what the report and the check need
+    (:func:`encode_cad`)."""
+
+    data: bytes
+    model: BRepModel  # the model read from the source
+    target: BRepModel  # what the container holds
+    cad: Any  # the occ.CadFile read (or made from a shape)
+    meta: dict[str, Any]
+    lossless: bool
+    tol: float | None
+    step_safe: bool
+    lossy_report: Any  # encode.assembly.LossyReport, tolerance mode only
+    pcurves_rebuilt: int
+    built: Any  # the shape the validity stage built from ``target``, if it did
+    validity: Any  # encode.validity.ValidityReport, tolerance mode only
+    warnings: list[str]
+
+
+def read_source(src: Path) -> Any:
+    """The ``occ.CadFile`` of a STEP/IGES file, product data included.
+
+    Raises
+    ------
+    NoBRepError
+        A valid file that holds no B-rep faces (stored verbatim by the callers).
+    InputError
+        The file cannot be read (OCCT's failures included, in one line).
+    """
+    try:
+        cad = occ.read_cad(src, product=True)
+        if occ.counts(cad.shape)["faces"] == 0:
+            raise NoBRepError(
+                f"the {cad.source_format} file holds no B-rep faces (only curves or points)"
+            )
+    except NurbscompError:
+        raise
+    except Exception as e:
+        raise InputError(f"OCCT failed to read the file ({type(e).__name__}: {e})") from None
+    return cad
+
+
+def shape_source(shape: Any, unit: str = "MM") -> Any:
+    """An ``occ.CadFile`` for an in-memory ``TopoDS_Shape`` (in millimetres):
+    source format ``"BREP"``, no product data.
+
+    Raises
+    ------
+    NoBRepError
+        The shape is null or has no faces.
+    """
+    if shape.IsNull() or occ.counts(shape)["faces"] == 0:
+        raise NoBRepError("the shape holds no B-rep faces")
+    return occ.CadFile(shape, unit, "BREP")
+
+
 @one_blas_thread
+def encode_cad(
+    cad: Any,
+    name: str,
+    source_bytes: int,
+    *,
+    tol: float | None = DEFAULT_TOL_MM,
+    lossless: bool = False,
+    step_safe: bool = True,
+) -> Encoded:
+    """Code the shape of ``cad`` (an ``occ.CadFile``) into container bytes;
+    ``name`` and ``source_bytes`` go to META (see :func:`compress_file`)."""
+    m, warnings = occ.shape_to_model(cad.shape)
+    m.unit, m.source_format, m.product = cad.unit, cad.source_format, cad.product
+    meta = {
+        "mode": "lossless" if lossless else "tolerance",
+        "tolerance_mm": None if lossless else tol,
+        "source_name": serialize.meta_text(name),
+        "source_bytes": source_bytes,
+        "writer": f"nurbscomp {__version__}",
+    }
+    rebuilt, built, vreport = 0, None, None
+    if lossless:
+        target, codes, lossy_report = m, {}, None
+        flags = container.FLAG_LOSSLESS
+    else:
+        assert tol is not None and tol > 0
+        from .encode import validity
+
+        t = validity.lossy_target(m, cad.shape, tol, step_safe)
+        target, codes, lossy_report, rebuilt = t.model, t.codes, t.report, t.pcurves_rebuilt
+        built, vreport = t.shape, t.validity
+        if vreport.step_skipped:
+            warnings.append(f"no STEP check: {vreport.step_skipped}")
+        flags = 0
+    target.product = m.product  # exact in every mode, placements included
+    data = container.pack(model_to_sections(target, meta, codes), flags)
+    return Encoded(
+        data,
+        m,
+        target,
+        cad,
+        meta,
+        lossless,
+        tol,
+        step_safe,
+        lossy_report,
+        rebuilt,
+        built,
+        vreport,
+        warnings,
+    )
+
+
+@one_blas_thread
+def verify_encoded(enc: Encoded, data: bytes) -> None:
+    """Decode ``data`` (the container as written) and check it against what was
+    encoded: the same model bit for bit, product data, the certified bound,
+    the topology counts.
+
+    Raises
+    ------
+    VerifyError
+        Any difference (a bug).
+    """
+    back, _ = decode(container.unpack(data), limits=None)
+    diff = differences(enc.target, back)
+    if enc.target.product is not None and not (
+        back.product is not None and back.product.same(enc.target.product)
+    ):
+        diff.append("product data")
+    if diff:
+        raise VerifyError(f"decoded container differs from the input: {', '.join(diff)}")
+    worst = max_net_displacement(enc.model, back)
+    if enc.tol is not None and not enc.lossless and worst > enc.tol:
+        raise VerifyError(f"a decoded control net moved {worst:g} mm > tol {enc.tol:g} mm")
+    # the decoded model is the target bit for bit, so it builds the
+    # shape the validity stage built from it
+    built = build(back) if enc.built is None else enc.built
+    if occ.counts(built) != occ.counts(enc.cad.shape):
+        raise VerifyError("decoded shape has other topology counts than the input")
+
+
+def compress_report(enc: Encoded, verified: bool) -> dict[str, Any]:
+    """The report of a compression, less ``command``, ``input``, ``output`` and times."""
+    m, lossy_report, src_bytes = enc.model, enc.lossy_report, enc.meta["source_bytes"]
+    return {
+        "input_bytes": src_bytes,
+        "output_bytes": len(enc.data),
+        "ratio": src_bytes / len(enc.data),
+        "mode": enc.meta["mode"],
+        "tolerance_mm": enc.meta["tolerance_mm"],
+        "geometry": "exact"
+        if enc.lossless
+        else "B-spline surfaces and 3-D curves coded, vertices on them snapped; "
+        "pcurves and analytic geometry exact",
+        "faces_by_method": lossy_report.method_counts() if lossy_report else {},
+        "face_method_list": lossy_report.face_method if lossy_report else [],
+        "max_bound_mm": float(lossy_report.face_bound.max(initial=0.0)) if lossy_report else 0.0,
+        "max_curve_bound_mm": float(lossy_report.edge_bound.max(initial=0.0))
+        if lossy_report
+        else 0.0,
+        "certified_faces": int((lossy_report.face_bound > 0).sum()) if lossy_report else 0,
+        "sampled_faces": 0,
+        "pcurves_rebuilt": enc.pcurves_rebuilt,
+        "validity": dataclasses.asdict(enc.validity) if enc.validity else {},
+        "step_safe": enc.step_safe and not enc.lossless,
+        "unit": m.unit,
+        "source_format": m.source_format,
+        "counts": occ.counts(enc.cad.shape),
+        "faces_by_type": faces_by_type(m),
+        "product": product.summary(m.product) if m.product is not None else None,
+        "product_bytes": len(product.write(m.product)) if m.product is not None else 0,
+        "verified": verified,
+        "warnings": [*enc.cad.warnings, *enc.warnings],
+    }
+
+
 def compress_file(
     src: str | os.PathLike[str],
     dst: str | os.PathLike[str] | None = None,
@@ -353,6 +537,10 @@ def compress_file(
     stage: Callable[[str], None] | None = None,
 ) -> dict[str, Any]:
     """Compress a STEP/IGES file into a ``.nzc`` container.
+
+    The stages are :func:`read_source`, :func:`encode_cad`,
+    :func:`verify_encoded` and :func:`compress_report`, which
+    ``nurbscomp.compress`` (the Python API) runs too.
 
     Parameters
     ----------
@@ -383,102 +571,32 @@ def compress_file(
     check_output(dst_p, force, (src_p,))
     stage("read")
     try:
-        cad = occ.read_cad(src_p, product=True)
-        if occ.counts(cad.shape)["faces"] == 0:
-            raise NoBRepError(
-                f"the {cad.source_format} file holds no B-rep faces (only curves or points)"
-            )
+        cad = read_source(src_p)
     except NoBRepError as e:  # a valid file all the same: stored verbatim
         return passthrough.compress_file(src_p, dst_p, str(e), force=force, t0=t0, verify=verify)
-    except NurbscompError:
-        raise
-    except Exception as e:
-        raise InputError(f"OCCT failed to read the file ({type(e).__name__}: {e})") from None
     t_read = time.perf_counter() - t0
     stage("code")
-    m, warnings = occ.shape_to_model(cad.shape)
-    m.unit, m.source_format, m.product = cad.unit, cad.source_format, cad.product
-    src_bytes = src_p.stat().st_size
-    meta = {
-        "mode": "lossless" if lossless else "tolerance",
-        "tolerance_mm": None if lossless else tol,
-        "source_name": serialize.meta_text(src_p.name),
-        "source_bytes": src_bytes,
-        "writer": f"nurbscomp {__version__}",
-    }
-    rebuilt, built, vreport = 0, None, None
-    if lossless:
-        target, codes, lossy_report = m, {}, None
-        flags = container.FLAG_LOSSLESS
-    else:
-        assert tol is not None and tol > 0
-        from .encode import validity
-
-        t = validity.lossy_target(m, cad.shape, tol, step_safe)
-        target, codes, lossy_report, rebuilt = t.model, t.codes, t.report, t.pcurves_rebuilt
-        built, vreport = t.shape, t.validity
-        if vreport.step_skipped:
-            warnings.append(f"no STEP check: {vreport.step_skipped}")
-        flags = 0
-    target.product = m.product  # exact in every mode, placements included
-    data = container.pack(model_to_sections(target, meta, codes), flags)
+    enc = encode_cad(
+        cad,
+        src_p.name,
+        src_p.stat().st_size,
+        tol=tol,
+        lossless=lossless,
+        step_safe=step_safe,
+    )
     stage("write")
-    verified = False
     with atomic_output(dst_p, force, (src_p,)) as tmp:
-        tmp.write_bytes(data)
+        tmp.write_bytes(enc.data)
         if verify:
             stage("check")
-            back, _ = decode(read_container(tmp), limits=None)
-            diff = differences(target, back)
-            if target.product is not None and not (
-                back.product is not None and back.product.same(target.product)
-            ):
-                diff.append("product data")
-            if diff:
-                raise VerifyError(f"decoded container differs from the input: {', '.join(diff)}")
-            worst = max_net_displacement(m, back)
-            if tol is not None and not lossless and worst > tol:
-                raise VerifyError(f"a decoded control net moved {worst:g} mm > tol {tol:g} mm")
-            # the decoded model is the target bit for bit, so it builds the
-            # shape the validity stage built from it
-            if occ.counts(build(back) if built is None else built) != occ.counts(cad.shape):
-                raise VerifyError("decoded shape has other topology counts than the input")
-            verified = True
-    seconds = time.perf_counter() - t0
+            verify_encoded(enc, tmp.read_bytes())
     return {
         "command": "compress",
         "input": str(src_p),
         "output": str(dst_p),
-        "input_bytes": meta["source_bytes"],
-        "output_bytes": len(data),
-        "ratio": src_bytes / len(data),
-        "mode": meta["mode"],
-        "tolerance_mm": meta["tolerance_mm"],
-        "geometry": "exact"
-        if lossless
-        else "B-spline surfaces and 3-D curves coded, vertices on them snapped; "
-        "pcurves and analytic geometry exact",
-        "faces_by_method": lossy_report.method_counts() if lossy_report else {},
-        "face_method_list": lossy_report.face_method if lossy_report else [],
-        "max_bound_mm": float(lossy_report.face_bound.max(initial=0.0)) if lossy_report else 0.0,
-        "max_curve_bound_mm": float(lossy_report.edge_bound.max(initial=0.0))
-        if lossy_report
-        else 0.0,
-        "certified_faces": int((lossy_report.face_bound > 0).sum()) if lossy_report else 0,
-        "sampled_faces": 0,
-        "pcurves_rebuilt": rebuilt,
-        "validity": dataclasses.asdict(vreport) if vreport else {},
-        "step_safe": step_safe and not lossless,
-        "unit": m.unit,
-        "source_format": m.source_format,
-        "counts": occ.counts(cad.shape),
-        "faces_by_type": faces_by_type(m),
-        "product": product.summary(m.product) if m.product is not None else None,
-        "product_bytes": len(product.write(m.product)) if m.product is not None else 0,
-        "verified": verified,
-        "seconds": seconds,
+        **compress_report(enc, verify),
+        "seconds": time.perf_counter() - t0,
         "read_seconds": t_read,
-        "warnings": [*cad.warnings, *warnings],
     }
 
 
@@ -595,35 +713,96 @@ def test_file(
     }
 
 
+def load_shape(path: str | os.PathLike[str]) -> tuple[Any, float | None]:
+    """The shape of a CAD file (STEP, IGES, or ``.nzc`` decoded), and the
+    tolerance its container was coded with (None: lossless, or not a container)."""
+    if str(path).endswith(SUFFIX):
+        shape, _, meta = decode_file(path)
+        return shape, meta.get("tolerance_mm")
+    return occ.read_cad(path).shape, None
+
+
 def evaluate(
-    original: str | os.PathLike[str], reconstructed: str | os.PathLike[str], worst: int = 5
+    original: str | os.PathLike[str],
+    reconstructed: str | os.PathLike[str],
+    worst: int = 5,
+    *,
+    tol: float | None = None,
+    heatmap: str | os.PathLike[str] | None = None,
+    force: bool = False,
 ) -> dict[str, Any]:
-    """The paper's "error evaluation" between two CAD files (STEP, IGES or .nzc).
+    """The paper's "error evaluation" between two CAD files (STEP, IGES or .nzc):
+    :func:`evaluate_shapes` on the shapes they hold.
+
+    ``tol`` defaults to the tolerance the reconstructed container was coded
+    with, if it is one.  With ``heatmap``, a picture of the deviation is
+    written there (:func:`write_heatmap`; never over an existing file
+    without ``force``).
+    """
+    heat = Path(heatmap) if heatmap is not None else None
+    if heat is not None:
+        check_output(heat, force, (Path(original), Path(reconstructed)))
+    a, _ = load_shape(original)
+    b, coded_tol = load_shape(reconstructed)
+    r = evaluate_shapes(a, b, worst, tol=coded_tol if tol is None else tol)
+    r = {"command": "eval", "original": str(original), "reconstructed": str(reconstructed), **r}
+    if heat is not None:
+        write_heatmap(b, r, heat, force=force, title=Path(reconstructed).name)
+    return r
+
+
+def evaluate_shapes(a: Any, b: Any, worst: int = 5, *, tol: float | None = None) -> dict[str, Any]:
+    """Deviation, topology, validity and free edges between two shapes.
 
     Faces are paired by index in ``TopExp.MapShapes`` order; points sampled
-    inside each original face are measured against the reconstructed face.
+    inside each face of ``a`` are measured against the face of ``b``.  Where
+    the face counts agree, the report has the worst and mean deviation, the
+    ``worst`` worst faces (1-based) and each face's maximum and mean
+    (``face_max_mm``, ``face_mean_mm``, in ``b``'s face order).
     """
-
-    def load(p: str | os.PathLike[str]) -> Any:
-        if str(p).endswith(SUFFIX):
-            return decode_file(p)[0]
-        return occ.read_cad(p).shape
-
-    a, b = load(original), load(reconstructed)
     ca, cb = occ.counts(a), occ.counts(b)
     out: dict[str, Any] = {
-        "command": "eval",
-        "original": str(original),
-        "reconstructed": str(reconstructed),
         "counts": {"original": ca, "reconstructed": cb},
         "same_topology": ca == cb,
         "valid": {"original": occ.is_valid(a), "reconstructed": occ.is_valid(b)},
         "free_edges": {"original": occ.free_edges(a), "reconstructed": occ.free_edges(b)},
+        "tolerance_mm": tol,
     }
     if ca["faces"] == cb["faces"]:
         mx, mean = occ.deviation_stats(a, b)
-        order = np.argsort(-mx)[:worst]
+        order = np.argsort(-mx, kind="stable")[:worst]
         out["max_deviation_mm"] = float(mx.max(initial=0.0))
         out["mean_deviation_mm"] = float(mean.mean()) if len(mean) else 0.0
         out["worst_faces"] = [{"face": int(i) + 1, "max_mm": float(mx[i])} for i in order]
+        out["face_max_mm"] = mx.tolist()
+        out["face_mean_mm"] = mean.tolist()
     return out
+
+
+def write_heatmap(
+    shape: Any,
+    report: dict[str, Any],
+    path: str | os.PathLike[str],
+    *,
+    force: bool = False,
+    title: str = "",
+) -> None:
+    """Render ``shape`` with each face coloured by its deviation in ``report``
+    (:func:`evaluate_shapes`) to a PNG at ``path`` (``nurbscomp.heatmap``).
+
+    Raises
+    ------
+    InputError
+        The report has no per-face deviation (the face counts differ).
+    OutputError
+        ``path`` may not be written (see :func:`atomic_output`).
+    """
+    from . import heatmap
+
+    if "face_max_mm" not in report:
+        raise InputError("no heatmap: the two shapes have different face counts")
+    meshes = occ.face_meshes(shape)
+    dev = np.asarray(report["face_max_mm"], float)
+    dst = Path(path)
+    with atomic_output(dst, force) as tmp:
+        heatmap.render(meshes, dev, report.get("tolerance_mm"), tmp, title=title)

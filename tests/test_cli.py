@@ -6,6 +6,7 @@ import json
 import shutil
 from pathlib import Path
 
+import numpy as np
 import pytest
 from click.testing import CliRunner
 
@@ -299,3 +300,36 @@ def test_readme_lists_every_error_class() -> None:
         assert f"`{name}`" in section, name
     for code in ("| 0 |", "| 1 |", "| 2 |", "| 130 |", "| 143 |", "| 129 |"):
         assert code in section
+
+
+def test_eval_heatmap_writes_a_readable_png(work: Path) -> None:
+    """``eval --heatmap``: a PNG of the expected size, not blank (many colours,
+    the model drawn over a good part of it), never over a file without -f."""
+    import vtk
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+
+    from nurbscomp import heatmap
+
+    shutil.copy(SAMPLES / "blob.step", work / "blob.step")
+    assert run("compress", "-q", str(work / "blob.step"))[0] == 0
+    png = work / "heat.png"
+    args = ["eval", str(work / "blob.step"), str(work / "blob.step.nzc"), "--heatmap", str(png)]
+    code, out, err = run(*args)
+    assert code == 0, err
+    assert f"heatmap:     {png}" in out
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    reader = vtk.vtkPNGReader()
+    reader.SetFileName(str(png))
+    reader.Update()
+    img = reader.GetOutput()
+    w, h, _ = img.GetDimensions()
+    assert (w, h) == heatmap.SIZE
+    px = vtk_to_numpy(img.GetPointData().GetScalars())[:, :3].astype(int)
+    assert len(np.unique(px, axis=0)) > 200  # a colour map and shading, not a flat fill
+    assert (px.sum(1) < 600).mean() > 0.05  # not a white page
+    code, _, err = run(*args)
+    assert code == 1 and "--force" in err
+    code, out, err = run(*args, "--force", "--json")
+    assert code == 0, err
+    rep = json.loads(out)
+    assert rep["tolerance_mm"] == 0.01 and len(rep["face_max_mm"]) == 63

@@ -4,6 +4,7 @@ Everything that touches OCCT lives in this package; the rest of nurbscomp works
 on the plain numpy data of :mod:`nurbscomp.model`.
 """
 
+from . import cq
 from .files import (
     UNITS_MM,
     CadFile,
@@ -28,6 +29,7 @@ from .measure import (
     is_valid,
     model_order,
 )
+from .mesh import face_meshes
 from .topology import model_to_shape, shape_to_model
 from .xcaf import write as write_product
 
@@ -36,10 +38,12 @@ __all__ = [
     "CadFile",
     "bintools_bytes",
     "counts",
+    "cq",
     "deviation",
     "deviation_stats",
     "edge_points",
     "edges_per_face",
+    "face_meshes",
     "face_signatures",
     "faces",
     "failures",

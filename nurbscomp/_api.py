@@ -1,0 +1,322 @@
+"""The Python API: ``nurbscomp.compress``, ``decompress``, ``info``, ``evaluate``.
+
+Re-exported by ``nurbscomp/__init__.py`` (the module is private, as
+``scipy.fft._basic`` is).  Every function runs the stages the CLI runs
+(``pipeline``): a path or STEP/IGES bytes is read by the reader of
+``nurbscomp compress``, an in-memory shape enters the same encoder without a
+file, and the container bytes are the CLI's, bit for bit.  OCP and cadquery
+are imported on the first call that needs them, not with ``nurbscomp``.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import tempfile
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Union
+
+from . import budget, container, passthrough, pipeline
+from .errors import ArgumentError, CorruptError, NoBRepError
+from .formats import sniff_format
+from .lazy import lazy_module
+from .report import Report
+
+if TYPE_CHECKING:
+    from . import occ
+else:
+    occ = lazy_module("nurbscomp.occ")
+
+#: What ``compress`` and ``evaluate`` take: a path, STEP/IGES (or container) bytes,
+#: or a shape (``cadquery.Shape``, ``Workplane``, ``Assembly``, OCP ``TopoDS_Shape``).
+Source = Union[str, "os.PathLike[str]", bytes, bytearray, memoryview, Any]
+#: What ``decompress`` and ``info`` take: a ``.nzc`` file's path or its bytes.
+Data = Union[str, "os.PathLike[str]", bytes, bytearray, memoryview]
+
+_BYTES = (bytes, bytearray, memoryview)
+
+
+def _check_tol(tol: float) -> float:
+    try:
+        t = float(tol)
+    except (TypeError, ValueError):
+        raise ArgumentError(f"tol must be a number of mm, not {type(tol).__name__}") from None
+    if not (math.isfinite(t) and t > 0):
+        raise ArgumentError(f"tol must be a positive number of mm, not {t!r}")
+    return t
+
+
+def _what(obj: Any) -> str:
+    return f"{type(obj).__module__}.{type(obj).__qualname__}"
+
+
+def _source_name(data: bytes) -> str:
+    """A file name for STEP/IGES bytes, by content (``data.step``, ``data.igs``)."""
+    fmt = sniff_format(Path("data"), data[: 1 << 16])
+    return "data.step" if fmt == "STEP" else "data.igs"
+
+
+def compress(
+    obj: Source,
+    *,
+    tol: float = pipeline.DEFAULT_TOL_MM,
+    lossless: bool = False,
+    verify: bool = True,
+    step_safe: bool = True,
+) -> bytes:
+    """Compress a CAD model into ``.nzc`` container bytes.
+
+    Parameters
+    ----------
+    obj : path, bytes, cadquery.Shape, cadquery.Workplane, cadquery.Assembly or TopoDS_Shape
+        A STEP or IGES file (its path, or its bytes), or a shape in memory,
+        in millimetres.  A ``Workplane`` gives its shapes (one, or a compound
+        of several); an ``Assembly`` is written to STEP by cadquery's XDE
+        writer and read back, so that its tree, names and colours are kept.
+    tol : float, optional
+        Tolerance in mm (default 0.01): no point of a coded B-spline surface
+        or curve moves further (certified).  Ignored with ``lossless``.
+    lossless : bool, optional
+        Keep every number bit for bit.
+    verify : bool, optional
+        Decode the container and check it against what was encoded (as
+        ``nurbscomp compress`` does; ``--no-verify``).
+    step_safe : bool, optional
+        As ``--step-safe`` (the default) and ``--no-step-safe``.
+
+    Returns
+    -------
+    bytes
+        The container: the same bytes ``nurbscomp compress`` writes for the
+        same file and options.  A valid STEP/IGES file that holds no B-rep is
+        stored verbatim (a passthrough container), as the CLI does.
+
+    Raises
+    ------
+    nurbscomp.errors.InputError
+        The file is missing or not STEP/IGES, or the shape has no faces.
+    nurbscomp.errors.ArgumentError
+        ``obj`` is none of the above, or ``tol`` is not a positive number.
+    nurbscomp.errors.NurbscompError
+        Any other failure (one-line message).
+
+    Examples
+    --------
+    >>> import cadquery as cq, nurbscomp
+    >>> data = nurbscomp.compress(cq.Workplane().box(1, 2, 3).val(), tol=0.001)
+    >>> data[:4]
+    b'\\x89NZC'
+    """
+    t = None if lossless else _check_tol(tol)
+    opts: dict[str, Any] = {"tol": t, "lossless": lossless, "step_safe": step_safe}
+    if isinstance(obj, _BYTES):
+        data = bytes(obj)
+        name = _source_name(data)
+        with tempfile.TemporaryDirectory(prefix="nurbscomp.") as d:
+            path = Path(d) / name
+            path.write_bytes(data)
+            return _compress_file(path, name, verify, opts)
+    if isinstance(obj, (str, os.PathLike)):
+        path = Path(obj)
+        return _compress_file(path, path.name, verify, opts)
+    if occ.cq.is_assembly(obj):
+        with tempfile.TemporaryDirectory(prefix="nurbscomp.") as d:
+            path = Path(d) / "assembly.step"
+            occ.cq.write_assembly(obj, path)
+            return _compress_file(path, "", verify, opts)
+    shape = occ.cq.to_topods(obj)
+    if shape is None:
+        raise ArgumentError(
+            f"cannot compress a {_what(obj)}: give a path, STEP/IGES bytes, a cadquery "
+            "Shape, Workplane or Assembly, or a TopoDS_Shape"
+        )
+    enc = pipeline.encode_cad(pipeline.shape_source(shape), "", 0, **opts)
+    if verify:
+        pipeline.verify_encoded(enc, enc.data)
+    return enc.data
+
+
+def _compress_file(path: Path, name: str, verify: bool, opts: dict[str, Any]) -> bytes:
+    """``pipeline.compress_file``'s stages on a file, to bytes; ``name`` goes to META."""
+    try:
+        cad = pipeline.read_source(path)
+    except NoBRepError as e:
+        reason = str(e)
+    else:
+        enc = pipeline.encode_cad(cad, name, path.stat().st_size, **opts)
+        if verify:
+            pipeline.verify_encoded(enc, enc.data)
+        return enc.data
+    data = path.read_bytes()
+    blob, _ = passthrough.pack_file(data, name or path.name, reason)
+    if verify and passthrough.read(container.unpack(blob))[1] != data:
+        raise CorruptError("the passthrough container does not give the file back")
+    return blob
+
+
+def _decode(data: Data, limit_scale: float) -> tuple[Any, Any, dict[str, Any]]:
+    limits = budget.DEFAULT.scaled(limit_scale)
+    if isinstance(data, _BYTES):
+        return pipeline.decode_data(bytes(data), limits)
+    if isinstance(data, (str, os.PathLike)):
+        return pipeline.decode_file(data, limits)
+    raise ArgumentError(f"cannot decompress a {_what(data)}: give a .nzc path or its bytes")
+
+
+def decompress(data: Data, raw: bool = False, *, limit_scale: float = 1.0) -> Any:
+    """Decode a ``.nzc`` container into a shape.
+
+    Parameters
+    ----------
+    data : path or bytes
+        The container.
+    raw : bool, optional
+        Return OCP's ``TopoDS_Shape`` rather than a cadquery object.
+    limit_scale : float, optional
+        The decoding budget times this (``--limit-scale``), for a trusted
+        container larger than the limits allow.
+
+    Returns
+    -------
+    cadquery.Shape, cadquery.Assembly or TopoDS_Shape
+        In millimetres.  A ``cadquery.Assembly`` when the container holds an
+        assembly (product data with instances: its tree, placements, names
+        and colours), else the ``cadquery.Shape`` subclass of the shape
+        (``Solid``, ``Compound`` …); with ``raw``, always the OCP shape.  The
+        shape is the one ``nurbscomp decompress`` writes.
+
+    Raises
+    ------
+    nurbscomp.errors.FormatError
+        The bytes are not a sound container (a subclass says how).
+    nurbscomp.errors.InputError
+        The path is missing, or the container holds a file verbatim
+        (passthrough: there is no B-rep to build).
+
+    Examples
+    --------
+    >>> import cadquery as cq, nurbscomp
+    >>> s = nurbscomp.decompress(nurbscomp.compress(cq.Workplane().sphere(5).val()))
+    >>> round(s.Volume())
+    524
+    """
+    shape, m, _ = _decode(data, limit_scale)
+    if raw:
+        return shape
+    p = m.product
+    if p is not None and _has_instances(p):
+        return occ.cq.to_assembly(p, shape)
+    return occ.cq.to_cadquery(shape)
+
+
+def _has_instances(p: Any) -> bool:
+    """Whether product data holds an assembly (instances of parts), not one part."""
+    from .product import summary
+
+    return bool(summary(p)["instances"])
+
+
+def info(data: Data) -> dict[str, Any]:
+    """What a container holds, without building its shape.
+
+    Parameters
+    ----------
+    data : path or bytes
+        The container.
+
+    Returns
+    -------
+    dict
+        The report of ``nurbscomp info --json``: format version, mode,
+        tolerance, unit, source name and format, counts of shapes and
+        geometry, faces by type, bytes per section, product data.
+        ``input`` is the path, or ``"<bytes>"``.
+    """
+    if isinstance(data, _BYTES):
+        with tempfile.TemporaryDirectory(prefix="nurbscomp.") as d:
+            path = Path(d) / "data.nzc"
+            path.write_bytes(bytes(data))
+            r = pipeline.info(path)
+        r["input"] = "<bytes>"
+        return r
+    if isinstance(data, (str, os.PathLike)):
+        return pipeline.info(data)
+    raise ArgumentError(f"cannot read a {_what(data)}: give a .nzc path or its bytes")
+
+
+def _load(obj: Source) -> tuple[Any, float | None, str]:
+    """The shape of anything ``evaluate`` takes, the tolerance of its container
+    (None if it is none, or lossless), and a name for the report."""
+    if isinstance(obj, (str, os.PathLike)):
+        shape, tol = pipeline.load_shape(obj)
+        return shape, tol, str(obj)
+    if isinstance(obj, _BYTES):
+        data = bytes(obj)
+        if data[:4] == container.MAGIC:
+            shape, _, meta = pipeline.decode_data(data)
+            return shape, meta.get("tolerance_mm"), "<bytes>"
+        with tempfile.TemporaryDirectory(prefix="nurbscomp.") as d:
+            path = Path(d) / _source_name(data)
+            path.write_bytes(data)
+            return occ.read_cad(path).shape, None, "<bytes>"
+    shape = occ.cq.to_topods(obj)
+    if shape is None:
+        raise ArgumentError(
+            f"cannot evaluate a {_what(obj)}: give a path, bytes, a cadquery shape or a "
+            "TopoDS_Shape"
+        )
+    return shape, None, "<shape>"
+
+
+def evaluate(
+    original: Source,
+    reconstructed: Source,
+    *,
+    tol: float | None = None,
+    worst: int = 5,
+    heatmap: str | os.PathLike[str] | None = None,
+    force: bool = False,
+) -> Report:
+    """The error between a model and its reconstruction (``nurbscomp eval``).
+
+    Parameters
+    ----------
+    original, reconstructed : path, bytes or shape
+        STEP, IGES or ``.nzc`` files (paths or bytes), or shapes as
+        :func:`compress` takes them.  Faces are paired by index: points
+        sampled inside each original face are measured against the
+        reconstructed face of the same index.
+    tol : float, optional
+        The tolerance to report against; default: the one ``reconstructed``
+        was coded with, if it is a container.
+    worst : int, optional
+        How many of the worst faces to list.
+    heatmap : path, optional
+        Also write a PNG of the reconstruction, each face coloured by its
+        deviation (as ``eval --heatmap``).
+    force : bool, optional
+        Overwrite an existing ``heatmap`` file.
+
+    Returns
+    -------
+    Report
+
+    Examples
+    --------
+    >>> import cadquery as cq, nurbscomp
+    >>> part = cq.Workplane().box(1, 2, 3).edges().fillet(0.2).val()
+    >>> r = nurbscomp.evaluate(part, nurbscomp.compress(part, tol=0.001))
+    >>> r.same_topology, r.within_tolerance
+    (True, True)
+    """
+    t = None if tol is None else _check_tol(tol)
+    heat = Path(heatmap) if heatmap is not None else None
+    if heat is not None:
+        pipeline.check_output(heat, force)
+    a, _, name_a = _load(original)
+    b, coded_tol, name_b = _load(reconstructed)
+    r = pipeline.evaluate_shapes(a, b, worst, tol=coded_tol if t is None else t)
+    r = {"original": name_a, "reconstructed": name_b, **r}
+    if heat is not None:
+        pipeline.write_heatmap(b, r, heat, force=force, title=Path(name_b).name)
+    return Report.from_dict(r)

@@ -1,0 +1,164 @@
+"""The Python API (``nurbscomp.compress`` …): same bytes as the CLI, shapes in
+and out, typed reports, one-line errors."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import nurbscomp
+from nurbscomp import errors, pipeline
+
+from .conftest import SAMPLES
+
+GOLDEN = Path(__file__).resolve().parent / "golden"
+
+
+@pytest.fixture(scope="module")
+def cq():
+    import cadquery
+
+    return cadquery
+
+
+def test_import_is_lazy() -> None:
+    """``import nurbscomp`` loads neither OCP, cadquery nor numpy; the API's
+    names load on first use."""
+    code = (
+        "import sys, nurbscomp; "
+        "print(sorted(m for m in ('OCP', 'cadquery', 'numpy', 'nurbscomp.pipeline') "
+        "if m in sys.modules)); "
+        "nurbscomp.info; print('nurbscomp.pipeline' in sys.modules, 'OCP' in sys.modules)"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.split("\n")[:2] == ["[]", "True False"]
+
+
+def test_filleted_box_round_trip(cq) -> None:
+    """The issue's one-liner, with the box's true volume (5.8047: the fillets
+    take 0.195 mm³ off the 6 of the box)."""
+    src = cq.Workplane().box(1, 2, 3).edges().fillet(0.2).val()
+    data = nurbscomp.compress(src, tol=0.001)
+    s = nurbscomp.decompress(data)
+    assert isinstance(s, cq.Shape)
+    assert s.isValid() and abs(s.Volume() - src.Volume()) < 1e-9
+    raw = nurbscomp.decompress(data, raw=True)
+    assert raw.ShapeType() == src.wrapped.ShapeType()
+    assert nurbscomp.info(data)["shapes"]["face"] == len(src.Faces())
+
+
+def test_path_gives_the_cli_bytes(tmp_path: Path) -> None:
+    """``compress(path)`` runs the CLI's stages: the same container, bit for bit."""
+    src = SAMPLES / "loft.step"
+    pipeline.compress_file(src, tmp_path / "loft.nzc", tol=0.01)
+    assert nurbscomp.compress(src, tol=0.01) == (tmp_path / "loft.nzc").read_bytes()
+    assert nurbscomp.compress(str(src), lossless=True)[:4] == b"\x89NZC"
+
+
+def test_bytes_in_and_out(tmp_path: Path) -> None:
+    data = nurbscomp.compress((SAMPLES / "loft.step").read_bytes(), tol=0.01)
+    (tmp_path / "x.nzc").write_bytes(data)
+    by_bytes, by_path = nurbscomp.info(data), nurbscomp.info(tmp_path / "x.nzc")
+    assert by_bytes["input"] == "<bytes>" and by_path["input"] == str(tmp_path / "x.nzc")
+    assert {**by_bytes, "input": ""} == {**by_path, "input": ""}
+    assert by_bytes["source_name"] == "data.step" and by_bytes["mode"] == "tolerance"
+    a = nurbscomp.decompress(data, raw=True)
+    b = nurbscomp.decompress(tmp_path / "x.nzc", raw=True)
+    from nurbscomp import occ
+
+    assert occ.counts(a) == occ.counts(b)
+
+
+def test_workplane_and_topods(cq) -> None:
+    wp = cq.Workplane().box(2, 2, 2).faces(">Z").workplane().hole(0.5)
+    s = nurbscomp.decompress(nurbscomp.compress(wp, lossless=True))
+    assert abs(s.Volume() - wp.val().Volume()) < 1e-12
+    two = cq.Workplane().pushPoints([(0, 0), (5, 0)]).box(1, 1, 1)
+    s = nurbscomp.decompress(nurbscomp.compress(two))
+    assert len(s.Solids()) == 2  # a Workplane's shapes go in as one compound
+    s = nurbscomp.decompress(nurbscomp.compress(wp.val().wrapped))
+    assert len(s.Faces()) == len(wp.val().Faces())
+
+
+def test_assembly_round_trip(cq) -> None:
+    assy = cq.Assembly(name="top")
+    assy.add(cq.Workplane().box(1, 1, 1), name="cube", color=cq.Color("red"))
+    assy.add(
+        cq.Workplane().sphere(0.5),
+        name="ball",
+        loc=cq.Location((3, 0, 0)),
+        color=cq.Color("blue"),
+    )
+    back = nurbscomp.decompress(nurbscomp.compress(assy, tol=0.001))
+    assert isinstance(back, cq.Assembly)
+    leaves = [obj for _, obj in back.traverse() if obj.obj is not None]
+    assert len(leaves) == 2
+    total = sum(o.obj.Volume() for o in leaves)
+    assert abs(total - (1 + 4 / 3 * np.pi * 0.125)) < 1e-3
+    solids = back.toCompound().Solids()
+    assert max(s.Center().x for s in solids) == pytest.approx(3, abs=1e-6)
+
+
+def test_sample_assembly_decodes_to_an_assembly(cq) -> None:
+    back = nurbscomp.decompress(nurbscomp.compress(SAMPLES / "assembly.step", lossless=True))
+    assert isinstance(back, cq.Assembly)
+    plain = nurbscomp.decompress(nurbscomp.compress(SAMPLES / "loft.step", lossless=True))
+    assert isinstance(plain, cq.Shape)
+
+
+def test_evaluate_report(cq, tmp_path: Path) -> None:
+    part = cq.Workplane().box(1, 2, 3).edges().fillet(0.2).val()
+    r = nurbscomp.evaluate(part, nurbscomp.compress(part, tol=0.001))
+    assert isinstance(r, nurbscomp.Report)
+    assert r.same_topology and r.valid_reconstructed and r.within_tolerance
+    assert r.tolerance_mm == 0.001 and r.reconstructed == "<bytes>"
+    assert r.counts_original == r.counts_reconstructed and r.counts_original.faces == 26
+    assert len(r.face_max_mm) == 26 and r.max_deviation_mm == r.face_max_mm.max()
+    assert r.worst_faces[0].max_mm == r.max_deviation_mm
+    nzc = tmp_path / "blob.nzc"
+    pipeline.compress_file(SAMPLES / "blob.step", nzc, tol=0.01)
+    r = nurbscomp.evaluate(SAMPLES / "blob.step", nzc, tol=0.001)
+    assert r.tolerance_mm == 0.001 and r.within_tolerance is False  # coded at 0.01
+    assert 0 < r.max_deviation_mm <= 0.01
+    assert nurbscomp.evaluate(SAMPLES / "blob.step", nzc).within_tolerance
+
+
+def test_errors_are_nurbscomp_errors(tmp_path: Path) -> None:
+    with pytest.raises(errors.ArgumentError, match="cannot compress a builtins.list"):
+        nurbscomp.compress([1, 2])
+    with pytest.raises(ValueError, match="positive"):
+        nurbscomp.compress(SAMPLES / "loft.step", tol=-1)
+    with pytest.raises(errors.InputError, match="no such file"):
+        nurbscomp.compress(tmp_path / "missing.step")
+    with pytest.raises(errors.InputError, match="not a STEP or IGES"):
+        nurbscomp.compress(b"hello")
+    with pytest.raises(errors.BadMagicError):
+        nurbscomp.decompress(b"not a container at all")
+    with pytest.raises(errors.ArgumentError):
+        nurbscomp.decompress(42)  # type: ignore[arg-type]
+    verbatim = GOLDEN / "passthrough" / "tessellated.step.nzc"
+    with pytest.raises(errors.InputError, match="verbatim"):
+        nurbscomp.decompress(verbatim)
+    assert nurbscomp.info(verbatim.read_bytes())["passthrough"]
+
+
+def test_no_brep_bytes_are_stored_verbatim() -> None:
+    src = (GOLDEN / "passthrough" / "tessellated.step").read_bytes()
+    data = nurbscomp.compress(src)
+    r = nurbscomp.info(data)
+    assert r["passthrough"] and r["source_bytes"] == len(src)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["assembly.step", "blob.step", "bracket.step", "teapot.step"])
+def test_every_sample_gives_the_cli_bytes(name: str, tmp_path: Path) -> None:
+    """``compress(path)`` and ``compress_file`` write the same container, in both modes."""
+    src = SAMPLES / name
+    for kw in ({"tol": 0.01}, {"lossless": True}):
+        out = tmp_path / f"{name}.nzc"
+        pipeline.compress_file(src, out, force=True, **kw)
+        assert nurbscomp.compress(src, **kw) == out.read_bytes(), kw
