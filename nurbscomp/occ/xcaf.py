@@ -619,7 +619,8 @@ def view(path: str | os.PathLike[str]) -> dict[str, Any]:
         free shapes; ``parts`` and ``instances``: multisets of names;
         ``face_colours``: per leaf occurrence, the surface colour of every
         face (the face's own, else the nearest of its part and the
-        instances above it), rounded to 1e-6; ``layers``: layer name ->
+        instances above it), rounded to 1e-6; ``sub_shape_names``: the
+        multiset of sub-shape label names; ``layers``: layer name ->
         sorted member names.
     """
     doc = read_document(path)
@@ -637,6 +638,7 @@ def view(path: str | os.PathLike[str]) -> dict[str, Any]:
     parts: Counter[str] = Counter()
     instances: Counter[str] = Counter()
     faces: list[Any] = []
+    sub_names: Counter[str] = Counter()
 
     def placement(label: Any) -> list[float]:
         t = XCAFDoc_ShapeTool.GetLocation_s(label).Transformation()
@@ -661,6 +663,7 @@ def view(path: str | os.PathLike[str]) -> dict[str, Any]:
         subs = TopTools_IndexedMapOfShape()
         sub_colour: list[tuple[float, ...]] = []
         for s in _seq(XCAFDoc_ShapeTool.GetSubShapes_s, label):
+            sub_names[_name(s) or ""] += 1
             sc = colour(s)
             if sc is not None:
                 ex = TopExp_Explorer(XCAFDoc_ShapeTool.GetShape_s(s), TopAbs_FACE)
@@ -690,5 +693,6 @@ def view(path: str | os.PathLike[str]) -> dict[str, Any]:
         "parts": dict(parts),
         "instances": dict(instances),
         "face_colours": sorted(faces, key=lambda f: (f[0], f[1])),
+        "sub_shape_names": dict(sub_names),
         "layers": layers,
     }
