@@ -46,6 +46,7 @@ from OCP.TopLoc import TopLoc_Location
 from OCP.TopoDS import TopoDS_Iterator
 from OCP.TopTools import TopTools_IndexedMapOfShape
 from OCP.XCAFDoc import (
+    XCAFDoc,
     XCAFDoc_Area,
     XCAFDoc_Centroid,
     XCAFDoc_ColorType,
@@ -330,12 +331,12 @@ def step_header(reader: Any) -> dict[str, list[str]]:
     return {k: fields[k] for k in HEADER_FIELDS if fields[k]}
 
 
-def _count_attr(doc: Any, attr_cls: Any) -> int:
-    """Labels under the shapes label that carry an attribute of ``attr_cls``."""
+def _count_attr(doc: Any, guid: Any) -> int:
+    """Labels under the shapes label that carry an attribute of this GUID."""
     n = 0
     it = TDF_ChildIterator(XCAFDoc_DocumentTool.ShapesLabel_s(doc.Main()), True)
     while it.More():
-        if it.Value().IsAttribute(attr_cls.GetID_s()):
+        if it.Value().IsAttribute(guid):
             n += 1
         it.Next()
     return n
@@ -352,10 +353,14 @@ def dropped(doc: Any, missing: int = 0) -> list[str]:
         "saved views": len(_seq(XCAFDoc_DocumentTool.ViewTool_s(main).GetViewLabels)),
         "notes": XCAFDoc_DocumentTool.NotesTool_s(main).NbNotes(),
         "materials": len(_seq(XCAFDoc_DocumentTool.MaterialTool_s(main).GetMaterialLabels)),
-        "validation properties (volume)": _count_attr(doc, XCAFDoc_Volume),
-        "validation properties (area)": _count_attr(doc, XCAFDoc_Area),
-        "validation properties (centroid)": _count_attr(doc, XCAFDoc_Centroid),
-        "user-defined attribute sets": _count_attr(doc, TDataStd_NamedData),
+        "visualisation materials": len(
+            _seq(XCAFDoc_DocumentTool.VisMaterialTool_s(main).GetMaterials)
+        ),
+        "styles on nested instances (SHUO)": _count_attr(doc, XCAFDoc.SHUORefGUID_s()),
+        "validation properties (volume)": _count_attr(doc, XCAFDoc_Volume.GetID_s()),
+        "validation properties (area)": _count_attr(doc, XCAFDoc_Area.GetID_s()),
+        "validation properties (centroid)": _count_attr(doc, XCAFDoc_Centroid.GetID_s()),
+        "user-defined attribute sets": _count_attr(doc, TDataStd_NamedData.GetID_s()),
         "labels whose shape is not in the geometry": missing,
     }
     return [f"{n} {what}" for what, n in counts.items() if n]
