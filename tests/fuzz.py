@@ -304,7 +304,7 @@ def check(data: bytes, seconds: float = 20.0, write: bool = False) -> str:
         shape = pipeline.build(m)
         if write:
             with tempfile.TemporaryDirectory() as d:
-                pipeline.write(shape, Path(d) / "out.step", "STEP", m.unit, meta)
+                pipeline.write(shape, Path(d) / "out.step", "STEP", m.unit, meta, m.product)
         return "ok"
     except UndiagnosedError:
         raise  # a FormatError, but one that no specific check caught: a failure
