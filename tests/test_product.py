@@ -111,7 +111,7 @@ def test_generated_assembly_with_cadquery_export(tmp_path: Path) -> None:
     pin = cq.Workplane().cylinder(8, 1)
     inner = cq.Assembly(name="inner")
     inner.add(pin, name="pin a", loc=cq.Location((0, 0, 4)), color=cq.Color("green"))
-    inner.add(pin, name="pin b", loc=cq.Location((2, 0, 4), (1, 0, 0), 90))
+    inner.add(pin, name="pin b \u00e4\u00df", loc=cq.Location((2, 0, 4), (1, 0, 0), 90))
     top = cq.Assembly(name="top")
     top.add(cube, name="cube", color=cq.Color("yellow"))
     top.add(inner, name="inner 1", loc=cq.Location((10, 0, 0)))

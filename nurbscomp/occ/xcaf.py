@@ -310,11 +310,17 @@ def step_header(reader: Any) -> dict[str, list[str]]:
     if not h.IsDone():
         return {}
 
+    def text(x: Any) -> str:
+        try:
+            return str(x.ToCString())
+        except UnicodeDecodeError:  # OCP decodes as UTF-8: take the bytes as Latin-1
+            return str(TCollection_ExtendedString(x.String(), False).ToExtString())
+
     def one(x: Any) -> list[str]:
-        return [] if x is None else [str(x.ToCString())]
+        return [] if x is None else [text(x)]
 
     def many(n: int, get: Any) -> list[str]:
-        return [str(get(i).ToCString()) for i in range(1, n + 1)]
+        return [text(get(i)) for i in range(1, n + 1)]
 
     fields = {
         "schema": many(h.NbSchemaIdentifiers(), h.SchemaIdentifiersValue),
@@ -369,6 +375,12 @@ def dropped(doc: Any, missing: int = 0) -> list[str]:
 # ---------------------------------------------------------------- writing
 
 
+def _extended(text: str) -> Any:
+    """An OCCT Unicode string of ``text`` (OCP passes a ``str`` as UTF-8 bytes,
+    which OCCT would otherwise read one byte per character)."""
+    return TCollection_ExtendedString(text, True)
+
+
 def _rgba(c: np.ndarray) -> Any:
     r, g, b, a = (float(x) for x in c)
     return Quantity_ColorRGBA(Quantity_Color(r, g, b, _RGB), a)
@@ -418,14 +430,14 @@ def to_document(p: ProductData, shapes: list[Any]) -> Any:
         if lab.IsNull():
             raise RebuildError(f"product node {i}: XDE refuses its shape")
         if p.flags[i] & NAMED:
-            TDataStd_Name.Set_s(lab, TCollection_ExtendedString(p.names[i]))
+            TDataStd_Name.Set_s(lab, _extended(p.names[i]))
         for t, c in zip(_TYPES, p.colour[i].tolist()):
             if c >= 0:
                 ct.SetColor(lab, _rgba(p.colours[c]), t)
         if p.flags[i] & HIDDEN:
             ct.SetVisibility(lab, False)
     for name, hidden, members in zip(p.layer_names, p.layer_hidden.tolist(), p.layer_members):
-        layer = lt.AddLayer(TCollection_ExtendedString(name), not hidden)
+        layer = lt.AddLayer(_extended(name), not hidden)
         for x in members:
             lt.SetLayer(labels[x], layer, False)
     return doc
