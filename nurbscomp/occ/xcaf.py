@@ -30,7 +30,11 @@ from OCP.IFSelect import IFSelect_ReturnStatus
 from OCP.IGESCAFControl import IGESCAFControl_Reader, IGESCAFControl_Writer
 from OCP.Interface import Interface_HArray1OfHAsciiString, Interface_Static
 from OCP.Quantity import Quantity_Color, Quantity_ColorRGBA, Quantity_TypeOfColor
-from OCP.STEPCAFControl import STEPCAFControl_Reader, STEPCAFControl_Writer
+from OCP.STEPCAFControl import (
+    STEPCAFControl_Controller,
+    STEPCAFControl_Reader,
+    STEPCAFControl_Writer,
+)
 from OCP.STEPControl import STEPControl_AsIs
 from OCP.TCollection import (
     TCollection_AsciiString,
@@ -65,6 +69,10 @@ from .files import (
     sniff_format,
 )
 from .topology import _trsf, _trsf_rows
+
+# XDE's STEP options (read/write.stepcaf.*) exist only once its controller is
+# set up; set it up now, so that setting them works in any order
+STEPCAFControl_Controller.Init_s()
 
 _TYPES = [XCAFDoc_ColorType(i) for i in range(3)]
 _ORIENT = [TopAbs_Orientation(i) for i in range(4)]
