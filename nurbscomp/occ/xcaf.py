@@ -207,7 +207,6 @@ class _Builder:
             k: [] for k in ("kind", "parent", "ref", "orient", "place", "flags", "colour", "names")
         }
         self.places: dict[tuple[float, ...], int] = {}
-        self.forms: list[int] = []
         self.colours: dict[tuple[float, ...], int] = {}
         self.node_of: dict[str, int] = {}
         self.missing = 0
@@ -424,14 +423,13 @@ def to_document(p: ProductData, shapes: list[Any]) -> Any:
                 labels[i] = st.NewShape()
             else:
                 labels[i] = st.AddShape(located(i), False, False)
-        for i in range(len(p)):
-            if p.kind[i] == INSTANCE:
-                loc = place(i) or TopLoc_Location()
-                labels[i] = st.AddComponent(labels[int(p.parent[i])], labels[int(p.ref[i])], loc)
-            elif p.kind[i] == SUBSHAPE:
-                sub = _sub_shape(p, i, shapes, labels[int(p.parent[i])])
-                labels[i] = st.AddSubShape(labels[int(p.parent[i])], sub or located(i))
-        st.UpdateAssemblies()
+        for i in np.flatnonzero(p.kind == INSTANCE).tolist():
+            loc = place(i) or TopLoc_Location()
+            labels[i] = st.AddComponent(labels[int(p.parent[i])], labels[int(p.ref[i])], loc)
+        st.UpdateAssemblies()  # an assembly's shape exists from here on
+        for i in np.flatnonzero(p.kind == SUBSHAPE).tolist():
+            sub = _sub_shape(p, i, shapes, labels[int(p.parent[i])])
+            labels[i] = st.AddSubShape(labels[int(p.parent[i])], sub or located(i))
     finally:
         XCAFDoc_ShapeTool.SetAutoNaming_s(auto)
     for i, lab in labels.items():
