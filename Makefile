@@ -3,7 +3,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 PIP    := $(VENV)/bin/pip
 
-.PHONY: install test test-fast lint samples bench fuzz stress clean
+.PHONY: install test test-fast lint samples bench bench-product fuzz stress clean
 
 install: $(VENV)/bin/nurbscomp
 
@@ -38,6 +38,11 @@ samples: install
 bench: install
 	@$(PY) -c "import matplotlib" 2>/dev/null || $(PIP) install --quiet -e '.[bench]'
 	$(PY) benchmarks/bench.py
+
+# What product data (format 1.2's PROD: tree, names, colours, layers, header)
+# costs per file of the corpus and the assembly sample, lossless (issue 12).
+bench-product: install
+	$(PY) benchmarks/product_cost.py
 
 # The long fuzzing run (issue 5): mutated containers (raw, and re-packed with
 # valid CRCs) must decode or fail with a FormatError; each case in a worker

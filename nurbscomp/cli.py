@@ -470,6 +470,13 @@ def _compress_text(r: dict[str, Any], verbose: bool) -> str:
             )
             if v["step_skipped"]:
                 line += f"; no STEP check: {v['step_skipped']}"
+        p = r.get("product")
+        if p:
+            line += (
+                f"\n  product: {p['parts']} parts, {p['assemblies']} assemblies, "
+                f"{p['instances']} instances, {p['colours']} colours, {p['layers']} layers "
+                f"({r.get('product_bytes', 0)} bytes raw)"
+            )
     return line
 
 

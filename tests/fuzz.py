@@ -604,7 +604,7 @@ def check(data: bytes, seconds: float = 20.0, write: bool = False, fmt: str = "S
         if write:
             suffix = {"STEP": ".step", "IGES": ".igs", "BREP": ".brep"}[fmt]
             with tempfile.TemporaryDirectory() as d:
-                pipeline.write(shape, Path(d) / f"out{suffix}", fmt, m.unit, meta)
+                pipeline.write(shape, Path(d) / f"out{suffix}", fmt, m.unit, meta, m.product)
         return "ok"
     except UndiagnosedError:
         raise  # a FormatError, but one that no specific check caught: a failure

@@ -11,6 +11,7 @@ NEXT_ASSEMBLY_USAGE_OCCURRENCE and STYLED_ITEM counts, FILE_SCHEMA.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import re
 from collections import Counter
@@ -54,7 +55,7 @@ def assert_same_product(src: Path, nzc: Path, tmp: Path, ext: str = ".step") -> 
     xcaf.round_trip(src, ref)
     pipeline.decompress_file(nzc, out, force=True)
     want, got = xcaf.view(ref), xcaf.view(out)
-    for key in ("tree", "parts", "instances", "face_colours", "layers"):
+    for key in ("tree", "parts", "instances", "face_colours", "sub_shape_names", "layers"):
         assert got[key] == want[key], key
     if ext == ".step":
         assert _step_text(out) == _step_text(ref)
@@ -110,7 +111,7 @@ def test_generated_assembly_with_cadquery_export(tmp_path: Path) -> None:
     pin = cq.Workplane().cylinder(8, 1)
     inner = cq.Assembly(name="inner")
     inner.add(pin, name="pin a", loc=cq.Location((0, 0, 4)), color=cq.Color("green"))
-    inner.add(pin, name="pin b", loc=cq.Location((2, 0, 4), (1, 0, 0), 90))
+    inner.add(pin, name="pin b \u00e4\u00df", loc=cq.Location((2, 0, 4), (1, 0, 0), 90))
     top = cq.Assembly(name="top")
     top.add(cube, name="cube", color=cq.Color("yellow"))
     top.add(inner, name="inner 1", loc=cq.Location((10, 0, 0)))
@@ -266,8 +267,20 @@ def test_prod_reader_refuses_bad_utf8_and_rows() -> None:
 # ---------------------------------------------------------------- corpus
 
 
+#: Known shortfalls: the comparison must fail on exactly this key (so the test
+#: fails once they are fixed).
+KNOWN = {
+    # OCCT reads its own round trip of trj7 with 416 faces (it splits one);
+    # the decompressed STEP reads with 415, like the source, so the faces
+    # cannot be paired by index (lossless passes)
+    ("occt__trj7_b1-ec-214.stp", "tol0.01"): "face_colours",
+}
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("mode", sorted(MODES))
 @pytest.mark.parametrize("path", corpus_files(), ids=lambda p: p.name)
 def test_corpus_product_matches_occt_round_trip(tmp_path: Path, path: Path, mode: str) -> None:
-    assert_same_product(path, _compress(path, tmp_path, mode), tmp_path)
+    known = KNOWN.get((path.name, mode))
+    with pytest.raises(AssertionError, match=known) if known else contextlib.nullcontext():
+        assert_same_product(path, _compress(path, tmp_path, mode), tmp_path)

@@ -30,7 +30,11 @@ from OCP.IFSelect import IFSelect_ReturnStatus
 from OCP.IGESCAFControl import IGESCAFControl_Reader, IGESCAFControl_Writer
 from OCP.Interface import Interface_HArray1OfHAsciiString, Interface_Static
 from OCP.Quantity import Quantity_Color, Quantity_ColorRGBA, Quantity_TypeOfColor
-from OCP.STEPCAFControl import STEPCAFControl_Reader, STEPCAFControl_Writer
+from OCP.STEPCAFControl import (
+    STEPCAFControl_Controller,
+    STEPCAFControl_Reader,
+    STEPCAFControl_Writer,
+)
 from OCP.STEPControl import STEPControl_AsIs
 from OCP.TCollection import (
     TCollection_AsciiString,
@@ -46,6 +50,7 @@ from OCP.TopLoc import TopLoc_Location
 from OCP.TopoDS import TopoDS_Iterator
 from OCP.TopTools import TopTools_IndexedMapOfShape
 from OCP.XCAFDoc import (
+    XCAFDoc,
     XCAFDoc_Area,
     XCAFDoc_Centroid,
     XCAFDoc_ColorType,
@@ -64,6 +69,10 @@ from .files import (
     sniff_format,
 )
 from .topology import _trsf, _trsf_rows
+
+# XDE's STEP options (read/write.stepcaf.*) exist only once its controller is
+# set up; set it up now, so that setting them works in any order
+STEPCAFControl_Controller.Init_s()
 
 _TYPES = [XCAFDoc_ColorType(i) for i in range(3)]
 _ORIENT = [TopAbs_Orientation(i) for i in range(4)]
@@ -198,7 +207,6 @@ class _Builder:
             k: [] for k in ("kind", "parent", "ref", "orient", "place", "flags", "colour", "names")
         }
         self.places: dict[tuple[float, ...], int] = {}
-        self.forms: list[int] = []
         self.colours: dict[tuple[float, ...], int] = {}
         self.node_of: dict[str, int] = {}
         self.missing = 0
@@ -309,11 +317,17 @@ def step_header(reader: Any) -> dict[str, list[str]]:
     if not h.IsDone():
         return {}
 
+    def text(x: Any) -> str:
+        try:
+            return str(x.ToCString())
+        except UnicodeDecodeError:  # OCP decodes as UTF-8: take the bytes as Latin-1
+            return str(TCollection_ExtendedString(x.String(), False).ToExtString())
+
     def one(x: Any) -> list[str]:
-        return [] if x is None else [str(x.ToCString())]
+        return [] if x is None else [text(x)]
 
     def many(n: int, get: Any) -> list[str]:
-        return [str(get(i).ToCString()) for i in range(1, n + 1)]
+        return [text(get(i)) for i in range(1, n + 1)]
 
     fields = {
         "schema": many(h.NbSchemaIdentifiers(), h.SchemaIdentifiersValue),
@@ -330,12 +344,12 @@ def step_header(reader: Any) -> dict[str, list[str]]:
     return {k: fields[k] for k in HEADER_FIELDS if fields[k]}
 
 
-def _count_attr(doc: Any, attr_cls: Any) -> int:
-    """Labels under the shapes label that carry an attribute of ``attr_cls``."""
+def _count_attr(doc: Any, guid: Any) -> int:
+    """Labels under the shapes label that carry an attribute of this GUID."""
     n = 0
     it = TDF_ChildIterator(XCAFDoc_DocumentTool.ShapesLabel_s(doc.Main()), True)
     while it.More():
-        if it.Value().IsAttribute(attr_cls.GetID_s()):
+        if it.Value().IsAttribute(guid):
             n += 1
         it.Next()
     return n
@@ -352,16 +366,26 @@ def dropped(doc: Any, missing: int = 0) -> list[str]:
         "saved views": len(_seq(XCAFDoc_DocumentTool.ViewTool_s(main).GetViewLabels)),
         "notes": XCAFDoc_DocumentTool.NotesTool_s(main).NbNotes(),
         "materials": len(_seq(XCAFDoc_DocumentTool.MaterialTool_s(main).GetMaterialLabels)),
-        "validation properties (volume)": _count_attr(doc, XCAFDoc_Volume),
-        "validation properties (area)": _count_attr(doc, XCAFDoc_Area),
-        "validation properties (centroid)": _count_attr(doc, XCAFDoc_Centroid),
-        "user-defined attribute sets": _count_attr(doc, TDataStd_NamedData),
+        "visualisation materials": len(
+            _seq(XCAFDoc_DocumentTool.VisMaterialTool_s(main).GetMaterials)
+        ),
+        "styles on nested instances (SHUO)": _count_attr(doc, XCAFDoc.SHUORefGUID_s()),
+        "validation properties (volume)": _count_attr(doc, XCAFDoc_Volume.GetID_s()),
+        "validation properties (area)": _count_attr(doc, XCAFDoc_Area.GetID_s()),
+        "validation properties (centroid)": _count_attr(doc, XCAFDoc_Centroid.GetID_s()),
+        "user-defined attribute sets": _count_attr(doc, TDataStd_NamedData.GetID_s()),
         "labels whose shape is not in the geometry": missing,
     }
     return [f"{n} {what}" for what, n in counts.items() if n]
 
 
 # ---------------------------------------------------------------- writing
+
+
+def _extended(text: str) -> Any:
+    """An OCCT Unicode string of ``text`` (OCP passes a ``str`` as UTF-8 bytes,
+    which OCCT would otherwise read one byte per character)."""
+    return TCollection_ExtendedString(text, True)
 
 
 def _rgba(c: np.ndarray) -> Any:
@@ -399,28 +423,27 @@ def to_document(p: ProductData, shapes: list[Any]) -> Any:
                 labels[i] = st.NewShape()
             else:
                 labels[i] = st.AddShape(located(i), False, False)
-        for i in range(len(p)):
-            if p.kind[i] == INSTANCE:
-                loc = place(i) or TopLoc_Location()
-                labels[i] = st.AddComponent(labels[int(p.parent[i])], labels[int(p.ref[i])], loc)
-            elif p.kind[i] == SUBSHAPE:
-                sub = _sub_shape(p, i, shapes, labels[int(p.parent[i])])
-                labels[i] = st.AddSubShape(labels[int(p.parent[i])], sub or located(i))
-        st.UpdateAssemblies()
+        for i in np.flatnonzero(p.kind == INSTANCE).tolist():
+            loc = place(i) or TopLoc_Location()
+            labels[i] = st.AddComponent(labels[int(p.parent[i])], labels[int(p.ref[i])], loc)
+        st.UpdateAssemblies()  # an assembly's shape exists from here on
+        for i in np.flatnonzero(p.kind == SUBSHAPE).tolist():
+            sub = _sub_shape(p, i, shapes, labels[int(p.parent[i])])
+            labels[i] = st.AddSubShape(labels[int(p.parent[i])], sub or located(i))
     finally:
         XCAFDoc_ShapeTool.SetAutoNaming_s(auto)
     for i, lab in labels.items():
         if lab.IsNull():
             raise RebuildError(f"product node {i}: XDE refuses its shape")
         if p.flags[i] & NAMED:
-            TDataStd_Name.Set_s(lab, TCollection_ExtendedString(p.names[i]))
+            TDataStd_Name.Set_s(lab, _extended(p.names[i]))
         for t, c in zip(_TYPES, p.colour[i].tolist()):
             if c >= 0:
                 ct.SetColor(lab, _rgba(p.colours[c]), t)
         if p.flags[i] & HIDDEN:
             ct.SetVisibility(lab, False)
     for name, hidden, members in zip(p.layer_names, p.layer_hidden.tolist(), p.layer_members):
-        layer = lt.AddLayer(TCollection_ExtendedString(name), not hidden)
+        layer = lt.AddLayer(_extended(name), not hidden)
         for x in members:
             lt.SetLayer(labels[x], layer, False)
     return doc
@@ -619,7 +642,8 @@ def view(path: str | os.PathLike[str]) -> dict[str, Any]:
         free shapes; ``parts`` and ``instances``: multisets of names;
         ``face_colours``: per leaf occurrence, the surface colour of every
         face (the face's own, else the nearest of its part and the
-        instances above it), rounded to 1e-6; ``layers``: layer name ->
+        instances above it), rounded to 1e-6; ``sub_shape_names``: the
+        multiset of sub-shape label names; ``layers``: layer name ->
         sorted member names.
     """
     doc = read_document(path)
@@ -637,6 +661,7 @@ def view(path: str | os.PathLike[str]) -> dict[str, Any]:
     parts: Counter[str] = Counter()
     instances: Counter[str] = Counter()
     faces: list[Any] = []
+    sub_names: Counter[str] = Counter()
 
     def placement(label: Any) -> list[float]:
         t = XCAFDoc_ShapeTool.GetLocation_s(label).Transformation()
@@ -661,6 +686,7 @@ def view(path: str | os.PathLike[str]) -> dict[str, Any]:
         subs = TopTools_IndexedMapOfShape()
         sub_colour: list[tuple[float, ...]] = []
         for s in _seq(XCAFDoc_ShapeTool.GetSubShapes_s, label):
+            sub_names[_name(s) or ""] += 1
             sc = colour(s)
             if sc is not None:
                 ex = TopExp_Explorer(XCAFDoc_ShapeTool.GetShape_s(s), TopAbs_FACE)
@@ -690,5 +716,6 @@ def view(path: str | os.PathLike[str]) -> dict[str, Any]:
         "parts": dict(parts),
         "instances": dict(instances),
         "face_colours": sorted(faces, key=lambda f: (f[0], f[1])),
+        "sub_shape_names": dict(sub_names),
         "layers": layers,
     }
