@@ -8,7 +8,8 @@ does no geometry.  This module does what those tables mean (docs/format.md
    edge's 3-D curve's, the projections of its vertices: :func:`range_kinds`);
 2. SNET: every coded surface net, each first pole against the previous net's
    (:func:`codec.decode_net`, the one closed-loop function the encoder uses);
-3. net corners pinned to their vertices (:func:`joins.surface_corner_pins`);
+3. net corners pinned to their vertices (:func:`joins.surface_corner_pins`;
+   from format 1.2, a corner within its net's grid step of one: :func:`joins.pin_radius`);
 4. SIDE: net sides set to another net's decoded side;
 5. CNET: every coded curve, anchored at its vertices (:func:`joins.anchors`),
    its ends then pinned to them, and the copies of other curves last.
@@ -369,12 +370,21 @@ def _join_sides(m: BRepModel) -> None:
             raise SectionError(f"{where}: {e}") from None
 
 
-def apply(m: BRepModel, t: Tables, tol: float) -> None:
-    """Run the decoder's geometric steps (module docstring) on ``m``, in place."""
+def apply(m: BRepModel, t: Tables, tol: float, minor: int) -> None:
+    """Run the decoder's geometric steps (module docstring) on ``m``, in place,
+    as format 1.``minor`` defines them (1.2 pins a net's corners only to a
+    vertex within its own grid step: :func:`joins.pin_radius`)."""
     resolve_ranges(m, t.range_how)
-    coded_surfaces = set(coded_rows(m.surfaces))
+    srows = coded_rows(m.surfaces)
+    coded_surfaces = set(srows)
     _decode_nets(t.snet, m.surfaces, tol, "SNET")
-    for r, pins in joins.surface_corner_pins(m, m.surfaces, coded_surfaces, tol).items():
+    radius = None  # before 1.2: every corner within tol of a vertex of its face
+    if minor >= 2:
+        radius = {
+            row: joins.pin_radius(tol, int(t.snet.quant[k]), int(t.snet.level[k]))
+            for k, row in enumerate(srows)
+        }
+    for r, pins in joins.surface_corner_pins(m, m.surfaces, coded_surfaces, tol, radius).items():
         g = m.surfaces[r]
         g.poles[...] = joins.pinned_corners(m, g, pins)  # type: ignore[union-attr,arg-type]
     _join_sides(m)
@@ -406,7 +416,8 @@ def sections_to_model(
     LimitError
         Coded nets larger than a reader allocates, or a shape past ``limits``.
     """
+    minor = max(serialize.ADDED) if minor is None else minor
     m, meta, t = serialize.read_sections(get, minor, limits)
     with np.errstate(all="ignore"):  # overflows become non-finite values, refused by name
-        apply(m, t, serialize.tolerance(meta))
+        apply(m, t, serialize.tolerance(meta), minor)
     return m, meta

@@ -88,24 +88,8 @@ def test_corpus_no_new_gaps(path: Path, tmp_path: Path, tol: float) -> None:
     _no_new_gaps(path, tmp_path, tol)
 
 
-#: Corpus files whose container still grows with the tolerance, and why.
-GROWS_WITH_TOL = {
-    "occt__bearing.iges": "0.01 -> 0.1 mm: at 0.1 mm (more than the part's 0.07 mm) "
-    "OCCT's STEP reader splits 4 faces of 10 um unless they are kept exact",
-}
-
-
 @pytest.mark.slow
-@pytest.mark.parametrize(
-    "path",
-    [
-        pytest.param(p, marks=pytest.mark.xfail(strict=True, reason=GROWS_WITH_TOL[p.name]))
-        if p.name in GROWS_WITH_TOL
-        else p
-        for p in corpus_files()
-    ],
-    ids=lambda p: p.name,
-)
+@pytest.mark.parametrize("path", corpus_files(), ids=lambda p: p.name)
 def test_corpus_no_growth_with_tol(path: Path, tmp_path: Path) -> None:
     """A larger tolerance never gives a larger container (issue 10)."""
     sizes = [_made(path, tol, tmp_path).stat().st_size for tol in (0.001, 0.01, 0.1)]

@@ -254,7 +254,10 @@ def _pin_surfaces(
 ) -> None:
     """Apply :func:`joins.surface_corner_pins` as the decoder will, raising bounds."""
     rows = _Rows(surfaces)
-    for r, pins in joins.surface_corner_pins(m, surfaces, first_rows(surfaces, codes), tol).items():
+    radius = joins.pin_radii(surfaces, codes, tol)
+    for r, pins in joins.surface_corner_pins(
+        m, surfaces, first_rows(surfaces, codes), tol, radius
+    ).items():
         old, original = surfaces[r], m.surfaces[r]
         assert isinstance(old, BSplineSurface) and isinstance(original, BSplineSurface)
         new = replace(old, poles=joins.pinned_corners(m, old, pins))

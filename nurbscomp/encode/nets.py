@@ -247,8 +247,9 @@ def code_model(
     snapped.vertex_point = vgrid
     decoded_s = [surfaces[id(g)][1] if id(g) in surfaces else g for g in m.surfaces]
     srows = first_rows(m.surfaces, surfaces)
+    radius = joins.pin_radii(m.surfaces, {k: c for k, (c, _) in surfaces.items()}, tol)
     for mm in (m, snapped):  # a pin may go to the exact or to the snapped vertex
-        for r, pins in joins.surface_corner_pins(mm, decoded_s, srows, tol).items():
+        for r, pins in joins.surface_corner_pins(mm, decoded_s, srows, tol, radius).items():
             g = m.surfaces[r]
             assert isinstance(g, BSplineSurface)
             if any(
