@@ -34,10 +34,12 @@ samples: install
 # how fast" figures, all from one run over ../shared/corpus.  Minutes, not part
 # of `make test`.  matplotlib (the `bench` extra) draws the plot.  It also
 # times `--help`, `--version` and `info` (goal < 0.5 s) and the corpus as one
-# batch with -j 1 and -j 2 (goal >= 1.8x on 2 cores).
+# batch with -j 1 and -j 2 (goal >= 1.8x on 2 cores).  The cost of product
+# data (bench-product) goes to docs/benchmarks-product.md.
 bench: install
 	@$(PY) -c "import matplotlib" 2>/dev/null || $(PIP) install --quiet -e '.[bench]'
 	$(PY) benchmarks/bench.py
+	$(PY) benchmarks/product_cost.py > docs/benchmarks-product.md
 
 # What product data (format 1.2's PROD: tree, names, colours, layers, header)
 # costs per file of the corpus and the assembly sample, lossless (issue 12).
