@@ -405,16 +405,9 @@ def sections_to_model(
 ) -> tuple[BRepModel, dict[str, Any]]:
     """Rebuild a model from a section lookup ``get(tag) -> bytes``: the tables
     (:func:`serialize.read_sections`, every reference and the decoding budget
-    checked), then :func:`apply`.
-
-    Raises
-    ------
-    CorruptError
-        A section is missing, or a subclass: ``SectionError`` (a section does
-        not decode; its tag and where), ``BadReferenceError`` (an index points
-        outside its table).
-    LimitError
-        Coded nets larger than a reader allocates, or a shape past ``limits``.
+    checked), then :func:`apply`.  Raises what :func:`serialize.read_sections`
+    raises, and ``SectionError`` or ``BadReferenceError`` where a net, a range
+    rule or a side join does not decode.
     """
     minor = max(serialize.ADDED) if minor is None else minor
     m, meta, t = serialize.read_sections(get, minor, limits)
