@@ -49,12 +49,23 @@ def _step_text(path: Path) -> dict:
     }
 
 
+#: The name OCCT's STEP writer gives a product that has none: its number
+#: counts the products written before in the process, so two writes of the
+#: same unnamed product (OCCT's round trip, then ours) differ by it.
+_PLACEHOLDER = re.compile(r"(Open CASCADE STEP translator [0-9.]+) [0-9]+")
+
+
+def _unnumbered(view: dict) -> dict:
+    """``view`` with OCCT's placeholder product names unnumbered."""
+    return json.loads(_PLACEHOLDER.sub(r"\1", json.dumps(view)))
+
+
 def assert_same_product(src: Path, nzc: Path, tmp: Path, ext: str = ".step") -> dict:
     """Decompress ``nzc`` and compare it with OCCT's XCAF round trip of ``src``."""
     ref, out = tmp / f"ref{ext}", tmp / f"out{ext}"
     xcaf.round_trip(src, ref)
     pipeline.decompress_file(nzc, out, force=True)
-    want, got = xcaf.view(ref), xcaf.view(out)
+    want, got = _unnumbered(xcaf.view(ref)), _unnumbered(xcaf.view(out))
     for key in ("tree", "parts", "instances", "face_colours", "sub_shape_names", "layers"):
         assert got[key] == want[key], key
     if ext == ".step":

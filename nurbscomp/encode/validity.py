@@ -11,8 +11,9 @@ it falls short, cheapest first.  Two checks:
    edges get their stored pcurves back; where those were already there, its
    record (an edge's curve, a face's surface) stays exact, then its
    neighbours' (the faces of a curve, the curves of a surface).
-2. **The STEP reader** (``step_check``): the candidate is written to STEP and
-   read back once per round, and must keep what OCCT's own round trip of the
+2. **The STEP reader** (``step_check``): the candidate is written to STEP as
+   ``decompress`` writes it (through OCCT's XDE writer when the model has
+   product data) and read back once per round, and must keep what OCCT's own round trip of the
    source keeps (:func:`step_keeps`).  OCCT's round trip of the source (the
    *floor*) is only made when the candidate's re-read differs from the source
    at all.  A source face that comes back otherwise (:func:`step_losses`)
@@ -143,8 +144,9 @@ def build(m: BRepModel) -> Any:
 class _Floor:
     """The source as the STEP reader gives it back, made only when needed."""
 
-    def __init__(self, source: Any, unit: str, report: ValidityReport) -> None:
+    def __init__(self, source: Any, unit: str, report: ValidityReport, product: Any = None) -> None:
         self.source, self.unit, self.report = source, unit, report
+        self.product = product  # the candidates are written as decompress writes them
         self.counts = occ.counts(source)
         self._shape: Any = None
         self._signatures: dict[str, np.ndarray] = {}  # the source's and the floor's
@@ -180,7 +182,7 @@ class _Floor:
         """
         self.report.step_round_trips += 1
         try:
-            back = occ.step_round_trip(shape, self.unit)
+            back = occ.step_round_trip(shape, self.unit, self.product)
         except InputError as e:
             log.debug("STEP round trip of the candidate fails: %s", e)
             return {int(f) for f in self.model_face}
@@ -358,7 +360,7 @@ def lossy_target(m: BRepModel, source: Any, tol: float, step_check: bool = True)
     plan = _Plan(m, tol, source)
     if step_check:
         vr.step_skipped = step_reader_hangs(m)
-    floor = _Floor(source, m.unit, vr) if step_check and not vr.step_skipped else None
+    floor = _Floor(source, m.unit, vr, m.product) if step_check and not vr.step_skipped else None
     old_e, old_f = occ.failures(source)
     for _ in range(MAX_ROUNDS):
         before = plan.state()

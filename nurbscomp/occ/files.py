@@ -361,11 +361,22 @@ def bintools_bytes(shape: Any) -> bytes:
         return Path(f).read_bytes()
 
 
-def step_round_trip(shape: Any, unit: str = "MM") -> Any:
-    """The shape as OCCT reads it back after writing it to STEP (in a temporary file)."""
+def step_round_trip(shape: Any, unit: str = "MM", product: Any = None) -> Any:
+    """The shape as OCCT reads it back after writing it to STEP (in a temporary file).
+
+    With ``product`` (a ``product.ProductData`` of the shape's model) the file
+    is written as ``decompress`` writes it, through OCCT's XDE writer
+    (``xcaf.write``): its STEP differs from the plain writer's, and so may
+    what the reader makes of it.
+    """
     import tempfile
 
     with tempfile.TemporaryDirectory() as d:
         f = Path(d) / "rt.step"
-        write_shape(shape, f, "STEP", unit, products=False)  # names: nothing to check
+        if product is not None:
+            from . import xcaf
+
+            xcaf.write(product, shape, f, "STEP", unit)
+        else:
+            write_shape(shape, f, "STEP", unit, products=False)  # names: nothing to check
         return read_cad(f, own=True).shape
