@@ -320,8 +320,10 @@ def _read_geometry(data: bytes, tag: str, dim: int) -> list[Geometry]:
             else:
                 p = poles.take(nu * nv * 3).reshape(nu, nv, 3)
             wts = weights.take(nu * nv).reshape(nu, nv) if flags & 1 else None
-            if wts is not None and not ((wts > 0).all() and _ok(wts)):
-                raise SectionError(f"{where}: weights must be positive and finite")
+            if wts is not None and not _weights_ok(wts):
+                raise SectionError(
+                    f"{where}: weights must be within [{1 / MAX_COORD:g}, {MAX_COORD:g}]"
+                )
             out.append(
                 BSplineSurface(
                     p, wts, uk, vk, um, vm, ud, vd, bool(flags & 2), bool(flags & 4), bez
@@ -347,8 +349,10 @@ def _read_geometry(data: bytes, tag: str, dim: int) -> list[Geometry]:
             else:
                 cp = poles.take(n * dim).reshape(n, dim)
             wts = weights.take(n) if flags & 1 else None
-            if wts is not None and not ((wts > 0).all() and _ok(wts)):
-                raise SectionError(f"{where}: weights must be positive and finite")
+            if wts is not None and not _weights_ok(wts):
+                raise SectionError(
+                    f"{where}: weights must be within [{1 / MAX_COORD:g}, {MAX_COORD:g}]"
+                )
             out.append(BSplineCurve(cp, wts, kn, mu, deg, bool(flags & 2), bez))
     for c in (copies, hdr, basis, mults, frames, params, poles, weights, knots):
         c.done()
@@ -358,6 +362,15 @@ def _read_geometry(data: bytes, tag: str, dim: int) -> list[Geometry]:
 def _ok(a: np.ndarray) -> bool:
     """Every value finite."""
     return bool(np.isfinite(a).all())
+
+
+def _weights_ok(w: np.ndarray) -> bool:
+    """Every weight within [1/MAX_COORD, MAX_COORD]: OCCT's rational
+    evaluation multiplies weights by coordinates (up to MAX_COORD) and sums
+    them, and crashes on the overflow (found by the structure-aware fuzzer:
+    weights of 1e-300 and 1e300 on poles at 2e100)."""
+    with np.errstate(invalid="ignore"):
+        return bool(((w >= 1.0 / MAX_COORD) & (w <= MAX_COORD)).all())
 
 
 # ---------------------------------------------------------------- topology
@@ -396,6 +409,17 @@ def _read_locations(data: bytes, m: BRepModel) -> None:
         Location(tuple(datums[e - n : e].tolist()), tuple(powers[e - n : e].tolist()))
         for n, e in zip(lengths.tolist(), ends.tolist())
     ]
+
+
+def _check_location_matrices(m: BRepModel) -> None:
+    """Raise ``SectionError`` unless every location's matrix (its datums raised
+    to their powers, ``joins.location_matrix``) is finite and within
+    ``MAX_COORD``: OCCT's STEP writer crashes on an overflowed one (found by
+    the structure-aware fuzzer: a 1e100 scale raised to the power 2^31 - 1)."""
+    for k in range(1, len(m.locations)):
+        t = joins.location_matrix(m, k)
+        if not (np.abs(t) < MAX_COORD).all():
+            raise SectionError(f"LOCS: location {k}'s matrix is not finite or out of range")
 
 
 #: Largest ``gp_TrsfForm`` value (``gp_Other``).
@@ -1162,6 +1186,7 @@ def _sections_to_model(
     check_references(m)
     if limits is not None:
         budget.check_structure(m, limits)
+    _check_location_matrices(m)
     _resolve_ranges(m, range_how)
     coded_surfaces = set(coded_rows(m.surfaces))
     _read_nets(get("SNET"), m.surfaces, tol, "SNET")
