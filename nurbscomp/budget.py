@@ -64,7 +64,8 @@ class Limits:
     """
 
     #: Rows of the tables the decoder loops over (shapes, sub-shape
-    #: references, edge and vertex representations, geometry rows), checked
+    #: references, edge and vertex representations, geometry rows, location
+    #: factors), checked
     #: before any loop: the sections may declare up to 256 MB of them.
     rows: int = 1_000_000
     #: Sub-shape references with sharing unfolded: what OCCT's explorers,
@@ -299,6 +300,7 @@ def check_structure(m: BRepModel, limits: Limits = DEFAULT) -> Expansion:
     """
     rows = len(m.shape_type) + len(m.child_shape) + len(m.edge_reps) + len(m.vertex_reps)
     rows += len(m.surfaces) + len(m.curves3d) + len(m.curves2d)
+    rows += sum(len(loc.datums) for loc in m.locations)
     if rows > limits.rows:
         raise _refuse(
             rows, "table rows (shapes, references, representations, geometry)", limits.rows

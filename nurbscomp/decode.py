@@ -4,6 +4,7 @@
 does no geometry.  This module does what those tables mean (docs/format.md
 §2.4, §2.7, §2.9, §2.10), in the order :func:`apply` runs them:
 
+0. every location's matrix checked (finite, within ``MAX_COORD``);
 1. edge ranges the EDGE section left to rules (the curve's own range, the
    edge's 3-D curve's, the projections of its vertices: :func:`range_kinds`);
 2. SNET: every coded surface net, each first pole against the previous net's
@@ -370,10 +371,22 @@ def _join_sides(m: BRepModel) -> None:
             raise SectionError(f"{where}: {e}") from None
 
 
+def check_location_matrices(m: BRepModel) -> None:
+    """Raise ``SectionError`` unless every location's matrix (its datums raised
+    to their powers, :func:`joins.location_matrix`) is finite and within
+    ``MAX_COORD``: OCCT's STEP writer crashes on an overflowed one (found by
+    the structure-aware fuzzer: a 1e100 scale raised to the power 2^31 - 1)."""
+    for k in range(1, len(m.locations)):
+        t = joins.location_matrix(m, k)
+        if not (np.abs(t) < MAX_COORD).all():
+            raise SectionError(f"LOCS: location {k}'s matrix is not finite or out of range")
+
+
 def apply(m: BRepModel, t: Tables, tol: float, minor: int) -> None:
     """Run the decoder's geometric steps (module docstring) on ``m``, in place,
     as format 1.``minor`` defines them (1.2 pins a net's corners only to a
     vertex within its own grid step: :func:`joins.pin_radius`)."""
+    check_location_matrices(m)
     resolve_ranges(m, t.range_how)
     srows = coded_rows(m.surfaces)
     coded_surfaces = set(srows)

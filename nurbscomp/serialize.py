@@ -323,8 +323,10 @@ def _read_geometry(data: bytes, tag: str, dim: int) -> list[Geometry]:
             else:
                 p = poles.take(nu * nv * 3).reshape(nu, nv, 3)
             wts = weights.take(nu * nv).reshape(nu, nv) if flags & 1 else None
-            if wts is not None and not ((wts > 0).all() and _ok(wts)):
-                raise SectionError(f"{where}: weights must be positive and finite")
+            if wts is not None and not _weights_ok(wts):
+                raise SectionError(
+                    f"{where}: weights must be within [{1 / MAX_COORD:g}, {MAX_COORD:g}]"
+                )
             out.append(
                 BSplineSurface(
                     p, wts, uk, vk, um, vm, ud, vd, bool(flags & 2), bool(flags & 4), bez
@@ -350,8 +352,10 @@ def _read_geometry(data: bytes, tag: str, dim: int) -> list[Geometry]:
             else:
                 cp = poles.take(n * dim).reshape(n, dim)
             wts = weights.take(n) if flags & 1 else None
-            if wts is not None and not ((wts > 0).all() and _ok(wts)):
-                raise SectionError(f"{where}: weights must be positive and finite")
+            if wts is not None and not _weights_ok(wts):
+                raise SectionError(
+                    f"{where}: weights must be within [{1 / MAX_COORD:g}, {MAX_COORD:g}]"
+                )
             out.append(BSplineCurve(cp, wts, kn, mu, deg, bool(flags & 2), bez))
     for c in (copies, hdr, basis, mults, frames, params, poles, weights, knots):
         c.done()
@@ -361,6 +365,15 @@ def _read_geometry(data: bytes, tag: str, dim: int) -> list[Geometry]:
 def _ok(a: np.ndarray) -> bool:
     """Every value finite."""
     return bool(np.isfinite(a).all())
+
+
+def _weights_ok(w: np.ndarray) -> bool:
+    """Every weight within [1/MAX_COORD, MAX_COORD]: OCCT's rational
+    evaluation multiplies weights by coordinates (up to MAX_COORD) and sums
+    them, and crashes on the overflow (found by the structure-aware fuzzer:
+    weights of 1e-300 and 1e300 on poles at 2e100)."""
+    with np.errstate(invalid="ignore"):
+        return bool(((w >= 1.0 / MAX_COORD) & (w <= MAX_COORD)).all())
 
 
 # ---------------------------------------------------------------- topology

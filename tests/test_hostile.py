@@ -360,6 +360,7 @@ def test_table_rows_are_bounded_before_any_loop() -> None:
     m, meta = _model()
     n = len(m.shape_type) + len(m.child_shape) + len(m.edge_reps) + len(m.vertex_reps)
     n += len(m.surfaces) + len(m.curves3d) + len(m.curves2d)
+    n += sum(len(loc.datums) for loc in m.locations)
     data = fuzz.pack_model(m, meta)
     pipeline.decode(container.unpack(data), dataclasses.replace(budget.DEFAULT, rows=n))
     with pytest.raises(LimitError, match=f"{n:,} table rows"):
@@ -398,3 +399,26 @@ def test_chains_of_geometry_bases_are_bounded() -> None:
         _decode(data)
     assert time.perf_counter() - t < 5
     assert budget.expansion(_model()[0]).bases <= 2
+
+
+def test_overflowing_locations_and_weights_are_refused(tmp_path: Path) -> None:
+    """Found by the structure-aware fuzzer (seed 1, cases 7145 and 5427): a
+    1e100 scale raised to the power 2^31 - 1 crashed OCCT's STEP writer, and
+    weights of 1e-300 and 1e300 on poles at 2e100 its pcurve projection."""
+    m, meta = _model()
+    rows = np.array([[[1e100, 0, 0, 0], [0, 1e100, 0, 0], [0, 0, 1e100, 0]]])
+    (k,) = fuzz.add_datums(m, rows, 6)
+    m.locations[k] = model.Location(m.locations[k].datums, (2**31 - 1,))
+    m.root_loc = k
+    data = fuzz.pack_model(m, meta)
+    with pytest.raises(SectionError, match="LOCS: location .* not finite or out of range"):
+        _decode(data)
+    assert "LOCS" in _cli_one_line(tmp_path, data, "decompress")
+    m, meta = _model()
+    (t, i) = next((t, i) for t, i in fuzz._bsplines(m) if t is m.curves3d)
+    g = t[i]
+    w = np.ones(len(g.poles))
+    w[0], w[-1] = 1e-300, 1e300
+    t[i] = dataclasses.replace(g, weights=w)
+    with pytest.raises(SectionError, match="CRV3 row .*: weights must be within"):
+        _decode(fuzz.pack_model(m, meta))
