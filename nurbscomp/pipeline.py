@@ -14,6 +14,7 @@ import dataclasses
 import functools
 import logging
 import os
+import signal
 import stat
 import tempfile
 import time
@@ -175,12 +176,18 @@ def atomic_output(dst: Path, force: bool, inputs: tuple[Path, ...] = ()) -> Iter
     folder = dst.parent if str(dst.parent) else Path(".")
     if not folder.is_dir():
         raise OutputError(f"output folder {folder} does not exist")
+    # no interrupt between making the file and the try that removes it: the
+    # signals the CLI turns into interrupts wait until the try is entered
+    held = {signal.SIGINT, signal.SIGTERM, signal.SIGHUP}
+    old_mask = signal.pthread_sigmask(signal.SIG_BLOCK, held)
     try:
         fd, tmp = tempfile.mkstemp(prefix=_tmp_prefix(dst.name), suffix=".tmp", dir=folder)
     except OSError as e:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old_mask)
         raise OutputError(f"cannot write in {folder}: {_os_message(e)}") from None
-    os.close(fd)
     try:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old_mask)
+        os.close(fd)
         yield Path(tmp)
         umask = os.umask(0)
         os.umask(umask)
