@@ -157,6 +157,18 @@ def sew_faces(faces: Sequence[TopoDS_Shape], tolerance: float) -> TopoDS_Shape:
     return sewing.SewedShape()
 
 
+def _fixed_header(model, name: str) -> None:
+    """The STEP header every sample gets: fixed fields, so the same shape gives the same bytes."""
+    header = APIHeaderSection_MakeHeader(model)
+    header.SetName(TCollection_HAsciiString(name))
+    header.SetTimeStamp(TCollection_HAsciiString(FIXED_TIMESTAMP))
+    header.SetAuthorValue(1, TCollection_HAsciiString("nurbscomp"))
+    header.SetOrganizationValue(1, TCollection_HAsciiString("nurbscomp"))
+    header.SetOriginatingSystem(TCollection_HAsciiString("nurbscomp make_samples.py"))
+    header.SetAuthorisation(TCollection_HAsciiString("none"))
+    header.SetDescriptionValue(1, TCollection_HAsciiString(f"nurbscomp sample {name}"))
+
+
 def write_step(shape: TopoDS_Shape, path: Path, name: str) -> None:
     """Write a shape to an AP214 STEP file in millimetres with a fixed header.
 
@@ -181,14 +193,7 @@ def write_step(shape: TopoDS_Shape, path: Path, name: str) -> None:
     status = writer.Transfer(shape, STEPControl_AsIs)
     if status != IFSelect_ReturnStatus.IFSelect_RetDone:
         raise RuntimeError(f"STEP transfer failed for {path}: {status}")
-    header = APIHeaderSection_MakeHeader(writer.Model())
-    header.SetName(TCollection_HAsciiString(name))
-    header.SetTimeStamp(TCollection_HAsciiString(FIXED_TIMESTAMP))
-    header.SetAuthorValue(1, TCollection_HAsciiString("nurbscomp"))
-    header.SetOrganizationValue(1, TCollection_HAsciiString("nurbscomp"))
-    header.SetOriginatingSystem(TCollection_HAsciiString("nurbscomp make_samples.py"))
-    header.SetAuthorisation(TCollection_HAsciiString("none"))
-    header.SetDescriptionValue(1, TCollection_HAsciiString(f"nurbscomp sample {name}"))
+    _fixed_header(writer.Model(), name)
     status = writer.Write(str(path))
     if status != IFSelect_ReturnStatus.IFSelect_RetDone:
         raise RuntimeError(f"STEP write failed for {path}: {status}")
@@ -287,14 +292,7 @@ def write_assembly_step(
     writer = STEPCAFControl_Writer()
     if not writer.Transfer(doc, STEPControl_AsIs):
         raise RuntimeError(f"STEP transfer failed for {path}")
-    header = APIHeaderSection_MakeHeader(writer.ChangeWriter().Model())
-    header.SetName(TCollection_HAsciiString(name))
-    header.SetTimeStamp(TCollection_HAsciiString(FIXED_TIMESTAMP))
-    header.SetAuthorValue(1, TCollection_HAsciiString("nurbscomp"))
-    header.SetOrganizationValue(1, TCollection_HAsciiString("nurbscomp"))
-    header.SetOriginatingSystem(TCollection_HAsciiString("nurbscomp make_samples.py"))
-    header.SetAuthorisation(TCollection_HAsciiString("none"))
-    header.SetDescriptionValue(1, TCollection_HAsciiString(f"nurbscomp sample {name}"))
+    _fixed_header(writer.ChangeWriter().Model(), name)
     status = writer.Write(str(path))
     if status != IFSelect_ReturnStatus.IFSelect_RetDone:
         raise RuntimeError(f"STEP write failed for {path}: {status}")
