@@ -304,10 +304,9 @@ def write(
     name = meta.get("source_name") or ""
     name = name[: -len(SUFFIX)] if name.endswith(SUFFIX) else name
     try:
-        if product_data is not None and fmt != "BREP":
-            occ.write_product(product_data, shape, path, fmt, unit, name, meta.get("writer") or "")
-        else:
-            occ.write_shape(shape, path, fmt, unit, name=name, system=meta.get("writer") or "")
+        occ.write_shape(
+            shape, path, fmt, unit, name=name, system=meta.get("writer") or "", product=product_data
+        )
     except NurbscompError:
         raise
     except OSError as e:

@@ -31,7 +31,6 @@ from .measure import (
 )
 from .mesh import face_meshes
 from .topology import model_to_shape, shape_to_model
-from .xcaf import write as write_product
 
 __all__ = [
     "UNITS_MM",
@@ -57,6 +56,5 @@ __all__ = [
     "read_cad",
     "shape_to_model",
     "step_round_trip",
-    "write_product",
     "write_shape",
 ]

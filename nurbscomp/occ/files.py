@@ -253,8 +253,13 @@ def write_shape(
     name: str = "",
     system: str = "",
     products: bool = True,
+    product: Any = None,
 ) -> None:
     """Write a shape to STEP, IGES or BREP.
+
+    With ``product`` (the ``product.ProductData`` of the shape's model), STEP
+    and IGES are written through OCCT's XDE writers with its tree, names,
+    colours, layers, schema and header (``xcaf.write``).
 
     STEP output depends on nothing but its arguments: the header's FILE_NAME
     gets ``name``, ``system`` as the originating system and the fixed
@@ -288,6 +293,11 @@ def write_shape(
     p = Path(path)
     if unit not in UNITS_MM:
         raise OutputError(f"unknown length unit {unit!r}")
+    if product is not None and fmt != "BREP":
+        from . import xcaf
+
+        xcaf.write(product, shape, p, fmt, unit, name, system)
+        return
     if fmt == "BREP":
         if not BRepTools.Write_s(shape, str(p)):
             raise OutputError("cannot write BREP")
@@ -373,10 +383,5 @@ def step_round_trip(shape: Any, unit: str = "MM", product: Any = None) -> Any:
 
     with tempfile.TemporaryDirectory() as d:
         f = Path(d) / "rt.step"
-        if product is not None:
-            from . import xcaf
-
-            xcaf.write(product, shape, f, "STEP", unit)
-        else:
-            write_shape(shape, f, "STEP", unit, products=False)  # names: nothing to check
+        write_shape(shape, f, "STEP", unit, products=False, product=product)
         return read_cad(f, own=True).shape
