@@ -180,3 +180,23 @@ def test_reserved_bits_and_trailing_bytes_have_their_own_errors() -> None:
         container.unpack(fix_crcs(bytes(data)))
     with pytest.raises(TrailingDataError, match="offset"):
         container.unpack(container.pack(SECTIONS) + b"xyz")
+
+
+def test_large_bodies_try_fewer_streams() -> None:
+    """Above FULL_SEARCH_MAX only the ranked LZMA finalists run at 9e, and brotli
+    only up to BROTLI_MAX; the result still decodes and is the smallest tried."""
+    rng = __import__("numpy").random.default_rng(5)
+    body = rng.integers(0, 16, entropy.BROTLI_MAX + 1000, dtype="uint8").tobytes()
+    jobs = entropy._jobs(tuple(entropy.Coder), body)
+    coders = [c for c, _ in jobs]
+    assert entropy.Coder.BROTLI not in coders
+    assert coders.count(entropy.Coder.LZMA) == entropy.LZMA_FINALISTS
+    mid = body[: entropy.FULL_SEARCH_MAX + 1]
+    assert entropy.Coder.BROTLI in [c for c, _ in entropy._jobs(tuple(entropy.Coder), mid)]
+    small = body[: entropy.FULL_SEARCH_MAX]
+    n_lzma = [c for c, _ in entropy._jobs(tuple(entropy.Coder), small)].count(entropy.Coder.LZMA)
+    assert n_lzma == 1 + len(entropy.LZMA_TUNINGS)
+    coder, out = entropy.compress(mid)
+    assert entropy.decompress(coder, out, len(mid)) == mid
+    tried = [len(entropy._compress(c, mid, t)) for c, t in entropy._jobs(tuple(entropy.Coder), mid)]
+    assert len(out) == min(tried)
