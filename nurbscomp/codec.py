@@ -31,7 +31,8 @@ Everything here is numpy on plain arrays: nets are (nu, nv, 3).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+import functools
+from dataclasses import dataclass, field, replace
 from enum import IntEnum
 
 import numpy as np
@@ -177,8 +178,22 @@ def _first(origin: np.ndarray) -> np.ndarray:
     return origin if origin.ndim == 1 else origin[0]
 
 
+#: Codes of up to this many integers are costed in Python (``int.bit_length``):
+#: on the short codes of real nets numpy's per-call overhead dominates.
+_SHORT = 96
+
+
 def cost_bits(q: np.ndarray) -> float:
-    """Exp-Golomb length of zig-zag mapped integers: a proxy for the entropy coder."""
+    """Exp-Golomb length of zig-zag mapped integers: a proxy for the entropy coder.
+
+    Zig-zag maps v to z = 2|v| - (v < 0), whose code has 2·floor(log2(z+1)) + 1
+    bits; floor(log2(z+1)) is (z+1).bit_length() - 1.  Every term is an
+    integer, so the sum is exact in either branch (the same float).
+    """
+    if q.size <= _SHORT:
+        return float(
+            sum(2 * (2 * v + 1 if v >= 0 else -2 * v).bit_length() - 1 for v in q.tolist())
+        )
     z = np.abs(q).astype(np.float64) * 2 - (q < 0)
     return float(np.sum(2 * np.floor(np.log2(z + 1.0)) + 1))
 
@@ -191,18 +206,50 @@ class _Stepper:
 
     def __init__(self, quant: Quant, level: int, slope: int, tol: float) -> None:
         self.quant, self.level, self.slope, self.tol = quant, level, slope, tol
-
-    @property
-    def grid(self) -> float:
-        """Step of the grid the corners are snapped to."""
-        if self.quant == Quant.TOL:
-            return self.tol * 2.0 ** (self.level / 4)
-        return self.tol
+        #: Step of the grid the corners are snapped to.
+        self.grid = tol * 2.0 ** (level / 4) if quant == Quant.TOL else tol
 
     def steps(self, shape: tuple[int, ...], dc: np.ndarray) -> np.ndarray:
         if self.quant == Quant.TOL:
-            return dct.tol_steps(shape, self.grid, SLOPES[self.slope])
+            return _tol_table(shape, self.grid, SLOPES[self.slope])[0]
         return dct.paper_steps(shape, dc, self.level)
+
+
+@functools.lru_cache(maxsize=4096)
+def _tol_table(shape: tuple[int, ...], delta: float, slope: float) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`dct.tol_steps` (read-only), and MAX_INT times them: the largest
+    magnitudes they may quantize.  Every trial of a net at one setting, and
+    every net of one shape, uses the same steps."""
+    steps = dct.tol_steps(shape, delta, slope)
+    limit = MAX_INT * np.where(steps > 0, steps, np.inf)
+    steps.setflags(write=False)
+    limit.setflags(write=False)
+    return steps, limit
+
+
+@dataclass
+class _Memo:
+    """What the trials of one net share (encoder only).
+
+    Each entry depends on the net, its origin and the grid step h or the
+    whole quantizer setting, and on nothing else a trial varies: it is
+    computed once per net, not once per method, slope and trial.  Arrays held
+    here are read-only.
+    """
+
+    #: coded boundaries by quantizer setting: every Coons method codes the
+    #: same corners and curves first (None: unusable there)
+    boundaries: dict[tuple[int, int, int], _Boundary | None] = field(default_factory=dict)
+    #: points snapped by :meth:`_Writer.grid`, by (which points, h): their
+    #: integers, the bits of those, and the decoded points (None: unusable)
+    grids: dict[tuple[str, float], tuple[np.ndarray, float, np.ndarray] | None] = field(
+        default_factory=dict
+    )
+    #: a curve's chord (eq. 5) and the DCT of its inner poles' differences to
+    #: it (eq. 6-9), by (which curve, h): its ends are decoded on that grid
+    chords: dict[tuple[str, float], tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
+    #: Coons nets of coded boundaries, by (quantizer setting, bicubic)
+    nets: dict[tuple[int, int, int, bool], np.ndarray] = field(default_factory=dict)
 
 
 class _Writer:
@@ -212,53 +259,91 @@ class _Writer:
         self,
         stepper: _Stepper,
         dfit: np.ndarray | None = None,
-        boundaries: dict[tuple[int, int, int], _Boundary | None] | None = None,
+        memo: _Memo | None = None,
     ) -> None:
         self.st = stepper
         self.ints: list[np.ndarray] = []
+        #: bits of each of ``ints`` where known already (:func:`cost_bits`; a
+        #: sum of integers, so they add up exactly)
+        self.costs: list[float | None] = []
         self.dcs: list[np.ndarray] = []
         self.dfit = dfit  # the D-map fitted once to the exact boundaries' Coons net
-        # one net's coded boundaries by quantizer setting: every Coons method
-        # codes the same corners and curves first (None: unusable there)
-        self.boundaries = boundaries
+        self.memo = memo
+
+    def add(self, ints: np.ndarray, bits: float | None = None) -> None:
+        """Record integers of the code (and their bits, if known)."""
+        self.ints.append(ints)
+        self.costs.append(bits)
+
+    def bits(self, start: int = 0) -> float:
+        """:func:`cost_bits` of the integers recorded from ``start`` on (part by part)."""
+        parts = zip(self.ints[start:], self.costs[start:], strict=True)
+        return float(sum(cost_bits(i) if c is None else c for i, c in parts))
 
     def coeffs(self, d: np.ndarray) -> np.ndarray:
         shape = d.shape[:-1]
         dc = d.reshape(-1, d.shape[-1])[0]
+        if self.st.quant == Quant.TOL:
+            # steps of the tolerance quantizer are all > 0: no collapsed step
+            steps, limit = _tol_table(shape, self.st.grid, SLOPES[self.st.slope])
+            if not (np.abs(d) <= limit).all():
+                raise _Unusable
+            q = np.rint(d / steps).astype(np.int64)
+            self.add(q.reshape(-1))
+            return q * steps
         steps = self.st.steps(shape, dc)
         if not np.all(np.abs(d) <= MAX_INT * np.where(steps > 0, steps, np.inf)):
             raise _Unusable  # a collapsed paper step (D00 ~ 0) would overflow
         q = dct.quantize(d, steps)
         out = dct.dequantize(q, steps)
-        if self.st.quant == Quant.PAPER:
-            flat_q, flat_out = q.reshape(-1, d.shape[-1]), out.reshape(-1, d.shape[-1])
-            flat_out[0] = dc  # D00 is sent; round(D00/Q00) = 2^a carries nothing
-            self.dcs.append(dc.copy())
-            self.ints.append(flat_q[1:].reshape(-1))
-        else:
-            self.ints.append(q.reshape(-1))
+        flat_q, flat_out = q.reshape(-1, d.shape[-1]), out.reshape(-1, d.shape[-1])
+        flat_out[0] = dc  # D00 is sent; round(D00/Q00) = 2^a carries nothing
+        self.dcs.append(dc.copy())
+        self.add(flat_q[1:].reshape(-1))
         return out
 
     def predicted(self, p: np.ndarray, origin: np.ndarray) -> np.ndarray:
         """Grid snap + closed-loop prediction (parallelogram for nets, line for curves)."""
         h = self.st.grid
-        if not np.all(np.abs(p) <= MAX_INT * h):
+        if not np.abs(p).max() <= MAX_INT * h:  # NaN fails too
             raise _Unusable
         q = spatial.snap(p, h)
         r = _residuals(q)
         r.reshape(-1, p.shape[-1])[0] -= spatial.snap(_first(origin), h)
-        self.ints.append(r.reshape(-1))
+        self.add(r.reshape(-1))
         return q * h
 
-    def grid(self, p: np.ndarray, origin: np.ndarray) -> np.ndarray:
+    def grid(self, p: np.ndarray, origin: np.ndarray, which: str = "") -> np.ndarray:
         """Snap points (k, 3) to the grid; code the first against ``origin`` (the
-        first two against its rows if it has two), the rest against the first."""
+        first two against its rows if it has two), the rest against the first.
+
+        ``which`` names the points for the net's :class:`_Memo` (every setting
+        with the same grid step codes them alike).
+        """
         h = self.st.grid
-        if not np.all(np.abs(p) <= MAX_INT * h):
+        memo = self.memo.grids if self.memo is not None and which else None
+        key = (which, h)
+        if memo is not None and key in memo:
+            hit = memo[key]
+            if hit is None:
+                raise _Unusable
+            self.add(hit[0], hit[1])
+            return hit[2]
+        if not np.abs(p).max() <= MAX_INT * h:  # NaN fails too
+            if memo is not None:
+                memo[key] = None
             raise _Unusable
         q = spatial.snap(p, h)
-        self.ints.append(_against(q, spatial.snap(origin, h)).reshape(-1))
-        return q * h
+        ints = _against(q, spatial.snap(origin, h)).reshape(-1)
+        out = q * h
+        if memo is not None:
+            ints.setflags(write=False)
+            out.setflags(write=False)
+            memo[key] = (ints, cost_bits(ints), out)
+            self.add(ints, memo[key][1])  # type: ignore[index]
+        else:
+            self.add(ints)
+        return out
 
 
 class _Reader:
@@ -291,7 +376,7 @@ class _Reader:
         steps = self.st.steps(shape, np.zeros(c))
         return dct.dequantize(self._take(like.size).reshape(like.shape), steps)
 
-    def grid(self, like: np.ndarray, origin: np.ndarray) -> np.ndarray:
+    def grid(self, like: np.ndarray, origin: np.ndarray, which: str = "") -> np.ndarray:
         h = self.st.grid
         d = self._take(like.size).reshape(like.shape)
         return _unagainst(d, spatial.snap(origin, h)) * h
@@ -320,23 +405,44 @@ def _unagainst(d: np.ndarray, qo: np.ndarray) -> np.ndarray:
 # ---------------------------------------------------------------- boundary + Coons
 
 
-def _curve(io: _Writer | _Reader, p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+def _curve(
+    io: _Writer | _Reader, p: np.ndarray, a: np.ndarray, b: np.ndarray, which: str = ""
+) -> np.ndarray:
     """Code one boundary curve's inner poles against the chord of its decoded ends.
 
     Eq. 5-6: R_i = (1-(i+1)/n)·P0 + (i+1)/n·Pn, V_i = P_{i+1} - R_i; then DCT
     (eq. 8-9) and quantization (eq. 10).  ``a`` and ``b`` are the *decoded*
     end poles (closed loop), ``p`` the curve's poles (its ends unused).
+    ``which`` names the curve for the encoder's :class:`_Memo`: its ends are
+    then those :meth:`_Writer.grid` decoded on the setting's grid, so the
+    chord and the DCT depend on the grid step alone.
     """
     n = len(p) - 1
     if n < 2:
-        return np.stack([a, b])
-    f = (np.arange(1, n) / n)[:, None]
-    chord = (1 - f) * a + f * b
+        return np.array([a, b])
     if isinstance(io, _Writer):
-        v = io.coeffs(dct.dct1(p[1:-1] - chord))
+        memo = io.memo.chords if io.memo is not None and which else None
+        key = (which, io.st.grid)
+        if memo is not None and key in memo:
+            chord, d = memo[key]
+        else:
+            chord = _chord(a, b, n)
+            d = dct.dct1(p[1:-1] - chord)
+            if memo is not None:
+                chord.setflags(write=False)
+                d.setflags(write=False)
+                memo[key] = (chord, d)
+        v = io.coeffs(d)
     else:
+        chord = _chord(a, b, n)
         v = io.coeffs(np.empty((n - 1, p.shape[1])))
     return np.concatenate([a[None], chord + dct.idct1(v), b[None]])
+
+
+def _chord(a: np.ndarray, b: np.ndarray, n: int) -> np.ndarray:
+    """R_i = (1-(i+1)/n)·a + (i+1)/n·b, i = 0..n-2 (eq. 5)."""
+    f = (np.arange(1, n) / n)[:, None]
+    return (1 - f) * a + f * b
 
 
 @dataclass(frozen=True)
@@ -347,6 +453,7 @@ class _Boundary:
     curves: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
     ints: tuple[np.ndarray, ...]
     dcs: tuple[np.ndarray, ...]
+    bits: float  # cost_bits of the integers
 
 
 def _boundary(
@@ -356,9 +463,9 @@ def _boundary(
     between them; return the decoded curves u0, u1, v0, v1.
 
     The encoder codes them once per quantizer setting of a net
-    (``_Writer.boundaries``): every Coons method begins with the same code.
+    (``_Memo.boundaries``): every Coons method begins with the same code.
     """
-    cache = io.boundaries if isinstance(io, _Writer) else None
+    cache = io.memo.boundaries if isinstance(io, _Writer) and io.memo is not None else None
     key = (int(io.st.quant), io.st.level, io.st.slope)
     if cache is not None and key in cache:
         assert isinstance(io, _Writer)
@@ -366,17 +473,20 @@ def _boundary(
         if hit is None:
             raise _Unusable
         io.ints.extend(hit.ints)
+        io.costs.extend([hit.bits] + [0.0] * (len(hit.ints) - 1))
         io.dcs.extend(hit.dcs)
         return hit.curves
     n_ints, n_dcs = (len(io.ints), len(io.dcs)) if isinstance(io, _Writer) else (0, 0)
     try:
         corners = p[[0, 0, -1, -1], [0, -1, 0, -1]]
-        c = io.grid(corners if isinstance(io, _Writer) else np.empty_like(corners), origin)
+        c = io.grid(
+            corners if isinstance(io, _Writer) else np.empty_like(corners), origin, "corners"
+        )
         curves = (
-            _curve(io, p[0], c[0], c[1]),
-            _curve(io, p[-1], c[2], c[3]),
-            _curve(io, p[:, 0], c[0], c[2]),
-            _curve(io, p[:, -1], c[1], c[3]),
+            _curve(io, p[0], c[0], c[1], "u0"),
+            _curve(io, p[-1], c[2], c[3], "u1"),
+            _curve(io, p[:, 0], c[0], c[2], "v0"),
+            _curve(io, p[:, -1], c[1], c[3], "v1"),
         )
     except _Unusable:
         if cache is not None:
@@ -384,7 +494,10 @@ def _boundary(
         raise
     if cache is not None:
         assert isinstance(io, _Writer)
-        cache[key] = _Boundary(curves, tuple(io.ints[n_ints:]), tuple(io.dcs[n_dcs:]))
+        ints = tuple(io.ints[n_ints:])
+        bits = io.bits(n_ints)
+        io.costs[n_ints:] = [bits] + [0.0] * (len(ints) - 1)
+        cache[key] = _Boundary(curves, ints, tuple(io.dcs[n_dcs:]), bits)
     return curves
 
 
@@ -400,7 +513,15 @@ def _coons_code(
     """Code a net as corners + boundary curves + (for DDMAP, DMAP) difference
     data; return the decoded net."""
     u0, u1, v0, v1 = _boundary(io, p, origin)
-    net = (coons.bicubic_net if method in BICUBIC else coons.coons_net)(u0, u1, v0, v1, s, t)
+    blend = coons.bicubic_net if method in BICUBIC else coons.coons_net
+    if isinstance(io, _Writer) and io.memo is not None:
+        # BOUNDARY and DDMAP (BOUNDARY3 and DDMAP3) predict with the same net
+        key = (int(io.st.quant), io.st.level, io.st.slope, method in BICUBIC)
+        if key not in io.memo.nets:
+            io.memo.nets[key] = blend(u0, u1, v0, v1, s, t)
+        net = io.memo.nets[key].copy()
+    else:
+        net = blend(u0, u1, v0, v1, s, t)
     nu, nv = p.shape[:2]
     if method in (Method.DDMAP, Method.DDMAP3) and nu > 2 and nv > 2:
         inner = net[1:-1, 1:-1]
@@ -426,7 +547,11 @@ def _residuals(q: np.ndarray) -> np.ndarray:
     linear extrapolation 2·P[i-1] - P[i-2] on a curve (n, 3)."""
     if q.ndim == 3:
         return spatial.residuals(q)
-    return np.diff(q, n=2, axis=0, prepend=np.zeros((2, q.shape[1]), np.int64))
+    # r[i] = q[i] - 2·q[i-1] + q[i-2], terms before the first taken as 0 (exact: integers)
+    r = q.copy()
+    r[1:] -= 2 * q[:-1]
+    r[2:] += q[:-2]
+    return r
 
 
 def _integrate(r: np.ndarray) -> np.ndarray:
@@ -453,8 +578,8 @@ def _code(
         return io.predicted(p, origin)
     if method == Method.CHORD:
         ends = p[[0, -1]]
-        c = io.grid(ends if isinstance(io, _Writer) else np.empty_like(ends), origin)
-        return _curve(io, p, c[0], c[1])
+        c = io.grid(ends if isinstance(io, _Writer) else np.empty_like(ends), origin, "ends")
+        return _curve(io, p, c[0], c[1], "chord")
     assert s is not None and t is not None
     return _coons_code(io, p, s, t, method, origin, basis)
 
@@ -504,9 +629,9 @@ def _try(
     origin: np.ndarray,
     basis: dmap.Basis | None = None,
     dfit: np.ndarray | None = None,
-    boundaries: dict[tuple[int, int, int], _Boundary | None] | None = None,
+    memo: _Memo | None = None,
 ) -> NetCode | None:
-    w = _Writer(st, dfit, boundaries)
+    w = _Writer(st, dfit, memo)
     try:
         dec = _code(w, p, method, s, t, origin, basis)
     except _Unusable:
@@ -514,7 +639,7 @@ def _try(
     ints = np.concatenate(w.ints) if w.ints else np.zeros(0, np.int64)
     dcs = np.concatenate(w.dcs) if w.dcs else np.zeros(0)
     bound = float(np.sqrt(((dec - p) ** 2).sum(-1)).max())
-    bits = cost_bits(ints) + 64 * len(dcs)
+    bits = w.bits() + 64 * len(dcs)
     return NetCode(method, st.quant, st.level, st.slope, ints, dcs, bound, bits, origin.copy())
 
 
@@ -530,7 +655,7 @@ def _passing(
     basis: dmap.Basis | None = None,
     dfit: np.ndarray | None = None,
     limit: float | None = None,
-    boundaries: dict[tuple[int, int, int], _Boundary | None] | None = None,
+    memo: _Memo | None = None,
 ) -> list[NetCode]:
     """The first ``keep`` codes within ``limit`` (default tol) along a coarse-to-fine ladder.
 
@@ -543,7 +668,7 @@ def _passing(
 
     def ok(i: int) -> bool:
         if i not in cache:
-            cache[i] = _try(p, s, t, tol, method, settings[i], origin, basis, dfit, boundaries)
+            cache[i] = _try(p, s, t, tol, method, settings[i], origin, basis, dfit, memo)
         c = cache[i]
         return c is not None and c.bound <= limit
 
@@ -630,7 +755,7 @@ def encode_net(
     limit = tol if limit is None else min(limit, tol)
     rungs = ladder(tol, limit)
     best: NetCode | None = None
-    boundaries: dict[tuple[int, int, int], _Boundary | None] = {}
+    memo = _Memo()
     if p.ndim == 3 and min(p.shape[:2]) <= 2:
         # no interior: every Coons method decodes to the boundary method's net
         # with the same integers, and the first of equal codes is kept anyway
@@ -649,9 +774,11 @@ def encode_net(
         if method in (Method.SPATIAL, Method.DELTA):
             ladders.append([_Stepper(Quant.TOL, e, 0, tol) for e in rungs])
         else:
-            # a slope only weighs DCT coefficients: nets whose curves have none
-            # (2 poles a side) code the same with every slope, so only with 0
-            flat = max(p.shape[:-1]) <= 2
+            # a slope only weighs DCT coefficients k+l > 0: nets whose curves
+            # have at most one coefficient (3 poles a side, an interior of at
+            # most 1 x 1) code the same with every slope, so only with 0 (a
+            # code of equal bits found later never replaces the first)
+            flat = max(p.shape[:-1]) <= 3
             for k in range(1 if flat else len(SLOPES)):
                 ladders.append([_Stepper(Quant.TOL, e, k, tol) for e in rungs])
             if paper:
@@ -668,7 +795,7 @@ def encode_net(
                 basis=basis,
                 dfit=dfit,
                 limit=limit,
-                boundaries=boundaries,
+                memo=memo,
             ):
                 if best is None or c.bits < best.bits:
                     best = c
