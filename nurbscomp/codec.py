@@ -32,6 +32,7 @@ Everything here is numpy on plain arrays: nets are (nu, nv, 3).
 from __future__ import annotations
 
 import functools
+import math
 from dataclasses import dataclass, field, replace
 from enum import IntEnum
 
@@ -250,6 +251,8 @@ class _Memo:
     chords: dict[tuple[str, float], tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
     #: Coons nets of coded boundaries, by (quantizer setting, bicubic)
     nets: dict[tuple[int, int, int, bool], np.ndarray] = field(default_factory=dict)
+    #: the Coons blends at the net's abscissae
+    blends: coons.Blends | None = None
 
 
 class _Writer:
@@ -441,8 +444,18 @@ def _curve(
 
 def _chord(a: np.ndarray, b: np.ndarray, n: int) -> np.ndarray:
     """R_i = (1-(i+1)/n)·a + (i+1)/n·b, i = 0..n-2 (eq. 5)."""
+    g, f = _chord_weights(n)
+    return g * a + f * b
+
+
+@functools.lru_cache(maxsize=256)
+def _chord_weights(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """1 - (i+1)/n and (i+1)/n, i = 0..n-2, as columns (read-only)."""
     f = (np.arange(1, n) / n)[:, None]
-    return (1 - f) * a + f * b
+    g = 1 - f
+    f.setflags(write=False)
+    g.setflags(write=False)
+    return g, f
 
 
 @dataclass(frozen=True)
@@ -518,7 +531,9 @@ def _coons_code(
         # BOUNDARY and DDMAP (BOUNDARY3 and DDMAP3) predict with the same net
         key = (int(io.st.quant), io.st.level, io.st.slope, method in BICUBIC)
         if key not in io.memo.nets:
-            io.memo.nets[key] = blend(u0, u1, v0, v1, s, t)
+            if io.memo.blends is None:
+                io.memo.blends = coons.Blends(s, t)
+            io.memo.nets[key] = blend(u0, u1, v0, v1, s, t, io.memo.blends)
         net = io.memo.nets[key].copy()
     else:
         net = blend(u0, u1, v0, v1, s, t)
@@ -638,7 +653,8 @@ def _try(
         return None
     ints = np.concatenate(w.ints) if w.ints else np.zeros(0, np.int64)
     dcs = np.concatenate(w.dcs) if w.dcs else np.zeros(0)
-    bound = float(np.sqrt(((dec - p) ** 2).sum(-1)).max())
+    # max of the distances: the root of the largest square (sqrt is monotone)
+    bound = math.sqrt(((dec - p) ** 2).sum(-1).max())
     bits = w.bits() + 64 * len(dcs)
     return NetCode(method, st.quant, st.level, st.slope, ints, dcs, bound, bits, origin.copy())
 
