@@ -253,6 +253,12 @@ class _Memo:
     nets: dict[tuple[int, int, int, bool], np.ndarray] = field(default_factory=dict)
     #: the Coons blends at the net's abscissae
     blends: coons.Blends | None = None
+    #: :class:`_Rungs`' grid integers and codes' integers, by (method, *steps)
+    rungs: dict[tuple[float, ...], tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
+    #: :class:`_Rungs`' chord DCTs and chords, by (method, *steps)
+    rung_chords: dict[tuple[float, ...], tuple[np.ndarray, np.ndarray]] = field(
+        default_factory=dict
+    )
 
 
 class _Writer:
@@ -286,8 +292,8 @@ class _Writer:
     def coeffs(self, d: np.ndarray) -> np.ndarray:
         shape = d.shape[:-1]
         dc = d.reshape(-1, d.shape[-1])[0]
-        if self.st.quant == Quant.TOL:
-            # steps of the tolerance quantizer are all > 0: no collapsed step
+        if self.st.quant == Quant.TOL and self.st.grid > 0:
+            # steps of the tolerance quantizer are then all > 0: none collapsed
             steps, limit = _tol_table(shape, self.st.grid, SLOPES[self.st.slope])
             if not (np.abs(d) <= limit).all():
                 raise _Unusable
@@ -659,6 +665,194 @@ def _try(
     return NetCode(method, st.quant, st.level, st.slope, ints, dcs, bound, bits, origin.copy())
 
 
+# ---------------------------------------------------------------- ladders
+
+
+class _Trials:
+    """The rungs of one ladder, each tried through :func:`_try` when first asked for."""
+
+    def __init__(
+        self,
+        p: np.ndarray,
+        s: np.ndarray | None,
+        t: np.ndarray | None,
+        tol: float,
+        method: Method,
+        settings: list[_Stepper],
+        origin: np.ndarray,
+        basis: dmap.Basis | None = None,
+        dfit: np.ndarray | None = None,
+        memo: _Memo | None = None,
+    ) -> None:
+        self.p, self.s, self.t, self.tol, self.method = p, s, t, tol, method
+        self.settings, self.origin = settings, origin
+        self.basis, self.dfit, self.memo = basis, dfit, memo
+        self.codes: dict[int, NetCode | None] = {}
+
+    def code(self, i: int) -> NetCode | None:
+        """Rung ``i``'s code (None: the setting cannot code the net)."""
+        if i not in self.codes:
+            self.codes[i] = _try(
+                self.p,
+                self.s,
+                self.t,
+                self.tol,
+                self.method,
+                self.settings[i],
+                self.origin,
+                self.basis,
+                self.dfit,
+                self.memo,
+            )
+        return self.codes[i]
+
+    def bound(self, i: int) -> float | None:
+        """Rung ``i``'s certified bound (None: unusable)."""
+        c = self.code(i)
+        return None if c is None else c.bound
+
+
+#: Grid ladders (:class:`_Rungs`) of nets of up to this many values are
+#: computed at once; a larger net's trials cost their arithmetic.
+RUNGS_MAX = 768
+
+
+def _rungs_apply(p: np.ndarray, method: Method, settings: list[_Stepper]) -> bool:
+    """Whether :class:`_Rungs` computes this ladder (else :class:`_Trials`)."""
+    if method not in (Method.SPATIAL, Method.DELTA, Method.CHORD) or p.size > RUNGS_MAX:
+        return False
+    if any(st.quant != Quant.TOL or not st.grid > 0 for st in settings):
+        return False
+    # a chord's DCT by the matrix product only (dct.dct1)
+    return method != Method.CHORD or (p.ndim == 2 and len(p) - 2 <= dct.MATRIX_MAX)
+
+
+class _Rungs:
+    """Every rung of a ``SPATIAL``, ``DELTA`` or ``CHORD`` ladder with the
+    tolerance quantizer, computed at once: on small nets numpy's cost per
+    call, not the arithmetic, is what a trial costs.
+
+    Each value is made by the same floating-point operations as :func:`_code`
+    through a :class:`_Writer` (snap, residuals, chord, DCT as the same
+    matrix product per rung, steps, rounding, decoded poles, bound), so the
+    bounds and codes are those of :func:`_try`, bit for bit
+    (``tests/test_codec.py``).  A code is made only for a rung asked for.
+    """
+
+    def __init__(
+        self,
+        p: np.ndarray,
+        method: Method,
+        settings: list[_Stepper],
+        origin: np.ndarray,
+        memo: _Memo | None = None,
+    ) -> None:
+        self.method, self.settings, self.origin = method, settings, origin
+        self.bounds: list[float | None] = [None] * len(settings)
+        self.ints: dict[int, np.ndarray] = {}
+        self.codes: dict[int, NetCode] = {}
+        hs = [st.grid for st in settings]
+        chord = method == Method.CHORD
+        pts = p[[0, -1]] if chord else p
+        amax = np.abs(pts).max()
+        use = [i for i, h in enumerate(hs) if amax <= MAX_INT * h]  # NaN fails too
+        if not use:
+            return
+        h = np.array([hs[i] for i in use])
+        # what does not depend on the slope is shared by the net's ladders
+        key = (int(method), *h.tolist())
+        if memo is not None and key in memo.rungs:
+            q, head = memo.rungs[key]
+        else:
+            q, head = _grid_rungs(pts, method, h, origin)
+            if memo is not None:
+                memo.rungs[key] = (q, head)
+        dec = q * h.reshape(-1, *([1] * pts.ndim))
+        good = [True] * len(use)
+        if chord and len(p) > 2:
+            d, chords = _chord_rungs(p, dec, memo, key)
+            w = dct.tol_steps((len(p) - 2,), 1.0, SLOPES[settings[0].slope])
+            steps = w[None] * h[:, None, None]  # (1 + slope·k)·Δ, as dct.tol_steps
+            good = (np.abs(d) <= MAX_INT * steps).all(axis=(1, 2)).tolist()
+            with np.errstate(invalid="ignore"):  # rungs whose integers overflow are dropped
+                qc = np.rint(d / steps).astype(np.int64)
+            inner = chords + dct.idct1_rows(qc * steps)
+            dec = np.concatenate([dec[:, :1], inner, dec[:, 1:]], axis=1)
+            head = np.concatenate([head, qc.reshape(len(qc), -1)], axis=1)
+        # the root of the largest square, as in _try
+        bounds = np.sqrt(((dec - p) ** 2).sum(-1).reshape(len(dec), -1).max(axis=1)).tolist()
+        for j, i in enumerate(use):
+            if good[j]:
+                self.bounds[i] = bounds[j]
+                self.ints[i] = head[j]
+
+    def bound(self, i: int) -> float | None:
+        """Rung ``i``'s certified bound (None: unusable)."""
+        return self.bounds[i]
+
+    def code(self, i: int) -> NetCode | None:
+        """Rung ``i``'s code (None: unusable)."""
+        bound = self.bounds[i]
+        if bound is None:
+            return None
+        if i not in self.codes:
+            st, ints = self.settings[i], self.ints[i]
+            self.codes[i] = NetCode(
+                self.method,
+                st.quant,
+                st.level,
+                st.slope,
+                ints,
+                np.zeros(0),
+                bound,
+                cost_bits(ints),
+                self.origin.copy(),
+            )
+        return self.codes[i]
+
+
+def _grid_rungs(
+    pts: np.ndarray, method: Method, h: np.ndarray, origin: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Grid integers of ``pts`` for each step of ``h`` (R, ...), and each
+    step's integers as :meth:`_Writer.predicted` (``SPATIAL``, ``DELTA``) or
+    :meth:`_Writer.grid` (``CHORD``'s ends) records them (R, k)."""
+    r = len(h)
+    q = np.rint(pts / h.reshape(-1, *([1] * pts.ndim))).astype(np.int64)
+    qo = np.rint(np.atleast_2d(origin) / h[:, None, None]).astype(np.int64)
+    if method == Method.CHORD:
+        n = qo.shape[1]  # as _against
+        ints = np.concatenate([q[:, :n] - qo, q[:, n:] - q[:, :1]], axis=1)
+        return q, ints.reshape(r, -1)
+    if q.ndim == 4:  # spatial.residuals, on each rung
+        a = q.copy()
+        a[:, 1:] -= q[:, :-1]
+        res = a.copy()
+        res[:, :, 1:] -= a[:, :, :-1]
+    else:  # _residuals of a curve, on each rung
+        res = q.copy()
+        res[:, 1:] -= 2 * q[:, :-1]
+        res[:, 2:] += q[:, :-2]
+    flat = res.reshape(r, -1, pts.shape[-1])
+    flat[:, 0] -= qo[:, 0]
+    return q, flat.reshape(r, -1)
+
+
+def _chord_rungs(
+    p: np.ndarray, ends: np.ndarray, memo: _Memo | None, key: tuple[float, ...]
+) -> tuple[np.ndarray, np.ndarray]:
+    """DCTs of a curve's inner poles' differences to the chords (eq. 5-9) of
+    its decoded ends on each rung (R, 2, dim), and those chords."""
+    if memo is not None and key in memo.rung_chords:
+        return memo.rung_chords[key]
+    g, f = _chord_weights(len(p) - 1)
+    chords = g * ends[:, :1] + f * ends[:, 1:]  # as _chord, on each rung
+    d = dct.dct1_rows(p[1:-1] - chords)
+    if memo is not None:
+        memo.rung_chords[key] = (d, chords)
+    return d, chords
+
+
 def _passing(
     p: np.ndarray,
     s: np.ndarray | None,
@@ -679,14 +873,16 @@ def _passing(
     passing rung is found by bisection; the ``keep`` rungs from there on are
     all returned, since a finer step sometimes codes smaller.
     """
-    cache: dict[int, NetCode | None] = {}
     limit = tol if limit is None else limit
+    runs: _Rungs | _Trials
+    if _rungs_apply(p, method, settings):
+        runs = _Rungs(p, method, settings, origin, memo)
+    else:
+        runs = _Trials(p, s, t, tol, method, settings, origin, basis, dfit, memo)
 
     def ok(i: int) -> bool:
-        if i not in cache:
-            cache[i] = _try(p, s, t, tol, method, settings[i], origin, basis, dfit, memo)
-        c = cache[i]
-        return c is not None and c.bound <= limit
+        b = runs.bound(i)
+        return b is not None and b <= limit
 
     lo, hi = 0, len(settings) - 1
     if not ok(hi):
@@ -700,7 +896,7 @@ def _passing(
     out = []
     for i in range(lo, min(lo + keep, len(settings))):
         if ok(i):
-            c = cache[i]
+            c = runs.code(i)
             assert c is not None
             out.append(c)
     return out

@@ -51,6 +51,17 @@ def idct1(d: np.ndarray) -> np.ndarray:
     return fft.idct(d, type=2, norm="ortho", axis=0)
 
 
+def dct1_rows(v: np.ndarray) -> np.ndarray:
+    """:func:`dct1` of each v[r] of ``v`` (R, N, c), N ≤ ``MATRIX_MAX``: the
+    same matrix product, item by item (numpy's stacked matmul)."""
+    return _matrix(v.shape[1]) @ v
+
+
+def idct1_rows(d: np.ndarray) -> np.ndarray:
+    """:func:`idct1` of each d[r] of ``d`` (R, N, c), N ≤ ``MATRIX_MAX``."""
+    return _matrix(d.shape[1]).T @ d
+
+
 def dct2(v: np.ndarray) -> np.ndarray:
     """Orthonormal 2-D DCT-II over axes 0 and 1 (eq. 26).
 

@@ -217,3 +217,39 @@ def test_bicubic_coons_keeps_boundaries_and_bilinear_patches() -> None:
     S, T = s[:, None, None], t[None, :, None]
     bil = (1 - S) * ((1 - T) * c[0, 0] + T * c[0, 1]) + S * ((1 - T) * c[1, 0] + T * c[1, 1])
     assert np.allclose(coons.bicubic_net(bil[0], bil[-1], bil[:, 0], bil[:, -1], s, t), bil)
+
+
+@settings(deadline=None, max_examples=60)
+@given(
+    st.sampled_from([codec.Method.SPATIAL, codec.Method.DELTA, codec.Method.CHORD]),
+    st.integers(2, 9),
+    st.integers(0, 2),
+    st.integers(0, 1),
+    st.sampled_from([1e-3, 0.01, 0.1]),
+    st.sampled_from([1.0, 1e3, 1e9]),
+    st.integers(0, 2**31),
+)
+def test_ladders_at_once_are_the_trials(
+    method: codec.Method, n: int, rows: int, slope: int, tol: float, scale: float, seed: int
+) -> None:
+    """Every rung computed at once (codec._Rungs) has the bound and the code
+    that its own trial (codec._try) gives, bit for bit, unusable rungs too."""
+    rng = np.random.default_rng(seed)
+    p = rng.normal(size=(n, 4, 3) if method == codec.Method.SPATIAL else (n, 3)) * scale
+    origin = rng.normal(size=(rows, 3) if rows else 3) * scale
+    if method == codec.Method.SPATIAL and rows == 2:
+        origin = origin[0]
+    settings_ = [codec._Stepper(codec.Quant.TOL, e, slope, tol) for e in codec.ladder(tol, tol)]
+    memo = codec._Memo()
+    assert codec._rungs_apply(p, method, settings_)
+    runs = codec._Rungs(p, method, settings_, origin, memo)
+    for i, s_ in enumerate(settings_):
+        c = codec._try(p, None, None, tol, method, s_, origin)
+        assert runs.bound(i) == (None if c is None else c.bound)
+        if c is not None:
+            r = runs.code(i)
+            assert r is not None
+            assert (r.method, r.quant, r.level, r.slope) == (c.method, c.quant, c.level, c.slope)
+            assert r.ints.dtype == c.ints.dtype and np.array_equal(r.ints, c.ints)
+            assert r.bits == c.bits and r.dcs.size == c.dcs.size == 0
+            assert r.origin is not None and np.array_equal(r.origin, origin)
