@@ -764,21 +764,16 @@ class _Rungs:
         if memo is not None and key in memo.rungs:
             q, head = memo.rungs[key]
         else:
-            q, head = _grid_rungs(pts, method, h, origin)
+            q, head = _grid_rungs(pts, h, origin, chord)
             if memo is not None:
                 memo.rungs[key] = (q, head)
         dec = q * h.reshape(-1, *([1] * pts.ndim))
         good = [True] * len(use)
-        if chord and len(p) > 2:
-            d, chords = _chord_rungs(p, dec, memo, key)
-            w = dct.tol_steps((len(p) - 2,), 1.0, SLOPES[settings[0].slope])
-            steps = w[None] * h[:, None, None]  # (1 + slope·k)·Δ, as dct.tol_steps
-            good = (np.abs(d) <= MAX_INT * steps).all(axis=(1, 2)).tolist()
-            with np.errstate(invalid="ignore"):  # rungs whose integers overflow are dropped
-                qc = np.rint(d / steps).astype(np.int64)
-            inner = chords + dct.idct1_rows(qc * steps)
-            dec = np.concatenate([dec[:, :1], inner, dec[:, 1:]], axis=1)
-            head = np.concatenate([head, qc.reshape(len(qc), -1)], axis=1)
+        if chord:
+            slope = SLOPES[settings[0].slope]
+            dec, qc, ok = _curve_rungs(p, dec[:, 0], dec[:, 1], h, slope, memo, "chord")
+            head = np.concatenate([head, qc], axis=1)
+            good = ok.tolist()
         # the root of the largest square, as in _try
         bounds = np.sqrt(((dec - p) ** 2).sum(-1).reshape(len(dec), -1).max(axis=1)).tolist()
         for j, i in enumerate(use):
@@ -796,7 +791,7 @@ class _Rungs:
         if bound is None:
             return None
         if i not in self.codes:
-            st, ints = self.settings[i], self.ints[i]
+            st, ints = self.settings[i], self.ints[i].copy()
             self.codes[i] = NetCode(
                 self.method,
                 st.quant,
@@ -812,15 +807,15 @@ class _Rungs:
 
 
 def _grid_rungs(
-    pts: np.ndarray, method: Method, h: np.ndarray, origin: np.ndarray
+    pts: np.ndarray, h: np.ndarray, origin: np.ndarray, against: bool
 ) -> tuple[np.ndarray, np.ndarray]:
     """Grid integers of ``pts`` for each step of ``h`` (R, ...), and each
-    step's integers as :meth:`_Writer.predicted` (``SPATIAL``, ``DELTA``) or
-    :meth:`_Writer.grid` (``CHORD``'s ends) records them (R, k)."""
+    step's integers as :meth:`_Writer.grid` (``against``: corners, a chord's
+    ends) or :meth:`_Writer.predicted` (``SPATIAL``, ``DELTA``) records them (R, k)."""
     r = len(h)
     q = np.rint(pts / h.reshape(-1, *([1] * pts.ndim))).astype(np.int64)
     qo = np.rint(np.atleast_2d(origin) / h[:, None, None]).astype(np.int64)
-    if method == Method.CHORD:
+    if against:
         n = qo.shape[1]  # as _against
         ints = np.concatenate([q[:, :n] - qo, q[:, n:] - q[:, :1]], axis=1)
         return q, ints.reshape(r, -1)
@@ -838,19 +833,100 @@ def _grid_rungs(
     return q, flat.reshape(r, -1)
 
 
-def _chord_rungs(
-    p: np.ndarray, ends: np.ndarray, memo: _Memo | None, key: tuple[float, ...]
-) -> tuple[np.ndarray, np.ndarray]:
-    """DCTs of a curve's inner poles' differences to the chords (eq. 5-9) of
-    its decoded ends on each rung (R, 2, dim), and those chords."""
+def _curve_rungs(
+    p: np.ndarray,
+    a: np.ndarray,
+    b: np.ndarray,
+    h: np.ndarray,
+    slope: float,
+    memo: _Memo | None,
+    which: str,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`_curve` on each rung: the curve ``p`` between decoded ends
+    ``a``, ``b`` (R, dim) on the grids of steps ``h`` (R,), DCT coefficients
+    quantized with steps (1 + slope·k)·h (eq. 5-10).
+
+    Returns the decoded curves (R, n+1, dim), their coefficients' integers
+    (R, (n-1)·dim) and which rungs can code them (R,) (integers in range).
+    The chords and DCTs do not depend on the slope: the net's ``memo`` keeps
+    them under ``which``.
+    """
+    n, r = len(p) - 1, len(h)
+    if n < 2:
+        return np.stack([a, b], axis=1), np.zeros((r, 0), np.int64), np.ones(r, bool)
+    key = (which, *h.tolist())
     if memo is not None and key in memo.rung_chords:
-        return memo.rung_chords[key]
-    g, f = _chord_weights(len(p) - 1)
-    chords = g * ends[:, :1] + f * ends[:, 1:]  # as _chord, on each rung
-    d = dct.dct1_rows(p[1:-1] - chords)
-    if memo is not None:
-        memo.rung_chords[key] = (d, chords)
-    return d, chords
+        d, chords = memo.rung_chords[key]
+    else:
+        g, f = _chord_weights(n)
+        chords = g * a[:, None] + f * b[:, None]  # as _chord, on each rung
+        d = dct.dct1_rows(p[1:-1] - chords)
+        if memo is not None:
+            memo.rung_chords[key] = (d, chords)
+    w = dct.tol_steps((n - 1,), 1.0, slope)
+    steps = w[None] * h[:, None, None]  # (1 + slope·k)·Δ, as dct.tol_steps
+    good = (np.abs(d) <= MAX_INT * steps).all(axis=(1, 2))
+    with np.errstate(invalid="ignore"):  # rungs whose integers overflow are dropped
+        qc = np.rint(d / steps).astype(np.int64)
+    inner = chords + dct.idct1_rows(qc * steps)
+    return np.concatenate([a[:, None], inner, b[:, None]], axis=1), qc.reshape(r, -1), good
+
+
+def _boundary_rungs(
+    p: np.ndarray, settings: list[_Stepper], origin: np.ndarray, memo: _Memo
+) -> None:
+    """:func:`_boundary` on every rung of a ladder at once, into ``memo``:
+    corners on the grid, then the four curves between them (the same
+    operations as :func:`_Rungs` uses for a chord's ends and inner poles)."""
+    keys = [(int(st.quant), st.level, st.slope) for st in settings]
+    if all(k in memo.boundaries for k in keys):
+        return
+    hs = [st.grid for st in settings]
+    corners = p[[0, 0, -1, -1], [0, -1, 0, -1]]
+    amax = np.abs(corners).max()
+    use = [i for i, h in enumerate(hs) if amax <= MAX_INT * h]  # NaN fails too
+    for i in set(range(len(settings))) - set(use):
+        memo.boundaries.setdefault(keys[i], None)
+    if not use:
+        return
+    h = np.array([hs[i] for i in use])
+    q, ints = _grid_rungs(corners, h, origin, True)
+    c = q * h[:, None, None]
+    slope = SLOPES[settings[0].slope]
+    parts, good, curves = [ints], np.ones(len(use), bool), []
+    for which, row, i0, i1 in (
+        ("u0", p[0], 0, 1),
+        ("u1", p[-1], 2, 3),
+        ("v0", p[:, 0], 0, 2),
+        ("v1", p[:, -1], 1, 3),
+    ):
+        curve, qc, ok = _curve_rungs(row, c[:, i0], c[:, i1], h, slope, memo, which)
+        curves.append(curve)
+        parts.append(qc)
+        good &= ok
+    every = np.concatenate(parts, axis=1)
+    for j, i in enumerate(use):
+        if keys[i] in memo.boundaries:
+            continue
+        if not good[j]:
+            memo.boundaries[keys[i]] = None
+            continue
+        code = every[j].copy()
+        u0, u1, v0, v1 = (cv[j] for cv in curves)
+        memo.boundaries[keys[i]] = _Boundary((u0, u1, v0, v1), (code,), (), cost_bits(code))
+
+
+#: Methods that code a net's boundary first (:func:`_boundary`).
+_COONS_METHODS = (Method.BOUNDARY, Method.DDMAP, Method.DMAP, Method.BOUNDARY3, Method.DDMAP3)
+
+
+def _boundary_rungs_apply(p: np.ndarray, method: Method, settings: list[_Stepper]) -> bool:
+    """Whether :func:`_boundary_rungs` codes this ladder's boundaries."""
+    if method not in _COONS_METHODS or p.ndim != 3 or p.size > RUNGS_MAX:
+        return False
+    if any(st.quant != Quant.TOL or not st.grid > 0 for st in settings):
+        return False
+    return max(p.shape[:2]) - 2 <= dct.MATRIX_MAX
 
 
 def _passing(
@@ -875,6 +951,8 @@ def _passing(
     """
     limit = tol if limit is None else limit
     runs: _Rungs | _Trials
+    if memo is not None and _boundary_rungs_apply(p, method, settings):
+        _boundary_rungs(p, settings, origin, memo)
     if _rungs_apply(p, method, settings):
         runs = _Rungs(p, method, settings, origin, memo)
     else:

@@ -253,3 +253,34 @@ def test_ladders_at_once_are_the_trials(
             assert r.ints.dtype == c.ints.dtype and np.array_equal(r.ints, c.ints)
             assert r.bits == c.bits and r.dcs.size == c.dcs.size == 0
             assert r.origin is not None and np.array_equal(r.origin, origin)
+
+
+@settings(deadline=None, max_examples=40)
+@given(
+    st.integers(2, 7),
+    st.integers(2, 7),
+    st.integers(0, 1),
+    st.sampled_from([1e-3, 0.01, 0.1]),
+    st.sampled_from([1.0, 1e3, 1e9]),
+    st.integers(0, 2**31),
+)
+def test_boundaries_at_once_are_the_trials(
+    nu: int, nv: int, slope: int, tol: float, scale: float, seed: int
+) -> None:
+    """Boundaries coded for every rung at once (codec._boundary_rungs) give
+    each Coons method's trial the code it has alone, bit for bit."""
+    rng = np.random.default_rng(seed)
+    p = rng.normal(size=(nu, nv, 3)) * scale
+    origin = rng.normal(size=3) * scale
+    s, t = np.linspace(0, 1, nu) ** 1.5, np.linspace(0, 1, nv)
+    settings_ = [codec._Stepper(codec.Quant.TOL, e, slope, tol) for e in codec.ladder(tol, tol)]
+    memo = codec._Memo()
+    codec._boundary_rungs(p, settings_, origin, memo)
+    for method in (codec.Method.BOUNDARY, codec.Method.DDMAP, codec.Method.DDMAP3):
+        for s_ in settings_:
+            alone = codec._try(p, s, t, tol, method, s_, origin)
+            shared = codec._try(p, s, t, tol, method, s_, origin, memo=memo)
+            assert (alone is None) == (shared is None)
+            if alone is not None and shared is not None:
+                assert np.array_equal(alone.ints, shared.ints)
+                assert (alone.bound, alone.bits) == (shared.bound, shared.bits)
