@@ -27,6 +27,13 @@ same convex combination of the decoded poles, and max |S - S'| ≤ max_i
 search keeps the cheapest code whose bound is ≤ tol.
 
 Everything here is numpy on plain arrays: nets are (nu, nv, 3).
+
+The search tries each setting of a ladder through the same :func:`_code` the
+decoder runs (:func:`_try`); on small nets the tolerance quantizer's ladders
+are computed for every rung at once instead (:class:`_Rungs`,
+:class:`_CoonsRungs`), by the same operations, and what the trials of one net
+share is computed once (:class:`_Memo`).  Both give the same codes, bit for
+bit (tests/test_codec.py).
 """
 
 from __future__ import annotations
@@ -255,6 +262,10 @@ class _Memo:
     blends: coons.Blends | None = None
     #: :class:`_Rungs`' grid integers and codes' integers, by (method, *steps)
     rungs: dict[tuple[float, ...], tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
+    #: :func:`_boundary_rungs`' boundaries, by (slope, *steps)
+    boundary_rungs: dict[tuple[float, ...], _BoundaryRungs] = field(default_factory=dict)
+    #: :class:`_CoonsRungs`' Coons nets, by (slope, bicubic, *steps)
+    rung_nets: dict[tuple[float, ...], np.ndarray] = field(default_factory=dict)
     #: :class:`_Rungs`' chord DCTs and chords, by (method, *steps)
     rung_chords: dict[tuple[float, ...], tuple[np.ndarray, np.ndarray]] = field(
         default_factory=dict
@@ -464,7 +475,7 @@ def _chord_weights(n: int) -> tuple[np.ndarray, np.ndarray]:
     return g, f
 
 
-@dataclass(frozen=True)
+@dataclass
 class _Boundary:
     """A net's four boundary curves as decoded, and the integers and DCs that
     code them (with the corners) under one quantizer setting."""
@@ -472,7 +483,7 @@ class _Boundary:
     curves: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
     ints: tuple[np.ndarray, ...]
     dcs: tuple[np.ndarray, ...]
-    bits: float  # cost_bits of the integers
+    bits: float | None = None  # cost_bits of the integers, once asked for
 
 
 def _boundary(
@@ -492,6 +503,8 @@ def _boundary(
         if hit is None:
             raise _Unusable
         io.ints.extend(hit.ints)
+        if hit.bits is None:
+            hit.bits = float(sum(cost_bits(i) for i in hit.ints))
         io.costs.extend([hit.bits] + [0.0] * (len(hit.ints) - 1))
         io.dcs.extend(hit.dcs)
         return hit.curves
@@ -872,24 +885,38 @@ def _curve_rungs(
     return np.concatenate([a[:, None], inner, b[:, None]], axis=1), qc.reshape(r, -1), good
 
 
+@dataclass
+class _BoundaryRungs:
+    """A ladder's boundaries, coded on every rung at once (:func:`_boundary_rungs`)."""
+
+    use: list[int]  # the rungs whose boundaries can be coded
+    h: np.ndarray  # their grid steps
+    curves: tuple[np.ndarray, ...]  # decoded u0, u1, v0, v1 of each, (R, k, 3)
+    ints: np.ndarray  # their integers, (R, K)
+
+
 def _boundary_rungs(
     p: np.ndarray, settings: list[_Stepper], origin: np.ndarray, memo: _Memo
-) -> None:
-    """:func:`_boundary` on every rung of a ladder at once, into ``memo``:
-    corners on the grid, then the four curves between them (the same
-    operations as :func:`_Rungs` uses for a chord's ends and inner poles)."""
+) -> _BoundaryRungs:
+    """:func:`_boundary` on every rung of a ladder at once: corners on the
+    grid, then the four curves between them (the same operations as
+    :func:`_Rungs` uses for a chord's ends and inner poles).  Each rung's
+    boundary goes to ``memo.boundaries`` too, where trials find it."""
     keys = [(int(st.quant), st.level, st.slope) for st in settings]
-    if all(k in memo.boundaries for k in keys):
-        return
     hs = [st.grid for st in settings]
+    known = memo.boundary_rungs.get((settings[0].slope, *hs))
+    if known is not None:
+        return known
     corners = p[[0, 0, -1, -1], [0, -1, 0, -1]]
     amax = np.abs(corners).max()
     use = [i for i, h in enumerate(hs) if amax <= MAX_INT * h]  # NaN fails too
     for i in set(range(len(settings))) - set(use):
         memo.boundaries.setdefault(keys[i], None)
-    if not use:
-        return
     h = np.array([hs[i] for i in use])
+    if not use:
+        out = _BoundaryRungs([], h, (), np.zeros((0, 0), np.int64))
+        memo.boundary_rungs[(settings[0].slope, *hs)] = out
+        return out
     q, ints = _grid_rungs(corners, h, origin, True)
     c = q * h[:, None, None]
     slope = SLOPES[settings[0].slope]
@@ -913,11 +940,98 @@ def _boundary_rungs(
             continue
         code = every[j].copy()
         u0, u1, v0, v1 = (cv[j] for cv in curves)
-        memo.boundaries[keys[i]] = _Boundary((u0, u1, v0, v1), (code,), (), cost_bits(code))
+        memo.boundaries[keys[i]] = _Boundary((u0, u1, v0, v1), (code,), ())
+    ok = np.flatnonzero(good)
+    out = _BoundaryRungs(
+        [use[j] for j in ok.tolist()], h[ok], tuple(cv[ok] for cv in curves), every[ok]
+    )
+    memo.boundary_rungs[(settings[0].slope, *hs)] = out
+    return out
+
+
+class _CoonsRungs:
+    """Every rung of a ``BOUNDARY``, ``BOUNDARY3``, ``DDMAP`` or ``DDMAP3``
+    ladder with the tolerance quantizer at once (as :class:`_Rungs`): the
+    boundaries of :func:`_boundary_rungs`, their Coons nets (eq. 11; the
+    nets take leading axes) and the DD-map's DCT (eq. 26-27, the same matrix
+    products per rung), so bounds and codes are those of :func:`_try`."""
+
+    def __init__(
+        self,
+        p: np.ndarray,
+        s: np.ndarray,
+        t: np.ndarray,
+        method: Method,
+        settings: list[_Stepper],
+        origin: np.ndarray,
+        memo: _Memo,
+    ) -> None:
+        self.method, self.settings, self.origin = method, settings, origin
+        self.bounds: list[float | None] = [None] * len(settings)
+        self.ints: dict[int, np.ndarray] = {}
+        self.codes: dict[int, NetCode] = {}
+        b = _boundary_rungs(p, settings, origin, memo)
+        if not b.use:
+            return
+        bicubic = method in BICUBIC
+        key = (settings[0].slope, bicubic, *[st.grid for st in settings])
+        if key not in memo.rung_nets:
+            if memo.blends is None:
+                memo.blends = coons.Blends(s, t)
+            blend = coons.bicubic_net if bicubic else coons.coons_net
+            u0, u1, v0, v1 = b.curves
+            memo.rung_nets[key] = blend(u0, u1, v0, v1, s, t, memo.blends)
+        net, ints = memo.rung_nets[key], b.ints
+        use, good = b.use, [True] * len(b.use)
+        nu, nv = p.shape[:2]
+        if method in (Method.DDMAP, Method.DDMAP3) and nu > 2 and nv > 2:
+            net = net.copy()
+            inner = net[:, 1:-1, 1:-1]
+            d = dct.dct2_rows(p[1:-1, 1:-1] - inner)
+            w = dct.tol_steps((nu - 2, nv - 2), 1.0, SLOPES[settings[0].slope])
+            steps = w[None] * b.h[:, None, None, None]  # (1 + slope·(k+l))·Δ, as dct.tol_steps
+            good = (np.abs(d) <= MAX_INT * steps).all(axis=(1, 2, 3)).tolist()
+            with np.errstate(invalid="ignore"):  # rungs whose integers overflow are dropped
+                qd = np.rint(d / steps).astype(np.int64)
+            net[:, 1:-1, 1:-1] = inner + dct.idct2_rows(qd * steps)
+            ints = np.concatenate([ints, qd.reshape(len(qd), -1)], axis=1)
+        # the root of the largest square, as in _try
+        bounds = np.sqrt(((net - p) ** 2).sum(-1).reshape(len(net), -1).max(axis=1)).tolist()
+        for j, i in enumerate(use):
+            if good[j]:
+                self.bounds[i] = bounds[j]
+                self.ints[i] = ints[j]
+
+    def bound(self, i: int) -> float | None:
+        """Rung ``i``'s certified bound (None: unusable)."""
+        return self.bounds[i]
+
+    def code(self, i: int) -> NetCode | None:
+        """Rung ``i``'s code (None: unusable)."""
+        bound = self.bounds[i]
+        if bound is None:
+            return None
+        if i not in self.codes:
+            st, ints = self.settings[i], self.ints[i].copy()
+            self.codes[i] = NetCode(
+                self.method,
+                st.quant,
+                st.level,
+                st.slope,
+                ints,
+                np.zeros(0),
+                bound,
+                cost_bits(ints),
+                self.origin.copy(),
+            )
+        return self.codes[i]
 
 
 #: Methods that code a net's boundary first (:func:`_boundary`).
 _COONS_METHODS = (Method.BOUNDARY, Method.DDMAP, Method.DMAP, Method.BOUNDARY3, Method.DDMAP3)
+#: Those whose ladders :class:`_CoonsRungs` computes at once (the D-map's
+#: least squares go rung by rung).
+_BATCHED_COONS = (Method.BOUNDARY, Method.DDMAP, Method.BOUNDARY3, Method.DDMAP3)
 
 
 def _boundary_rungs_apply(p: np.ndarray, method: Method, settings: list[_Stepper]) -> bool:
@@ -950,10 +1064,14 @@ def _passing(
     all returned, since a finer step sometimes codes smaller.
     """
     limit = tol if limit is None else limit
-    runs: _Rungs | _Trials
+    runs: _Rungs | _CoonsRungs | _Trials
     if memo is not None and _boundary_rungs_apply(p, method, settings):
-        _boundary_rungs(p, settings, origin, memo)
-    if _rungs_apply(p, method, settings):
+        if method in _BATCHED_COONS and s is not None and t is not None:
+            runs = _CoonsRungs(p, s, t, method, settings, origin, memo)
+        else:
+            _boundary_rungs(p, settings, origin, memo)
+            runs = _Trials(p, s, t, tol, method, settings, origin, basis, dfit, memo)
+    elif _rungs_apply(p, method, settings):
         runs = _Rungs(p, method, settings, origin, memo)
     else:
         runs = _Trials(p, s, t, tol, method, settings, origin, basis, dfit, memo)

@@ -127,13 +127,41 @@ def coons_net(
     -------
     ndarray, shape (nu, nv, 3)
         A net whose boundary rows and columns are the given ones.
+
+    Boundaries with leading axes (..., nv, 3) give the nets (..., nu, nv, 3)
+    of each, value for value the same.
     """
     b = Blends(s, t) if blends is None else blends
-    ruled_u = b.ms * u0[None] + b.s_ * u1[None]  # (1-s)·u0 + s·u1
-    ruled_v = b.mt * v0[:, None] + b.t_ * v1[:, None]  # (1-t)·v0 + t·v1
+    ruled_u = b.ms * _row(u0) + b.s_ * _row(u1)  # (1-s)·u0 + s·u1
+    ruled_v = b.mt * _col(v0) + b.t_ * _col(v1)  # (1-t)·v0 + t·v1
     # (1-s)(1-t)·P00 + (1-s)t·P0m + s(1-t)·Pn0 + st·Pnm
-    corners = b.w00 * u0[0] + b.w01 * u0[-1] + b.w10 * u1[0] + b.w11 * u1[-1]
+    corners = (
+        b.w00 * _pole(u0[..., 0, :])
+        + b.w01 * _pole(u0[..., -1, :])
+        + b.w10 * _pole(u1[..., 0, :])
+        + b.w11 * _pole(u1[..., -1, :])
+    )
     return ruled_u + ruled_v - corners
+
+
+def _row(c: np.ndarray) -> np.ndarray:
+    """A row (..., nv, 3) broadcast over a net's rows: (..., 1, nv, 3)."""
+    return c[..., None, :, :]
+
+
+def _col(c: np.ndarray) -> np.ndarray:
+    """A column (..., nu, 3) broadcast over a net's columns: (..., nu, 1, 3)."""
+    return c[..., :, None, :]
+
+
+def _pole(x: np.ndarray) -> np.ndarray:
+    """A point (..., 3) broadcast over a net (..., 1, 1, 3)."""
+    return x[..., None, None, :]
+
+
+def _vec(x: np.ndarray) -> np.ndarray:
+    """A point (..., 3) broadcast over a curve (..., 1, 3)."""
+    return x[..., None, :]
 
 
 def _hermite(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -144,7 +172,10 @@ def _hermite(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndar
 
 def _slope(row: np.ndarray, x: np.ndarray, end: int) -> np.ndarray:
     """Slope of a boundary (as a polyline over abscissae ``x``) at its first or last pole."""
-    d, h = (row[1] - row[0], x[1] - x[0]) if end == 0 else (row[-1] - row[-2], x[-1] - x[-2])
+    if end == 0:
+        d, h = row[..., 1, :] - row[..., 0, :], x[1] - x[0]
+    else:
+        d, h = row[..., -1, :] - row[..., -2, :], x[-1] - x[-2]
     return d / h if h > 0 else np.zeros_like(d)
 
 
@@ -167,25 +198,33 @@ def bicubic_net(
     that meet it, with the twist as its end slopes (the paper's "cubic Bezier
     curves", twists "from the network of boundary curves": here the bilinear
     twist P00 − P0m − Pn0 + Pnm of the four corners).  Every boundary is
-    reproduced exactly, and so is a bilinear patch.
+    reproduced exactly, and so is a bilinear patch.  Leading axes as
+    :func:`coons_net`.
     """
     bl = Blends(s, t) if blends is None else blends
-    # corner slopes: along t from the rows, along s from the columns
-    dt = [[_slope(u0, t, 0), _slope(u0, t, 1)], [_slope(u1, t, 0), _slope(u1, t, 1)]]
-    ds = [[_slope(v0, s, 0), _slope(v1, s, 0)], [_slope(v0, s, 1), _slope(v1, s, 1)]]
+    # corner slopes: along t from the rows, along s from the columns, (..., 1, 3)
+    dt = [
+        [_vec(_slope(u0, t, 0)), _vec(_slope(u0, t, 1))],
+        [_vec(_slope(u1, t, 0)), _vec(_slope(u1, t, 1))],
+    ]
+    ds = [
+        [_vec(_slope(v0, s, 0)), _vec(_slope(v1, s, 0))],
+        [_vec(_slope(v0, s, 1)), _vec(_slope(v1, s, 1))],
+    ]
     (H0s, H1s, H2s, H3s), hs_net, (H0t, H1t, H2t, H3t), ht_net, (h23s, h23t) = bl.hermite
-    w = u0[0] - u0[-1] - u1[0] + u1[-1]  # one twist for all four corners: the bilinear one
+    p00, p0m, pn0, pnm = (_vec(c[..., i, :]) for c in (u0, u1) for i in (0, -1))
+    w = p00 - p0m - pn0 + pnm  # one twist for all four corners: the bilinear one
     dv0 = H0s * dt[0][0] + H1s * dt[1][0] + h23s * w  # ∂S/∂t along t = 0, over s
     dv1 = H0s * dt[0][1] + H1s * dt[1][1] + h23s * w  # along t = 1
     du0 = H0t * ds[0][0] + H1t * ds[0][1] + h23t * w  # ∂S/∂s along s = 0, over t
     du1 = H0t * ds[1][0] + H1t * ds[1][1] + h23t * w  # along s = 1
-    g0 = H0s * u0[0] + H1s * u1[0] + H2s * ds[0][0] + H3s * ds[1][0]  # S3 at t = 0
-    g1 = H0s * u0[-1] + H1s * u1[-1] + H2s * ds[0][1] + H3s * ds[1][1]  # S3 at t = 1
+    g0 = H0s * p00 + H1s * pn0 + H2s * ds[0][0] + H3s * ds[1][0]  # S3 at t = 0
+    g1 = H0s * p0m + H1s * pnm + H2s * ds[0][1] + H3s * ds[1][1]  # S3 at t = 1
 
     def along_t(a: np.ndarray, b: np.ndarray, da: np.ndarray, db: np.ndarray) -> np.ndarray:
         h0, h1, h2, h3 = ht_net
-        return h0 * a[:, None] + h1 * b[:, None] + h2 * da[:, None] + h3 * db[:, None]
+        return h0 * _col(a) + h1 * _col(b) + h2 * _col(da) + h3 * _col(db)
 
     h0, h1, h2, h3 = hs_net
-    s2 = h0 * u0[None] + h1 * u1[None] + h2 * du0[None] + h3 * du1[None]
+    s2 = h0 * _row(u0) + h1 * _row(u1) + h2 * _row(du0) + h3 * _row(du1)
     return along_t(v0, v1, dv0, dv1) + s2 - along_t(g0, g1, dv0, dv1)

@@ -89,6 +89,21 @@ def idct2(d: np.ndarray) -> np.ndarray:
     return fft.idctn(d, type=2, norm="ortho", axes=(0, 1))
 
 
+def dct2_rows(v: np.ndarray) -> np.ndarray:
+    """:func:`dct2` of each v[r] of ``v`` (R, N, M, c), N, M ≤ ``MATRIX_MAX``:
+    the same matrix products, item by item."""
+    r, n, m, c = v.shape
+    rows = _matrix(n) @ v.reshape(r, n, m * c)  # along axis 1
+    return (_matrix(m) @ rows.reshape(r, n, m, c)).reshape(r, n, m, c)  # along axis 2
+
+
+def idct2_rows(d: np.ndarray) -> np.ndarray:
+    """:func:`idct2` of each d[r] of ``d`` (R, N, M, c), N, M ≤ ``MATRIX_MAX``."""
+    r, n, m, c = d.shape
+    rows = _matrix(n).T @ d.reshape(r, n, m * c)
+    return (_matrix(m).T @ rows.reshape(r, n, m, c)).reshape(r, n, m, c)
+
+
 def paper_steps(shape: tuple[int, ...], dc: np.ndarray, a: int) -> np.ndarray:
     """The paper's quantizer steps, Q_k = (1+k)·D0/2^a (eq. 10), Q_kl = (1+k+l)·D00/2^a (eq. 27).
 

@@ -268,7 +268,8 @@ def test_boundaries_at_once_are_the_trials(
     nu: int, nv: int, slope: int, tol: float, scale: float, seed: int
 ) -> None:
     """Boundaries coded for every rung at once (codec._boundary_rungs) give
-    each Coons method's trial the code it has alone, bit for bit."""
+    each Coons method's trial the code it has alone, bit for bit, and so do
+    whole Coons ladders at once (codec._CoonsRungs)."""
     rng = np.random.default_rng(seed)
     p = rng.normal(size=(nu, nv, 3)) * scale
     origin = rng.normal(size=3) * scale
@@ -284,3 +285,27 @@ def test_boundaries_at_once_are_the_trials(
             if alone is not None and shared is not None:
                 assert np.array_equal(alone.ints, shared.ints)
                 assert (alone.bound, alone.bits) == (shared.bound, shared.bits)
+    for method in (codec.Method.BOUNDARY, codec.Method.DDMAP, codec.Method.DDMAP3):
+        runs = codec._CoonsRungs(p, s, t, method, settings_, origin, codec._Memo())
+        for i, s_ in enumerate(settings_):
+            alone = codec._try(p, s, t, tol, method, s_, origin)
+            assert runs.bound(i) == (None if alone is None else alone.bound)
+            if alone is not None:
+                c = runs.code(i)
+                assert c is not None and c.ints.dtype == alone.ints.dtype
+                assert np.array_equal(c.ints, alone.ints) and c.bits == alone.bits
+                assert (c.method, c.level, c.slope) == (method, s_.level, s_.slope)
+
+
+@settings(deadline=None, max_examples=30)
+@given(st.integers(2, 8), st.integers(2, 8), st.integers(1, 4), st.integers(0, 2**31))
+def test_coons_nets_of_stacked_boundaries_are_each_net(nu: int, nv: int, r: int, seed: int) -> None:
+    """Boundaries with a leading axis give each one's Coons nets, bit for bit."""
+    rng = np.random.default_rng(seed)
+    u0, u1 = rng.normal(size=(2, r, nv, 3))
+    v0, v1 = rng.normal(size=(2, r, nu, 3))
+    s, t = np.linspace(0, 1, nu) ** 2, np.linspace(0, 1, nv)
+    for net in (coons.coons_net, coons.bicubic_net):
+        stacked = net(u0, u1, v0, v1, s, t)
+        for i in range(r):
+            assert np.array_equal(stacked[i], net(u0[i], u1[i], v0[i], v1[i], s, t))
