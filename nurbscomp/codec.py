@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import functools
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from enum import IntEnum
 
@@ -221,6 +222,21 @@ class _Stepper:
         if self.quant == Quant.TOL:
             return _tol_table(shape, self.grid, SLOPES[self.slope])[0]
         return dct.paper_steps(shape, dc, self.level)
+
+
+@functools.lru_cache(maxsize=1024)
+def _ladder_settings(
+    quant: Quant, levels: tuple[int, ...], slope: int, tol: float
+) -> tuple[_Stepper, ...]:
+    """The settings of a ladder, made once (they hold no state)."""
+    return tuple(_Stepper(quant, e, slope, tol) for e in levels)
+
+
+@functools.lru_cache(maxsize=1024)
+def _tol_ladder(settings: tuple[_Stepper, ...]) -> bool:
+    """Whether a ladder (of :func:`_ladder_settings`) has the tolerance
+    quantizer and steps > 0 throughout."""
+    return all(st.quant == Quant.TOL and st.grid > 0 for st in settings)
 
 
 @functools.lru_cache(maxsize=4096)
@@ -691,7 +707,7 @@ class _Trials:
         t: np.ndarray | None,
         tol: float,
         method: Method,
-        settings: list[_Stepper],
+        settings: Sequence[_Stepper],
         origin: np.ndarray,
         basis: dmap.Basis | None = None,
         dfit: np.ndarray | None = None,
@@ -730,11 +746,11 @@ class _Trials:
 RUNGS_MAX = 768
 
 
-def _rungs_apply(p: np.ndarray, method: Method, settings: list[_Stepper]) -> bool:
+def _rungs_apply(p: np.ndarray, method: Method, settings: Sequence[_Stepper]) -> bool:
     """Whether :class:`_Rungs` computes this ladder (else :class:`_Trials`)."""
     if method not in (Method.SPATIAL, Method.DELTA, Method.CHORD) or p.size > RUNGS_MAX:
         return False
-    if any(st.quant != Quant.TOL or not st.grid > 0 for st in settings):
+    if not _tol_ladder(tuple(settings)):
         return False
     # a chord's DCT by the matrix product only (dct.dct1)
     return method != Method.CHORD or (p.ndim == 2 and len(p) - 2 <= dct.MATRIX_MAX)
@@ -756,7 +772,7 @@ class _Rungs:
         self,
         p: np.ndarray,
         method: Method,
-        settings: list[_Stepper],
+        settings: Sequence[_Stepper],
         origin: np.ndarray,
         memo: _Memo | None = None,
     ) -> None:
@@ -896,7 +912,7 @@ class _BoundaryRungs:
 
 
 def _boundary_rungs(
-    p: np.ndarray, settings: list[_Stepper], origin: np.ndarray, memo: _Memo
+    p: np.ndarray, settings: Sequence[_Stepper], origin: np.ndarray, memo: _Memo
 ) -> _BoundaryRungs:
     """:func:`_boundary` on every rung of a ladder at once: corners on the
     grid, then the four curves between them (the same operations as
@@ -962,7 +978,7 @@ class _CoonsRungs:
         s: np.ndarray,
         t: np.ndarray,
         method: Method,
-        settings: list[_Stepper],
+        settings: Sequence[_Stepper],
         origin: np.ndarray,
         memo: _Memo,
     ) -> None:
@@ -1034,11 +1050,11 @@ _COONS_METHODS = (Method.BOUNDARY, Method.DDMAP, Method.DMAP, Method.BOUNDARY3, 
 _BATCHED_COONS = (Method.BOUNDARY, Method.DDMAP, Method.BOUNDARY3, Method.DDMAP3)
 
 
-def _boundary_rungs_apply(p: np.ndarray, method: Method, settings: list[_Stepper]) -> bool:
+def _boundary_rungs_apply(p: np.ndarray, method: Method, settings: Sequence[_Stepper]) -> bool:
     """Whether :func:`_boundary_rungs` codes this ladder's boundaries."""
     if method not in _COONS_METHODS or p.ndim != 3 or p.size > RUNGS_MAX:
         return False
-    if any(st.quant != Quant.TOL or not st.grid > 0 for st in settings):
+    if not _tol_ladder(tuple(settings)):
         return False
     return max(p.shape[:2]) - 2 <= dct.MATRIX_MAX
 
@@ -1049,7 +1065,7 @@ def _passing(
     t: np.ndarray | None,
     tol: float,
     method: Method,
-    settings: list[_Stepper],
+    settings: Sequence[_Stepper],
     origin: np.ndarray,
     keep: int = 3,
     basis: dmap.Basis | None = None,
@@ -1178,9 +1194,9 @@ def encode_net(
             # applies it along the normals of its own decoded Coons net
             exact = coons.coons_net(p[0], p[-1], p[:, 0], p[:, -1], s, t)
             dfit = dmap.fit(p, exact, basis)
-        ladders: list[list[_Stepper]] = []
+        ladders: list[Sequence[_Stepper]] = []
         if method in (Method.SPATIAL, Method.DELTA):
-            ladders.append([_Stepper(Quant.TOL, e, 0, tol) for e in rungs])
+            ladders.append(_ladder_settings(Quant.TOL, rungs, 0, tol))
         else:
             # a slope only weighs DCT coefficients k+l > 0: nets whose curves
             # have at most one coefficient (3 poles a side, an interior of at
@@ -1188,9 +1204,9 @@ def encode_net(
             # code of equal bits found later never replaces the first)
             flat = max(p.shape[:-1]) <= 3
             for k in range(1 if flat else len(SLOPES)):
-                ladders.append([_Stepper(Quant.TOL, e, k, tol) for e in rungs])
+                ladders.append(_ladder_settings(Quant.TOL, rungs, k, tol))
             if paper:
-                ladders.append([_Stepper(Quant.PAPER, a, 0, tol) for a in PAPER_BITS])
+                ladders.append(_ladder_settings(Quant.PAPER, PAPER_BITS, 0, tol))
         for settings in ladders:
             for c in _passing(
                 p,
