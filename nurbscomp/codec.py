@@ -916,9 +916,8 @@ def _boundary_rungs(
 ) -> _BoundaryRungs:
     """:func:`_boundary` on every rung of a ladder at once: corners on the
     grid, then the four curves between them (the same operations as
-    :func:`_Rungs` uses for a chord's ends and inner poles).  Each rung's
-    boundary goes to ``memo.boundaries`` too, where trials find it."""
-    keys = [(int(st.quant), st.level, st.slope) for st in settings]
+    :func:`_Rungs` uses for a chord's ends and inner poles), kept in ``memo``
+    (see :func:`_trial_boundaries` for the trials')."""
     hs = [st.grid for st in settings]
     known = memo.boundary_rungs.get((settings[0].slope, *hs))
     if known is not None:
@@ -926,8 +925,6 @@ def _boundary_rungs(
     corners = p[[0, 0, -1, -1], [0, -1, 0, -1]]
     amax = np.abs(corners).max()
     use = [i for i, h in enumerate(hs) if amax <= MAX_INT * h]  # NaN fails too
-    for i in set(range(len(settings))) - set(use):
-        memo.boundaries.setdefault(keys[i], None)
     h = np.array([hs[i] for i in use])
     if not use:
         out = _BoundaryRungs([], h, (), np.zeros((0, 0), np.int64))
@@ -948,21 +945,32 @@ def _boundary_rungs(
         parts.append(qc)
         good &= ok
     every = np.concatenate(parts, axis=1)
-    for j, i in enumerate(use):
-        if keys[i] in memo.boundaries:
-            continue
-        if not good[j]:
-            memo.boundaries[keys[i]] = None
-            continue
-        code = every[j].copy()
-        u0, u1, v0, v1 = (cv[j] for cv in curves)
-        memo.boundaries[keys[i]] = _Boundary((u0, u1, v0, v1), (code,), ())
     ok = np.flatnonzero(good)
     out = _BoundaryRungs(
         [use[j] for j in ok.tolist()], h[ok], tuple(cv[ok] for cv in curves), every[ok]
     )
     memo.boundary_rungs[(settings[0].slope, *hs)] = out
     return out
+
+
+def _trial_boundaries(
+    p: np.ndarray, settings: Sequence[_Stepper], origin: np.ndarray, memo: _Memo
+) -> None:
+    """Each rung's boundary of :func:`_boundary_rungs` into ``memo.boundaries``,
+    where the trials of a ladder :class:`_CoonsRungs` does not compute find
+    them (None: unusable)."""
+    b = _boundary_rungs(p, settings, origin, memo)
+    at = {i: j for j, i in enumerate(b.use)}
+    for i, st in enumerate(settings):
+        key = (int(st.quant), st.level, st.slope)
+        if key in memo.boundaries:
+            continue
+        j = at.get(i)
+        if j is None:
+            memo.boundaries[key] = None
+            continue
+        u0, u1, v0, v1 = (cv[j] for cv in b.curves)
+        memo.boundaries[key] = _Boundary((u0, u1, v0, v1), (b.ints[j].copy(),), ())
 
 
 class _CoonsRungs:
@@ -1085,7 +1093,7 @@ def _passing(
         if method in _BATCHED_COONS and s is not None and t is not None:
             runs = _CoonsRungs(p, s, t, method, settings, origin, memo)
         else:
-            _boundary_rungs(p, settings, origin, memo)
+            _trial_boundaries(p, settings, origin, memo)
             runs = _Trials(p, s, t, tol, method, settings, origin, basis, dfit, memo)
     elif _rungs_apply(p, method, settings):
         runs = _Rungs(p, method, settings, origin, memo)

@@ -267,7 +267,7 @@ def test_ladders_at_once_are_the_trials(
 def test_boundaries_at_once_are_the_trials(
     nu: int, nv: int, slope: int, tol: float, scale: float, seed: int
 ) -> None:
-    """Boundaries coded for every rung at once (codec._boundary_rungs) give
+    """Boundaries coded for every rung at once (codec._trial_boundaries) give
     each Coons method's trial the code it has alone, bit for bit, and so do
     whole Coons ladders at once (codec._CoonsRungs)."""
     rng = np.random.default_rng(seed)
@@ -276,7 +276,7 @@ def test_boundaries_at_once_are_the_trials(
     s, t = np.linspace(0, 1, nu) ** 1.5, np.linspace(0, 1, nv)
     settings_ = [codec._Stepper(codec.Quant.TOL, e, slope, tol) for e in codec.ladder(tol, tol)]
     memo = codec._Memo()
-    codec._boundary_rungs(p, settings_, origin, memo)
+    codec._trial_boundaries(p, settings_, origin, memo)
     for method in (codec.Method.BOUNDARY, codec.Method.DDMAP, codec.Method.DDMAP3):
         for s_ in settings_:
             alone = codec._try(p, s, t, tol, method, s_, origin)
