@@ -892,7 +892,7 @@ def _curve_rungs(
         d = dct.dct1_rows(p[1:-1] - chords)
         if memo is not None:
             memo.rung_chords[key] = (d, chords)
-    w = dct.tol_steps((n - 1,), 1.0, slope)
+    w = _tol_table((n - 1,), 1.0, slope)[0]
     steps = w[None] * h[:, None, None]  # (1 + slope·k)·Δ, as dct.tol_steps
     good = (np.abs(d) <= MAX_INT * steps).all(axis=(1, 2))
     with np.errstate(invalid="ignore"):  # rungs whose integers overflow are dropped
@@ -1012,7 +1012,7 @@ class _CoonsRungs:
             net = net.copy()
             inner = net[:, 1:-1, 1:-1]
             d = dct.dct2_rows(p[1:-1, 1:-1] - inner)
-            w = dct.tol_steps((nu - 2, nv - 2), 1.0, SLOPES[settings[0].slope])
+            w = _tol_table((nu - 2, nv - 2), 1.0, SLOPES[settings[0].slope])[0]
             steps = w[None] * b.h[:, None, None, None]  # (1 + slope·(k+l))·Δ, as dct.tol_steps
             good = (np.abs(d) <= MAX_INT * steps).all(axis=(1, 2, 3)).tolist()
             with np.errstate(invalid="ignore"):  # rungs whose integers overflow are dropped
