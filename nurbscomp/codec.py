@@ -332,10 +332,13 @@ class _Writer:
             raise _Unusable  # a collapsed paper step (D00 ~ 0) would overflow
         q = dct.quantize(d, steps)
         out = dct.dequantize(q, steps)
-        flat_q, flat_out = q.reshape(-1, d.shape[-1]), out.reshape(-1, d.shape[-1])
-        flat_out[0] = dc  # D00 is sent; round(D00/Q00) = 2^a carries nothing
-        self.dcs.append(dc.copy())
-        self.add(flat_q[1:].reshape(-1))
+        if self.st.quant == Quant.PAPER:
+            flat_q, flat_out = q.reshape(-1, d.shape[-1]), out.reshape(-1, d.shape[-1])
+            flat_out[0] = dc  # D00 is sent; round(D00/Q00) = 2^a carries nothing
+            self.dcs.append(dc.copy())
+            self.add(flat_q[1:].reshape(-1))
+        else:
+            self.add(q.reshape(-1))
         return out
 
     def predicted(self, p: np.ndarray, origin: np.ndarray) -> np.ndarray:
@@ -375,8 +378,9 @@ class _Writer:
         if memo is not None:
             ints.setflags(write=False)
             out.setflags(write=False)
-            memo[key] = (ints, cost_bits(ints), out)
-            self.add(ints, memo[key][1])  # type: ignore[index]
+            bits = cost_bits(ints)
+            memo[key] = (ints, bits, out)
+            self.add(ints, bits)
         else:
             self.add(ints)
         return out
