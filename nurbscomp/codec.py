@@ -27,11 +27,21 @@ same convex combination of the decoded poles, and max |S - S'| ≤ max_i
 search keeps the cheapest code whose bound is ≤ tol.
 
 Everything here is numpy on plain arrays: nets are (nu, nv, 3).
+
+The search tries each setting of a ladder through the same :func:`_code` the
+decoder runs (:func:`_try`); on small nets the tolerance quantizer's ladders
+are computed for every rung at once instead (:class:`_Rungs`,
+:class:`_CoonsRungs`), by the same operations, and what the trials of one net
+share is computed once (:class:`_Memo`).  Both give the same codes, bit for
+bit (tests/test_codec.py).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+import functools
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
 from enum import IntEnum
 
 import numpy as np
@@ -177,8 +187,22 @@ def _first(origin: np.ndarray) -> np.ndarray:
     return origin if origin.ndim == 1 else origin[0]
 
 
+#: Codes of up to this many integers are costed in Python (``int.bit_length``):
+#: on the short codes of real nets numpy's per-call overhead dominates.
+_SHORT = 96
+
+
 def cost_bits(q: np.ndarray) -> float:
-    """Exp-Golomb length of zig-zag mapped integers: a proxy for the entropy coder."""
+    """Exp-Golomb length of zig-zag mapped integers: a proxy for the entropy coder.
+
+    Zig-zag maps v to z = 2|v| - (v < 0), whose code has 2·floor(log2(z+1)) + 1
+    bits; floor(log2(z+1)) is (z+1).bit_length() - 1.  Every term is an
+    integer, so the sum is exact in either branch (the same float).
+    """
+    if q.size <= _SHORT:
+        return float(
+            sum(2 * (2 * v + 1 if v >= 0 else -2 * v).bit_length() - 1 for v in q.tolist())
+        )
     z = np.abs(q).astype(np.float64) * 2 - (q < 0)
     return float(np.sum(2 * np.floor(np.log2(z + 1.0)) + 1))
 
@@ -191,18 +215,77 @@ class _Stepper:
 
     def __init__(self, quant: Quant, level: int, slope: int, tol: float) -> None:
         self.quant, self.level, self.slope, self.tol = quant, level, slope, tol
-
-    @property
-    def grid(self) -> float:
-        """Step of the grid the corners are snapped to."""
-        if self.quant == Quant.TOL:
-            return self.tol * 2.0 ** (self.level / 4)
-        return self.tol
+        #: Step of the grid the corners are snapped to.
+        self.grid = tol * 2.0 ** (level / 4) if quant == Quant.TOL else tol
 
     def steps(self, shape: tuple[int, ...], dc: np.ndarray) -> np.ndarray:
         if self.quant == Quant.TOL:
-            return dct.tol_steps(shape, self.grid, SLOPES[self.slope])
+            return _tol_table(shape, self.grid, SLOPES[self.slope])[0]
         return dct.paper_steps(shape, dc, self.level)
+
+
+@functools.lru_cache(maxsize=1024)
+def _ladder_settings(
+    quant: Quant, levels: tuple[int, ...], slope: int, tol: float
+) -> tuple[_Stepper, ...]:
+    """The settings of a ladder, made once (they hold no state)."""
+    return tuple(_Stepper(quant, e, slope, tol) for e in levels)
+
+
+@functools.lru_cache(maxsize=1024)
+def _tol_ladder(settings: tuple[_Stepper, ...]) -> bool:
+    """Whether a ladder (of :func:`_ladder_settings`) has the tolerance
+    quantizer and steps > 0 throughout."""
+    return all(st.quant == Quant.TOL and st.grid > 0 for st in settings)
+
+
+@functools.lru_cache(maxsize=4096)
+def _tol_table(shape: tuple[int, ...], delta: float, slope: float) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`dct.tol_steps` (read-only), and MAX_INT times them: the largest
+    magnitudes they may quantize.  Every trial of a net at one setting, and
+    every net of one shape, uses the same steps."""
+    steps = dct.tol_steps(shape, delta, slope)
+    limit = MAX_INT * np.where(steps > 0, steps, np.inf)
+    steps.setflags(write=False)
+    limit.setflags(write=False)
+    return steps, limit
+
+
+@dataclass
+class _Memo:
+    """What the trials of one net share (encoder only).
+
+    Each entry depends on the net, its origin and the grid step h or the
+    whole quantizer setting, and on nothing else a trial varies: it is
+    computed once per net, not once per method, slope and trial.  Arrays held
+    here are read-only.
+    """
+
+    #: coded boundaries by quantizer setting: every Coons method codes the
+    #: same corners and curves first (None: unusable there)
+    boundaries: dict[tuple[int, int, int], _Boundary | None] = field(default_factory=dict)
+    #: points snapped by :meth:`_Writer.grid`, by (which points, h): their
+    #: integers, the bits of those, and the decoded points (None: unusable)
+    grids: dict[tuple[str, float], tuple[np.ndarray, float, np.ndarray] | None] = field(
+        default_factory=dict
+    )
+    #: a curve's chord (eq. 5) and the DCT of its inner poles' differences to
+    #: it (eq. 6-9), by (which curve, h): its ends are decoded on that grid
+    chords: dict[tuple[str, float], tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
+    #: Coons nets of coded boundaries, by (quantizer setting, bicubic)
+    nets: dict[tuple[int, int, int, bool], np.ndarray] = field(default_factory=dict)
+    #: the Coons blends at the net's abscissae
+    blends: coons.Blends | None = None
+    #: :class:`_Rungs`' grid integers and codes' integers, by (method, *steps)
+    rungs: dict[tuple[float, ...], tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
+    #: :func:`_boundary_rungs`' boundaries, by (slope, *steps)
+    boundary_rungs: dict[tuple[float, ...], _BoundaryRungs] = field(default_factory=dict)
+    #: :class:`_CoonsRungs`' Coons nets, by (slope, bicubic, *steps)
+    rung_nets: dict[tuple[float, ...], np.ndarray] = field(default_factory=dict)
+    #: :class:`_Rungs`' chord DCTs and chords, by (method, *steps)
+    rung_chords: dict[tuple[float, ...], tuple[np.ndarray, np.ndarray]] = field(
+        default_factory=dict
+    )
 
 
 class _Writer:
@@ -212,19 +295,38 @@ class _Writer:
         self,
         stepper: _Stepper,
         dfit: np.ndarray | None = None,
-        boundaries: dict[tuple[int, int, int], _Boundary | None] | None = None,
+        memo: _Memo | None = None,
     ) -> None:
         self.st = stepper
         self.ints: list[np.ndarray] = []
+        #: bits of each of ``ints`` where known already (:func:`cost_bits`; a
+        #: sum of integers, so they add up exactly)
+        self.costs: list[float | None] = []
         self.dcs: list[np.ndarray] = []
         self.dfit = dfit  # the D-map fitted once to the exact boundaries' Coons net
-        # one net's coded boundaries by quantizer setting: every Coons method
-        # codes the same corners and curves first (None: unusable there)
-        self.boundaries = boundaries
+        self.memo = memo
+
+    def add(self, ints: np.ndarray, bits: float | None = None) -> None:
+        """Record integers of the code (and their bits, if known)."""
+        self.ints.append(ints)
+        self.costs.append(bits)
+
+    def bits(self, start: int = 0) -> float:
+        """:func:`cost_bits` of the integers recorded from ``start`` on (part by part)."""
+        parts = zip(self.ints[start:], self.costs[start:], strict=True)
+        return float(sum(cost_bits(i) if c is None else c for i, c in parts))
 
     def coeffs(self, d: np.ndarray) -> np.ndarray:
         shape = d.shape[:-1]
         dc = d.reshape(-1, d.shape[-1])[0]
+        if self.st.quant == Quant.TOL and self.st.grid > 0:
+            # steps of the tolerance quantizer are then all > 0: none collapsed
+            steps, limit = _tol_table(shape, self.st.grid, SLOPES[self.st.slope])
+            if not (np.abs(d) <= limit).all():
+                raise _Unusable
+            q = np.rint(d / steps).astype(np.int64)
+            self.add(q.reshape(-1))
+            return q * steps
         steps = self.st.steps(shape, dc)
         if not np.all(np.abs(d) <= MAX_INT * np.where(steps > 0, steps, np.inf)):
             raise _Unusable  # a collapsed paper step (D00 ~ 0) would overflow
@@ -234,31 +336,54 @@ class _Writer:
             flat_q, flat_out = q.reshape(-1, d.shape[-1]), out.reshape(-1, d.shape[-1])
             flat_out[0] = dc  # D00 is sent; round(D00/Q00) = 2^a carries nothing
             self.dcs.append(dc.copy())
-            self.ints.append(flat_q[1:].reshape(-1))
+            self.add(flat_q[1:].reshape(-1))
         else:
-            self.ints.append(q.reshape(-1))
+            self.add(q.reshape(-1))
         return out
 
     def predicted(self, p: np.ndarray, origin: np.ndarray) -> np.ndarray:
         """Grid snap + closed-loop prediction (parallelogram for nets, line for curves)."""
         h = self.st.grid
-        if not np.all(np.abs(p) <= MAX_INT * h):
+        if not np.abs(p).max() <= MAX_INT * h:  # NaN fails too
             raise _Unusable
         q = spatial.snap(p, h)
         r = _residuals(q)
         r.reshape(-1, p.shape[-1])[0] -= spatial.snap(_first(origin), h)
-        self.ints.append(r.reshape(-1))
+        self.add(r.reshape(-1))
         return q * h
 
-    def grid(self, p: np.ndarray, origin: np.ndarray) -> np.ndarray:
+    def grid(self, p: np.ndarray, origin: np.ndarray, which: str = "") -> np.ndarray:
         """Snap points (k, 3) to the grid; code the first against ``origin`` (the
-        first two against its rows if it has two), the rest against the first."""
+        first two against its rows if it has two), the rest against the first.
+
+        ``which`` names the points for the net's :class:`_Memo` (every setting
+        with the same grid step codes them alike).
+        """
         h = self.st.grid
-        if not np.all(np.abs(p) <= MAX_INT * h):
+        memo = self.memo.grids if self.memo is not None and which else None
+        key = (which, h)
+        if memo is not None and key in memo:
+            hit = memo[key]
+            if hit is None:
+                raise _Unusable
+            self.add(hit[0], hit[1])
+            return hit[2]
+        if not np.abs(p).max() <= MAX_INT * h:  # NaN fails too
+            if memo is not None:
+                memo[key] = None
             raise _Unusable
         q = spatial.snap(p, h)
-        self.ints.append(_against(q, spatial.snap(origin, h)).reshape(-1))
-        return q * h
+        ints = _against(q, spatial.snap(origin, h)).reshape(-1)
+        out = q * h
+        if memo is not None:
+            ints.setflags(write=False)
+            out.setflags(write=False)
+            bits = cost_bits(ints)
+            memo[key] = (ints, bits, out)
+            self.add(ints, bits)
+        else:
+            self.add(ints)
+        return out
 
 
 class _Reader:
@@ -291,7 +416,7 @@ class _Reader:
         steps = self.st.steps(shape, np.zeros(c))
         return dct.dequantize(self._take(like.size).reshape(like.shape), steps)
 
-    def grid(self, like: np.ndarray, origin: np.ndarray) -> np.ndarray:
+    def grid(self, like: np.ndarray, origin: np.ndarray, which: str = "") -> np.ndarray:
         h = self.st.grid
         d = self._take(like.size).reshape(like.shape)
         return _unagainst(d, spatial.snap(origin, h)) * h
@@ -320,26 +445,57 @@ def _unagainst(d: np.ndarray, qo: np.ndarray) -> np.ndarray:
 # ---------------------------------------------------------------- boundary + Coons
 
 
-def _curve(io: _Writer | _Reader, p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+def _curve(
+    io: _Writer | _Reader, p: np.ndarray, a: np.ndarray, b: np.ndarray, which: str = ""
+) -> np.ndarray:
     """Code one boundary curve's inner poles against the chord of its decoded ends.
 
     Eq. 5-6: R_i = (1-(i+1)/n)·P0 + (i+1)/n·Pn, V_i = P_{i+1} - R_i; then DCT
     (eq. 8-9) and quantization (eq. 10).  ``a`` and ``b`` are the *decoded*
     end poles (closed loop), ``p`` the curve's poles (its ends unused).
+    ``which`` names the curve for the encoder's :class:`_Memo`: its ends are
+    then those :meth:`_Writer.grid` decoded on the setting's grid, so the
+    chord and the DCT depend on the grid step alone.
     """
     n = len(p) - 1
     if n < 2:
-        return np.stack([a, b])
-    f = (np.arange(1, n) / n)[:, None]
-    chord = (1 - f) * a + f * b
+        return np.array([a, b])
     if isinstance(io, _Writer):
-        v = io.coeffs(dct.dct1(p[1:-1] - chord))
+        memo = io.memo.chords if io.memo is not None and which else None
+        key = (which, io.st.grid)
+        if memo is not None and key in memo:
+            chord, d = memo[key]
+        else:
+            chord = _chord(a, b, n)
+            d = dct.dct1(p[1:-1] - chord)
+            if memo is not None:
+                chord.setflags(write=False)
+                d.setflags(write=False)
+                memo[key] = (chord, d)
+        v = io.coeffs(d)
     else:
+        chord = _chord(a, b, n)
         v = io.coeffs(np.empty((n - 1, p.shape[1])))
     return np.concatenate([a[None], chord + dct.idct1(v), b[None]])
 
 
-@dataclass(frozen=True)
+def _chord(a: np.ndarray, b: np.ndarray, n: int) -> np.ndarray:
+    """R_i = (1-(i+1)/n)·a + (i+1)/n·b, i = 0..n-2 (eq. 5)."""
+    g, f = _chord_weights(n)
+    return g * a + f * b
+
+
+@functools.lru_cache(maxsize=256)
+def _chord_weights(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """1 - (i+1)/n and (i+1)/n, i = 0..n-2, as columns (read-only)."""
+    f = (np.arange(1, n) / n)[:, None]
+    g = 1 - f
+    f.setflags(write=False)
+    g.setflags(write=False)
+    return g, f
+
+
+@dataclass
 class _Boundary:
     """A net's four boundary curves as decoded, and the integers and DCs that
     code them (with the corners) under one quantizer setting."""
@@ -347,6 +503,7 @@ class _Boundary:
     curves: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
     ints: tuple[np.ndarray, ...]
     dcs: tuple[np.ndarray, ...]
+    bits: float | None = None  # cost_bits of the integers, once asked for
 
 
 def _boundary(
@@ -356,9 +513,9 @@ def _boundary(
     between them; return the decoded curves u0, u1, v0, v1.
 
     The encoder codes them once per quantizer setting of a net
-    (``_Writer.boundaries``): every Coons method begins with the same code.
+    (``_Memo.boundaries``): every Coons method begins with the same code.
     """
-    cache = io.boundaries if isinstance(io, _Writer) else None
+    cache = io.memo.boundaries if isinstance(io, _Writer) and io.memo is not None else None
     key = (int(io.st.quant), io.st.level, io.st.slope)
     if cache is not None and key in cache:
         assert isinstance(io, _Writer)
@@ -366,17 +523,22 @@ def _boundary(
         if hit is None:
             raise _Unusable
         io.ints.extend(hit.ints)
+        if hit.bits is None:
+            hit.bits = float(sum(cost_bits(i) for i in hit.ints))
+        io.costs.extend([hit.bits] + [0.0] * (len(hit.ints) - 1))
         io.dcs.extend(hit.dcs)
         return hit.curves
     n_ints, n_dcs = (len(io.ints), len(io.dcs)) if isinstance(io, _Writer) else (0, 0)
     try:
         corners = p[[0, 0, -1, -1], [0, -1, 0, -1]]
-        c = io.grid(corners if isinstance(io, _Writer) else np.empty_like(corners), origin)
+        c = io.grid(
+            corners if isinstance(io, _Writer) else np.empty_like(corners), origin, "corners"
+        )
         curves = (
-            _curve(io, p[0], c[0], c[1]),
-            _curve(io, p[-1], c[2], c[3]),
-            _curve(io, p[:, 0], c[0], c[2]),
-            _curve(io, p[:, -1], c[1], c[3]),
+            _curve(io, p[0], c[0], c[1], "u0"),
+            _curve(io, p[-1], c[2], c[3], "u1"),
+            _curve(io, p[:, 0], c[0], c[2], "v0"),
+            _curve(io, p[:, -1], c[1], c[3], "v1"),
         )
     except _Unusable:
         if cache is not None:
@@ -384,7 +546,10 @@ def _boundary(
         raise
     if cache is not None:
         assert isinstance(io, _Writer)
-        cache[key] = _Boundary(curves, tuple(io.ints[n_ints:]), tuple(io.dcs[n_dcs:]))
+        ints = tuple(io.ints[n_ints:])
+        bits = io.bits(n_ints)
+        io.costs[n_ints:] = [bits] + [0.0] * (len(ints) - 1)
+        cache[key] = _Boundary(curves, ints, tuple(io.dcs[n_dcs:]), bits)
     return curves
 
 
@@ -400,7 +565,17 @@ def _coons_code(
     """Code a net as corners + boundary curves + (for DDMAP, DMAP) difference
     data; return the decoded net."""
     u0, u1, v0, v1 = _boundary(io, p, origin)
-    net = (coons.bicubic_net if method in BICUBIC else coons.coons_net)(u0, u1, v0, v1, s, t)
+    blend = coons.bicubic_net if method in BICUBIC else coons.coons_net
+    if isinstance(io, _Writer) and io.memo is not None:
+        # BOUNDARY and DDMAP (BOUNDARY3 and DDMAP3) predict with the same net
+        key = (int(io.st.quant), io.st.level, io.st.slope, method in BICUBIC)
+        if key not in io.memo.nets:
+            if io.memo.blends is None:
+                io.memo.blends = coons.Blends(s, t)
+            io.memo.nets[key] = blend(u0, u1, v0, v1, s, t, io.memo.blends)
+        net = io.memo.nets[key].copy()
+    else:
+        net = blend(u0, u1, v0, v1, s, t)
     nu, nv = p.shape[:2]
     if method in (Method.DDMAP, Method.DDMAP3) and nu > 2 and nv > 2:
         inner = net[1:-1, 1:-1]
@@ -426,7 +601,11 @@ def _residuals(q: np.ndarray) -> np.ndarray:
     linear extrapolation 2·P[i-1] - P[i-2] on a curve (n, 3)."""
     if q.ndim == 3:
         return spatial.residuals(q)
-    return np.diff(q, n=2, axis=0, prepend=np.zeros((2, q.shape[1]), np.int64))
+    # r[i] = q[i] - 2·q[i-1] + q[i-2], terms before the first taken as 0 (exact: integers)
+    r = q.copy()
+    r[1:] -= 2 * q[:-1]
+    r[2:] += q[:-2]
+    return r
 
 
 def _integrate(r: np.ndarray) -> np.ndarray:
@@ -453,8 +632,8 @@ def _code(
         return io.predicted(p, origin)
     if method == Method.CHORD:
         ends = p[[0, -1]]
-        c = io.grid(ends if isinstance(io, _Writer) else np.empty_like(ends), origin)
-        return _curve(io, p, c[0], c[1])
+        c = io.grid(ends if isinstance(io, _Writer) else np.empty_like(ends), origin, "ends")
+        return _curve(io, p, c[0], c[1], "chord")
     assert s is not None and t is not None
     return _coons_code(io, p, s, t, method, origin, basis)
 
@@ -504,18 +683,392 @@ def _try(
     origin: np.ndarray,
     basis: dmap.Basis | None = None,
     dfit: np.ndarray | None = None,
-    boundaries: dict[tuple[int, int, int], _Boundary | None] | None = None,
+    memo: _Memo | None = None,
 ) -> NetCode | None:
-    w = _Writer(st, dfit, boundaries)
+    w = _Writer(st, dfit, memo)
     try:
         dec = _code(w, p, method, s, t, origin, basis)
     except _Unusable:
         return None
     ints = np.concatenate(w.ints) if w.ints else np.zeros(0, np.int64)
     dcs = np.concatenate(w.dcs) if w.dcs else np.zeros(0)
-    bound = float(np.sqrt(((dec - p) ** 2).sum(-1)).max())
-    bits = cost_bits(ints) + 64 * len(dcs)
+    # max of the distances: the root of the largest square (sqrt is monotone)
+    bound = math.sqrt(((dec - p) ** 2).sum(-1).max())
+    bits = w.bits() + 64 * len(dcs)
     return NetCode(method, st.quant, st.level, st.slope, ints, dcs, bound, bits, origin.copy())
+
+
+# ---------------------------------------------------------------- ladders
+
+
+class _Trials:
+    """The rungs of one ladder, each tried through :func:`_try` when first asked for."""
+
+    def __init__(
+        self,
+        p: np.ndarray,
+        s: np.ndarray | None,
+        t: np.ndarray | None,
+        tol: float,
+        method: Method,
+        settings: Sequence[_Stepper],
+        origin: np.ndarray,
+        basis: dmap.Basis | None = None,
+        dfit: np.ndarray | None = None,
+        memo: _Memo | None = None,
+    ) -> None:
+        self.p, self.s, self.t, self.tol, self.method = p, s, t, tol, method
+        self.settings, self.origin = settings, origin
+        self.basis, self.dfit, self.memo = basis, dfit, memo
+        self.codes: dict[int, NetCode | None] = {}
+
+    def code(self, i: int) -> NetCode | None:
+        """Rung ``i``'s code (None: the setting cannot code the net)."""
+        if i not in self.codes:
+            self.codes[i] = _try(
+                self.p,
+                self.s,
+                self.t,
+                self.tol,
+                self.method,
+                self.settings[i],
+                self.origin,
+                self.basis,
+                self.dfit,
+                self.memo,
+            )
+        return self.codes[i]
+
+    def bound(self, i: int) -> float | None:
+        """Rung ``i``'s certified bound (None: unusable)."""
+        c = self.code(i)
+        return None if c is None else c.bound
+
+
+#: Grid ladders (:class:`_Rungs`) of nets of up to this many values are
+#: computed at once; a larger net's trials cost their arithmetic.
+RUNGS_MAX = 768
+
+
+def _rungs_apply(p: np.ndarray, method: Method, settings: Sequence[_Stepper]) -> bool:
+    """Whether :class:`_Rungs` computes this ladder (else :class:`_Trials`)."""
+    if method not in (Method.SPATIAL, Method.DELTA, Method.CHORD) or p.size > RUNGS_MAX:
+        return False
+    if not _tol_ladder(tuple(settings)):
+        return False
+    # a chord's DCT by the matrix product only (dct.dct1)
+    return method != Method.CHORD or (p.ndim == 2 and len(p) - 2 <= dct.MATRIX_MAX)
+
+
+class _Rungs:
+    """Every rung of a ``SPATIAL``, ``DELTA`` or ``CHORD`` ladder with the
+    tolerance quantizer, computed at once: on small nets numpy's cost per
+    call, not the arithmetic, is what a trial costs.
+
+    Each value is made by the same floating-point operations as :func:`_code`
+    through a :class:`_Writer` (snap, residuals, chord, DCT as the same
+    matrix product per rung, steps, rounding, decoded poles, bound), so the
+    bounds and codes are those of :func:`_try`, bit for bit
+    (``tests/test_codec.py``).  A code is made only for a rung asked for.
+    """
+
+    def __init__(
+        self,
+        p: np.ndarray,
+        method: Method,
+        settings: Sequence[_Stepper],
+        origin: np.ndarray,
+        memo: _Memo | None = None,
+    ) -> None:
+        self.method, self.settings, self.origin = method, settings, origin
+        self.bounds: list[float | None] = [None] * len(settings)
+        self.ints: dict[int, np.ndarray] = {}
+        self.codes: dict[int, NetCode] = {}
+        hs = [st.grid for st in settings]
+        chord = method == Method.CHORD
+        pts = p[[0, -1]] if chord else p
+        amax = np.abs(pts).max()
+        use = [i for i, h in enumerate(hs) if amax <= MAX_INT * h]  # NaN fails too
+        if not use:
+            return
+        h = np.array([hs[i] for i in use])
+        # what does not depend on the slope is shared by the net's ladders
+        key = (int(method), *h.tolist())
+        if memo is not None and key in memo.rungs:
+            q, head = memo.rungs[key]
+        else:
+            q, head = _grid_rungs(pts, h, origin, chord)
+            if memo is not None:
+                memo.rungs[key] = (q, head)
+        dec = q * h.reshape(-1, *([1] * pts.ndim))
+        good = [True] * len(use)
+        if chord:
+            slope = SLOPES[settings[0].slope]
+            dec, qc, ok = _curve_rungs(p, dec[:, 0], dec[:, 1], h, slope, memo, "chord")
+            head = np.concatenate([head, qc], axis=1)
+            good = ok.tolist()
+        # the root of the largest square, as in _try
+        bounds = np.sqrt(((dec - p) ** 2).sum(-1).reshape(len(dec), -1).max(axis=1)).tolist()
+        for j, i in enumerate(use):
+            if good[j]:
+                self.bounds[i] = bounds[j]
+                self.ints[i] = head[j]
+
+    def bound(self, i: int) -> float | None:
+        """Rung ``i``'s certified bound (None: unusable)."""
+        return self.bounds[i]
+
+    def code(self, i: int) -> NetCode | None:
+        """Rung ``i``'s code (None: unusable)."""
+        bound = self.bounds[i]
+        if bound is None:
+            return None
+        if i not in self.codes:
+            st, ints = self.settings[i], self.ints[i].copy()
+            self.codes[i] = NetCode(
+                self.method,
+                st.quant,
+                st.level,
+                st.slope,
+                ints,
+                np.zeros(0),
+                bound,
+                cost_bits(ints),
+                self.origin.copy(),
+            )
+        return self.codes[i]
+
+
+def _grid_rungs(
+    pts: np.ndarray, h: np.ndarray, origin: np.ndarray, against: bool
+) -> tuple[np.ndarray, np.ndarray]:
+    """Grid integers of ``pts`` for each step of ``h`` (R, ...), and each
+    step's integers as :meth:`_Writer.grid` (``against``: corners, a chord's
+    ends) or :meth:`_Writer.predicted` (``SPATIAL``, ``DELTA``) records them (R, k)."""
+    r = len(h)
+    q = np.rint(pts / h.reshape(-1, *([1] * pts.ndim))).astype(np.int64)
+    qo = np.rint(np.atleast_2d(origin) / h[:, None, None]).astype(np.int64)
+    if against:
+        n = qo.shape[1]  # as _against
+        ints = np.concatenate([q[:, :n] - qo, q[:, n:] - q[:, :1]], axis=1)
+        return q, ints.reshape(r, -1)
+    if q.ndim == 4:  # spatial.residuals, on each rung
+        a = q.copy()
+        a[:, 1:] -= q[:, :-1]
+        res = a.copy()
+        res[:, :, 1:] -= a[:, :, :-1]
+    else:  # _residuals of a curve, on each rung
+        res = q.copy()
+        res[:, 1:] -= 2 * q[:, :-1]
+        res[:, 2:] += q[:, :-2]
+    flat = res.reshape(r, -1, pts.shape[-1])
+    flat[:, 0] -= qo[:, 0]
+    return q, flat.reshape(r, -1)
+
+
+def _curve_rungs(
+    p: np.ndarray,
+    a: np.ndarray,
+    b: np.ndarray,
+    h: np.ndarray,
+    slope: float,
+    memo: _Memo | None,
+    which: str,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`_curve` on each rung: the curve ``p`` between decoded ends
+    ``a``, ``b`` (R, dim) on the grids of steps ``h`` (R,), DCT coefficients
+    quantized with steps (1 + slope·k)·h (eq. 5-10).
+
+    Returns the decoded curves (R, n+1, dim), their coefficients' integers
+    (R, (n-1)·dim) and which rungs can code them (R,) (integers in range).
+    The chords and DCTs do not depend on the slope: the net's ``memo`` keeps
+    them under ``which``.
+    """
+    n, r = len(p) - 1, len(h)
+    if n < 2:
+        return np.stack([a, b], axis=1), np.zeros((r, 0), np.int64), np.ones(r, bool)
+    key = (which, *h.tolist())
+    if memo is not None and key in memo.rung_chords:
+        d, chords = memo.rung_chords[key]
+    else:
+        g, f = _chord_weights(n)
+        chords = g * a[:, None] + f * b[:, None]  # as _chord, on each rung
+        d = dct.dct1_rows(p[1:-1] - chords)
+        if memo is not None:
+            memo.rung_chords[key] = (d, chords)
+    w = _tol_table((n - 1,), 1.0, slope)[0]
+    steps = w[None] * h[:, None, None]  # (1 + slope·k)·Δ, as dct.tol_steps
+    good = (np.abs(d) <= MAX_INT * steps).all(axis=(1, 2))
+    with np.errstate(invalid="ignore"):  # rungs whose integers overflow are dropped
+        qc = np.rint(d / steps).astype(np.int64)
+    inner = chords + dct.idct1_rows(qc * steps)
+    return np.concatenate([a[:, None], inner, b[:, None]], axis=1), qc.reshape(r, -1), good
+
+
+@dataclass
+class _BoundaryRungs:
+    """A ladder's boundaries, coded on every rung at once (:func:`_boundary_rungs`)."""
+
+    use: list[int]  # the rungs whose boundaries can be coded
+    h: np.ndarray  # their grid steps
+    curves: tuple[np.ndarray, ...]  # decoded u0, u1, v0, v1 of each, (R, k, 3)
+    ints: np.ndarray  # their integers, (R, K)
+
+
+def _boundary_rungs(
+    p: np.ndarray, settings: Sequence[_Stepper], origin: np.ndarray, memo: _Memo
+) -> _BoundaryRungs:
+    """:func:`_boundary` on every rung of a ladder at once: corners on the
+    grid, then the four curves between them (the same operations as
+    :func:`_Rungs` uses for a chord's ends and inner poles), kept in ``memo``
+    (see :func:`_trial_boundaries` for the trials')."""
+    hs = [st.grid for st in settings]
+    known = memo.boundary_rungs.get((settings[0].slope, *hs))
+    if known is not None:
+        return known
+    corners = p[[0, 0, -1, -1], [0, -1, 0, -1]]
+    amax = np.abs(corners).max()
+    use = [i for i, h in enumerate(hs) if amax <= MAX_INT * h]  # NaN fails too
+    h = np.array([hs[i] for i in use])
+    if not use:
+        out = _BoundaryRungs([], h, (), np.zeros((0, 0), np.int64))
+        memo.boundary_rungs[(settings[0].slope, *hs)] = out
+        return out
+    q, ints = _grid_rungs(corners, h, origin, True)
+    c = q * h[:, None, None]
+    slope = SLOPES[settings[0].slope]
+    parts, good, curves = [ints], np.ones(len(use), bool), []
+    for which, row, i0, i1 in (
+        ("u0", p[0], 0, 1),
+        ("u1", p[-1], 2, 3),
+        ("v0", p[:, 0], 0, 2),
+        ("v1", p[:, -1], 1, 3),
+    ):
+        curve, qc, ok = _curve_rungs(row, c[:, i0], c[:, i1], h, slope, memo, which)
+        curves.append(curve)
+        parts.append(qc)
+        good &= ok
+    every = np.concatenate(parts, axis=1)
+    ok = np.flatnonzero(good)
+    out = _BoundaryRungs(
+        [use[j] for j in ok.tolist()], h[ok], tuple(cv[ok] for cv in curves), every[ok]
+    )
+    memo.boundary_rungs[(settings[0].slope, *hs)] = out
+    return out
+
+
+def _trial_boundaries(
+    p: np.ndarray, settings: Sequence[_Stepper], origin: np.ndarray, memo: _Memo
+) -> None:
+    """Each rung's boundary of :func:`_boundary_rungs` into ``memo.boundaries``,
+    where the trials of a ladder :class:`_CoonsRungs` does not compute find
+    them (None: unusable)."""
+    b = _boundary_rungs(p, settings, origin, memo)
+    at = {i: j for j, i in enumerate(b.use)}
+    for i, st in enumerate(settings):
+        key = (int(st.quant), st.level, st.slope)
+        if key in memo.boundaries:
+            continue
+        j = at.get(i)
+        if j is None:
+            memo.boundaries[key] = None
+            continue
+        u0, u1, v0, v1 = (cv[j] for cv in b.curves)
+        memo.boundaries[key] = _Boundary((u0, u1, v0, v1), (b.ints[j].copy(),), ())
+
+
+class _CoonsRungs:
+    """Every rung of a ``BOUNDARY``, ``BOUNDARY3``, ``DDMAP`` or ``DDMAP3``
+    ladder with the tolerance quantizer at once (as :class:`_Rungs`): the
+    boundaries of :func:`_boundary_rungs`, their Coons nets (eq. 11; the
+    nets take leading axes) and the DD-map's DCT (eq. 26-27, the same matrix
+    products per rung), so bounds and codes are those of :func:`_try`."""
+
+    def __init__(
+        self,
+        p: np.ndarray,
+        s: np.ndarray,
+        t: np.ndarray,
+        method: Method,
+        settings: Sequence[_Stepper],
+        origin: np.ndarray,
+        memo: _Memo,
+    ) -> None:
+        self.method, self.settings, self.origin = method, settings, origin
+        self.bounds: list[float | None] = [None] * len(settings)
+        self.ints: dict[int, np.ndarray] = {}
+        self.codes: dict[int, NetCode] = {}
+        b = _boundary_rungs(p, settings, origin, memo)
+        if not b.use:
+            return
+        bicubic = method in BICUBIC
+        key = (settings[0].slope, bicubic, *[st.grid for st in settings])
+        if key not in memo.rung_nets:
+            if memo.blends is None:
+                memo.blends = coons.Blends(s, t)
+            blend = coons.bicubic_net if bicubic else coons.coons_net
+            u0, u1, v0, v1 = b.curves
+            memo.rung_nets[key] = blend(u0, u1, v0, v1, s, t, memo.blends)
+        net, ints = memo.rung_nets[key], b.ints
+        use, good = b.use, [True] * len(b.use)
+        nu, nv = p.shape[:2]
+        if method in (Method.DDMAP, Method.DDMAP3) and nu > 2 and nv > 2:
+            net = net.copy()
+            inner = net[:, 1:-1, 1:-1]
+            d = dct.dct2_rows(p[1:-1, 1:-1] - inner)
+            w = _tol_table((nu - 2, nv - 2), 1.0, SLOPES[settings[0].slope])[0]
+            steps = w[None] * b.h[:, None, None, None]  # (1 + slope·(k+l))·Δ, as dct.tol_steps
+            good = (np.abs(d) <= MAX_INT * steps).all(axis=(1, 2, 3)).tolist()
+            with np.errstate(invalid="ignore"):  # rungs whose integers overflow are dropped
+                qd = np.rint(d / steps).astype(np.int64)
+            net[:, 1:-1, 1:-1] = inner + dct.idct2_rows(qd * steps)
+            ints = np.concatenate([ints, qd.reshape(len(qd), -1)], axis=1)
+        # the root of the largest square, as in _try
+        bounds = np.sqrt(((net - p) ** 2).sum(-1).reshape(len(net), -1).max(axis=1)).tolist()
+        for j, i in enumerate(use):
+            if good[j]:
+                self.bounds[i] = bounds[j]
+                self.ints[i] = ints[j]
+
+    def bound(self, i: int) -> float | None:
+        """Rung ``i``'s certified bound (None: unusable)."""
+        return self.bounds[i]
+
+    def code(self, i: int) -> NetCode | None:
+        """Rung ``i``'s code (None: unusable)."""
+        bound = self.bounds[i]
+        if bound is None:
+            return None
+        if i not in self.codes:
+            st, ints = self.settings[i], self.ints[i].copy()
+            self.codes[i] = NetCode(
+                self.method,
+                st.quant,
+                st.level,
+                st.slope,
+                ints,
+                np.zeros(0),
+                bound,
+                cost_bits(ints),
+                self.origin.copy(),
+            )
+        return self.codes[i]
+
+
+#: Methods that code a net's boundary first (:func:`_boundary`).
+_COONS_METHODS = (Method.BOUNDARY, Method.DDMAP, Method.DMAP, Method.BOUNDARY3, Method.DDMAP3)
+#: Those whose ladders :class:`_CoonsRungs` computes at once (the D-map's
+#: least squares go rung by rung).
+_BATCHED_COONS = (Method.BOUNDARY, Method.DDMAP, Method.BOUNDARY3, Method.DDMAP3)
+
+
+def _boundary_rungs_apply(p: np.ndarray, method: Method, settings: Sequence[_Stepper]) -> bool:
+    """Whether :func:`_boundary_rungs` codes this ladder's boundaries."""
+    if method not in _COONS_METHODS or p.ndim != 3 or p.size > RUNGS_MAX:
+        return False
+    if not _tol_ladder(tuple(settings)):
+        return False
+    return max(p.shape[:2]) - 2 <= dct.MATRIX_MAX
 
 
 def _passing(
@@ -524,13 +1077,13 @@ def _passing(
     t: np.ndarray | None,
     tol: float,
     method: Method,
-    settings: list[_Stepper],
+    settings: Sequence[_Stepper],
     origin: np.ndarray,
     keep: int = 3,
     basis: dmap.Basis | None = None,
     dfit: np.ndarray | None = None,
     limit: float | None = None,
-    boundaries: dict[tuple[int, int, int], _Boundary | None] | None = None,
+    memo: _Memo | None = None,
 ) -> list[NetCode]:
     """The first ``keep`` codes within ``limit`` (default tol) along a coarse-to-fine ladder.
 
@@ -538,14 +1091,22 @@ def _passing(
     passing rung is found by bisection; the ``keep`` rungs from there on are
     all returned, since a finer step sometimes codes smaller.
     """
-    cache: dict[int, NetCode | None] = {}
     limit = tol if limit is None else limit
+    runs: _Rungs | _CoonsRungs | _Trials
+    if memo is not None and _boundary_rungs_apply(p, method, settings):
+        if method in _BATCHED_COONS and s is not None and t is not None:
+            runs = _CoonsRungs(p, s, t, method, settings, origin, memo)
+        else:
+            _trial_boundaries(p, settings, origin, memo)
+            runs = _Trials(p, s, t, tol, method, settings, origin, basis, dfit, memo)
+    elif _rungs_apply(p, method, settings):
+        runs = _Rungs(p, method, settings, origin, memo)
+    else:
+        runs = _Trials(p, s, t, tol, method, settings, origin, basis, dfit, memo)
 
     def ok(i: int) -> bool:
-        if i not in cache:
-            cache[i] = _try(p, s, t, tol, method, settings[i], origin, basis, dfit, boundaries)
-        c = cache[i]
-        return c is not None and c.bound <= limit
+        b = runs.bound(i)
+        return b is not None and b <= limit
 
     lo, hi = 0, len(settings) - 1
     if not ok(hi):
@@ -559,7 +1120,7 @@ def _passing(
     out = []
     for i in range(lo, min(lo + keep, len(settings))):
         if ok(i):
-            c = cache[i]
+            c = runs.code(i)
             assert c is not None
             out.append(c)
     return out
@@ -630,7 +1191,7 @@ def encode_net(
     limit = tol if limit is None else min(limit, tol)
     rungs = ladder(tol, limit)
     best: NetCode | None = None
-    boundaries: dict[tuple[int, int, int], _Boundary | None] = {}
+    memo = _Memo()
     if p.ndim == 3 and min(p.shape[:2]) <= 2:
         # no interior: every Coons method decodes to the boundary method's net
         # with the same integers, and the first of equal codes is kept anyway
@@ -645,17 +1206,19 @@ def encode_net(
             # applies it along the normals of its own decoded Coons net
             exact = coons.coons_net(p[0], p[-1], p[:, 0], p[:, -1], s, t)
             dfit = dmap.fit(p, exact, basis)
-        ladders: list[list[_Stepper]] = []
+        ladders: list[Sequence[_Stepper]] = []
         if method in (Method.SPATIAL, Method.DELTA):
-            ladders.append([_Stepper(Quant.TOL, e, 0, tol) for e in rungs])
+            ladders.append(_ladder_settings(Quant.TOL, rungs, 0, tol))
         else:
-            # a slope only weighs DCT coefficients: nets whose curves have none
-            # (2 poles a side) code the same with every slope, so only with 0
-            flat = max(p.shape[:-1]) <= 2
+            # a slope only weighs DCT coefficients k+l > 0: nets whose curves
+            # have at most one coefficient (3 poles a side, an interior of at
+            # most 1 x 1) code the same with every slope, so only with 0 (a
+            # code of equal bits found later never replaces the first)
+            flat = max(p.shape[:-1]) <= 3
             for k in range(1 if flat else len(SLOPES)):
-                ladders.append([_Stepper(Quant.TOL, e, k, tol) for e in rungs])
+                ladders.append(_ladder_settings(Quant.TOL, rungs, k, tol))
             if paper:
-                ladders.append([_Stepper(Quant.PAPER, a, 0, tol) for a in PAPER_BITS])
+                ladders.append(_ladder_settings(Quant.PAPER, PAPER_BITS, 0, tol))
         for settings in ladders:
             for c in _passing(
                 p,
@@ -668,7 +1231,7 @@ def encode_net(
                 basis=basis,
                 dfit=dfit,
                 limit=limit,
-                boundaries=boundaries,
+                memo=memo,
             ):
                 if best is None or c.bits < best.bits:
                     best = c

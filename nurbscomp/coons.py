@@ -16,6 +16,8 @@ in the spline space, so it is a predictor only, for every net.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 
@@ -66,8 +68,46 @@ def unit_abscissae(g: np.ndarray) -> np.ndarray:
     return (g - g[0]) / span
 
 
+class Blends:
+    """The blends of both Coons nets at (s_i, t_j), shaped for broadcasting.
+
+    They depend on the abscissae alone: an encoder trying many boundaries of
+    one net computes them once (each net below computes them itself when not
+    given them, with the same arithmetic).
+    """
+
+    def __init__(self, s: np.ndarray, t: np.ndarray) -> None:
+        self.s, self.t = s, t
+        S, T = s[:, None, None], t[None, :, None]
+        # bilinear: 1-s, 1-t and the corners' products, as coons_net writes them
+        self.s_, self.t_, self.ms, self.mt = S, T, 1 - S, 1 - T
+        self.w00, self.w01 = (1 - S) * (1 - T), (1 - S) * T
+        self.w10, self.w11 = S * (1 - T), S * T
+
+    @functools.cached_property
+    def hermite(self) -> tuple[tuple[np.ndarray, ...], ...]:
+        """Bicubic: Hermite blends H0..H3 of s as (nu, 1) and (nu, 1, 1), of t
+        as (nv, 1) and (1, nv, 1), and H2 + H3 of s and of t, as (nu, 1) and (nv, 1)."""
+        hs, ht = _hermite(self.s), _hermite(self.t)
+        s_col = tuple(h[:, None] for h in hs)
+        t_col = tuple(h[:, None] for h in ht)
+        return (
+            s_col,
+            tuple(h[:, None, None] for h in hs),
+            t_col,
+            tuple(h[None, :, None] for h in ht),
+            (s_col[2] + s_col[3], t_col[2] + t_col[3]),
+        )
+
+
 def coons_net(
-    u0: np.ndarray, u1: np.ndarray, v0: np.ndarray, v1: np.ndarray, s: np.ndarray, t: np.ndarray
+    u0: np.ndarray,
+    u1: np.ndarray,
+    v0: np.ndarray,
+    v1: np.ndarray,
+    s: np.ndarray,
+    t: np.ndarray,
+    blends: Blends | None = None,
 ) -> np.ndarray:
     """The discrete bilinearly blended Coons net (eq. 11, bilinear blends).
 
@@ -80,20 +120,48 @@ def coons_net(
         rows' ends (the four corners).
     s, t : ndarray, shapes (nu,), (nv,)
         Blending abscissae in [0, 1] (normalised Greville abscissae).
+    blends : Blends, optional
+        ``Blends(s, t)``, if already made.
 
     Returns
     -------
     ndarray, shape (nu, nv, 3)
         A net whose boundary rows and columns are the given ones.
+
+    Boundaries with leading axes (..., nv, 3) give the nets (..., nu, nv, 3)
+    of each, value for value the same.
     """
-    s = s[:, None, None]
-    t = t[None, :, None]
-    ruled_u = (1 - s) * u0[None] + s * u1[None]
-    ruled_v = (1 - t) * v0[:, None] + t * v1[:, None]
+    b = Blends(s, t) if blends is None else blends
+    ruled_u = b.ms * _row(u0) + b.s_ * _row(u1)  # (1-s)·u0 + s·u1
+    ruled_v = b.mt * _col(v0) + b.t_ * _col(v1)  # (1-t)·v0 + t·v1
+    # (1-s)(1-t)·P00 + (1-s)t·P0m + s(1-t)·Pn0 + st·Pnm
     corners = (
-        (1 - s) * (1 - t) * u0[0] + (1 - s) * t * u0[-1] + s * (1 - t) * u1[0] + s * t * u1[-1]
+        b.w00 * _pole(u0[..., 0, :])
+        + b.w01 * _pole(u0[..., -1, :])
+        + b.w10 * _pole(u1[..., 0, :])
+        + b.w11 * _pole(u1[..., -1, :])
     )
     return ruled_u + ruled_v - corners
+
+
+def _row(c: np.ndarray) -> np.ndarray:
+    """A row (..., nv, 3) broadcast over a net's rows: (..., 1, nv, 3)."""
+    return c[..., None, :, :]
+
+
+def _col(c: np.ndarray) -> np.ndarray:
+    """A column (..., nu, 3) broadcast over a net's columns: (..., nu, 1, 3)."""
+    return c[..., :, None, :]
+
+
+def _pole(x: np.ndarray) -> np.ndarray:
+    """A point (..., 3) broadcast over a net (..., 1, 1, 3)."""
+    return x[..., None, None, :]
+
+
+def _vec(x: np.ndarray) -> np.ndarray:
+    """A point (..., 3) broadcast over a curve (..., 1, 3)."""
+    return x[..., None, :]
 
 
 def _hermite(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -104,12 +172,21 @@ def _hermite(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndar
 
 def _slope(row: np.ndarray, x: np.ndarray, end: int) -> np.ndarray:
     """Slope of a boundary (as a polyline over abscissae ``x``) at its first or last pole."""
-    d, h = (row[1] - row[0], x[1] - x[0]) if end == 0 else (row[-1] - row[-2], x[-1] - x[-2])
+    if end == 0:
+        d, h = row[..., 1, :] - row[..., 0, :], x[1] - x[0]
+    else:
+        d, h = row[..., -1, :] - row[..., -2, :], x[-1] - x[-2]
     return d / h if h > 0 else np.zeros_like(d)
 
 
 def bicubic_net(
-    u0: np.ndarray, u1: np.ndarray, v0: np.ndarray, v1: np.ndarray, s: np.ndarray, t: np.ndarray
+    u0: np.ndarray,
+    u1: np.ndarray,
+    v0: np.ndarray,
+    v1: np.ndarray,
+    s: np.ndarray,
+    t: np.ndarray,
+    blends: Blends | None = None,
 ) -> np.ndarray:
     """The bicubically blended Coons net (eq. 11: S1 + S2 − S3), at (s_i, t_j).
 
@@ -121,27 +198,33 @@ def bicubic_net(
     that meet it, with the twist as its end slopes (the paper's "cubic Bezier
     curves", twists "from the network of boundary curves": here the bilinear
     twist P00 − P0m − Pn0 + Pnm of the four corners).  Every boundary is
-    reproduced exactly, and so is a bilinear patch.
+    reproduced exactly, and so is a bilinear patch.  Leading axes as
+    :func:`coons_net`.
     """
-    hs, ht = _hermite(s), _hermite(t)
-    # corner slopes: along t from the rows, along s from the columns
-    dt = [[_slope(u0, t, 0), _slope(u0, t, 1)], [_slope(u1, t, 0), _slope(u1, t, 1)]]
-    ds = [[_slope(v0, s, 0), _slope(v1, s, 0)], [_slope(v0, s, 1), _slope(v1, s, 1)]]
-    S, T = (h[:, None] for h in hs), (h[:, None] for h in ht)
-    H0s, H1s, H2s, H3s = S
-    H0t, H1t, H2t, H3t = T
-    w = u0[0] - u0[-1] - u1[0] + u1[-1]  # one twist for all four corners: the bilinear one
-    dv0 = H0s * dt[0][0] + H1s * dt[1][0] + (H2s + H3s) * w  # ∂S/∂t along t = 0, over s
-    dv1 = H0s * dt[0][1] + H1s * dt[1][1] + (H2s + H3s) * w  # along t = 1
-    du0 = H0t * ds[0][0] + H1t * ds[0][1] + (H2t + H3t) * w  # ∂S/∂s along s = 0, over t
-    du1 = H0t * ds[1][0] + H1t * ds[1][1] + (H2t + H3t) * w  # along s = 1
-    g0 = H0s * u0[0] + H1s * u1[0] + H2s * ds[0][0] + H3s * ds[1][0]  # S3 at t = 0
-    g1 = H0s * u0[-1] + H1s * u1[-1] + H2s * ds[0][1] + H3s * ds[1][1]  # S3 at t = 1
+    bl = Blends(s, t) if blends is None else blends
+    # corner slopes: along t from the rows, along s from the columns, (..., 1, 3)
+    dt = [
+        [_vec(_slope(u0, t, 0)), _vec(_slope(u0, t, 1))],
+        [_vec(_slope(u1, t, 0)), _vec(_slope(u1, t, 1))],
+    ]
+    ds = [
+        [_vec(_slope(v0, s, 0)), _vec(_slope(v1, s, 0))],
+        [_vec(_slope(v0, s, 1)), _vec(_slope(v1, s, 1))],
+    ]
+    (H0s, H1s, H2s, H3s), hs_net, (H0t, H1t, H2t, H3t), ht_net, (h23s, h23t) = bl.hermite
+    p00, p0m, pn0, pnm = (_vec(c[..., i, :]) for c in (u0, u1) for i in (0, -1))
+    w = p00 - p0m - pn0 + pnm  # one twist for all four corners: the bilinear one
+    dv0 = H0s * dt[0][0] + H1s * dt[1][0] + h23s * w  # ∂S/∂t along t = 0, over s
+    dv1 = H0s * dt[0][1] + H1s * dt[1][1] + h23s * w  # along t = 1
+    du0 = H0t * ds[0][0] + H1t * ds[0][1] + h23t * w  # ∂S/∂s along s = 0, over t
+    du1 = H0t * ds[1][0] + H1t * ds[1][1] + h23t * w  # along s = 1
+    g0 = H0s * p00 + H1s * pn0 + H2s * ds[0][0] + H3s * ds[1][0]  # S3 at t = 0
+    g1 = H0s * p0m + H1s * pnm + H2s * ds[0][1] + H3s * ds[1][1]  # S3 at t = 1
 
     def along_t(a: np.ndarray, b: np.ndarray, da: np.ndarray, db: np.ndarray) -> np.ndarray:
-        h0, h1, h2, h3 = (h[None, :, None] for h in ht)
-        return h0 * a[:, None] + h1 * b[:, None] + h2 * da[:, None] + h3 * db[:, None]
+        h0, h1, h2, h3 = ht_net
+        return h0 * _col(a) + h1 * _col(b) + h2 * _col(da) + h3 * _col(db)
 
-    h0, h1, h2, h3 = (h[:, None, None] for h in hs)
-    s2 = h0 * u0[None] + h1 * u1[None] + h2 * du0[None] + h3 * du1[None]
+    h0, h1, h2, h3 = hs_net
+    s2 = h0 * _row(u0) + h1 * _row(u1) + h2 * _row(du0) + h3 * _row(du1)
     return along_t(v0, v1, dv0, dv1) + s2 - along_t(g0, g1, dv0, dv1)

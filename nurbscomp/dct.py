@@ -51,6 +51,17 @@ def idct1(d: np.ndarray) -> np.ndarray:
     return fft.idct(d, type=2, norm="ortho", axis=0)
 
 
+def dct1_rows(v: np.ndarray) -> np.ndarray:
+    """:func:`dct1` of each v[r] of ``v`` (R, N, c), N ≤ ``MATRIX_MAX``: the
+    same matrix product, item by item (numpy's stacked matmul)."""
+    return _matrix(v.shape[1]) @ v
+
+
+def idct1_rows(d: np.ndarray) -> np.ndarray:
+    """:func:`idct1` of each d[r] of ``d`` (R, N, c), N ≤ ``MATRIX_MAX``."""
+    return _matrix(d.shape[1]).T @ d
+
+
 def dct2(v: np.ndarray) -> np.ndarray:
     """Orthonormal 2-D DCT-II over axes 0 and 1 (eq. 26).
 
@@ -76,6 +87,21 @@ def idct2(d: np.ndarray) -> np.ndarray:
     from scipy import fft  # on first use: ~0.2 s that info and --help skip
 
     return fft.idctn(d, type=2, norm="ortho", axes=(0, 1))
+
+
+def dct2_rows(v: np.ndarray) -> np.ndarray:
+    """:func:`dct2` of each v[r] of ``v`` (R, N, M, c), N, M ≤ ``MATRIX_MAX``:
+    the same matrix products, item by item."""
+    r, n, m, c = v.shape
+    rows = _matrix(n) @ v.reshape(r, n, m * c)  # along axis 1
+    return (_matrix(m) @ rows.reshape(r, n, m, c)).reshape(r, n, m, c)  # along axis 2
+
+
+def idct2_rows(d: np.ndarray) -> np.ndarray:
+    """:func:`idct2` of each d[r] of ``d`` (R, N, M, c), N, M ≤ ``MATRIX_MAX``."""
+    r, n, m, c = d.shape
+    rows = _matrix(n).T @ d.reshape(r, n, m * c)
+    return (_matrix(m).T @ rows.reshape(r, n, m, c)).reshape(r, n, m, c)
 
 
 def paper_steps(shape: tuple[int, ...], dc: np.ndarray, a: int) -> np.ndarray:

@@ -20,8 +20,16 @@ def snap(p: np.ndarray, h: float) -> np.ndarray:
 
 
 def residuals(q: np.ndarray) -> np.ndarray:
-    """Parallelogram-rule residuals of an integer net (nu, nv, c), first pole absolute."""
-    return np.diff(np.diff(q, axis=0, prepend=0), axis=1, prepend=0)
+    """Parallelogram-rule residuals of an integer net (nu, nv, c), first pole absolute.
+
+    r[i, j] = q[i, j] - q[i-1, j] - q[i, j-1] + q[i-1, j-1], terms outside the
+    net taken as 0 (integers: any order of the sums is exact).
+    """
+    a = q.copy()
+    a[1:] -= q[:-1]
+    r = a.copy()
+    r[:, 1:] -= a[:, :-1]
+    return r
 
 
 def integrate(r: np.ndarray) -> np.ndarray:

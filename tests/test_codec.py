@@ -217,3 +217,95 @@ def test_bicubic_coons_keeps_boundaries_and_bilinear_patches() -> None:
     S, T = s[:, None, None], t[None, :, None]
     bil = (1 - S) * ((1 - T) * c[0, 0] + T * c[0, 1]) + S * ((1 - T) * c[1, 0] + T * c[1, 1])
     assert np.allclose(coons.bicubic_net(bil[0], bil[-1], bil[:, 0], bil[:, -1], s, t), bil)
+
+
+@settings(deadline=None, max_examples=60)
+@given(
+    st.sampled_from([codec.Method.SPATIAL, codec.Method.DELTA, codec.Method.CHORD]),
+    st.integers(2, 9),
+    st.integers(0, 2),
+    st.integers(0, 1),
+    st.sampled_from([1e-3, 0.01, 0.1]),
+    st.sampled_from([1.0, 1e3, 1e9]),
+    st.integers(0, 2**31),
+)
+def test_ladders_at_once_are_the_trials(
+    method: codec.Method, n: int, rows: int, slope: int, tol: float, scale: float, seed: int
+) -> None:
+    """Every rung computed at once (codec._Rungs) has the bound and the code
+    that its own trial (codec._try) gives, bit for bit, unusable rungs too."""
+    rng = np.random.default_rng(seed)
+    p = rng.normal(size=(n, 4, 3) if method == codec.Method.SPATIAL else (n, 3)) * scale
+    origin = rng.normal(size=(rows, 3) if rows else 3) * scale
+    if method == codec.Method.SPATIAL and rows == 2:
+        origin = origin[0]
+    settings_ = [codec._Stepper(codec.Quant.TOL, e, slope, tol) for e in codec.ladder(tol, tol)]
+    memo = codec._Memo()
+    assert codec._rungs_apply(p, method, settings_)
+    runs = codec._Rungs(p, method, settings_, origin, memo)
+    for i, s_ in enumerate(settings_):
+        c = codec._try(p, None, None, tol, method, s_, origin)
+        assert runs.bound(i) == (None if c is None else c.bound)
+        if c is not None:
+            r = runs.code(i)
+            assert r is not None
+            assert (r.method, r.quant, r.level, r.slope) == (c.method, c.quant, c.level, c.slope)
+            assert r.ints.dtype == c.ints.dtype and np.array_equal(r.ints, c.ints)
+            assert r.bits == c.bits and r.dcs.size == c.dcs.size == 0
+            assert r.origin is not None and np.array_equal(r.origin, origin)
+
+
+@settings(deadline=None, max_examples=40)
+@given(
+    st.integers(2, 7),
+    st.integers(2, 7),
+    st.integers(0, 1),
+    st.sampled_from([1e-3, 0.01, 0.1]),
+    st.sampled_from([1.0, 1e3, 1e9]),
+    st.integers(0, 2**31),
+)
+def test_boundaries_at_once_are_the_trials(
+    nu: int, nv: int, slope: int, tol: float, scale: float, seed: int
+) -> None:
+    """Boundaries coded for every rung at once (codec._trial_boundaries) give
+    each Coons method's trial the code it has alone, bit for bit, and so do
+    whole Coons ladders at once (codec._CoonsRungs)."""
+    rng = np.random.default_rng(seed)
+    p = rng.normal(size=(nu, nv, 3)) * scale
+    origin = rng.normal(size=3) * scale
+    s, t = np.linspace(0, 1, nu) ** 1.5, np.linspace(0, 1, nv)
+    settings_ = [codec._Stepper(codec.Quant.TOL, e, slope, tol) for e in codec.ladder(tol, tol)]
+    memo = codec._Memo()
+    codec._trial_boundaries(p, settings_, origin, memo)
+    for method in (codec.Method.BOUNDARY, codec.Method.DDMAP, codec.Method.DDMAP3):
+        for s_ in settings_:
+            alone = codec._try(p, s, t, tol, method, s_, origin)
+            shared = codec._try(p, s, t, tol, method, s_, origin, memo=memo)
+            assert (alone is None) == (shared is None)
+            if alone is not None and shared is not None:
+                assert np.array_equal(alone.ints, shared.ints)
+                assert (alone.bound, alone.bits) == (shared.bound, shared.bits)
+    for method in (codec.Method.BOUNDARY, codec.Method.DDMAP, codec.Method.DDMAP3):
+        runs = codec._CoonsRungs(p, s, t, method, settings_, origin, codec._Memo())
+        for i, s_ in enumerate(settings_):
+            alone = codec._try(p, s, t, tol, method, s_, origin)
+            assert runs.bound(i) == (None if alone is None else alone.bound)
+            if alone is not None:
+                c = runs.code(i)
+                assert c is not None and c.ints.dtype == alone.ints.dtype
+                assert np.array_equal(c.ints, alone.ints) and c.bits == alone.bits
+                assert (c.method, c.level, c.slope) == (method, s_.level, s_.slope)
+
+
+@settings(deadline=None, max_examples=30)
+@given(st.integers(2, 8), st.integers(2, 8), st.integers(1, 4), st.integers(0, 2**31))
+def test_coons_nets_of_stacked_boundaries_are_each_net(nu: int, nv: int, r: int, seed: int) -> None:
+    """Boundaries with a leading axis give each one's Coons nets, bit for bit."""
+    rng = np.random.default_rng(seed)
+    u0, u1 = rng.normal(size=(2, r, nv, 3))
+    v0, v1 = rng.normal(size=(2, r, nu, 3))
+    s, t = np.linspace(0, 1, nu) ** 2, np.linspace(0, 1, nv)
+    for net in (coons.coons_net, coons.bicubic_net):
+        stacked = net(u0, u1, v0, v1, s, t)
+        for i in range(r):
+            assert np.array_equal(stacked[i], net(u0[i], u1[i], v0[i], v1[i], s, t))
