@@ -760,7 +760,42 @@ def _rungs_apply(p: np.ndarray, method: Method, settings: Sequence[_Stepper]) ->
     return method != Method.CHORD or (p.ndim == 2 and len(p) - 2 <= dct.MATRIX_MAX)
 
 
-class _Rungs:
+class _Batch:
+    """A ladder whose rungs' bounds and integers were all computed at once (by
+    a subclass); a rung's code is made when first asked for."""
+
+    def __init__(self, method: Method, settings: Sequence[_Stepper], origin: np.ndarray) -> None:
+        self.method, self.settings, self.origin = method, settings, origin
+        self.bounds: list[float | None] = [None] * len(settings)
+        self.ints: dict[int, np.ndarray] = {}
+        self.codes: dict[int, NetCode] = {}
+
+    def bound(self, i: int) -> float | None:
+        """Rung ``i``'s certified bound (None: unusable)."""
+        return self.bounds[i]
+
+    def code(self, i: int) -> NetCode | None:
+        """Rung ``i``'s code (None: unusable)."""
+        bound = self.bounds[i]
+        if bound is None:
+            return None
+        if i not in self.codes:
+            st, ints = self.settings[i], self.ints[i].copy()
+            self.codes[i] = NetCode(
+                self.method,
+                st.quant,
+                st.level,
+                st.slope,
+                ints,
+                np.zeros(0),
+                bound,
+                cost_bits(ints),
+                self.origin.copy(),
+            )
+        return self.codes[i]
+
+
+class _Rungs(_Batch):
     """Every rung of a ``SPATIAL``, ``DELTA`` or ``CHORD`` ladder with the
     tolerance quantizer, computed at once: on small nets numpy's cost per
     call, not the arithmetic, is what a trial costs.
@@ -780,10 +815,7 @@ class _Rungs:
         origin: np.ndarray,
         memo: _Memo | None = None,
     ) -> None:
-        self.method, self.settings, self.origin = method, settings, origin
-        self.bounds: list[float | None] = [None] * len(settings)
-        self.ints: dict[int, np.ndarray] = {}
-        self.codes: dict[int, NetCode] = {}
+        super().__init__(method, settings, origin)
         hs = [st.grid for st in settings]
         chord = method == Method.CHORD
         pts = p[[0, -1]] if chord else p
@@ -813,30 +845,6 @@ class _Rungs:
             if good[j]:
                 self.bounds[i] = bounds[j]
                 self.ints[i] = head[j]
-
-    def bound(self, i: int) -> float | None:
-        """Rung ``i``'s certified bound (None: unusable)."""
-        return self.bounds[i]
-
-    def code(self, i: int) -> NetCode | None:
-        """Rung ``i``'s code (None: unusable)."""
-        bound = self.bounds[i]
-        if bound is None:
-            return None
-        if i not in self.codes:
-            st, ints = self.settings[i], self.ints[i].copy()
-            self.codes[i] = NetCode(
-                self.method,
-                st.quant,
-                st.level,
-                st.slope,
-                ints,
-                np.zeros(0),
-                bound,
-                cost_bits(ints),
-                self.origin.copy(),
-            )
-        return self.codes[i]
 
 
 def _grid_rungs(
@@ -977,7 +985,7 @@ def _trial_boundaries(
         memo.boundaries[key] = _Boundary((u0, u1, v0, v1), (b.ints[j].copy(),), ())
 
 
-class _CoonsRungs:
+class _CoonsRungs(_Batch):
     """Every rung of a ``BOUNDARY``, ``BOUNDARY3``, ``DDMAP`` or ``DDMAP3``
     ladder with the tolerance quantizer at once (as :class:`_Rungs`): the
     boundaries of :func:`_boundary_rungs`, their Coons nets (eq. 11; the
@@ -994,10 +1002,7 @@ class _CoonsRungs:
         origin: np.ndarray,
         memo: _Memo,
     ) -> None:
-        self.method, self.settings, self.origin = method, settings, origin
-        self.bounds: list[float | None] = [None] * len(settings)
-        self.ints: dict[int, np.ndarray] = {}
-        self.codes: dict[int, NetCode] = {}
+        super().__init__(method, settings, origin)
         b = _boundary_rungs(p, settings, origin, memo)
         if not b.use:
             return
@@ -1029,30 +1034,6 @@ class _CoonsRungs:
             if good[j]:
                 self.bounds[i] = bounds[j]
                 self.ints[i] = ints[j]
-
-    def bound(self, i: int) -> float | None:
-        """Rung ``i``'s certified bound (None: unusable)."""
-        return self.bounds[i]
-
-    def code(self, i: int) -> NetCode | None:
-        """Rung ``i``'s code (None: unusable)."""
-        bound = self.bounds[i]
-        if bound is None:
-            return None
-        if i not in self.codes:
-            st, ints = self.settings[i], self.ints[i].copy()
-            self.codes[i] = NetCode(
-                self.method,
-                st.quant,
-                st.level,
-                st.slope,
-                ints,
-                np.zeros(0),
-                bound,
-                cost_bits(ints),
-                self.origin.copy(),
-            )
-        return self.codes[i]
 
 
 #: Methods that code a net's boundary first (:func:`_boundary`).
