@@ -52,6 +52,7 @@ from OCP.TopTools import TopTools_IndexedMapOfShape
 from ..errors import UnsupportedError
 from ..model import REBUILD, BRepModel, Location, PointRepKind, RepKind, ShapeType
 from .geometry import GeometryBuilder, GeometryReader
+from .lists import items
 
 _FLAG_NAMES = (
     "Free",
@@ -196,7 +197,7 @@ class _Reader:
         v = len(self.vtol)
         self.vpoint.append((tv.Pnt().X(), tv.Pnt().Y(), tv.Pnt().Z()))
         self.vtol.append(tv.Tolerance())
-        for pr in tv.Points():
+        for pr in items(tv.Points()):
             name = type(pr).__name__
             loc = self.location(pr.Location())
             if name == "BRep_PointOnCurve":
@@ -227,7 +228,7 @@ class _Reader:
         )
         geo = self.geo
         skipped = 0
-        for cr in te.Curves():
+        for cr in items(te.Curves()):
             name = type(cr).__name__
             loc = self.location(cr.Location())
             uv = (0.0,) * 8
