@@ -42,7 +42,7 @@ from typing import Any
 
 import numpy as np
 
-from .. import occ
+from .. import joins, occ
 from ..errors import InputError, NurbscompError, RebuildError
 from ..model import REBUILD, BRepModel, Derived, Kind, ShapeType, faces_around
 from . import assembly, nets, pcurves
@@ -445,11 +445,13 @@ def vertex_neighbours(m: BRepModel, tol: float) -> list[set[int]]:
     between four faces) mends all four: two of them touch the others only
     through a vertex of their own.
     """
-    from scipy.spatial import cKDTree
-
     around = faces_around(m, ShapeType.VERTEX)
-    for a, b in cKDTree(m.vertex_point).query_pairs(tol) if len(m.vertex_point) else ():
-        around[a] = around[b] = sorted({*around[a], *around[b]})
+    near = joins.close_pairs(m.vertex_point, tol)
+    if near is None or len(near):  # pairs to merge, in the tree's (set) order
+        from scipy.spatial import cKDTree
+
+        for a, b in cKDTree(m.vertex_point).query_pairs(tol) if len(m.vertex_point) else ():
+            around[a] = around[b] = sorted({*around[a], *around[b]})
     out: list[set[int]] = [set() for _ in range(len(m.face_surface))]
     for fs in around:
         for f in fs:
