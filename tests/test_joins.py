@@ -214,5 +214,5 @@ def test_close_pairs_finds_what_the_tree_finds() -> None:
         assert want <= {tuple(p) for p in got.tolist()}
         for i, j in got.tolist():
             assert np.sqrt(((pts[i] - pts[j]) ** 2).sum()) <= r * (1 + 1e-8)
-    assert joins.close_pairs(np.zeros((100, 3)), 1.0) is None  # all in one place
+    assert joins.close_pairs(np.zeros((300, 3)), 1.0) is None  # all in one place
     assert joins.close_pairs(np.array([[0.0, 0, 0], [np.nan, 0, 0]]), 1.0) is None
