@@ -397,6 +397,61 @@ def _boundary_match(g: BSplineCurve, s: Geometry) -> tuple[int, int] | None:
 TWIN_VERTEX = 1e-7
 
 
+#: Relative slack of :func:`close_pairs` over the distance asked: far above
+#: the few ulps by which two ways of summing squared differences can differ.
+_SLACK = 1e-9
+
+
+def close_pairs(points: np.ndarray, r: float, budget: int = 64) -> np.ndarray | None:
+    """Pairs (i, j), i < j, sorted, of rows of ``points`` (shape (n, d)) that
+    are within ``r`` of each other: every pair within ``r`` as scipy's
+    ``cKDTree.query_pairs(r)`` finds it, and perhaps pairs a hair beyond
+    (``_SLACK``); shape (k, 2).  None when the points pile up (more than
+    ``budget`` per point within ``r`` along every axis) or are not finite:
+    then ask a k-d tree.
+
+    A sweep in numpy along the axis with the fewest pairs within ``r``: no
+    import of scipy.spatial (0.1 to 0.3 s, most of a small file's compress).
+    """
+    n = len(points)
+    if n < 2:
+        return np.zeros((0, 2), np.int64)
+    pts = np.asarray(points, np.float64).reshape(n, -1)
+    if not np.isfinite(pts).all():
+        return None  # as the tree takes them (or refuses them)
+    lim = r * (1 + _SLACK)
+    lim2 = lim * lim
+    best: tuple[int, int, np.ndarray] | None = None  # (pairs to look at, axis, order)
+    for axis in range(pts.shape[1]):
+        order = np.argsort(pts[:, axis], kind="stable")
+        xs = pts[order, axis]
+        work = int((np.searchsorted(xs, xs + lim, side="right") - np.arange(n) - 1).sum())
+        if best is None or work < best[0]:
+            best = (work, axis, order)
+    assert best is not None
+    work, axis, order = best
+    if work > budget * n:
+        return None
+    p = pts[order]
+    xs = p[:, axis]
+    found = []
+    live = np.arange(n)
+    k = 1
+    while True:  # row i and row i + k of the sorted rows; a row out of reach stays out
+        live = live[live + k < n]
+        live = live[xs[live + k] - xs[live] <= lim]
+        if not len(live):
+            break
+        d2 = ((p[live + k] - p[live]) ** 2).sum(-1)
+        near = live[d2 <= lim2]
+        found.append(np.stack([order[near], order[near + k]], 1))
+        k += 1
+    if not found:
+        return np.zeros((0, 2), np.int64)
+    pairs = np.sort(np.concatenate(found), axis=1).astype(np.int64)
+    return pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
+
+
 def vertex_clusters(points: np.ndarray, eps: float) -> np.ndarray:
     """Per point, the first point of its cluster (points linked by distances ≤ eps).
 
@@ -404,13 +459,18 @@ def vertex_clusters(points: np.ndarray, eps: float) -> np.ndarray:
     faces, of a STEP file's unshared edges) must land at one place again, or
     the faces part there.
     """
+    n = len(points)
+    if n == 0:
+        return np.zeros(0, np.int64)
+    near = close_pairs(points, eps)
+    if near is not None and not len(near):
+        # no pair (scipy would find none either): each point is its own
+        # cluster, and connected_components labels node i with i
+        return np.arange(n, dtype=np.int64)
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
     from scipy.spatial import cKDTree
 
-    n = len(points)
-    if n == 0:
-        return np.zeros(0, np.int64)
     pairs = cKDTree(points).query_pairs(eps, output_type="ndarray")
     graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
     _, label = connected_components(graph, directed=False)
@@ -513,19 +573,17 @@ def _pair_up(
     order): each run that is an earlier run up to ``eps`` (:func:`_twins`),
     the earlier being the first of its kind and no member itself.  Keys in
     ``leaders_only`` are never members."""
-    from scipy.spatial import cKDTree
-
     if len(runs) < 2:
         return {}
     ends = np.array([np.concatenate([r.poles[0], r.poles[-1]]) for _, r in runs])
-    tree = cKDTree(ends)
+    # candidates: runs whose ends (or swapped ends) are within 2 eps, a superset
+    # of the twins (ends within eps each: sqrt(2) eps), which _twins sorts out
+    nearby = _near_ends(ends, 2 * eps)
     out: dict[Any, tuple[Any, int, float]] = {}
     for i, (key, a) in enumerate(runs):
         if key in out:
             continue
-        near = set(tree.query_ball_point(ends[i], 2 * eps))
-        near |= set(tree.query_ball_point(np.concatenate([ends[i, 3:], ends[i, :3]]), 2 * eps))
-        for j in sorted(near):
+        for j in nearby[i]:
             other, b = runs[j]
             if j <= i or other in out or other in leaders_only:
                 continue
@@ -535,19 +593,51 @@ def _pair_up(
     return out
 
 
+def _near_ends(ends: np.ndarray, r: float) -> list[list[int]]:
+    """Per row of ``ends`` (a curve's two end points, shape (n, 6)), the rows
+    within ``r`` of it or of it with its ends swapped, in order (itself among
+    them): all that a k-d tree's two ball queries find, perhaps more."""
+    n = len(ends)
+    both = np.concatenate([ends, np.concatenate([ends[:, 3:], ends[:, :3]], 1)])
+    pairs = close_pairs(both, r)
+    if pairs is None:
+        from scipy.spatial import cKDTree
+
+        tree = cKDTree(ends)
+        return [
+            sorted(set(tree.query_ball_point(e, r)) | set(tree.query_ball_point(both[n + i], r)))
+            for i, e in enumerate(ends)
+        ]
+    # a pair of swapped rows is the pair of the rows; a row and a swapped row
+    # are within r when the row and the other swapped are
+    out: list[set[int]] = [{i} for i in range(n)]
+    for a, b in (pairs % n).tolist():
+        out[a].add(b)
+        out[b].add(a)
+    return [sorted(x) for x in out]
+
+
 def coincident_edges(points: np.ndarray, eps: float) -> list[tuple[int, int]]:
     """Pairs (i, j), i < j, of rows of ``points`` (edges sampled along their
     ranges, :func:`occ.edge_points`, shape (E, n, 3)) that run through the same
     points within ``eps``, in the same or the opposite direction."""
-    from scipy.spatial import cKDTree
-
     ok = np.isfinite(points).all(axis=(1, 2))
     rows = np.flatnonzero(ok)
     if len(rows) < 2:
         return []
     mid = points[rows, points.shape[1] // 2]
+    # candidates: middles within 2 eps (a pair within eps everywhere, either
+    # way round, has them within sqrt(3) eps when the middle sample is one
+    # point of both directions: an odd number of samples)
+    near = close_pairs(mid, 2 * eps) if points.shape[1] % 2 else None
+    if near is None:
+        from scipy.spatial import cKDTree
+
+        candidates = sorted(cKDTree(mid).query_pairs(2 * eps))
+    else:
+        candidates = [(a, b) for a, b in near.tolist()]
     out = []
-    for a, b in sorted(cKDTree(mid).query_pairs(2 * eps)):
+    for a, b in candidates:
         i, j = int(rows[a]), int(rows[b])
         pi, pj = points[i], points[j]
         if np.abs(pi - pj).max() <= eps or np.abs(pi - pj[::-1]).max() <= eps:

@@ -194,3 +194,25 @@ def test_corner_pins_follow_the_format_minor(tmp_path: Path) -> None:
     assert differences(now, old), "the two rules gave the same nets: the test proves nothing"
     src, _ = occ.shape_to_model(occ.read_cad(CORPUS / "occt__bearing.iges").shape)
     assert pipeline.max_net_displacement(src, now) <= 0.1
+
+
+def test_close_pairs_finds_what_the_tree_finds() -> None:
+    """joins.close_pairs: every pair cKDTree.query_pairs finds, sorted, and
+    nothing beyond r but by the slack; None where points pile up."""
+    from scipy.spatial import cKDTree
+
+    rng = np.random.default_rng(7)
+    for n, d, r in [(0, 3, 1.0), (1, 3, 1.0), (500, 3, 0.05), (400, 6, 0.05), (300, 3, 0.0)]:
+        pts = rng.random((n, d))
+        if n > 100:  # exact duplicates and points a hair apart
+            pts[::50] = pts[1::50]
+            pts[2::50] = pts[3::50] + r * (1 - 1e-12)
+        got = joins.close_pairs(pts, r)
+        assert got is not None
+        want = cKDTree(pts).query_pairs(r) if n else set()
+        assert got.tolist() == sorted(map(list, {tuple(p) for p in got.tolist()}))
+        assert want <= {tuple(p) for p in got.tolist()}
+        for i, j in got.tolist():
+            assert np.sqrt(((pts[i] - pts[j]) ** 2).sum()) <= r * (1 + 1e-8)
+    assert joins.close_pairs(np.zeros((300, 3)), 1.0) is None  # all in one place
+    assert joins.close_pairs(np.array([[0.0, 0, 0], [np.nan, 0, 0]]), 1.0) is None

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -239,3 +240,40 @@ def test_unit_curves_keep_every_edge_point_for_point(name: str) -> None:
                 held += 1
                 assert u.curves3d[reps[q, 2]] is d.curves3d[reps[q, 2]]
     assert moved > 0 and held > 0
+
+
+@pytest.mark.parametrize("name", ["teapot.step", "blob.step"])
+def test_pcurve_cache_builds_the_same_shape(name: str, tmp_path: Path) -> None:
+    """A build that reuses pcurves projected for another model (the validity
+    stage's candidates) is the fresh build, bit for bit."""
+    from OCP.BRepTools import BRepTools
+
+    from nurbscomp.model import REBUILD, differences
+
+    path = next(p for p in sample_files() if p.name == name)
+    models = []
+    for tol in (0.001, 0.1):
+        pipeline.compress_file(path, tmp_path / f"{tol}.nzc", tol=tol)
+        models.append(pipeline.decode_file(tmp_path / f"{tol}.nzc")[1])
+    assert all((m.edge_reps[:, 2] == REBUILD).any() for m in models)
+
+    def text(shape) -> str:
+        BRepTools.Write_s(shape, str(tmp_path / "s.brep"))
+        return (tmp_path / "s.brep").read_text()
+
+    # half the 3-D curves of one and half of the other: some pcurves cached, some not
+    a, b = models
+    assert len(a.curves3d) == len(b.curves3d)
+    mixed = dataclasses.replace(
+        a, curves3d=[x if i % 2 else y for i, (x, y) in enumerate(zip(a.curves3d, b.curves3d))]
+    )
+    cache = occ.PcurveCache()
+    misses = []
+    for m in (a, b, mixed, a):  # cold, cold, mixed, then every pcurve from the cache
+        hits = cache.hits
+        fresh, cached = occ.model_to_shape(m), occ.model_to_shape(m, cache)
+        assert differences(occ.shape_to_model(cached)[0], occ.shape_to_model(fresh)[0]) == []
+        assert text(cached) == text(fresh)
+        misses.append(cache.misses)
+    assert misses[1] < misses[2] < misses[1] + misses[0]  # the mixed model: some of each
+    assert misses[3] == misses[2] and cache.hits > hits  # the last build: all from the cache

@@ -42,7 +42,7 @@ from typing import Any
 
 import numpy as np
 
-from .. import occ
+from .. import joins, occ
 from ..errors import InputError, NurbscompError, RebuildError
 from ..model import REBUILD, BRepModel, Derived, Kind, ShapeType, faces_around
 from . import assembly, nets, pcurves
@@ -129,10 +129,13 @@ def step_reader_hangs(m: BRepModel) -> str:
     return ""
 
 
-def build(m: BRepModel) -> Any:
-    """The OCCT shape of a model, turning any OCCT failure into a ``RebuildError``."""
+def build(m: BRepModel, cache: occ.PcurveCache | None = None) -> Any:
+    """The OCCT shape of a model, turning any OCCT failure into a ``RebuildError``.
+
+    ``cache``: pcurves projected by earlier builds, reused where unchanged
+    (:class:`occ.PcurveCache`; the shape is the same without it)."""
     try:
-        return occ.model_to_shape(m)
+        return occ.model_to_shape(m, cache)
     except NurbscompError:
         raise
     except Exception as e:  # OCCT raises Standard_Failure subclasses on bad data
@@ -362,10 +365,11 @@ def lossy_target(m: BRepModel, source: Any, tol: float, step_check: bool = True)
         vr.step_skipped = step_reader_hangs(m)
     floor = _Floor(source, m.unit, vr, m.product) if step_check and not vr.step_skipped else None
     old_e, old_f = occ.failures(source)
+    cache = occ.PcurveCache()  # the candidates differ from round to round in a few records
     for _ in range(MAX_ROUNDS):
         before = plan.state()
         cand, codes, report = plan.candidate()
-        shape = build(cand)
+        shape = build(cand, cache)
         vr.rounds += 1
         new_e, new_f, blamed = _check(shape, old_e, old_f, floor, tol)
         log.debug(
@@ -389,7 +393,7 @@ def lossy_target(m: BRepModel, source: Any, tol: float, step_check: bool = True)
             break  # nothing left to try here: the fallbacks
     # coded geometry with every pcurve stored, if that passes
     target, codes, report = assembly.assemble(m, plan.coded, plan.exact, plan.still_v)
-    shape = build(target)
+    shape = build(target, cache)
     vr.rounds += 1
     new_e, new_f, blamed = _check(shape, old_e, old_f, floor, tol)
     if not new_e and not new_f and blamed is None:
@@ -402,7 +406,7 @@ def lossy_target(m: BRepModel, source: Any, tol: float, step_check: bool = True)
     target, codes, report = assembly.assemble(m, plan.coded, everything)
     vr.fallback = "exact"
     vr.exact_faces = {"fallback": sum(1 for x in report.face_method if x == "exact")}
-    return Target(target, codes, report, build(target), vr, 0)
+    return Target(target, codes, report, build(target, cache), vr, 0)
 
 
 def _done(
@@ -441,11 +445,13 @@ def vertex_neighbours(m: BRepModel, tol: float) -> list[set[int]]:
     between four faces) mends all four: two of them touch the others only
     through a vertex of their own.
     """
-    from scipy.spatial import cKDTree
-
     around = faces_around(m, ShapeType.VERTEX)
-    for a, b in cKDTree(m.vertex_point).query_pairs(tol) if len(m.vertex_point) else ():
-        around[a] = around[b] = sorted({*around[a], *around[b]})
+    near = joins.close_pairs(m.vertex_point, tol)
+    if near is None or len(near):  # pairs to merge, in the tree's (set) order
+        from scipy.spatial import cKDTree
+
+        for a, b in cKDTree(m.vertex_point).query_pairs(tol) if len(m.vertex_point) else ():
+            around[a] = around[b] = sorted({*around[a], *around[b]})
     out: list[set[int]] = [set() for _ in range(len(m.face_surface))]
     for fs in around:
         for f in fs:

@@ -30,11 +30,12 @@ from .measure import (
     model_order,
 )
 from .mesh import face_meshes
-from .topology import model_to_shape, shape_to_model
+from .topology import PcurveCache, model_to_shape, shape_to_model
 
 __all__ = [
     "UNITS_MM",
     "CadFile",
+    "PcurveCache",
     "bintools_bytes",
     "counts",
     "cq",

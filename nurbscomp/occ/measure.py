@@ -31,6 +31,8 @@ from OCP.TopExp import TopExp, TopExp_Explorer
 from OCP.TopoDS import TopoDS
 from OCP.TopTools import TopTools_IndexedMapOfShape
 
+from .lists import items
+
 
 def _map(shape: Any, kind: Any) -> TopTools_IndexedMapOfShape:
     m = TopTools_IndexedMapOfShape()
@@ -226,11 +228,11 @@ def _failures(shape: Any) -> tuple[set[int], set[int]]:
     bad_f: set[int] = set()
 
     def faulty(r: Any) -> tuple[bool, list[Any]]:
-        own = any(x != BRepCheck_NoError for x in r.Status())
+        own = any(x != BRepCheck_NoError for x in items(r.Status()))
         ctx = []
         r.InitContextIterator()
         while r.MoreShapeInContext():
-            if any(x != BRepCheck_NoError for x in r.StatusOnShape()):
+            if any(x != BRepCheck_NoError for x in items(r.StatusOnShape())):
                 ctx.append(r.ContextualShape())
             r.NextShapeInContext()
         return own, ctx
@@ -276,7 +278,7 @@ def _failures(shape: Any) -> tuple[set[int], set[int]]:
         v = vm.FindKey(i)
         r = a.Result(v)
         if r is not None and any(faulty(r)):
-            for e in v2e.FindFromKey(v):
+            for e in items(v2e.FindFromKey(v)):
                 bad_e.add(em.FindIndex(e) - 1)
     return bad_e, bad_f
 
@@ -322,7 +324,7 @@ def face_signatures(shape: Any) -> np.ndarray:
         em = _map(f, TopAbs_EDGE)
         shared = 0
         for i in range(1, em.Extent() + 1):
-            around = e2f.FindFromKey(em.FindKey(i))
+            around = items(e2f.FindFromKey(em.FindKey(i)))
             shared += any(not x.IsSame(f) for x in around)
         nv = _map(f, TopAbs_VERTEX).Extent()
         rows.append((g.Mass(), c.X(), c.Y(), c.Z(), em.Extent(), shared, nv))
@@ -339,6 +341,6 @@ def faulty_faces(shape: Any) -> set[int]:
         e2f = TopTools_IndexedDataMapOfShapeListOfShape()
         TopExp.MapShapesAndAncestors_s(shape, TopAbs_EDGE, TopAbs_FACE, e2f)
         for e in bad_e:
-            for f in e2f.FindFromKey(em.FindKey(e + 1)):
+            for f in items(e2f.FindFromKey(em.FindKey(e + 1))):
                 bad_f.add(fm.FindIndex(f) - 1)
     return bad_f

@@ -31,8 +31,11 @@ from OCP.BRep import (
 )
 from OCP.GeomAbs import GeomAbs_Shape
 from OCP.gp import gp_Pnt, gp_Pnt2d, gp_Trsf, gp_TrsfForm, gp_Vec
+from OCP.ShapeAnalysis import ShapeAnalysis_Edge
+from OCP.ShapeExtend import ShapeExtend_DONE3, ShapeExtend_FAIL
 from OCP.ShapeFix import ShapeFix_Edge, ShapeFix_Wire
 from OCP.TopAbs import TopAbs_FORWARD, TopAbs_Orientation, TopAbs_WIRE
+from OCP.TopExp import TopExp
 from OCP.TopLoc import TopLoc_Datum3D, TopLoc_Location
 from OCP.TopoDS import (
     TopoDS,
@@ -50,8 +53,20 @@ from OCP.TopoDS import (
 from OCP.TopTools import TopTools_IndexedMapOfShape
 
 from ..errors import UnsupportedError
-from ..model import REBUILD, BRepModel, Location, PointRepKind, RepKind, ShapeType
+from ..model import (
+    REBUILD,
+    Analytic,
+    BRepModel,
+    Derived,
+    Geometry,
+    Kind,
+    Location,
+    PointRepKind,
+    RepKind,
+    ShapeType,
+)
 from .geometry import GeometryBuilder, GeometryReader
+from .lists import items
 
 _FLAG_NAMES = (
     "Free",
@@ -196,7 +211,7 @@ class _Reader:
         v = len(self.vtol)
         self.vpoint.append((tv.Pnt().X(), tv.Pnt().Y(), tv.Pnt().Z()))
         self.vtol.append(tv.Tolerance())
-        for pr in tv.Points():
+        for pr in items(tv.Points()):
             name = type(pr).__name__
             loc = self.location(pr.Location())
             if name == "BRep_PointOnCurve":
@@ -227,7 +242,7 @@ class _Reader:
         )
         geo = self.geo
         skipped = 0
-        for cr in te.Curves():
+        for cr in items(te.Curves()):
             name = type(cr).__name__
             loc = self.location(cr.Location())
             uv = (0.0,) * 8
@@ -354,8 +369,14 @@ _MAKERS = {
 }
 
 
-def model_to_shape(m: BRepModel) -> Any:
-    """Rebuild the ``TopoDS_Shape`` a model describes, with ``BRep_Builder``."""
+def model_to_shape(m: BRepModel, cache: PcurveCache | None = None) -> Any:
+    """Rebuild the ``TopoDS_Shape`` a model describes, with ``BRep_Builder``.
+
+    ``cache`` (kept across builds of models that differ in a few records, as
+    the validity stage's candidates do) reuses the pcurves computed for a model
+    left out by an earlier build where what they were computed from is the
+    same (:class:`PcurveCache`); the shape is the same as without it.
+    """
     b = BRep_Builder()
     geo = GeometryBuilder(m.surfaces, m.curves3d, m.curves2d)
     datums = [TopLoc_Datum3D(_trsf(r, int(f))) for r, f in zip(m.datums, m.datum_forms)]
@@ -369,7 +390,7 @@ def model_to_shape(m: BRepModel) -> Any:
 
     tidx = m.type_index()
     vreps = _group(m.vertex_reps[:, 0], len(m.vertex_tol))
-    pending: list[tuple[Any, int, int, bool]] = []
+    pending: list[tuple[Any, int, int, bool, int]] = []
     ereps = _group(m.edge_reps[:, 0], len(m.edge_tol))
     built: list[Any] = []
     for s, t in enumerate(m.shape_type.tolist()):
@@ -410,6 +431,7 @@ def model_to_shape(m: BRepModel) -> Any:
                             int(m.edge_reps[q, 4]),
                             int(m.edge_reps[q, 6]),
                             m.edge_reps[q, 1] == RepKind.ON_CLOSED_SURFACE,
+                            k,
                         )
                     )
                 else:
@@ -433,7 +455,8 @@ def model_to_shape(m: BRepModel) -> Any:
     if pending:
         faces = [sh for sh, t in zip(built, m.shape_type.tolist()) if t == ShapeType.FACE]
         rows = list(zip(m.face_surface.tolist(), m.face_loc.tolist()))
-        rebuild_pcurves(pending, faces, rows)
+        keys = _PcurveKeys(m, ereps) if cache is not None else None
+        rebuild_pcurves(pending, faces, rows, cache, keys)
     for sh, fl in zip(built, m.shape_flags.tolist()):
         _set_flags(sh.TShape(), fl)
     root = built[m.root_shape]
@@ -441,16 +464,22 @@ def model_to_shape(m: BRepModel) -> Any:
 
 
 def rebuild_pcurves(
-    pending: list[tuple[Any, int, int, bool]], faces: list[Any], rows: list[tuple[int, int]]
+    pending: list[tuple[Any, int, int, bool, int]],
+    faces: list[Any],
+    rows: list[tuple[int, int]],
+    cache: PcurveCache | None = None,
+    keys: _PcurveKeys | None = None,
 ) -> None:
     """Compute the pcurves a model left out, on the faces whose surface they name.
 
-    Each pending item is (edge, surface row, location, seam).  The 3-D curve
+    Each pending item is (edge, surface row, location, seam, edge index).  The 3-D curve
     is projected onto the face's surface (``ShapeFix_Edge.FixAddPCurve``, two
     pcurves for a seam), then each touched face's wires are shifted by whole
     periods where they ended up on another sheet (``ShapeFix_Wire.FixShifted``),
     as OCCT's own STEP reader does.  Deterministic: the same model gives the
-    same pcurves.
+    same pcurves.  With a ``cache`` (and the ``keys`` of the model) a
+    projection made before from the same data is replayed
+    (:meth:`PcurveCache.add`) instead of made again.
     """
     by_row: dict[tuple[int, int], list[Any]] = {}
     for f, key in zip(faces, rows):
@@ -458,10 +487,17 @@ def rebuild_pcurves(
     fix = ShapeFix_Edge()
     # TopoDS.Face/Wire are TopoDS.Face_s/Wire_s in OCP 7.9; the stubs lack the _s names.
     touched: dict[int, Any] = {}
-    for edge, srow, loc, seam in pending:
-        for face in by_row.get((srow, loc), []):
-            fix.FixAddPCurve(edge, TopoDS.Face(face), seam, BRep_Tool.Tolerance_s(edge))
-            touched[id(face)] = face
+    if cache is None or keys is None:
+        for edge, srow, loc, seam, _ in pending:
+            for face in by_row.get((srow, loc), []):
+                fix.FixAddPCurve(edge, TopoDS.Face(face), seam, BRep_Tool.Tolerance_s(edge))
+                touched[id(face)] = face
+    else:
+        dirty: set[int] = set()  # edges whose 3-D curve a projection replaced
+        for edge, srow, loc, seam, k in pending:
+            for face in by_row.get((srow, loc), []):
+                cache.add(fix, edge, TopoDS.Face(face), seam, k, srow, loc, keys, dirty)
+                touched[id(face)] = face
     for face in touched.values():
         f = TopoDS.Face(face)
         it = TopoDS_Iterator(face, False, False)
@@ -470,6 +506,168 @@ def rebuild_pcurves(
             if w.ShapeType() == TopAbs_WIRE:
                 ShapeFix_Wire(TopoDS.Wire(w), f, 1e-7).FixShifted()
             it.Next()
+
+
+class PcurveCache:
+    """Pcurves ``ShapeFix_Edge.FixAddPCurve`` projected, by what it read.
+
+    OCCT 7.9's ``FixAddPCurve`` (an edge without a pcurve on the face's
+    surface and location, a surface that is not a plane) projects the edge's
+    first 3-D curve (``BRep_Tool::Curve``: the curve, its location and range)
+    onto a fresh ``ShapeAnalysis_Surface`` of the face's located surface, with
+    the precision passed (the edge's tolerance) and the tolerances of the
+    edge's FORWARD and REVERSED vertices (``TopExp::Vertices``); its
+    projector's point cache is reset with each new surface, so nothing of an
+    earlier call is used.  It then stores the pcurve with
+    ``BRep_Builder::UpdateEdge(edge, c2d[, c2d2], surf, loc, 0.)`` (a zero
+    tolerance changes no tolerance) and, for a seam, the 3-D range on it
+    (``BRep_Builder::Range``).  Where the projector replaced the 3-D curve
+    (``DONE3``) or failed, nothing is kept and the edge is projected afresh
+    for the rest of the build.
+
+    The key is the exact content of all of that (records bit for bit, their
+    bases', the locations' datums); a hit replays the two builder calls with
+    copies of the kept curves, so the edge gets the same representations in
+    the same order as a fresh projection gives it.
+    """
+
+    def __init__(self) -> None:
+        self._kept: dict[tuple[Any, ...], tuple[Any, Any, float, float]] = {}
+        self.hits = 0
+        self.misses = 0
+        self._sae = ShapeAnalysis_Edge()
+        self._b = BRep_Builder()
+
+    def add(
+        self,
+        fix: Any,
+        edge: Any,
+        face: Any,
+        seam: bool,
+        k: int,
+        srow: int,
+        loc: int,
+        keys: _PcurveKeys,
+        dirty: set[int],
+    ) -> None:
+        """What ``fix.FixAddPCurve(edge, face, seam, tolerance of edge)`` does,
+        from the cache when it can be."""
+        tol = BRep_Tool.Tolerance_s(edge)
+        surf_loc = TopLoc_Location()
+        surf = BRep_Tool.Surface_s(face, surf_loc)
+        if k in dirty or self._sae.HasPCurve(edge, surf, surf_loc):
+            # FixAddPCurve does nothing, or works from the edge's own pcurve
+            # or replaced 3-D curve: not from what the key describes
+            fix.FixAddPCurve(edge, face, seam, tol)
+            return
+        v1, v2 = TopoDS_Vertex(), TopoDS_Vertex()
+        TopExp.Vertices_s(edge, v1, v2)
+        key = (
+            keys.edge(k),
+            keys.surface(srow),
+            keys.location(loc),
+            bool(seam),
+            tol,
+            -1.0 if v1.IsNull() else BRep_Tool.Tolerance_s(v1),
+            -1.0 if v2.IsNull() else BRep_Tool.Tolerance_s(v2),
+        )
+        kept = self._kept.get(key)
+        if kept is not None:
+            self.hits += 1
+            c1, c2, first, last = kept
+            if c2 is None:
+                self._b.UpdateEdge(edge, c1.Copy(), surf, surf_loc, 0.0)
+            else:
+                self._b.UpdateEdge(edge, c1.Copy(), c2.Copy(), surf, surf_loc, 0.0)
+                self._b.Range(edge, surf, surf_loc, first, last)
+            return
+        self.misses += 1
+        done = fix.FixAddPCurve(edge, face, seam, tol)
+        if not done or fix.Status(ShapeExtend_FAIL) or fix.Projector().Status(ShapeExtend_DONE3):
+            dirty.add(k)
+            return
+        te = cast(BRep_TEdge, edge.TShape())
+        for cr in items(te.Curves()):
+            if cr.IsCurveOnSurface(surf, surf_loc):
+                closed = cr.IsCurveOnClosedSurface()
+                if closed != bool(seam):
+                    dirty.add(k)
+                    return
+                self._kept[key] = (
+                    cr.PCurve().Copy(),
+                    cr.PCurve2().Copy() if closed else None,
+                    cr.First(),
+                    cr.Last(),
+                )
+                return
+        dirty.add(k)
+
+
+def _array_key(a: np.ndarray) -> tuple[Any, ...]:
+    return (a.dtype.str, a.shape, a.tobytes())
+
+
+class _PcurveKeys:
+    """Exact content keys of one model's edges' 3-D curves, surfaces and
+    locations, for :class:`PcurveCache`."""
+
+    def __init__(self, m: BRepModel, ereps: list[list[int]]) -> None:
+        self.m, self.ereps = m, ereps
+        self._reps = m.edge_reps[:, :7].tolist()  # plain ints: numpy scalars are slow
+        self._ranges = m.edge_rep_range.astype(np.float64).tobytes()  # bit for bit
+        self._geo: dict[tuple[str, int], tuple[Any, ...]] = {}
+        self._loc: dict[int, tuple[Any, ...]] = {}
+        self._edge: dict[int, tuple[Any, ...]] = {}
+
+    def _record(self, table: str, i: int) -> tuple[Any, ...]:
+        if i < 0:
+            return ("none",)
+        got = self._geo.get((table, i))
+        if got is not None:
+            return got
+        recs: list[Geometry] = self.m.surfaces if table == "s" else self.m.curves3d
+        r = recs[i]
+        out: list[Any] = [type(r).__name__]
+        if isinstance(r, Derived):
+            basis = "3" if table == "3" or r.kind in (Kind.REVOLUTION, Kind.EXTRUSION) else "s"
+            out += [int(r.kind), self._record(basis, r.basis)]
+            out += [_array_key(r.frame), _array_key(r.params)]
+        elif isinstance(r, Analytic):
+            out += [int(r.kind), _array_key(r.frame), _array_key(r.params)]
+        else:
+            for name, v in vars(r).items():
+                out.append((name, _array_key(v) if isinstance(v, np.ndarray) else v))
+        key = tuple(out)
+        self._geo[(table, i)] = key
+        return key
+
+    def surface(self, i: int) -> tuple[Any, ...]:
+        return self._record("s", i)
+
+    def location(self, i: int) -> tuple[Any, ...]:
+        got = self._loc.get(i)
+        if got is None:
+            loc, m = self.m.locations[i], self.m
+            got = tuple(
+                (_array_key(m.datums[d]), int(m.datum_forms[d]), p)
+                for d, p in zip(loc.datums, loc.powers)
+            )
+            self._loc[i] = got
+        return got
+
+    def edge(self, k: int) -> tuple[Any, ...]:
+        """The edge's 3-D curves (every one, in order: ``BRep_Tool::Curve``
+        reads the first) with their locations and ranges."""
+        got = self._edge.get(k)
+        if got is None:
+            out = []
+            for q in self.ereps[k]:
+                _, kind, c, _, _, _, loc = self._reps[q]
+                if kind == RepKind.CURVE3D and c != REBUILD:
+                    rng = self._ranges[16 * q : 16 * q + 16]
+                    out.append((self._record("3", c), self.location(loc), rng))
+            got = self._edge[k] = tuple(out)
+        return got
 
 
 def _group(owner: np.ndarray, n: int) -> list[list[int]]:
