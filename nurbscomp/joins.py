@@ -25,6 +25,7 @@ from typing import Any, cast
 
 import numpy as np
 
+from . import bspline
 from .model import (
     Analytic,
     BRepModel,
@@ -549,13 +550,11 @@ def _twins(a: _Run, b: _Run, eps: float) -> tuple[int, float] | None:
 def _apart(a: _Run, b: _Run) -> float:
     """Largest distance between two runs of the same size and weights at points
     spread over [0, 1] (rational ones evaluated in homogeneous form)."""
-    from scipy.interpolate import BSpline
-
     t = np.linspace(0.0, 1.0, 4 * len(a.poles) + 8)
 
     def points(r: _Run) -> np.ndarray:
         c = r.poles if r.weights is None else np.c_[r.poles * r.weights[:, None], r.weights]
-        return BSpline(r.knots, c, r.degree, extrapolate=False)(t)
+        return bspline.points(r.knots, c, r.degree, t)
 
     pa, pb = points(a), points(b)
     if a.weights is not None:

@@ -216,3 +216,32 @@ def test_close_pairs_finds_what_the_tree_finds() -> None:
             assert np.sqrt(((pts[i] - pts[j]) ** 2).sum()) <= r * (1 + 1e-8)
     assert joins.close_pairs(np.zeros((300, 3)), 1.0) is None  # all in one place
     assert joins.close_pairs(np.array([[0.0, 0, 0], [np.nan, 0, 0]]), 1.0) is None
+
+
+def test_bspline_points_match_scipy() -> None:
+    """joins' point-by-point comparison evaluates B-splines with
+    nurbscomp.bspline (no scipy.interpolate import): the same points as scipy's
+    BSpline(extrapolate=False), NaN where it gives NaN, on random clamped,
+    unclamped and multiple-knot splines."""
+    from scipy.interpolate import BSpline
+
+    from nurbscomp import bspline
+
+    rng = np.random.default_rng(1)
+    for _ in range(300):
+        p = int(rng.integers(1, 9))
+        n = int(rng.integers(p + 1, p + 15))
+        inner = np.sort(rng.random(n - p - 1))
+        if len(inner) > 1 and rng.random() < 0.3:
+            inner[1] = inner[0]
+        t = np.r_[[0.0] * (p + 1), inner, [1.0] * (p + 1)]
+        if rng.random() < 0.2:
+            t = np.sort(rng.random(n + p + 1))
+            t = (t - t[p]) / (t[n] - t[p])
+        c = rng.normal(size=(n, 4))
+        x = np.r_[np.linspace(-0.1, 1.1, 4 * n + 8), t]
+        want = BSpline(t, c, p, extrapolate=False)(x)
+        got = bspline.points(t, c, p, x)
+        assert (np.isnan(want) == np.isnan(got)).all()
+        ok = ~np.isnan(want)
+        assert np.allclose(got[ok], want[ok], rtol=0, atol=1e-12)
