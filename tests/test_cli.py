@@ -267,6 +267,17 @@ def test_version_and_help() -> None:
     assert code == 0 and "Exit codes" in out
 
 
+def test_python_dash_m() -> None:
+    """``python -m nurbscomp`` is the same command line as the script."""
+    import subprocess
+    import sys
+
+    r = subprocess.run(
+        [sys.executable, "-m", "nurbscomp", "--help"], capture_output=True, text=True, timeout=60
+    )
+    assert r.returncode == 0 and "Usage: nurbscomp" in r.stdout and "Exit codes" in r.stdout
+
+
 def test_eval_reports_deviation_and_topology(work: Path) -> None:
     shutil.copy(SAMPLES / "teapot.step", work / "part.step")
     assert run("compress", "-q", "-f", "--tol", "0.05", str(work / "part.step"))[0] == 0
