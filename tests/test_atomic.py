@@ -185,15 +185,27 @@ def test_signal_mid_write_leaves_nothing(work: Path, sig: str, code: int) -> Non
     root = Path(__file__).resolve().parent.parent
     src = work / "loft.step"
     shutil.copy(root / "samples" / "blob.step", src)
-    # compress verifies the container while its temporary file exists: seconds
+    # compress verifies the container while its temporary file exists; the
+    # process is stopped (SIGSTOP) as soon as the file is seen, so that the
+    # signal surely lands while it exists, however fast or loaded the run
     cmd = [sys.executable, "-m", "nurbscomp.cli", "compress", "--tol", "0.01", str(src)]
     env = {**os.environ, "PYTHONPATH": str(root)}
-    p = subprocess.Popen(cmd, cwd=root, env=env, stderr=subprocess.PIPE, text=True)
-    deadline = time.time() + 120
-    while not list(work.glob(".*.tmp")) and p.poll() is None and time.time() < deadline:
-        time.sleep(0.005)
-    assert p.poll() is None, "the process ended before its temporary file was seen"
+    for _ in range(5):
+        p = subprocess.Popen(cmd, cwd=root, env=env, stderr=subprocess.PIPE, text=True)
+        deadline = time.time() + 120
+        while not list(work.glob(".*.tmp")) and p.poll() is None and time.time() < deadline:
+            time.sleep(0.002)
+        assert p.poll() is None, "the process ended before its temporary file was seen"
+        p.send_signal(signal.SIGSTOP)
+        if list(work.glob(".*.tmp")):
+            break  # stopped inside the window
+        p.send_signal(signal.SIGCONT)  # it got past the window: run it again
+        p.communicate(timeout=120)
+        (work / "loft.step.nzc").unlink(missing_ok=True)
+    else:
+        pytest.fail("the process never stopped while its temporary file existed")
     p.send_signal(getattr(signal, sig))
+    p.send_signal(signal.SIGCONT)
     _, err = p.communicate(timeout=120)
     assert p.returncode == code, err
     assert err.strip().splitlines()[-1] == f"error: {src}: interrupted ({sig})"

@@ -269,7 +269,10 @@ def test_workers_interrupted_then_resumed(tmp_path: Path) -> None:
     --skip-existing then does only the files left."""
     src = tmp_path / "in"
     src.mkdir()
-    for i in range(3):
+    # enough files that the batch is still busy when the first output appears
+    # (a small file now takes well under a second)
+    n = 12
+    for i in range(n):
         shutil.copy(SAMPLES / "loft.step", src / f"loft{i}.step")
         shutil.copy(SAMPLES / "bracket.step", src / f"bracket{i}.step")
     out = tmp_path / "out"
@@ -286,15 +289,15 @@ def test_workers_interrupted_then_resumed(tmp_path: Path) -> None:
     assert err.strip().splitlines()[-1].endswith("interrupted")
     assert no_temporary_files(tmp_path)
     done = sorted(f.name for f in out.glob("*.nzc"))
-    assert 1 <= len(done) < 6
+    assert 1 <= len(done) < 2 * n
     for f in out.glob("*.nzc"):
         container.unpack(f.read_bytes())  # complete containers only
     r = subprocess.run([*cmd, "-j", "2", "--skip-existing", "--json"], env=env, capture_output=True)
     assert r.returncode == 0, r.stderr
     recs, total = lines(r.stdout.decode())
     assert sorted(n + ".nzc" for n, x in recs.items() if x["status"] == "skipped") == done
-    assert (total["files"], total["ok"] + total["skipped"], total["failed"]) == (6, 6, 0)
-    assert len(list(out.glob("*.nzc"))) == 6 and no_temporary_files(tmp_path)
+    assert (total["files"], total["ok"] + total["skipped"], total["failed"]) == (2 * n, 2 * n, 0)
+    assert len(list(out.glob("*.nzc"))) == 2 * n and no_temporary_files(tmp_path)
 
 
 def test_dask_local_cluster_gives_the_same_containers(tmp_path: Path) -> None:
@@ -356,11 +359,9 @@ def test_a_worker_that_dies_fails_only_its_file(tmp_path: Path) -> None:
     assert r.returncode == 1, r.stderr
     recs, total = lines(r.stdout.decode())
     assert recs["crash.step"]["error_class"] == "WorkerDied" and recs["crash.step"]["internal"]
-    assert sorted(n for n, x in recs.items() if x["status"] == "ok") == [
-        "a.step",
-        "b.step",
-        "c.step",
-    ]
+    others = {n: x for n, x in recs.items() if n != "crash.step" and x["status"] != "ok"}
+    assert not others, others  # a failure names its record (error class and message)
+    assert sorted(recs) == ["a.step", "b.step", "c.step", "crash.step"]
     assert (total["ok"], total["failed"]) == (3, 1)
     assert sorted(p.name for p in (tmp_path / "out").iterdir()) == [
         "a.step.nzc",
