@@ -651,14 +651,13 @@ def _read_faces(data: bytes, m: BRepModel) -> None:
 
 def coded_rows(records: list[Geometry]) -> list[int]:
     """Rows of the first occurrence of each coded B-spline record (NaN poles after reading)."""
-    seen: set[int] = set()
-    out = []
-    for i, g in enumerate(records):
-        if isinstance(g, (BSplineSurface, BSplineCurve)) and id(g) not in seen:
-            seen.add(id(g))
-            if np.isnan(g.poles.flat[0]):
-                out.append(i)
-    return out
+    return [
+        i
+        for i, (first, g) in enumerate(zip(first_row(records), records))
+        if i == first
+        and isinstance(g, (BSplineSurface, BSplineCurve))
+        and np.isnan(g.poles.flat[0])
+    ]
 
 
 @dataclass
