@@ -32,6 +32,7 @@ from .model import (
     Kind,
     RepKind,
     ShapeType,
+    first_row,
 )
 
 #: Counts stop growing here (far past every limit).
@@ -145,8 +146,7 @@ def _table(table: list[Geometry]) -> _Table:
     chains of bases cost one step a row).  A swept surface's basis is a 3-D
     curve, counted with the curves."""
     out = _Table([], [], [], 0)
-    seen: set[int] = set()
-    for g in table:
+    for i, (first, g) in enumerate(zip(first_row(table), table)):
         if isinstance(g, (BSplineSurface, BSplineCurve)):
             n = g.poles.size // g.poles.shape[-1]
             k = len(g.uknots) + len(g.vknots) if isinstance(g, BSplineSurface) else len(g.knots)
@@ -159,8 +159,7 @@ def _table(table: list[Geometry]) -> _Table:
                 out.work.append(nu * nv * (du + 1) * (dv + 1) * (max(du, dv) + 1))
             else:
                 out.work.append(16)
-            if id(g) not in seen:
-                seen.add(id(g))
+            if i == first:  # a record's later rows (COPY rows) hold nothing more
                 out.poles += n + k
             continue
         assert isinstance(g, (Analytic, Derived))

@@ -28,7 +28,18 @@ import numpy as np
 
 from . import budget, codec, coons, dmap, joins, serialize
 from .errors import BadReferenceError, SectionError
-from .model import BRepModel, BSplineCurve, BSplineSurface, Derived, Geometry, Kind, RepKind
+from .model import (
+    BRepModel,
+    BSplineCurve,
+    BSplineSurface,
+    Derived,
+    Geometry,
+    Kind,
+    Rec,
+    RepKind,
+    Table,
+    first_row,
+)
 from .serialize import (
     MAX_COORD,
     MAX_LEVEL,
@@ -153,11 +164,13 @@ def resolve_ranges(m: BRepModel, how: np.ndarray) -> None:
 
 def _net_table(
     records: list[Geometry],
-    codes: dict[int, codec.NetCode],
+    which: Table,
+    codes: dict[Rec, codec.NetCode],
     tol: float,
     anchors: dict[int, np.ndarray] | None = None,
 ) -> NetTable:
-    """The codes of a table's coded records, in the order of their first rows.
+    """The codes of the coded records of a table (the model's ``which`` table),
+    in the order of their first rows.
 
     Each code is re-based on the origin the decoder will use: the previous
     coded row's decoded first pole (:func:`codec.reorigin`), or the row's
@@ -165,12 +178,11 @@ def _net_table(
     """
     anchors = anchors or {}
     order = []
-    seen: set[int] = set()
     origin = None
-    for row, g in enumerate(records):
-        if id(g) in codes and id(g) not in seen:
-            seen.add(id(g))
-            code = codes[id(g)]
+    for row, first in enumerate(first_row(records)):
+        if row == first and Rec(which, row) in codes:
+            g = records[row]
+            code = codes[Rec(which, row)]
             if code.method == codec.Method.COPY:  # filled last: not on the origin chain
                 order.append(code)
                 continue
@@ -193,29 +205,27 @@ def _net_table(
     )
 
 
-def _curve_anchors(m: BRepModel, codes: dict[int, codec.NetCode]) -> dict[int, np.ndarray]:
-    rows: dict[int, int] = {}
-    for i, g in enumerate(m.curves3d):
-        if id(g) in codes:
-            rows.setdefault(id(g), i)
-    return joins.anchors(m, m.curves3d, set(rows.values()))
+def _curve_anchors(m: BRepModel, codes: dict[Rec, codec.NetCode]) -> dict[int, np.ndarray]:
+    rows = {k.row for k in codes if k.table == Table.CURVE3D}
+    return joins.anchors(m, m.curves3d, rows)
 
 
-def tables(m: BRepModel, codes: dict[int, codec.NetCode] | None, tol: float) -> Tables:
+def tables(m: BRepModel, codes: dict[Rec, codec.NetCode] | None, tol: float) -> Tables:
     """What the writer stores besides ``m``'s own tables so that :func:`apply`
-    rebuilds ``m``: the range rules, and the net codes (``codes`` maps the ids
-    of B-spline records to their codes; ``m`` holds their *decoded* poles)."""
+    rebuilds ``m``: the range rules, and the net codes (``codes`` maps
+    B-spline records, :class:`model.Rec`, to their codes; ``m`` holds their
+    *decoded* poles)."""
     codes = codes or {}
     return Tables(
-        _net_table(m.surfaces, codes, tol),
-        _net_table(m.curves3d, codes, tol, _curve_anchors(m, codes)),
+        _net_table(m.surfaces, Table.SURFACE, codes, tol),
+        _net_table(m.curves3d, Table.CURVE3D, codes, tol, _curve_anchors(m, codes)),
         range_kinds(m),
         frozenset(codes),
     )
 
 
 def model_to_sections(
-    m: BRepModel, meta: dict[str, Any], codes: dict[int, codec.NetCode] | None = None
+    m: BRepModel, meta: dict[str, Any], codes: dict[Rec, codec.NetCode] | None = None
 ) -> list[tuple[str, bytes]]:
     """The sections of a container holding ``m`` (:func:`serialize.model_to_sections`
     of ``m`` and its :func:`tables`)."""

@@ -33,6 +33,7 @@ from .model import (
     BSplineSurface,
     Geometry,
     Kind,
+    Rec,
     RepKind,
     ShapeType,
     faces_around,
@@ -306,12 +307,13 @@ def pin_radius(tol: float, quant: int, level: int) -> float:
     return min(tol, tol * 2.0 ** (level / 4)) if quant == 0 else tol
 
 
-def pin_radii(table: list[Geometry], codes: dict[int, Any], tol: float) -> dict[int, float]:
-    """:func:`pin_radius` of each row of ``table`` whose record has a net code
-    in ``codes`` (record id -> ``codec.NetCode``)."""
+def pin_radii(recs: list[Rec], codes: dict[Rec, Any], tol: float) -> dict[int, float]:
+    """:func:`pin_radius` of each row of a table whose record has a net code
+    in ``codes`` (record -> ``codec.NetCode``); ``recs``: per row, its record
+    (:func:`model.records`)."""
     out = {}
-    for r, g in enumerate(table):
-        code = codes.get(id(g))
+    for r, k in enumerate(recs):
+        code = codes.get(k)
         if code is not None:
             out[r] = pin_radius(tol, int(code.quant), int(code.level))
     return out

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from enum import IntEnum
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -46,6 +46,39 @@ class Kind(IntEnum):
 
 
 SURFACE_KINDS = frozenset(k for k in Kind if k < 16)
+
+
+class Table(IntEnum):
+    """The geometry tables whose records the encoder codes (not part of the container format)."""
+
+    SURFACE = 0
+    CURVE3D = 1
+
+
+class Rec(NamedTuple):
+    """A geometry record of a model, by table and row: the distinct object of
+    ``table`` first held at ``row`` (:func:`first_row`).
+
+    Rows that hold one object share its record (the container writes the later
+    ones as COPY rows), so a record is named by its first row, and a table
+    whose objects are replaced (a coded record by its decoded version, every
+    row of it alike) keeps its records' names.
+    """
+
+    table: Table
+    row: int
+
+
+def first_row(table: list[Any]) -> list[int]:
+    """Per row of a geometry table, the first row holding the same object
+    (the row itself when it is the first)."""
+    seen: dict[int, int] = {}
+    return [seen.setdefault(id(g), i) for i, g in enumerate(table)]
+
+
+def records(table: list[Any], which: Table) -> list[Rec]:
+    """Per row of ``table`` (the ``which`` table of a model), its record."""
+    return [Rec(which, r) for r in first_row(table)]
 
 
 class ShapeType(IntEnum):

@@ -40,7 +40,10 @@ from .model import (
     Geometry,
     Kind,
     Location,
+    Rec,
     RepKind,
+    Table,
+    first_row,
 )
 from .streams import BlockReader, BlockWriter
 from .units import UNITS_MM
@@ -162,7 +165,9 @@ def _write_geometry(
 ) -> bytes:
     """Write one geometry table.  ``dim`` is 3 for surfaces and 3-D curves, 2 for pcurves.
 
-    B-spline rows whose record id is in ``coded`` carry a flag (bit 3 for
+    A row holding the object of an earlier row is a COPY row (the distance
+    back to the first row holding it: :func:`model.first_row`).  B-spline
+    rows in ``coded`` (first rows of coded records) carry a flag (bit 3 for
     surfaces, bit 2 for curves) and no poles: those are in SNET / CNET.
     """
     kinds, copies, hdr, basis, mults = [], [], [], [], []
@@ -171,13 +176,12 @@ def _write_geometry(
     poles: list[np.ndarray] = []
     weights: list[np.ndarray] = []
     knots: list[np.ndarray] = []
-    seen: dict[int, int] = {}
+    first = first_row(records)
     for i, r in enumerate(records):
-        if id(r) in seen:
+        if first[i] != i:
             kinds.append(COPY)
-            copies.append(i - seen[id(r)])
+            copies.append(i - first[i])
             continue
-        seen[id(r)] = i
         kinds.append(int(r.kind))
         if isinstance(r, Analytic):
             frames.append(r.frame.reshape(-1))
@@ -191,24 +195,24 @@ def _write_geometry(
         elif isinstance(r, BSplineSurface):
             nu, nv = r.poles.shape[:2]
             flags = int(r.weights is not None) | int(r.uperiodic) << 1 | int(r.vperiodic) << 2
-            flags |= int(id(r) in coded) << 3
+            flags |= int(i in coded) << 3
             hdr += [nu, nv, flags]
             if not r.bezier:
                 hdr += [r.udegree, r.vdegree, len(r.uknots), len(r.vknots)]
                 knots += [r.uknots, r.vknots]
                 mults += [*r.umults.tolist(), *r.vmults.tolist()]
-            if id(r) not in coded:
+            if i not in coded:
                 poles.append(r.poles.reshape(-1))
             if r.weights is not None:
                 weights.append(r.weights.reshape(-1))
         elif isinstance(r, BSplineCurve):
-            flags = int(r.weights is not None) | int(r.periodic) << 1 | int(id(r) in coded) << 2
+            flags = int(r.weights is not None) | int(r.periodic) << 1 | int(i in coded) << 2
             hdr += [len(r.poles), flags]
             if not r.bezier:
                 hdr += [r.degree, len(r.knots)]
                 knots.append(r.knots)
                 mults += r.mults.tolist()
-            if id(r) not in coded:
+            if i not in coded:
                 poles.append(r.poles.reshape(-1))
             if r.weights is not None:
                 weights.append(r.weights)
@@ -647,14 +651,13 @@ def _read_faces(data: bytes, m: BRepModel) -> None:
 
 def coded_rows(records: list[Geometry]) -> list[int]:
     """Rows of the first occurrence of each coded B-spline record (NaN poles after reading)."""
-    seen: set[int] = set()
-    out = []
-    for i, g in enumerate(records):
-        if isinstance(g, (BSplineSurface, BSplineCurve)) and id(g) not in seen:
-            seen.add(id(g))
-            if np.isnan(g.poles.flat[0]):
-                out.append(i)
-    return out
+    return [
+        i
+        for i, (first, g) in enumerate(zip(first_row(records), records))
+        if i == first
+        and isinstance(g, (BSplineSurface, BSplineCurve))
+        and np.isnan(g.poles.flat[0])
+    ]
 
 
 @dataclass
@@ -706,8 +709,12 @@ class Tables:
     snet: NetTable
     cnet: NetTable
     range_how: np.ndarray
-    #: ids of the coded B-spline records (written with NaN poles: SNET/CNET hold them)
-    coded: frozenset[int] = frozenset()
+    #: the coded B-spline records (written with NaN poles: SNET/CNET hold them)
+    coded: frozenset[Rec] = frozenset()
+
+    def rows(self, which: Table) -> frozenset[int]:
+        """The rows of the coded records of the ``which`` table."""
+        return frozenset(k.row for k in self.coded if k.table == which)
 
 
 # ---------------------------------------------------------------- whole model
@@ -722,9 +729,9 @@ def model_to_sections(m: BRepModel, meta: dict[str, Any], t: Tables) -> list[tup
     return [
         ("META", json.dumps(meta, sort_keys=True, separators=(",", ":")).encode()),
         ("LOCS", _write_locations(m)),
-        ("SURF", _write_geometry(m.surfaces, 3, t.coded)),
+        ("SURF", _write_geometry(m.surfaces, 3, t.rows(Table.SURFACE))),
         ("SNET", _write_nets(t.snet)),
-        ("CRV3", _write_geometry(m.curves3d, 3, t.coded)),
+        ("CRV3", _write_geometry(m.curves3d, 3, t.rows(Table.CURVE3D))),
         ("CNET", _write_nets(t.cnet)),
         ("CRV2", _write_geometry(m.curves2d, 2)),
         ("SHAP", _write_shapes(m)),

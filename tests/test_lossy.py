@@ -216,7 +216,7 @@ def test_unit_curves_keep_every_edge_point_for_point(name: str) -> None:
     m, _ = occ.shape_to_model(occ.read_cad(path).shape)
     keep = set(range(0, len(m.edge_tol), 2))  # every other edge keeps its pcurves
     d = pcurves.drop_pcurves(m, keep, set())
-    u = pcurves.unit_curves(d, {})
+    u = pcurves.unit_curves(d)
     reps = d.edge_reps
     pc = (reps[:, 1] == RepKind.ON_SURFACE) | (reps[:, 1] == RepKind.ON_CLOSED_SURFACE)
     stored = set(reps[pc & (reps[:, 2] >= 0), 0].tolist())  # edges with a stored pcurve

@@ -22,12 +22,16 @@ from ..model import (
     BSplineSurface,
     Derived,
     Geometry,
+    Rec,
     RepKind,
     ShapeType,
+    Table,
     below,
+    first_row,
+    records,
 )
 from ..serialize import SWEPT
-from .nets import TRIM_C, TRIM_S, Coded, feature_limit, first_rows, poles_of, resolve
+from .nets import TRIM_C, TRIM_S, Coded, feature_limit, first_rows, poles_of, resolve_row
 
 
 @dataclass
@@ -66,9 +70,9 @@ class LossyReport:
 def assemble(
     m: BRepModel,
     coded: Coded,
-    exact: set[int] = frozenset(),  # type: ignore[assignment]
+    exact: set[Rec | None] = frozenset(),  # type: ignore[assignment]
     still: set[int] = frozenset(),  # type: ignore[assignment]
-) -> tuple[BRepModel, dict[int, codec.NetCode], LossyReport]:
+) -> tuple[BRepModel, dict[Rec, codec.NetCode], LossyReport]:
     """The model the decoder will rebuild when every coded record but ``exact`` is used,
     and every vertex that may move (:func:`_snap_vertices`) but the rows in ``still``.
 
@@ -77,38 +81,38 @@ def assemble(
     decoded : BRepModel
         Shares unchanged tables with ``m``; tolerances widened.
     codes : dict
-        ``id(record in decoded) -> NetCode`` for the container.
+        ``record -> NetCode`` for the container (the records of ``decoded``'s
+        tables, which are those of ``m``'s: a row is replaced where its
+        record's first row is).
     report : LossyReport
     """
-    codes: dict[int, codec.NetCode] = {}
+    codes: dict[Rec, codec.NetCode] = {}
+    srec, crec = records(m.surfaces, Table.SURFACE), records(m.curves3d, Table.CURVE3D)
 
     def swap(
-        table: list[Geometry], done: dict[int, tuple[codec.NetCode, Geometry]]
+        table: list[Geometry], recs: list[Rec], done: dict[Rec, tuple[codec.NetCode, Geometry]]
     ) -> list[Geometry]:
         out = []
-        for g in table:
-            hit = done.get(id(g)) if id(g) not in exact else None
+        for k, g in zip(recs, table):
+            hit = done.get(k) if k not in exact else None
             if hit is None:
                 out.append(g)
             else:
-                codes[id(hit[1])] = hit[0]
+                codes[k] = hit[0]
                 out.append(hit[1])
         return out
 
     # a boundary coded once is exact on every side or on none: an exact copy's
     # leader is exact too
-    exact = exact | {id(m.curves3d[r]) for k, (r, _) in coded.twins.items() if k in exact}
+    exact = exact | {crec[r] for k, (r, _) in coded.twins.items() if k in exact}
     while True:
-        more = {
-            id(m.surfaces[a])
-            for (b, _), ((a, _), _) in coded.sides.items()
-            if id(m.surfaces[b]) in exact
-        } - exact
+        more = {srec[a] for (b, _), ((a, _), _) in coded.sides.items() if srec[b] in exact}
+        more -= exact
         if not more:
             break
         exact = exact | more
-    surfaces = swap(m.surfaces, coded.surfaces)
-    curves = swap(m.curves3d, coded.curves)
+    surfaces = swap(m.surfaces, srec, coded.surfaces)
+    curves = swap(m.curves3d, crec, coded.curves)
     m, moved_v = _snap_vertices(m, coded, surfaces, curves, codes, exact, still)
     _pin_surfaces(m, surfaces, codes, coded.tol)
     side_joins = _join_sides(m, coded, surfaces, codes)
@@ -118,15 +122,16 @@ def assemble(
     bound_of = {k: c.bound for k, c in codes.items()}
 
     def curve_bound(i: int) -> float:
-        return 0.0 if i < 0 else bound_of.get(id(resolve(curves, i, TRIM_C)), 0.0)
+        return 0.0 if i < 0 else bound_of.get(crec[resolve_row(curves, i, TRIM_C)], 0.0)
 
     face_bound = np.zeros(len(m.face_surface))
     face_method = []
     for f, row in enumerate(m.face_surface.tolist()):
-        b = resolve(surfaces, row, TRIM_S)
-        if id(b) in codes:
-            face_bound[f] = codes[id(b)].bound
-            face_method.append(codes[id(b)].method.name.lower())
+        r = resolve_row(surfaces, row, TRIM_S)
+        b = surfaces[r]
+        if srec[r] in codes:
+            face_bound[f] = codes[srec[r]].bound
+            face_method.append(codes[srec[r]].method.name.lower())
         elif isinstance(b, Derived) and b.kind in SWEPT:
             # sweeping is an isometry of each curve point: the surface moves as the curve
             face_bound[f] = curve_bound(b.basis)
@@ -140,16 +145,16 @@ def assemble(
     out = _widen_tolerances(m, face_bound, edge_bound, moved_v)
     out.surfaces, out.curves3d = surfaces, curves
     out.side_joins = side_joins
-    sc = [codes[id(g)] for g in {id(g): g for g in surfaces if id(g) in codes}.values()]
-    cc = [codes[id(g)] for g in {id(g): g for g in curves if id(g) in codes}.values()]
+    sc = [codes[k] for k in dict.fromkeys(srec) if k in codes]
+    cc = [codes[k] for k in dict.fromkeys(crec) if k in codes]
     report = LossyReport(
         face_method,
         face_bound,
         edge_bound,
         sum(c.bits for c in sc),
-        sum(int(np.prod(poles_of(g).shape[:-1])) for g in surfaces if id(g) in codes),
+        sum(int(np.prod(poles_of(g).shape[:-1])) for k, g in zip(srec, surfaces) if k in codes),
         sum(c.bits for c in cc),
-        sum(len(poles_of(g)) for g in curves if id(g) in codes),
+        sum(len(poles_of(g)) for k, g in zip(crec, curves) if k in codes),
     )
     return out, codes, report
 
@@ -159,8 +164,8 @@ def _snap_vertices(
     coded: Coded,
     surfaces: list[Geometry],
     curves: list[Geometry],
-    codes: dict[int, codec.NetCode],
-    exact: set[int],
+    codes: dict[Rec, codec.NetCode],
+    exact: set[Rec | None],
     still: set[int],
 ) -> tuple[BRepModel, np.ndarray]:
     """``m`` with its vertices on the vertex grid where every edge at the vertex
@@ -179,22 +184,23 @@ def _snap_vertices(
     reps = m.edge_reps
     for q in np.flatnonzero(reps[:, 1] == RepKind.CURVE3D).tolist():
         curve_of[int(reps[q, 0])] = int(reps[q, 2]) if reps[q, 6] == 0 else -1
+    srec, crec = records(m.surfaces, Table.SURFACE), records(m.curves3d, Table.CURVE3D)
     ok = np.ones(len(m.vertex_tol), bool)
     for e, s in enumerate(np.flatnonzero(m.shape_type == ShapeType.EDGE).tolist()):
         c = curve_of.get(e, -1)
         moving = c >= 0 and (
-            id(curves[c]) in codes
+            crec[c] in codes
             or (
-                id(m.curves3d[c]) in coded.iso
-                and id(m.curves3d[c]) not in exact
-                and id(surfaces[coded.iso[id(m.curves3d[c])][0]]) in codes
+                crec[c] in coded.iso
+                and crec[c] not in exact
+                and srec[coded.iso[crec[c]][0]] in codes
             )
         )
-        if not moving or id(m.curves3d[c]) in coded.fine:
+        if not moving or crec[c] in coded.fine:
             for v in below(m, s, ShapeType.VERTEX):
                 ok[tidx[v]] = False
     for f, s in enumerate(np.flatnonzero(m.shape_type == ShapeType.FACE).tolist()):
-        if id(resolve(m.surfaces, int(m.face_surface[f]), TRIM_S)) in coded.fine:
+        if srec[resolve_row(m.surfaces, int(m.face_surface[f]), TRIM_S)] in coded.fine:
             for v in below(m, s, ShapeType.VERTEX):
                 ok[tidx[v]] = False
     ok[sorted(still)] = False
@@ -228,21 +234,21 @@ def _merging(exact: np.ndarray, snapped: np.ndarray) -> np.ndarray:
 
 class _Rows:
     """A geometry table whose records are replaced everywhere they are used
-    (the rows that share a record keep sharing its replacement), with an
-    index of the rows each record is in: one pass over the table, not one
-    per replacement."""
+    (the rows that share a record keep sharing its replacement, so the
+    table's records keep their first rows), with an index of the rows of
+    each record: one pass over the table, not one per replacement."""
 
     def __init__(self, table: list[Geometry]) -> None:
         self.table = table
+        self.first = first_row(table)
         self.rows: dict[int, list[int]] = {}
-        for i, g in enumerate(table):
-            self.rows.setdefault(id(g), []).append(i)
+        for i, r in enumerate(self.first):
+            self.rows.setdefault(r, []).append(i)
 
-    def replace(self, old: Geometry, new: Geometry) -> None:
-        rows = self.rows.pop(id(old))
-        for i in rows:
+    def replace(self, row: int, new: Geometry) -> None:
+        """Put ``new`` at every row of the record at ``row``."""
+        for i in self.rows[self.first[row]]:
             self.table[i] = new
-        self.rows[id(new)] = rows
 
 
 def _moved(a: np.ndarray, b: np.ndarray) -> float:
@@ -250,20 +256,21 @@ def _moved(a: np.ndarray, b: np.ndarray) -> float:
 
 
 def _pin_surfaces(
-    m: BRepModel, surfaces: list[Geometry], codes: dict[int, codec.NetCode], tol: float
+    m: BRepModel, surfaces: list[Geometry], codes: dict[Rec, codec.NetCode], tol: float
 ) -> None:
     """Apply :func:`joins.surface_corner_pins` as the decoder will, raising bounds."""
     rows = _Rows(surfaces)
-    radius = joins.pin_radii(surfaces, codes, tol)
+    recs = records(surfaces, Table.SURFACE)
+    radius = joins.pin_radii(recs, codes, tol)
     for r, pins in joins.surface_corner_pins(
-        m, surfaces, first_rows(surfaces, codes), tol, radius
+        m, surfaces, first_rows(codes, Table.SURFACE), tol, radius
     ).items():
         old, original = surfaces[r], m.surfaces[r]
         assert isinstance(old, BSplineSurface) and isinstance(original, BSplineSurface)
         new = replace(old, poles=joins.pinned_corners(m, old, pins))
-        code = codes.pop(id(old))
-        codes[id(new)] = replace(code, bound=max(code.bound, _moved(new.poles, original.poles)))
-        rows.replace(old, new)
+        code = codes.pop(recs[r])
+        codes[recs[r]] = replace(code, bound=max(code.bound, _moved(new.poles, original.poles)))
+        rows.replace(r, new)
 
 
 def _copy_iso(
@@ -271,17 +278,18 @@ def _copy_iso(
     coded: Coded,
     surfaces: list[Geometry],
     curves: list[Geometry],
-    codes: dict[int, codec.NetCode],
-    exact: set[int],
+    codes: dict[Rec, codec.NetCode],
+    exact: set[Rec | None],
 ) -> None:
     """Curves that are a coded surface's boundary become copies of the decoded boundary."""
     rows = _Rows(curves)
+    srec, crec = records(surfaces, Table.SURFACE), records(curves, Table.CURVE3D)
     for c, g in enumerate(m.curves3d):
-        src = coded.iso.get(id(g))
-        if src is None or id(g) in exact or curves[c] is not g:
+        src = coded.iso.get(crec[c])
+        if src is None or crec[c] in exact or curves[c] is not g:
             continue
         r, side, rev = src
-        if id(surfaces[r]) not in codes:
+        if srec[r] not in codes:
             continue  # the surface is exact, and so is its boundary: the curve as it is
         assert isinstance(g, BSplineCurve)
         poles = joins.boundary(surfaces[r].poles, side, bool(rev)).copy()  # type: ignore[union-attr]
@@ -289,26 +297,27 @@ def _copy_iso(
         ints = np.array([r, side, rev], np.int64)
         bound = _moved(poles, g.poles)
         code = codec.NetCode(codec.Method.ISO, codec.Quant.TOL, 0, 0, ints, np.zeros(0), bound, 0.0)
-        codes[id(new)] = replace(code, first=poles[0].copy())
-        rows.replace(g, new)
+        codes[crec[c]] = replace(code, first=poles[0].copy())
+        rows.replace(c, new)
 
 
 def _join_sides(
-    m: BRepModel, coded: Coded, surfaces: list[Geometry], codes: dict[int, codec.NetCode]
+    m: BRepModel, coded: Coded, surfaces: list[Geometry], codes: dict[Rec, codec.NetCode]
 ) -> np.ndarray:
     """Set each coded net's twin sides to their leaders' (as the decoder does after
     the corner pins); the rows of ``BRepModel.side_joins``, shape (J, 5)."""
     rows, table = [], _Rows(surfaces)
+    recs = records(surfaces, Table.SURFACE)
     for (b, j), ((a, i), rev) in sorted(coded.sides.items()):
         old, original = surfaces[b], m.surfaces[b]
-        if id(old) not in codes:
+        if recs[b] not in codes:
             continue  # exact: its leader is exact too (see assemble)
         assert isinstance(old, BSplineSurface) and isinstance(original, BSplineSurface)
         row = np.array([b, j, a, i, rev], np.int64)
         new = replace(old, poles=joins.joined_sides(old, surfaces[a], row))  # type: ignore[arg-type]
-        code = codes.pop(id(old))
-        codes[id(new)] = replace(code, bound=max(code.bound, _moved(new.poles, original.poles)))
-        table.replace(old, new)
+        code = codes.pop(recs[b])
+        codes[recs[b]] = replace(code, bound=max(code.bound, _moved(new.poles, original.poles)))
+        table.replace(b, new)
         rows.append(row)
     return np.array(rows, np.int64).reshape(-1, 5)
 
@@ -317,8 +326,8 @@ def _copy_twins(
     m: BRepModel,
     coded: Coded,
     curves: list[Geometry],
-    codes: dict[int, codec.NetCode],
-    exact: set[int],
+    codes: dict[Rec, codec.NetCode],
+    exact: set[Rec | None],
 ) -> None:
     """Curves coincident with a coded curve become copies of its final (decoded
     and pinned) poles (``Method.COPY``; :func:`joins.twin_curves`), as the
@@ -327,12 +336,13 @@ def _copy_twins(
     than its limit (a leader that is a coded surface's boundary, coded to the
     surface's limit) stays exact."""
     rows = _Rows(curves)
+    crec = records(curves, Table.CURVE3D)
     for c, g in enumerate(m.curves3d):
-        twin = coded.twins.get(id(g))
-        if twin is None or id(g) in exact or curves[c] is not g:
+        twin = coded.twins.get(crec[c])
+        if twin is None or crec[c] in exact or curves[c] is not g:
             continue
         r, rev = twin
-        if id(curves[r]) not in codes:
+        if crec[r] not in codes:
             continue  # the leader is exact: so is this curve, as it is
         assert isinstance(g, BSplineCurve)
         lead = poles_of(curves[r])
@@ -348,16 +358,17 @@ def _copy_twins(
             codec.Method.COPY, codec.Quant.TOL, 0, 0, ints, np.zeros(0), bound, 0.0
         )
         new = replace(g, poles=poles)
-        codes[id(new)] = code
-        rows.replace(g, new)
+        codes[crec[c]] = code
+        rows.replace(c, new)
 
 
 def _pin_curves(
-    m: BRepModel, curves: list[Geometry], codes: dict[int, codec.NetCode], tol: float
+    m: BRepModel, curves: list[Geometry], codes: dict[Rec, codec.NetCode], tol: float
 ) -> None:
     """Apply :func:`joins.curve_end_pins` as the decoder will, raising each pinned curve's bound."""
-    pins = joins.curve_end_pins(m, curves, first_rows(curves, codes), tol)
+    pins = joins.curve_end_pins(m, curves, first_rows(codes, Table.CURVE3D), tol)
     rows = _Rows(curves)
+    recs = records(curves, Table.CURVE3D)
     for c, places in pins.items():
         old = curves[c]
         assert isinstance(old, BSplineCurve)
@@ -365,9 +376,9 @@ def _pin_curves(
         original = m.curves3d[c]
         assert isinstance(original, BSplineCurve)
         moved = float(np.sqrt(((new.poles - original.poles) ** 2).sum(-1)).max())
-        code = codes.pop(id(old))
-        codes[id(new)] = replace(code, bound=max(code.bound, moved))
-        rows.replace(old, new)
+        code = codes.pop(recs[c])
+        codes[recs[c]] = replace(code, bound=max(code.bound, moved))
+        rows.replace(c, new)
 
 
 #: BRepCheck measures an edge's distance to its surfaces with a 5% margin

@@ -16,6 +16,7 @@ Still exact in this version: analytic geometry, and B-splines under an offset
 from __future__ import annotations
 
 import collections
+from collections.abc import Iterable
 from dataclasses import dataclass, field, replace
 from typing import Any, cast
 
@@ -30,32 +31,41 @@ from ..model import (
     Derived,
     Geometry,
     Kind,
+    Rec,
     RepKind,
     ShapeType,
+    Table,
     faces_around,
+    first_row,
+    records,
 )
 from ..serialize import SWEPT
 
 
-def resolve(table: list[Geometry], i: int, through: tuple[Kind, ...]) -> Geometry:
-    """The record under row ``i``, following the bases of ``through`` kinds."""
+def resolve_row(table: list[Geometry], i: int, through: tuple[Kind, ...]) -> int:
+    """The row of the record under row ``i``, following the bases of ``through`` kinds."""
     g = table[i]
     while isinstance(g, Derived) and g.kind in through:
-        g = table[g.basis]
-    return g
+        i = g.basis
+        g = table[i]
+    return i
 
 
-def _offset_bases(table: list[Geometry], offset: Kind, through: tuple[Kind, ...]) -> set[int]:
-    """Ids of records under an offset: they must stay exact (an offset of a
+def _offset_bases(
+    table: list[Geometry], which: Table, offset: Kind, through: tuple[Kind, ...]
+) -> set[Rec]:
+    """Records under an offset: they must stay exact (an offset of a
     moved geometry moves by more than the poles did)."""
-    out: set[int] = set()
+    first = first_row(table)
+    out: set[Rec] = set()
     for g in table:
         if isinstance(g, Derived) and g.kind == offset:
-            b = table[g.basis]
+            r = g.basis
             while True:
-                out.add(id(b))
+                out.add(Rec(which, first[r]))
+                b = table[r]
                 if isinstance(b, Derived) and b.kind in (*through, offset):
-                    b = table[b.basis]
+                    r = b.basis
                 else:
                     break
     return out
@@ -63,23 +73,24 @@ def _offset_bases(table: list[Geometry], offset: Kind, through: tuple[Kind, ...]
 
 @dataclass
 class Coded:
-    """Every codable record of a model, coded once: ``id(original) -> (code, decoded)``."""
+    """Every codable record of a model, coded once: ``record -> (code, decoded)``
+    (:class:`~nurbscomp.model.Rec`, of the source's tables)."""
 
-    surfaces: dict[int, tuple[codec.NetCode, Geometry]]
-    curves: dict[int, tuple[codec.NetCode, Geometry]]
+    surfaces: dict[Rec, tuple[codec.NetCode, Geometry]]
+    curves: dict[Rec, tuple[codec.NetCode, Geometry]]
     tol: float
-    #: id(curve) -> (surface row, side, reversed): copied from a decoded surface
-    iso: dict[int, tuple[int, int, int]] = field(default_factory=dict)
+    #: curve record -> (surface row, side, reversed): copied from a decoded surface
+    iso: dict[Rec, tuple[int, int, int]] = field(default_factory=dict)
     #: every vertex snapped to the vertex grid (used where all its edges' curves are
     #: coded): its cluster's first vertex's grid point (:func:`joins.vertex_clusters`)
     vgrid: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
-    #: ids of coded records held to a limit below tol (:func:`feature_limit`, :func:`tighten`)
-    fine: set[int] = field(default_factory=set)
-    #: ids of records coded again, tighter, and how many times (:func:`tighten`)
-    tight: dict[int, int] = field(default_factory=dict)
-    #: id(curve) -> (leader row, reversed): a copy of a coincident curve
+    #: coded records held to a limit below tol (:func:`feature_limit`, :func:`tighten`)
+    fine: set[Rec] = field(default_factory=set)
+    #: records coded again, tighter, and how many times (:func:`tighten`)
+    tight: dict[Rec, int] = field(default_factory=dict)
+    #: curve record -> (leader row, reversed): a copy of a coincident curve
     #: (:func:`joins.twin_curves`), not coded itself
-    twins: dict[int, tuple[int, int]] = field(default_factory=dict)
+    twins: dict[Rec, tuple[int, int]] = field(default_factory=dict)
     #: (surface row, side) -> ((leader row, side), reversed): a side set to the
     #: leader's decoded side (:func:`joins.twin_sides`)
     sides: dict[tuple[int, int], tuple[tuple[int, int], int]] = field(default_factory=dict)
@@ -143,26 +154,27 @@ def _code_one(
 
 def _code_table(
     table: list[Geometry],
+    which: Table,
     tol: float,
-    keep: set[int],
+    keep: set[Rec],
     methods: tuple[codec.Method, ...],
     paper: bool,
-    anchors: dict[int, np.ndarray] | None = None,
-    limits: dict[int, float] | None = None,
-) -> dict[int, tuple[codec.NetCode, Geometry]]:
+    anchors: dict[Rec, np.ndarray] | None = None,
+    limits: dict[Rec, float] | None = None,
+) -> dict[Rec, tuple[codec.NetCode, Geometry]]:
     """Code each distinct B-spline record of ``table`` (see :func:`code_model`);
-    ``anchors`` maps record ids to :func:`joins.anchors` points, ``limits``
+    ``anchors`` maps records to :func:`joins.anchors` points, ``limits``
     to a limit below :func:`feature_limit`'s."""
-    out: dict[int, tuple[codec.NetCode, Geometry]] = {}
+    out: dict[Rec, tuple[codec.NetCode, Geometry]] = {}
     origin = None
-    for g in table:
-        if id(g) in out or id(g) in keep or not isinstance(g, (BSplineSurface, BSplineCurve)):
+    for k, g in zip(records(table, which), table):
+        if k in out or k in keep or not isinstance(g, (BSplineSurface, BSplineCurve)):
             continue
-        at = (anchors or {}).get(id(g), origin)
+        at = (anchors or {}).get(k, origin)
         limit = feature_limit(g.poles, tol)
-        limit = min(limit, (limits or {}).get(id(g), limit))
-        out[id(g)] = _code_one(g, tol, methods, paper, at, limit)
-        origin = out[id(g)][0].first
+        limit = min(limit, (limits or {}).get(k, limit))
+        out[k] = _code_one(g, tol, methods, paper, at, limit)
+        origin = out[k][0].first
     return out
 
 
@@ -171,28 +183,29 @@ def _code_table(
 TIGHTER = 8
 
 
-def tighten(coded: Coded, records: list[Geometry], level: int = 1) -> None:
-    """Code ``records`` (originals) again to 1/``TIGHTER``^``level`` of their limit,
-    in place (those already that tight are left).
+def tighten(coded: Coded, m: BRepModel, recs: Iterable[Rec], level: int = 1) -> None:
+    """Code the records ``recs`` of ``m`` (the source) again to
+    1/``TIGHTER``^``level`` of their limit, in place (those already that
+    tight, and those not coded, are left).
 
     Their vertices then stay where they are (``coded.fine``).  A record's
     first pole is coded against the origin it had; the container re-bases it
     on the chain as written (:func:`codec.reorigin`).
     """
-    for g in records:
-        for done, methods in (
-            (coded.surfaces, codec.SURFACE_SEARCH),
-            (coded.curves, codec.CURVE_METHODS),
-        ):
-            if id(g) in done and coded.tight.get(id(g), 0) < level:
-                assert isinstance(g, (BSplineSurface, BSplineCurve))
-                code = done[id(g)][0]
-                # never looser than it is (a twin leader may be held below its own limit)
-                floor = max(code.bound, coded.tol / 1024)
-                limit = min(feature_limit(g.poles, coded.tol) / TIGHTER**level, floor)
-                done[id(g)] = _code_one(g, coded.tol, methods, False, code.origin, limit)
-                coded.fine.add(id(g))
-                coded.tight[id(g)] = level
+    for k in recs:
+        surface = k.table == Table.SURFACE
+        done = coded.surfaces if surface else coded.curves
+        methods: tuple[codec.Method, ...] = codec.SURFACE_SEARCH if surface else codec.CURVE_METHODS
+        g = m.surfaces[k.row] if surface else m.curves3d[k.row]
+        if k in done and coded.tight.get(k, 0) < level:
+            assert isinstance(g, (BSplineSurface, BSplineCurve))
+            code = done[k][0]
+            # never looser than it is (a twin leader may be held below its own limit)
+            floor = max(code.bound, coded.tol / 1024)
+            limit = min(feature_limit(g.poles, coded.tol) / TIGHTER**level, floor)
+            done[k] = _code_one(g, coded.tol, methods, False, code.origin, limit)
+            coded.fine.add(k)
+            coded.tight[k] = level
 
 
 TRIM_S = (Kind.TRIMMED_SURFACE,)
@@ -221,9 +234,10 @@ def code_model(
     method of the paper and its quantizer when ``paper`` is set.
     """
     eps = min(joins.TWIN_EPS, tol / 64)
-    keep_s = _offset_bases(m.surfaces, Kind.OFFSET_SURFACE, TRIM_S)
+    srec, crec = records(m.surfaces, Table.SURFACE), records(m.curves3d, Table.CURVE3D)
+    keep_s = _offset_bases(m.surfaces, Table.SURFACE, Kind.OFFSET_SURFACE, TRIM_S)
     srows0 = first_rows(
-        m.surfaces, {id(g) for g in m.surfaces if isinstance(g, BSplineSurface)} - keep_s
+        {k for k, g in zip(srec, m.surfaces) if isinstance(g, BSplineSurface)} - keep_s
     )
     sides = _affordable(m.surfaces, joins.twin_sides(m.surfaces, sorted(srows0), eps), tol)
     # where faces share an edge, its tolerance covers their coding errors: no
@@ -233,11 +247,12 @@ def code_model(
     searched = codec.SURFACE_METHODS if paper else codec.SURFACE_SEARCH
     surfaces = _code_table(
         m.surfaces,
+        Table.SURFACE,
         tol,
         keep_s,
         searched,
         paper,
-        limits=_leader_limits(m.surfaces, sides, tol),
+        limits=_leader_limits(m.surfaces, srec, sides, tol),
     )
     h = serialize.vertex_grid(tol)
     # vertices at one point (within TWIN_VERTEX) snap as one: to their first's grid point
@@ -245,9 +260,9 @@ def code_model(
     vgrid = np.rint(m.vertex_point[lead] / h).astype(np.int64) * h  # as the decoder reads it
     snapped: Any = replace(m)
     snapped.vertex_point = vgrid
-    decoded_s = [surfaces[id(g)][1] if id(g) in surfaces else g for g in m.surfaces]
-    srows = first_rows(m.surfaces, surfaces)
-    radius = joins.pin_radii(m.surfaces, {k: c for k, (c, _) in surfaces.items()}, tol)
+    decoded_s = [surfaces[k][1] if k in surfaces else g for k, g in zip(srec, m.surfaces)]
+    srows = first_rows(surfaces)
+    radius = joins.pin_radii(srec, {k: c for k, (c, _) in surfaces.items()}, tol)
     for mm in (m, snapped):  # a pin may go to the exact or to the snapped vertex
         for r, pins in joins.surface_corner_pins(mm, decoded_s, srows, tol, radius).items():
             g = m.surfaces[r]
@@ -256,61 +271,63 @@ def code_model(
                 np.sqrt(((g.poles[joins.CORNERS[k]] - mm.vertex_point[v]) ** 2).sum()) > tol
                 for k, v in pins
             ):
-                surfaces.pop(id(g), None)
-    keep_c = _offset_bases(m.curves3d, Kind.OFFSET_CURVE, TRIM_C)
-    candidates = {id(g): g for g in m.curves3d if isinstance(g, BSplineCurve)}
-    crows = first_rows(m.curves3d, {k: v for k, v in candidates.items() if k not in keep_c})
-    iso = joins.iso_sources(m, crows, first_rows(m.surfaces, surfaces))
-    iso_ids = {id(m.curves3d[c]): src for c, src in iso.items()}
+                surfaces.pop(srec[r], None)
+    keep_c = _offset_bases(m.curves3d, Table.CURVE3D, Kind.OFFSET_CURVE, TRIM_C)
+    candidates = {k for k, g in zip(crec, m.curves3d) if isinstance(g, BSplineCurve)}
+    crows = first_rows(candidates - keep_c)
+    iso = joins.iso_sources(m, crows, first_rows(surfaces))
+    iso_recs = {crec[c]: src for c, src in iso.items()}
     where = joins.curve_placements(m)
     twins = joins.twin_curves(m.curves3d, crows, eps, set(iso), where)
     twins = _affordable(m.curves3d, twins, tol)
     if points is not None:  # coincident edges no copy covers: their curves stay exact
         lonely = _lonely_curves(m, points, twins, iso, sides)
-        keep_c = keep_c | {id(m.curves3d[r]) for r in lonely}
+        keep_c = keep_c | {crec[r] for r in lonely}
         iso = {c: v for c, v in iso.items() if c not in lonely}
-        iso_ids = {id(m.curves3d[c]): src for c, src in iso.items()}
+        iso_recs = {crec[c]: src for c, src in iso.items()}
         twins = {c: v for c, v in twins.items() if c not in lonely}
-    twin_ids = {id(m.curves3d[c]): (r, rev) for c, (r, rev, _) in twins.items()}
-    limits = _leader_limits(m.curves3d, twins, tol)
+    twin_recs = {crec[c]: (r, rev) for c, (r, rev, _) in twins.items()}
+    limits = _leader_limits(m.curves3d, crec, twins, tol)
     for c, (r, _, d) in twins.items():  # a surface whose boundary leads is coded to suit
         if r in iso:
             sg = m.surfaces[iso[r][0]]
             need = feature_limit(cast(BSplineCurve, m.curves3d[c]).poles, tol) - d
-            code = surfaces[id(sg)][0] if id(sg) in surfaces else None
+            sk = srec[iso[r][0]]
+            code = surfaces[sk][0] if sk in surfaces else None
             if code is not None and code.bound > need:
                 assert isinstance(sg, BSplineSurface)
-                surfaces[id(sg)] = _code_one(sg, tol, searched, paper, code.origin, need)
+                surfaces[sk] = _code_one(sg, tol, searched, paper, code.origin, need)
     at = joins.anchors(m, m.curves3d, crows)
     coded = Coded(
         surfaces,
         _code_table(
             m.curves3d,
+            Table.CURVE3D,
             tol,
-            keep_c | set(iso_ids) | set(twin_ids),
+            keep_c | set(iso_recs) | set(twin_recs),
             codec.CURVE_METHODS,
             paper,
-            {id(m.curves3d[r]): a for r, a in at.items()},
+            {crec[r]: a for r, a in at.items()},
             limits,
         ),
         tol,
-        iso_ids,
+        iso_recs,
         vgrid,
-        twins=twin_ids,
+        twins=twin_recs,
         where=where,
         vlead=lead,
         sides={k: (lead_side, rev) for k, (lead_side, rev, _) in sides.items()},
     )
-    decoded = [coded.curves[id(g)][1] if id(g) in coded.curves else g for g in m.curves3d]
-    rows = {i for i, g in enumerate(m.curves3d) if id(g) in coded.curves}
+    decoded = [coded.curves[k][1] if k in coded.curves else g for k, g in zip(crec, m.curves3d)]
+    rows = {i for i, k in enumerate(crec) if k in coded.curves}
     for c in joins.overreaching(m, decoded, rows, tol) | joins.overreaching(
         snapped, decoded, rows, tol
     ):
-        coded.curves.pop(id(m.curves3d[c]), None)
-    for table in (m.surfaces, m.curves3d):
-        for g in table:
+        coded.curves.pop(crec[c], None)
+    for recs, table in ((srec, m.surfaces), (crec, m.curves3d)):
+        for k, g in zip(recs, table):
             if isinstance(g, (BSplineSurface, BSplineCurve)) and feature_limit(g.poles, tol) < tol:
-                coded.fine.add(id(g))
+                coded.fine.add(k)
     return coded
 
 
@@ -379,12 +396,15 @@ def _affordable(table: list[Geometry], pairs: dict[Any, Any], tol: float) -> dic
     }
 
 
-def _leader_limits(table: list[Geometry], pairs: dict[Any, Any], tol: float) -> dict[int, float]:
-    """``{id(leader): limit}``: a leader coded to this leaves each copy of it,
-    which moves by the leader's bound plus their distance, within the copy's limit."""
-    out: dict[int, float] = {}
+def _leader_limits(
+    table: list[Geometry], recs: list[Rec], pairs: dict[Any, Any], tol: float
+) -> dict[Rec, float]:
+    """``{leader record: limit}``: a leader coded to this leaves each copy of it,
+    which moves by the leader's bound plus their distance, within the copy's limit.
+    ``recs``: per row of ``table``, its record."""
+    out: dict[Rec, float] = {}
     for k, (lead, _, d) in pairs.items():
-        key = id(table[_row(lead)])
+        key = recs[_row(lead)]
         own = out.get(key, feature_limit(poles_of(table[_row(lead)]), tol))
         out[key] = min(own, feature_limit(poles_of(table[_row(k)]), tol) - d)
     return out
@@ -400,50 +420,56 @@ def poles_of(g: Geometry) -> np.ndarray:
     return cast(BSplineCurve | BSplineSurface, g).poles
 
 
-def first_rows(table: list[Geometry], ids: dict[int, Any] | set[int]) -> set[int]:
-    """Rows where records whose id is in ``ids`` first occur."""
-    first: dict[int, int] = {}
-    for i, g in enumerate(table):
-        if id(g) in ids:
-            first.setdefault(id(g), i)
-    return set(first.values())
+def first_rows(recs: Iterable[Rec], which: Table | None = None) -> set[int]:
+    """The rows of ``recs`` (the rows where they first occur), of the ``which``
+    table only when given."""
+    return {k.row for k in recs if which is None or k.table == which}
 
 
-def face_records(m: BRepModel) -> list[int]:
-    """Per face, the id of the record it moves with: its surface (trimmed ->
-    basis), or for a swept surface the swept curve (trimmed -> basis)."""
+def face_records(m: BRepModel) -> list[Rec]:
+    """Per face, the record it moves with: its surface (trimmed -> basis), or
+    for a swept surface the swept curve (trimmed -> basis)."""
+    sfirst, cfirst = first_row(m.surfaces), first_row(m.curves3d)
     out = []
     for r in m.face_surface.tolist():
-        g = resolve(m.surfaces, r, TRIM_S)
+        r = resolve_row(m.surfaces, r, TRIM_S)
+        g = m.surfaces[r]
         if isinstance(g, Derived) and g.kind in SWEPT:
-            g = resolve(m.curves3d, g.basis, TRIM_C)
-        out.append(id(g))
+            out.append(Rec(Table.CURVE3D, cfirst[resolve_row(m.curves3d, g.basis, TRIM_C)]))
+        else:
+            out.append(Rec(Table.SURFACE, sfirst[r]))
     return out
 
 
-def edge_records(m: BRepModel) -> list[int]:
-    """Per edge, the id of its 3-D curve record (trimmed -> basis), or 0."""
-    out = [0] * len(m.edge_tol)
+def edge_records(m: BRepModel) -> list[Rec | None]:
+    """Per edge, its 3-D curve's record (trimmed -> basis), or None."""
+    cfirst = first_row(m.curves3d)
+    out: list[Rec | None] = [None] * len(m.edge_tol)
     reps = m.edge_reps
     for q in np.flatnonzero(reps[:, 1] == RepKind.CURVE3D).tolist():
         if reps[q, 2] >= 0:
-            out[reps[q, 0]] = id(resolve(m.curves3d, int(reps[q, 2]), TRIM_C))
+            row = resolve_row(m.curves3d, int(reps[q, 2]), TRIM_C)
+            out[reps[q, 0]] = Rec(Table.CURVE3D, cfirst[row])
     return out
 
 
-def kinked_records(m: BRepModel) -> set[int]:
-    """Ids of B-splines with an interior knot of multiplicity ≥ degree.
+def kinked_records(m: BRepModel) -> set[Rec]:
+    """B-splines with an interior knot of multiplicity ≥ degree.
 
     Such a knot is only C0 by its knots; the original's poles around it are
     usually aligned (G1).  Coding breaks the alignment, and a STEP reader then
     splits the edge or face there, changing the topology.
     """
     out = set()
-    for g in [*m.surfaces, *m.curves3d]:
+    every = [
+        *zip(records(m.surfaces, Table.SURFACE), m.surfaces),
+        *zip(records(m.curves3d, Table.CURVE3D), m.curves3d),
+    ]
+    for k, g in every:
         if isinstance(g, BSplineCurve) and not g.bezier:
             if (g.mults[1:-1] >= g.degree).any():
-                out.add(id(g))
+                out.add(k)
         elif isinstance(g, BSplineSurface) and not g.bezier:
             if (g.umults[1:-1] >= g.udegree).any() or (g.vmults[1:-1] >= g.vdegree).any():
-                out.add(id(g))
+                out.add(k)
     return out

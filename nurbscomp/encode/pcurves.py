@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from .. import codec, joins
+from .. import joins
 from ..model import (
     REBUILD,
     BRepModel,
@@ -24,6 +24,7 @@ from ..model import (
     Geometry,
     Kind,
     RepKind,
+    first_row,
 )
 from ..serialize import SWEPT
 
@@ -117,7 +118,8 @@ def _mantissa_bits(x: np.ndarray) -> int:
 
 def _cheaper(m: BRepModel, maps: dict[int, tuple[float, float]]) -> bool:
     """Whether the model's knots, surfaces' and curves', compress smaller with
-    ``maps`` applied to the curves' (a curve's knots may repeat a surface's)."""
+    ``maps`` (by a curve record's first row) applied to the curves' (a
+    curve's knots may repeat a surface's)."""
     import lzma
 
     def packed(mapped: bool) -> int:
@@ -127,16 +129,16 @@ def _cheaper(m: BRepModel, maps: dict[int, tuple[float, float]]) -> bool:
             if isinstance(g, BSplineSurface) and not g.bezier
             for k in (g.uknots, g.vknots)
         ]
-        for g in {id(g): g for g in m.curves3d}.values():
-            if isinstance(g, BSplineCurve) and not g.bezier:
-                ab = maps.get(id(g)) if mapped else None
+        for i, (first, g) in enumerate(zip(first_row(m.curves3d), m.curves3d)):
+            if first == i and isinstance(g, BSplineCurve) and not g.bezier:
+                ab = maps.get(i) if mapped else None
                 parts.append(g.knots if ab is None else (g.knots - ab[0]) / (ab[1] - ab[0]))
         return len(lzma.compress(np.concatenate(parts).tobytes() if parts else b""))
 
     return packed(True) < packed(False)
 
 
-def unit_curves(m: BRepModel, codes: dict[int, codec.NetCode]) -> BRepModel:
+def unit_curves(m: BRepModel) -> BRepModel:
     """``m`` with its free 3-D B-spline curves reparametrized onto [0, 1].
 
     A curve's knots are only its parametrization when nothing else holds its
@@ -149,7 +151,8 @@ def unit_curves(m: BRepModel, codes: dict[int, codec.NetCode]) -> BRepModel:
     On the corpus most curves have two knots, the ends of an arbitrary
     parameter range: as 0 and 1 they cost next to nothing.  Knots that are
     simpler as they are (0, 1, 2, 3 against 0, 1/3, 2/3, 1) stay.  Curve codes do
-    not depend on the knots, so ``codes`` is only re-keyed (in place).
+    not depend on the knots, and the records keep their rows: the codes of
+    ``m``'s records (:func:`assembly.assemble`) stand as they are.
     """
     reps = m.edge_reps
     kind = reps[:, 1]
@@ -168,46 +171,44 @@ def unit_curves(m: BRepModel, codes: dict[int, codec.NetCode]) -> BRepModel:
     for g in m.surfaces:
         if isinstance(g, Derived) and g.kind in SWEPT:
             busy.add(g.basis)
-    busy_ids = {id(m.curves3d[i]) for i in busy if 0 <= i < len(m.curves3d)}
+    first = first_row(m.curves3d)  # a curve record by its first row
+    busy_recs = {first[i] for i in busy if 0 <= i < len(m.curves3d)}
     maps: dict[int, tuple[float, float]] = {}
-    for g in m.curves3d:
+    for i, g in enumerate(m.curves3d):
         if (
             isinstance(g, BSplineCurve)
             and not g.bezier
-            and id(g) not in busy_ids
+            and first[i] not in busy_recs
             and (g.knots[0] != 0.0 or g.knots[-1] != 1.0)
             and g.knots[-1] > g.knots[0]
         ):
             a, b = float(g.knots[0]), float(g.knots[-1])
             if _mantissa_bits((g.knots - a) / (b - a)) < _mantissa_bits(g.knots):
-                maps[id(g)] = (a, b)
+                maps[first[i]] = (a, b)
     rng = m.edge_rep_range.copy()
     rows = np.flatnonzero(on3d & (reps[:, 2] >= 0)).tolist()
     for q in rows:
-        ab = maps.get(id(m.curves3d[int(reps[q, 2])]))
+        ab = maps.get(first[int(reps[q, 2])])
         if ab is not None:
             if (m.edge_rep_range[q] == ab).all():
                 rng[q] = (0.0, 1.0)
             else:  # a partial range would cost more as a mapped float than the knots save
-                maps.pop(id(m.curves3d[int(reps[q, 2])]), None)
+                maps.pop(first[int(reps[q, 2])], None)
     if not maps or not _cheaper(m, maps):
         return m
-    new: dict[int, Geometry] = {}
     table: list[Geometry] = []
-    for g in m.curves3d:
-        if id(g) in maps and id(g) not in new:
+    for i, g in enumerate(m.curves3d):
+        if first[i] in maps and first[i] == i:
             assert isinstance(g, BSplineCurve)
-            a, b = maps[id(g)]
+            a, b = maps[i]
             k = (g.knots - a) / (b - a)
             k[0], k[-1] = 0.0, 1.0
-            new[id(g)] = replace(g, knots=k)
-            if id(g) in codes:
-                codes[id(new[id(g)])] = codes.pop(id(g))
-        table.append(new.get(id(g), g))
+            g = replace(g, knots=k)
+        table.append(g if first[i] == i else table[first[i]])  # the rows of a record share it
     out: Any = replace(m)
     out.curves3d = table
     for q in rows:
-        if id(m.curves3d[int(reps[q, 2])]) not in maps:
+        if first[int(reps[q, 2])] not in maps:
             rng[q] = m.edge_rep_range[q]
     out.edge_rep_range = rng
     return out

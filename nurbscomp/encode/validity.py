@@ -36,6 +36,7 @@ from __future__ import annotations
 import collections
 import functools
 import logging
+from collections.abc import Set
 from dataclasses import dataclass, field
 from enum import IntEnum
 from typing import Any
@@ -44,7 +45,7 @@ import numpy as np
 
 from .. import joins, occ
 from ..errors import InputError, NurbscompError, RebuildError
-from ..model import REBUILD, BRepModel, Derived, Kind, ShapeType, faces_around
+from ..model import REBUILD, BRepModel, Derived, Kind, Rec, ShapeType, Table, faces_around, records
 from . import assembly, nets, pcurves
 
 log = logging.getLogger(__name__)
@@ -103,7 +104,7 @@ class Target:
     """The model to store, its codes, and the shape it builds."""
 
     model: BRepModel
-    codes: dict[int, Any]
+    codes: dict[Rec, Any]
     report: assembly.LossyReport
     shape: Any
     validity: ValidityReport
@@ -235,14 +236,16 @@ class _Plan:
             for f in fs:
                 self.verts_of[f].append(v)
         self.near_faces = vertex_neighbours(m, tol)
-        self.originals = {id(g): g for g in [*m.surfaces, *m.curves3d]}
-        self.exact: set[int] = set()  # record ids
+        self.srec = records(m.surfaces, Table.SURFACE)
+        self.crec = records(m.curves3d, Table.CURVE3D)
+        # records, and None (an edge with no 3-D curve: see nets.edge_records)
+        self.exact: set[Rec | None] = set()
         self.keep_e: set[int] = set()
         self.keep_f: set[int] = set()
         self.still_v: set[int] = set()
         self.rung: dict[int, Rung] = {}  # source face -> highest rung taken
         self.tight_f: set[int] = set()  # faces tightened for a BRepCheck fault
-        self.reason: dict[int, str] = {}  # record id -> why it is exact
+        self.reason: dict[Rec | None, str] = {}  # record -> why it is exact
 
     def state(self) -> tuple[int, ...]:
         return (
@@ -254,34 +257,34 @@ class _Plan:
             len(self.tight_f),
         )
 
-    def candidate(self) -> tuple[BRepModel, dict[int, Any], assembly.LossyReport]:
+    def candidate(self) -> tuple[BRepModel, dict[Rec, Any], assembly.LossyReport]:
         target, codes, report = assembly.assemble(self.m, self.coded, self.exact, self.still_v)
         cand = pcurves.drop_pcurves(target, self.keep_e, self.keep_f)
-        return pcurves.vertex_ranges(pcurves.unit_curves(cand, codes), self.tol), codes, report
+        return pcurves.vertex_ranges(pcurves.unit_curves(cand), self.tol), codes, report
 
-    def with_leaders(self, ids: set[int]) -> set[int]:
-        """``ids`` with the records their copies follow: a copied curve's leader
+    def with_leaders(self, recs: set[Rec | None]) -> set[Rec | None]:
+        """``recs`` with the records their copies follow: a copied curve's leader
         (``Coded.twins``) and the leaders of a surface's joined sides
         (``Coded.sides``): a copy moves only as what it copies does.  (An
         iso-boundary's surface is not added: tightening a neighbour's whole
         surface cost 514 bytes on ec_turbine at 0.001 and mended nothing.)"""
-        m, out = self.m, set(ids)
+        out = set(recs)
         for k, (row, _) in self.coded.twins.items():
-            if k in ids:
-                out.add(id(m.curves3d[row]))
+            if k in recs:
+                out.add(self.crec[row])
         for (b, _), ((a, _), _) in self.coded.sides.items():
-            if id(m.surfaces[b]) in out:
-                out.add(id(m.surfaces[a]))
+            if self.srec[b] in out:
+                out.add(self.srec[a])
         return out
 
-    def edge_ids(self, f: int) -> list[int]:
-        """Record ids of face ``f``'s edges' curves."""
+    def edge_recs(self, f: int) -> list[Rec | None]:
+        """Records of face ``f``'s edges' curves (None: an edge with no 3-D curve)."""
         return [self.edges_rec[e] for e in self.edges_of[f]]
 
-    def make_exact(self, ids: set[int], why: str) -> None:
-        for i in ids - self.exact:
+    def make_exact(self, recs: Set[Rec | None], why: str) -> None:
+        for i in recs - self.exact:
             self.reason.setdefault(i, why)
-        self.exact |= ids
+        self.exact |= recs
 
     def brepcheck(self, new_e: set[int], new_f: set[int]) -> None:
         """A fault's faces are coded ``TIGHTER``² times tighter first (a code
@@ -293,10 +296,10 @@ class _Plan:
         fresh = faces - self.tight_f
         if fresh:
             self.tight_f |= fresh
-            ids = self.with_leaders(
-                {i for f in fresh for i in (self.faces_rec[f], *self.edge_ids(f))}
+            recs = self.with_leaders(
+                {i for f in fresh for i in (self.faces_rec[f], *self.edge_recs(f))}
             )
-            nets.tighten(self.coded, [self.originals[i] for i in ids if i in self.originals], 2)
+            nets.tighten(self.coded, self.m, [i for i in recs if i is not None], 2)
             new_e = {e for e in new_e if not set(self.faces_of[e]) & fresh}
             new_f = new_f - fresh
         for e in new_e & self.keep_e:  # its curve, then its faces' surfaces
@@ -321,14 +324,14 @@ class _Plan:
         for f in sorted(blamed):
             r = Rung(self.rung.get(f, 0) + 1)
             self.rung[f] = r
-            ids = self.with_leaders({self.faces_rec[f], *self.edge_ids(f)})
+            recs = self.with_leaders({self.faces_rec[f], *self.edge_recs(f)})
             if r == Rung.STILL:
                 self.still_v |= set(self.verts_of[f])
             elif r in (Rung.TIGHT, Rung.TIGHTER):
-                records = [self.originals[i] for i in ids if i in self.originals]
-                nets.tighten(self.coded, records, 1 if r == Rung.TIGHT else 2)
+                level = 1 if r == Rung.TIGHT else 2
+                nets.tighten(self.coded, self.m, [i for i in recs if i is not None], level)
             elif r == Rung.EXACT:
-                self.make_exact(ids, "step")
+                self.make_exact(recs, "step")
             else:
                 self.keep_f.add(f)
                 self.keep_e |= set(self.edges_of[f])
@@ -402,7 +405,7 @@ def lossy_target(m: BRepModel, source: Any, tol: float, step_check: bool = True)
         vr.pcurves_kept = len(m.face_surface)
         vr.tightened = plan.tightened()
         return Target(target, codes, report, shape, vr, 0)
-    everything = set(plan.coded.surfaces) | set(plan.coded.curves)
+    everything: set[Rec | None] = {*plan.coded.surfaces, *plan.coded.curves}
     target, codes, report = assembly.assemble(m, plan.coded, everything)
     vr.fallback = "exact"
     vr.exact_faces = {"fallback": sum(1 for x in report.face_method if x == "exact")}
@@ -412,7 +415,7 @@ def lossy_target(m: BRepModel, source: Any, tol: float, step_check: bool = True)
 def _done(
     plan: _Plan,
     cand: BRepModel,
-    codes: dict[int, Any],
+    codes: dict[Rec, Any],
     report: assembly.LossyReport,
     shape: Any,
     vr: ValidityReport,
