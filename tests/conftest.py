@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import signal
 from pathlib import Path
 
 import pytest
@@ -48,3 +49,12 @@ def assert_step_keeps_floor(cad, nzc: Path, tmp_path: Path):
 @pytest.fixture(scope="session")
 def small_step() -> Path:
     return SAMPLES / "bracket.step"
+
+
+def default_signals() -> None:
+    """``preexec_fn`` of a child whose signal handling a test checks: SIGINT,
+    SIGTERM and SIGHUP at their defaults, whatever the test run inherited
+    (``nohup`` ignores SIGHUP, a shell's background job SIGINT, and the CLI
+    keeps an ignored signal ignored)."""
+    for s in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+        signal.signal(s, signal.SIG_DFL)

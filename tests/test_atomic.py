@@ -14,6 +14,8 @@ from nurbscomp import occ, pipeline
 from nurbscomp.cli import cli
 from nurbscomp.errors import OutputError, RebuildError
 
+from .conftest import default_signals
+
 GOLDEN = Path(__file__).resolve().parent / "golden"
 
 
@@ -191,7 +193,14 @@ def test_signal_mid_write_leaves_nothing(work: Path, sig: str, code: int) -> Non
     cmd = [sys.executable, "-m", "nurbscomp.cli", "compress", "--tol", "0.01", str(src)]
     env = {**os.environ, "PYTHONPATH": str(root)}
     for _ in range(5):
-        p = subprocess.Popen(cmd, cwd=root, env=env, stderr=subprocess.PIPE, text=True)
+        p = subprocess.Popen(
+            cmd,
+            cwd=root,
+            env=env,
+            stderr=subprocess.PIPE,
+            text=True,
+            preexec_fn=default_signals,
+        )
         deadline = time.time() + 120
         while not list(work.glob(".*.tmp")) and p.poll() is None and time.time() < deadline:
             time.sleep(0.002)

@@ -24,7 +24,7 @@ from nurbscomp import batch, container, pipeline
 from nurbscomp.cli import cli
 from nurbscomp.occ import files as occ_files
 
-from .conftest import SAMPLES
+from .conftest import SAMPLES, default_signals
 from .test_cli import CURVE_ONLY, TESSELLATED
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -271,14 +271,20 @@ def test_workers_interrupted_then_resumed(tmp_path: Path) -> None:
     src.mkdir()
     # enough files that the batch is still busy when the first output appears
     # (a small file now takes well under a second)
-    n = 12
+    n = 6
     for i in range(n):
         shutil.copy(SAMPLES / "loft.step", src / f"loft{i}.step")
         shutil.copy(SAMPLES / "bracket.step", src / f"bracket{i}.step")
     out = tmp_path / "out"
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     cmd = [sys.executable, "-m", "nurbscomp.cli", "compress", "-q", "-r", str(src), "-d", str(out)]
-    p = subprocess.Popen([*cmd, "-j", "2"], env=env, stderr=subprocess.PIPE, text=True)
+    p = subprocess.Popen(
+        [*cmd, "-j", "2"],
+        env=env,
+        stderr=subprocess.PIPE,
+        text=True,
+        preexec_fn=default_signals,
+    )
     deadline = time.time() + 300
     while not list(out.rglob("*.nzc")) and p.poll() is None and time.time() < deadline:
         time.sleep(0.01)
