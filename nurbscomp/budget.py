@@ -20,7 +20,9 @@ import dataclasses
 from collections import Counter
 from dataclasses import dataclass
 
-from .errors import LimitError
+import numpy as np
+
+from .errors import CorruptError, LimitError
 from .model import (
     REBUILD,
     Analytic,
@@ -279,6 +281,56 @@ def pcurves_to_compute(m: BRepModel, work: list[int] | None = None) -> tuple[int
             count += n
             total = min(total + n * work[s], CAP)
     return count, total
+
+
+def degenerate_rows(table: list[Geometry]) -> list[bool]:
+    """Per row of a surface table: whether it is a B-spline or Bezier surface
+    whose poles all lie on one line (or at one point), or a trimmed or offset
+    surface on such a basis.  Such a surface has no area: no face lies on it,
+    and OCCT's projection onto it is the costliest there is (a 30 x 30 net of
+    degree 25: 2.1 s a pcurve, against 72 ms for the same net made a plane
+    and 0.25-0.45 ms for a corpus pcurve).  Weights are ignored (the surface
+    lies in the poles' convex hull either way); non-finite poles (a coded net
+    not decoded yet) count as not degenerate."""
+    out: list[bool] = []
+    for g in table:
+        if isinstance(g, BSplineSurface):
+            p = g.poles.reshape(-1, g.poles.shape[-1])
+            if not np.isfinite(p).all():
+                out.append(False)
+                continue
+            q = p - p.mean(axis=0)
+            ev = np.linalg.eigvalsh(q.T @ q)  # ascending
+            out.append(bool(ev[-2] <= 1e-18 * ev[-1]))  # a second axis below 1e-9 of the first
+        elif isinstance(g, Derived) and g.kind not in (Kind.REVOLUTION, Kind.EXTRUSION):
+            out.append(out[g.basis] if 0 <= g.basis < len(out) else False)
+        else:
+            out.append(False)
+    return out
+
+
+def check_projections(m: BRepModel) -> None:
+    """Refuse a model that leaves a pcurve to compute (§2.8) on a surface
+    with no area (:func:`degenerate_rows`): checked once the nets are
+    decoded, before OCCT builds anything.
+
+    Raises
+    ------
+    CorruptError
+        One line naming the surface row.
+    """
+    reps = m.edge_reps
+    todo = reps[(reps[:, 1] != RepKind.CURVE3D) & (reps[:, 2] == REBUILD)]
+    if not len(todo):
+        return
+    rows = sorted({int(r) for r in todo[:, 4].tolist()})
+    flat = degenerate_rows(m.surfaces)
+    for r in rows:
+        if 0 <= r < len(flat) and flat[r]:
+            raise CorruptError(
+                f"a pcurve is to be computed on surface row {r}, whose poles lie on one line "
+                "(a surface with no area)"
+            )
 
 
 def _refuse(value: int, what: str, limit: int) -> LimitError:

@@ -436,4 +436,6 @@ def sections_to_model(
     m, meta, t = serialize.read_sections(get, minor, limits)
     with np.errstate(all="ignore"):  # overflows become non-finite values, refused by name
         apply(m, t, serialize.tolerance(meta), minor)
+    if limits is not None:
+        budget.check_projections(m)
     return m, meta

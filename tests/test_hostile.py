@@ -17,6 +17,7 @@ from nurbscomp import budget, container, entropy, joins, model, occ, pipeline, s
 from nurbscomp.cli import cli, show
 from nurbscomp.errors import (
     BadReferenceError,
+    CorruptError,
     FormatError,
     InputError,
     LimitError,
@@ -254,6 +255,50 @@ def test_huge_net_and_computed_pcurves() -> None:
     limits = dataclasses.replace(budget.DEFAULT, pcurves=e.pcurves - 1)
     with pytest.raises(LimitError, match="pcurves to compute"):
         pipeline.decode(container.unpack(fuzz.pack_model(m, meta)), limits)
+
+
+@pytest.mark.parametrize(
+    "name", ["loft.lossless.nzc", "teapot.tol0.01.nzc", "bracket.lossless.nzc"]
+)
+@pytest.mark.parametrize(("n", "degree"), [(10, 3), (30, 25), (100, 9)])
+def test_pcurves_onto_a_surface_with_no_area_are_refused(name: str, n: int, degree: int) -> None:
+    """The structure fuzzer's slowest cases: pcurves to compute on a net whose
+    poles lie on one line (OCCT: 70 ms to 43 s a pcurve, from 10 x 10 cubic to
+    100 x 100 of degree 25) are refused before OCCT builds anything."""
+    m, meta = _model(name)
+    fuzz.huge_net(m, n, n, degree)  # a ramp: every pole on the x axis
+    fuzz.computed_pcurves(m, 1)
+    t = time.perf_counter()
+    with pytest.raises((CorruptError, LimitError)) as e:
+        _decode(fuzz.pack_model(m, meta))
+    assert time.perf_counter() - t < 5
+    if e.type is CorruptError:
+        assert "no area" in str(e.value)
+
+
+def test_degenerate_rows() -> None:
+    """Poles on one line or at one point: degenerate; on a plane: not; a
+    coded net not decoded yet (NaN): not; a trimmed surface on a degenerate
+    basis: degenerate."""
+    m, _ = _model("teapot.tol0.01.nzc")
+    rows = [r for r, g in enumerate(m.surfaces) if isinstance(g, model.BSplineSurface)]
+    g = m.surfaces[rows[0]]
+    assert isinstance(g, model.BSplineSurface)
+    line = dataclasses.replace(g, poles=g.poles.copy())
+    line.poles[..., 1:] = 0.0
+    point = dataclasses.replace(g, poles=np.ones_like(g.poles))
+    plane = dataclasses.replace(g, poles=g.poles.copy())
+    plane.poles[..., 2] = 0.0
+    nan = dataclasses.replace(g, poles=np.full_like(g.poles, np.nan))
+    trimmed = model.Derived(model.Kind.TRIMMED_SURFACE, 0, np.zeros((0, 3)), np.zeros(4))
+    assert budget.degenerate_rows([line, point, plane, nan, trimmed]) == [
+        True,
+        True,
+        False,
+        False,
+        True,
+    ]
+    assert not any(budget.degenerate_rows(m.surfaces))
 
 
 @pytest.mark.parametrize("where", ["itself", "its parent"])

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from .. import joins
+from .. import budget, joins
 from ..model import (
     REBUILD,
     BRepModel,
@@ -33,8 +33,10 @@ def drop_pcurves(m: BRepModel, keep_edges: set[int], keep_faces: set[int]) -> BR
     """A copy of ``m`` whose pcurves are left for the decoder to compute, where it can.
 
     A pcurve is dropped (its curve index set to ``REBUILD``) when its edge is
-    not degenerated, has a 3-D curve, is not in ``keep_edges``, and every face
-    on its surface is outside ``keep_faces``.  Pcurves no longer referenced
+    not degenerated, has a 3-D curve, is not in ``keep_edges``, every face
+    on its surface is outside ``keep_faces``, and the surface has an area
+    (a reader refuses to project onto one whose poles lie on one line:
+    ``budget.degenerate_rows``).  Pcurves no longer referenced
     leave the 2-D curve table.  The caller checks the rebuilt B-rep and keeps
     what fails (:func:`nurbscomp.pipeline.compress_file`).
     """
@@ -47,10 +49,11 @@ def drop_pcurves(m: BRepModel, keep_edges: set[int], keep_faces: set[int]) -> BR
     for f, key in enumerate(zip(m.face_surface.tolist(), m.face_loc.tolist())):
         faces_on[key].append(f)
     degenerated = (m.edge_flags & 1).astype(bool)
+    flat = budget.degenerate_rows(m.surfaces)
     pc = (kind == RepKind.ON_SURFACE) | (kind == RepKind.ON_CLOSED_SURFACE)
     for q in np.flatnonzero(pc).tolist():
         e = int(reps[q, 0])
-        if degenerated[e] or not has3d[e] or e in keep_edges:
+        if degenerated[e] or not has3d[e] or e in keep_edges or flat[int(reps[q, 4])]:
             continue
         on = faces_on.get((int(reps[q, 4]), int(reps[q, 6])), [])
         if not on or any(f in keep_faces for f in on):
