@@ -385,9 +385,15 @@ def check_location_matrices(m: BRepModel) -> None:
     """Raise ``SectionError`` unless every location's matrix (its datums raised
     to their powers, :func:`joins.location_matrix`) is finite and within
     ``MAX_COORD``: OCCT's STEP writer crashes on an overflowed one (found by
-    the structure-aware fuzzer: a 1e100 scale raised to the power 2^31 - 1)."""
+    the structure-aware fuzzer: a 1e100 scale raised to the power 2^31 - 1),
+    and no singular matrix is raised to a negative power (it has no inverse)."""
     for k in range(1, len(m.locations)):
-        t = joins.location_matrix(m, k)
+        try:
+            t = joins.location_matrix(m, k)
+        except np.linalg.LinAlgError:
+            raise SectionError(
+                f"LOCS: location {k} raises a singular matrix to a negative power"
+            ) from None
         if not (np.abs(t) < MAX_COORD).all():
             raise SectionError(f"LOCS: location {k}'s matrix is not finite or out of range")
 

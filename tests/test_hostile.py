@@ -276,6 +276,19 @@ def test_pcurves_onto_a_surface_with_no_area_are_refused(name: str, n: int, degr
         assert "no area" in str(e.value)
 
 
+def test_a_singular_location_to_a_negative_power_is_refused() -> None:
+    """A located reference whose datum is singular and raised to a negative
+    power has no matrix (the fuzzer's odd_matrices, seed 11 cases 580 and
+    647): a SectionError naming the location, not an undiagnosed LinAlgError."""
+    m, meta = _model()
+    (k,) = fuzz.add_datums(m, np.zeros((1, 3, 4)), 6)
+    m.locations[k] = model.Location(m.locations[k].datums, (-3,))
+    refs = np.flatnonzero(m.child_shape >= 0)
+    m.child_loc[int(refs[0])] = k
+    with pytest.raises(SectionError, match="singular matrix to a negative power"):
+        _decode(fuzz.pack_model(m, meta))
+
+
 def test_degenerate_rows() -> None:
     """Poles on one line or at one point: degenerate; on a plane: not; a
     coded net not decoded yet (NaN): not; a trimmed surface on a degenerate
