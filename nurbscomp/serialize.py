@@ -366,11 +366,6 @@ def _read_geometry(data: bytes, tag: str, dim: int) -> list[Geometry]:
     return out
 
 
-def _ok(a: np.ndarray) -> bool:
-    """Every value finite."""
-    return bool(np.isfinite(a).all())
-
-
 def _weights_ok(w: np.ndarray) -> bool:
     """Every weight within [1/MAX_COORD, MAX_COORD]: OCCT's rational
     evaluation multiplies weights by coordinates (up to MAX_COORD) and sums

@@ -242,7 +242,7 @@ _EMPTY_FRAME = np.zeros((0, 3))
 # ---------------------------------------------------------------- reading
 
 
-def _key(rec: Geometry) -> tuple[Any, ...]:
+def record_key(rec: Geometry) -> tuple[Any, ...]:
     """A hashable value for a record: equal keys mean bit-identical geometry."""
     if isinstance(rec, BSplineSurface):
         w = b"" if rec.weights is None else rec.weights.tobytes()
@@ -299,7 +299,7 @@ class GeometryTable:
             if i is not None:
                 return i
         rec = rec_of(handle)
-        k = _key(rec)
+        k = record_key(rec)
         i = self._by_value.get(k)
         if self._by_handle is None:
             if i is None:

@@ -55,17 +55,16 @@ from OCP.TopTools import TopTools_IndexedMapOfShape
 from ..errors import UnsupportedError
 from ..model import (
     REBUILD,
-    Analytic,
     BRepModel,
     Derived,
-    Geometry,
     Kind,
     Location,
     PointRepKind,
     RepKind,
     ShapeType,
+    Table,
 )
-from .geometry import GeometryBuilder, GeometryReader
+from .geometry import GeometryBuilder, GeometryReader, record_key
 from .lists import items
 
 _FLAG_NAMES = (
@@ -487,17 +486,15 @@ def rebuild_pcurves(
     fix = ShapeFix_Edge()
     # TopoDS.Face/Wire are TopoDS.Face_s/Wire_s in OCP 7.9; the stubs lack the _s names.
     touched: dict[int, Any] = {}
-    if cache is None or keys is None:
-        for edge, srow, loc, seam, _ in pending:
-            for face in by_row.get((srow, loc), []):
-                fix.FixAddPCurve(edge, TopoDS.Face(face), seam, BRep_Tool.Tolerance_s(edge))
-                touched[id(face)] = face
-    else:
-        dirty: set[int] = set()  # edges whose 3-D curve a projection replaced
-        for edge, srow, loc, seam, k in pending:
-            for face in by_row.get((srow, loc), []):
-                cache.add(fix, edge, TopoDS.Face(face), seam, k, srow, loc, keys, dirty)
-                touched[id(face)] = face
+    dirty: set[int] = set()  # edges whose 3-D curve a projection replaced
+    for edge, srow, loc, seam, k in pending:
+        for face in by_row.get((srow, loc), []):
+            f = TopoDS.Face(face)
+            if cache is None or keys is None:
+                fix.FixAddPCurve(edge, f, seam, BRep_Tool.Tolerance_s(edge))
+            else:
+                cache.add(fix, edge, f, seam, k, srow, loc, keys, dirty)
+            touched[id(face)] = face
     for face in touched.values():
         f = TopoDS.Face(face)
         it = TopoDS_Iterator(face, False, False)
@@ -615,34 +612,28 @@ class _PcurveKeys:
         self.m, self.ereps = m, ereps
         self._reps = m.edge_reps[:, :7].tolist()  # plain ints: numpy scalars are slow
         self._ranges = m.edge_rep_range.astype(np.float64).tobytes()  # bit for bit
-        self._geo: dict[tuple[str, int], tuple[Any, ...]] = {}
+        self._geo: dict[tuple[Table, int], tuple[Any, ...]] = {}
         self._loc: dict[int, tuple[Any, ...]] = {}
         self._edge: dict[int, tuple[Any, ...]] = {}
 
-    def _record(self, table: str, i: int) -> tuple[Any, ...]:
+    def _record(self, table: Table, i: int) -> tuple[Any, ...]:
+        """Row ``i``'s geometry (``geometry.record_key``), with its basis's for a
+        derived row: the key holds the content a projection reads."""
         if i < 0:
             return ("none",)
         got = self._geo.get((table, i))
         if got is not None:
             return got
-        recs: list[Geometry] = self.m.surfaces if table == "s" else self.m.curves3d
-        r = recs[i]
-        out: list[Any] = [type(r).__name__]
+        r = (self.m.surfaces if table == Table.SURFACE else self.m.curves3d)[i]
+        key = record_key(r)
         if isinstance(r, Derived):
-            basis = "3" if table == "3" or r.kind in (Kind.REVOLUTION, Kind.EXTRUSION) else "s"
-            out += [int(r.kind), self._record(basis, r.basis)]
-            out += [_array_key(r.frame), _array_key(r.params)]
-        elif isinstance(r, Analytic):
-            out += [int(r.kind), _array_key(r.frame), _array_key(r.params)]
-        else:
-            for name, v in vars(r).items():
-                out.append((name, _array_key(v) if isinstance(v, np.ndarray) else v))
-        key = tuple(out)
+            swept = r.kind in (Kind.REVOLUTION, Kind.EXTRUSION)
+            key += (self._record(Table.CURVE3D if swept else table, r.basis),)
         self._geo[(table, i)] = key
         return key
 
     def surface(self, i: int) -> tuple[Any, ...]:
-        return self._record("s", i)
+        return self._record(Table.SURFACE, i)
 
     def location(self, i: int) -> tuple[Any, ...]:
         got = self._loc.get(i)
@@ -665,7 +656,7 @@ class _PcurveKeys:
                 _, kind, c, _, _, _, loc = self._reps[q]
                 if kind == RepKind.CURVE3D and c != REBUILD:
                     rng = self._ranges[16 * q : 16 * q + 16]
-                    out.append((self._record("3", c), self.location(loc), rng))
+                    out.append((self._record(Table.CURVE3D, c), self.location(loc), rng))
             got = self._edge[k] = tuple(out)
         return got
 
