@@ -26,6 +26,8 @@ from typing import Any
 
 import numpy as np
 from OCP.APIHeaderSection import APIHeaderSection_MakeHeader
+from OCP.BRep import BRep_Tool
+from OCP.BRepTools import BRepTools
 from OCP.IFSelect import IFSelect_ReturnStatus
 from OCP.IGESCAFControl import IGESCAFControl_Reader, IGESCAFControl_Writer
 from OCP.Interface import Interface_HArray1OfHAsciiString, Interface_Static
@@ -68,6 +70,8 @@ from .files import (
     number_occurrences,
     sniff_format,
 )
+from .measure import faces as faces_of
+from .mesh import face_meshes
 from .topology import _trsf, _trsf_rows
 
 # XDE's STEP options (read/write.stepcaf.*) exist only once its controller is
@@ -632,8 +636,13 @@ def _r(x: float) -> float:
     return round(x, 6) + 0.0
 
 
-def view(path: str | os.PathLike[str]) -> dict[str, Any]:
+def view(path: str | os.PathLike[str], points: bool = False) -> dict[str, Any]:
     """A file as OCCT's XCAF reader sees it, for comparisons.
+
+    ``points``: also give ``face_points``, parallel to ``face_colours``: per
+    face, the centres of its mesh triangles (``occ.mesh.face_meshes``, in the
+    part's own coordinates), so that faces can be paired by where they are
+    when a reader splits one (:func:`match_faces`).
 
     Returns
     -------
@@ -661,6 +670,7 @@ def view(path: str | os.PathLike[str]) -> dict[str, Any]:
     parts: Counter[str] = Counter()
     instances: Counter[str] = Counter()
     faces: list[Any] = []
+    where: dict[tuple[str, int], np.ndarray] = {}
     sub_names: Counter[str] = Counter()
 
     def placement(label: Any) -> list[float]:
@@ -695,11 +705,21 @@ def view(path: str | os.PathLike[str]) -> dict[str, Any]:
                         subs.Add(ex.Current())
                         sub_colour.append(sc)
                     ex.Next()
-        ex = TopExp_Explorer(XCAFDoc_ShapeTool.GetShape_s(label), TopAbs_FACE)
+        shape = XCAFDoc_ShapeTool.GetShape_s(label)
+        if points:
+            index = TopTools_IndexedMapOfShape()
+            TopExp.MapShapes_s(shape, TopAbs_FACE, index)
+            centres = [
+                p[t].mean(axis=1) if len(t) else _inner_point(f)
+                for f, (p, t) in zip(faces_of(shape), face_meshes(shape))
+            ]
+        ex = TopExp_Explorer(shape, TopAbs_FACE)
         k = 0
         while ex.More():
             j = subs.FindIndex(ex.Current())
             faces.append((path, k, sub_colour[j - 1] if j else base))
+            if points:
+                where[path, k] = centres[index.FindIndex(ex.Current()) - 1]
             k += 1
             ex.Next()
         return {"part": name}
@@ -711,11 +731,57 @@ def view(path: str | os.PathLike[str]) -> dict[str, Any]:
         lt.GetLayer(lab, name)
         members = sorted(_name(x) or "" for x in _seq(lt.GetShapesOfLayer_s, lab))
         layers[str(name.ToExtString())] = members
-    return {
+    faces.sort(key=lambda f: (f[0], f[1]))
+    out = {
         "tree": tree,
         "parts": dict(parts),
         "instances": dict(instances),
-        "face_colours": sorted(faces, key=lambda f: (f[0], f[1])),
+        "face_colours": faces,
         "sub_shape_names": dict(sub_names),
         "layers": layers,
     }
+    if points:
+        out["face_points"] = [where[f[0], f[1]] for f in faces]
+    return out
+
+
+def _inner_point(face: Any) -> np.ndarray:
+    """One point of a face OCCT could not mesh: its surface at the middle of
+    its UV bounds, shape (1, 3)."""
+    u0, u1, v0, v1 = BRepTools.UVBounds_s(face)
+    p = BRep_Tool.Surface_s(face).Value((u0 + u1) / 2, (v0 + v1) / 2)
+    return np.array([[p.X(), p.Y(), p.Z()]])
+
+
+def match_faces(a: dict[str, Any], b: dict[str, Any]) -> list[tuple[int, int]]:
+    """Pairs (i, j) of faces of two :func:`view` results made with ``points``:
+    each face of ``a`` with the face of ``b`` (of the same occurrence path)
+    that holds most of its triangle centres' nearest neighbours, and each
+    face of ``b`` likewise with one of ``a``.  A face a reader split in two
+    pairs each piece with the whole; a face that has no triangles, or whose
+    path ``b`` lacks, pairs with nothing (j or i = -1)."""
+    from scipy.spatial import cKDTree
+
+    def one_way(x: dict[str, Any], y: dict[str, Any]) -> list[int]:
+        by_path: dict[str, list[int]] = {}
+        for j, f in enumerate(y["face_colours"]):
+            by_path.setdefault(f[0], []).append(j)
+        trees: dict[str, tuple[Any, np.ndarray]] = {}
+        for path, js in by_path.items():
+            pts = [y["face_points"][j] for j in js]
+            owner = np.repeat(js, [len(p) for p in pts])
+            if len(owner):
+                trees[path] = (cKDTree(np.concatenate(pts)), owner)
+        out = []
+        for i, f in enumerate(x["face_colours"]):
+            pts = x["face_points"][i]
+            if f[0] not in trees or not len(pts):
+                out.append(-1)
+                continue
+            tree, owner = trees[f[0]]
+            near = owner[tree.query(pts)[1]]
+            out.append(int(np.bincount(near).argmax()))
+        return out
+
+    ab, ba = one_way(a, b), one_way(b, a)
+    return [(i, j) for i, j in enumerate(ab)] + [(i, j) for j, i in enumerate(ba)]
