@@ -181,6 +181,38 @@ def test_generated_assembly_with_cadquery_export(tmp_path: Path) -> None:
     assert "pin a" in got["instances"] and got["parts"]
 
 
+def test_generated_bspline_assembly_mirrored(tmp_path: Path) -> None:
+    """B-spline parts (a loft, a filleted box) that tolerance mode recodes,
+    placed twice with one placement mirrored, a coloured face among them:
+    the same tree, names, placements and face colours as OCCT's round trip."""
+    import cadquery as cq
+    from OCP.gp import gp_Ax2, gp_Dir, gp_Pnt, gp_Trsf
+
+    loft = (
+        cq.Workplane("XY")
+        .ellipse(4, 2)
+        .workplane(offset=6)
+        .circle(1.5)
+        .workplane(offset=4)
+        .rect(3, 2)
+        .loft(ruled=False)
+    )
+    box = cq.Workplane().box(6, 4, 3).edges("|Z").fillet(1)
+    flip = gp_Trsf()
+    flip.SetMirror(gp_Ax2(gp_Pnt(10, 0, 0), gp_Dir(1, 0, 0)))
+    mirror = cq.Location(flip)
+    top = cq.Assembly(name="rig")
+    top.add(loft, name="loft left", color=cq.Color("red"))
+    top.add(loft, name="loft right", loc=mirror)
+    top.add(box, name="base", loc=cq.Location((10, 0, -5)), color=cq.Color(0.2, 0.4, 0.6))
+    src = tmp_path / "bspline_rig.step"
+    top.export(str(src))
+    for mode in MODES:
+        got = assert_same_product(src, _compress(src, tmp_path, mode), tmp_path)
+    assert Counter(got["instances"]) >= Counter({"loft left": 1, "loft right": 1, "base": 1})
+    assert len({c for _, _, c in got["face_colours"]}) >= 2
+
+
 # ---------------------------------------------------------------- schema, header, IGES
 
 
