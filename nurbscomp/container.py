@@ -105,11 +105,13 @@ def pack(
     sections: list[tuple[str, bytes]],
     flags: int = 0,
     coders: tuple[entropy.Coder, ...] = tuple(entropy.Coder),
+    thorough: bool = True,
 ) -> bytes:
     """Build container bytes from ``(tag, raw payload)`` pairs.
 
     The body is compressed with each of ``coders`` and the smallest kept (tests
-    pass one coder to pack fast).
+    pass one coder to pack fast); ``thorough=False`` searches less on a large
+    body (``entropy.compress``).
     """
     head = _HEADER.pack(MAGIC, MAJOR, MINOR, flags, len(sections), 0)
     if len({tag for tag, _ in sections}) != len(sections):
@@ -121,7 +123,7 @@ def pack(
             raise ValueError(f"section tag must be 4 ASCII bytes: {tag!r}")
         directory.append(_ENTRY.pack(tb, len(raw), zlib.crc32(raw)))
     body = b"".join(raw for _, raw in sections)
-    coder, stored = entropy.compress(body, coders)
+    coder, stored = entropy.compress(body, coders, thorough)
     bh = _BODY.pack(coder, b"\0\0\0", len(body), len(stored))
     d = b"".join(directory)
     crc = zlib.crc32(stored, zlib.crc32(bh, zlib.crc32(d)))

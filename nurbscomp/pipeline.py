@@ -449,7 +449,8 @@ def encode_cad(
             warnings.append(f"no STEP check: {vreport.step_skipped}")
         flags = 0
     target.product = m.product  # exact in every mode, placements included
-    data = container.pack(model_to_sections(target, meta, codes), flags)
+    # lossless is the fast mode: a quick entropy search (entropy.compress)
+    data = container.pack(model_to_sections(target, meta, codes), flags, thorough=not lossless)
     return Encoded(
         data,
         m,
