@@ -16,7 +16,7 @@ Still exact in this version: analytic geometry, and B-splines under an offset
 from __future__ import annotations
 
 import collections
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any, cast
 
@@ -213,7 +213,11 @@ TRIM_C = (Kind.TRIMMED_CURVE,)
 
 
 def code_model(
-    m: BRepModel, tol: float, paper: bool = False, points: np.ndarray | None = None
+    m: BRepModel,
+    tol: float,
+    paper: bool = False,
+    points: np.ndarray | None = None,
+    sewn: Sequence[tuple[int, int]] = (),
 ) -> Coded:
     """Run the per-net search (:func:`codec.encode_net`) on every B-spline surface
     and 3-D curve of ``m`` that may move (not under an offset).
@@ -227,8 +231,11 @@ def code_model(
     that is an earlier curve (:func:`joins.twin_curves`) a copy of it.  The
     first of each is coded to a limit that leaves its copies within theirs.
     ``points`` (edges sampled along their ranges, :func:`occ.edge_points`)
-    finds coincident edges no copy covers (another representation of the
-    same curve): their curves stay exact (:func:`_lonely_curves`).
+    finds coincident edges, and ``sewn`` (pairs of edges the free-edge
+    measure's sewing joins, :func:`occ.sewn_edge_pairs`) edges that meet in
+    part or within their tolerances; those no copy covers (another
+    representation of the same curve, a boundary cut elsewhere) keep their
+    curves exact (:func:`_lonely_curves`).
 
     Surface nets are searched with ``codec.SURFACE_SEARCH``, or with every
     method of the paper and its quantizer when ``paper`` is set.
@@ -281,7 +288,7 @@ def code_model(
     twins = joins.twin_curves(m.curves3d, crows, eps, set(iso), where)
     twins = _affordable(m.curves3d, twins, tol)
     if points is not None:  # coincident edges no copy covers: their curves stay exact
-        lonely = _lonely_curves(m, points, twins, iso, sides)
+        lonely = _lonely_curves(m, points, twins, iso, sides, sewn)
         keep_c = keep_c | {crec[r] for r in lonely}
         iso = {c: v for c, v in iso.items() if c not in lonely}
         iso_recs = {crec[c]: src for c, src in iso.items()}
@@ -342,12 +349,16 @@ def _lonely_curves(
     twins: dict[int, tuple[int, int, float]],
     iso: dict[int, tuple[int, int, int]],
     sides: dict[tuple[int, int], tuple[tuple[int, int], int, float]],
+    sewn: Sequence[tuple[int, int]] = (),
 ) -> set[int]:
-    """3-D curve rows of coincident edges (:func:`joins.coincident_edges`) that
-    would be coded apart: neither one curve, nor a copy and its leader (or
-    two copies of one), nor the iso-boundaries of two joined sides.  Kept
-    exact, they keep meeting (trj3 at 0.1: a closed curve given twice, with
-    its poles in another order)."""
+    """3-D curve rows of coincident edges (:func:`joins.coincident_edges`) and
+    of edges that meet in part (``sewn``: pairs of model edges) that would be
+    coded apart: neither one curve, nor a copy and its leader (or two copies
+    of one), nor the iso-boundaries of two joined sides.  Kept exact, they
+    keep meeting (trj3 at 0.1: a closed curve given twice, with its poles in
+    another order; a thick loft written as faces-mode IGES at 1e-5, whose
+    top face's boundary is cut elsewhere than its sides': 40 new free edges
+    at 0.01 mm otherwise)."""
     curve_of: dict[int, int] = {}
     reps = m.edge_reps
     for q in np.flatnonzero(reps[:, 1] == RepKind.CURVE3D).tolist():
@@ -365,7 +376,7 @@ def _lonely_curves(
         return ("curve", c)
 
     out: set[int] = set()
-    for e1, e2 in joins.coincident_edges(points, COINCIDENT):
+    for e1, e2 in sorted({*joins.coincident_edges(points, COINCIDENT), *sewn}):
         r1, r2 = curve_of.get(e1, -1), curve_of.get(e2, -1)
         if r1 < 0 or r2 < 0 or r1 == r2:
             continue

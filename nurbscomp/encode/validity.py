@@ -224,7 +224,9 @@ class _Plan:
     def __init__(self, m: BRepModel, tol: float, source: Any) -> None:
         self.m, self.tol = m, tol
         every = list(range(len(m.edge_tol)))
-        self.coded = nets.code_model(m, tol, points=occ.edge_points(source, every))
+        self.coded = nets.code_model(
+            m, tol, points=occ.edge_points(source, every), sewn=occ.sewn_edge_pairs(source)
+        )
         self.faces_rec, self.edges_rec = nets.face_records(m), nets.edge_records(m)
         self.faces_of = faces_around(m, ShapeType.EDGE)
         self.edges_of: list[list[int]] = [[] for _ in self.faces_rec]

@@ -28,6 +28,7 @@ from .measure import (
     free_edges_sewn,
     is_valid,
     model_order,
+    sewn_edge_pairs,
 )
 from .mesh import face_meshes
 from .topology import PcurveCache, model_to_shape, shape_to_model
@@ -55,6 +56,7 @@ __all__ = [
     "model_to_shape",
     "output_format",
     "read_cad",
+    "sewn_edge_pairs",
     "shape_to_model",
     "step_round_trip",
     "write_shape",
