@@ -1,6 +1,6 @@
 """A fast slice of the stress corpus (issue 10; ``make stress`` runs all of it).
 
-Fourteen generated shapes spread over the categories of
+Sixteen generated shapes spread over the categories of
 :mod:`tests.stress.shapes`, each written in one of the three file kinds
 (STEP, IGES BRep, IGES faces), compressed at 0.01 mm (three of them at
 0.1 mm) and checked as ``tests.stress.run`` checks every file: no crash and no
@@ -36,6 +36,9 @@ CASES = [
     # a BRepCheck fault on a located instance's face is the model's one face
     ("instance_sphere_3x_01", "step", (0.1,)),
     ("sewn_patches8_00", "brep", (0.01,)),
+    # faces meeting along edges cut at other points (free edges grew 171 -> 188)
+    ("feature_thick_00", "faces", (0.01,)),
+    ("feature_nurbs_fillet_box", "step", (0.01,)),
 ]
 
 

@@ -1,6 +1,6 @@
 """The stress corpus: a seeded generator of varied B-rep shapes (issue 10).
 
-:func:`entries` lists a little over 200 shapes in fourteen categories, each an
+:func:`entries` lists over 200 shapes in fifteen categories, each an
 :class:`Entry` with a short unique name and a builder that returns a
 ``TopoDS_Shape``.  The parameters of every shape (radii, degrees, knots,
 multiplicities, weights, poles, placements) are drawn from a numpy generator
@@ -40,7 +40,14 @@ Categories (see ``CATEGORIES``):
     faces with seam and degenerated edges: spheres, cones, revolved surfaces;
 ``analytic``
     single faces on planes, cylinders, cones, spheres, tori, extrusions,
-    revolutions and offset surfaces.
+    revolutions and offset surfaces;
+``feature``
+    what modelling operations leave behind: booleans of lofts with primitives
+    and with each other, thick solids (a face removed, the rest offset
+    inwards), offset shapes, a box split by a B-spline face, cells of a
+    general fuse, and solids converted to NURBS (rational faces, seams and
+    degenerated edges at once).  Their faces meet along edges cut at other
+    points than their neighbours' once written as faces-mode IGES.
 
 Every shape is meant to be valid (``BRepCheck_Analyzer``); an entry whose
 ``invalid`` field is set is deliberately not (none is at present).  Run
@@ -67,6 +74,7 @@ from OCP.BRepBuilderAPI import (
     BRepBuilderAPI_MakeEdge,
     BRepBuilderAPI_MakeFace,
     BRepBuilderAPI_MakeWire,
+    BRepBuilderAPI_NurbsConvert,
     BRepBuilderAPI_Sewing,
 )
 from OCP.BRepCheck import BRepCheck_Analyzer
@@ -1012,7 +1020,116 @@ def _analytic_face(
 
 # ---------------------------------------------------------------- the list
 
+
 #: Category name -> its generator: a seeded rng in, (kind, builder) pairs out.
+def _features(rng: np.random.Generator) -> list[tuple[str, Callable[[], TopoDS_Shape]]]:
+    out: list[tuple[str, Callable[[], TopoDS_Shape]]] = []
+
+    def sections(n: int) -> list[np.ndarray]:
+        return [
+            _closed_spline(rng, int(rng.integers(5, 9)), rng.uniform(4, 8), z)
+            for z in np.cumsum(rng.uniform(3, 6, n))
+        ]
+
+    for k in range(3):
+        out.append((f"cut_cyl_{k:02d}", partial(_feature_cut, sections(4), rng.uniform(0.8, 2))))
+        out.append((f"fuse_lofts_{k:02d}", partial(_feature_fuse, sections(3), sections(3))))
+        out.append((f"thick_{k:02d}", partial(_feature_thick, sections(4), -rng.uniform(0.2, 0.4))))
+    for k in range(2):
+        out.append((f"offset_{k:02d}", partial(_feature_offset, sections(3), rng.uniform(0.3, 1))))
+        out.append((f"split_{k:02d}", partial(_feature_split, rng.uniform(-2, 2, (5, 5)))))
+        out.append((f"cells_{k:02d}", partial(_feature_cells, sections(3))))
+    for kind in ("sphere", "torus", "cone", "fillet_box"):
+        out.append((f"nurbs_{kind}", partial(_feature_nurbs, kind, rng.uniform(3, 8))))
+    return out
+
+
+def _feature_loft(sections: list[np.ndarray]) -> cq.Solid:
+    wires = [cq.Wire.assembleEdges([cq.Edge.makeSpline(_vecs(s), periodic=True)]) for s in sections]
+    return cq.Solid.makeLoft(wires, False)
+
+
+def _feature_cut(sections: list[np.ndarray], r: float) -> TopoDS_Shape:
+    z = sections[0][0, 2]
+    return (
+        _feature_loft(sections).cut(cq.Solid.makeCylinder(r, 100, cq.Vector(0, 0, z - 1))).wrapped
+    )
+
+
+def _feature_fuse(a: list[np.ndarray], b: list[np.ndarray]) -> TopoDS_Shape:
+    other = _feature_loft(b).translate(cq.Vector(3, 1, 2))
+    return _feature_loft(a).fuse(other).clean().wrapped
+
+
+def _feature_thick(sections: list[np.ndarray], t: float) -> TopoDS_Shape:
+    from OCP.BRepOffsetAPI import BRepOffsetAPI_MakeThickSolid
+    from OCP.TopTools import TopTools_ListOfShape
+
+    loft = _feature_loft(sections)
+    top = TopTools_ListOfShape()
+    top.Append(max(loft.Faces(), key=lambda f: f.Center().z).wrapped)
+    m = BRepOffsetAPI_MakeThickSolid()
+    m.MakeThickSolidByJoin(loft.wrapped, top, t, 1e-3)
+    m.Build()
+    return m.Shape()
+
+
+def _feature_offset(sections: list[np.ndarray], d: float) -> TopoDS_Shape:
+    from OCP.BRepOffsetAPI import BRepOffsetAPI_MakeOffsetShape
+
+    m = BRepOffsetAPI_MakeOffsetShape()
+    m.PerformByJoin(_feature_loft(sections).wrapped, d, 1e-3)
+    return m.Shape()
+
+
+def _feature_split(bumps: np.ndarray) -> TopoDS_Shape:
+    from OCP.BRepAlgoAPI import BRepAlgoAPI_Splitter
+    from OCP.TopTools import TopTools_ListOfShape
+
+    xs = np.linspace(-1, 11, 5)
+    pts = [[cq.Vector(x, y, 5 + bumps[i, j]) for j, y in enumerate(xs)] for i, x in enumerate(xs)]
+    args, tools = TopTools_ListOfShape(), TopTools_ListOfShape()
+    args.Append(cq.Solid.makeBox(10, 10, 10).wrapped)
+    tools.Append(cq.Face.makeSplineApprox(pts).wrapped)
+    sp = BRepAlgoAPI_Splitter()
+    sp.SetArguments(args)
+    sp.SetTools(tools)
+    sp.Build()
+    return sp.Shape()
+
+
+def _feature_cells(sections: list[np.ndarray]) -> TopoDS_Shape:
+    from OCP.BOPAlgo import BOPAlgo_MakerVolume
+    from OCP.TopTools import TopTools_ListOfShape
+
+    args = TopTools_ListOfShape()
+    args.Append(cq.Solid.makeBox(10, 10, 10, cq.Vector(-5, -5, 0)).wrapped)
+    args.Append(_feature_loft(sections).translate(cq.Vector(3, 3, -2)).wrapped)
+    mv = BOPAlgo_MakerVolume()
+    mv.SetArguments(args)
+    mv.Perform()
+    return mv.Shape()
+
+
+def _feature_nurbs(kind: str, r: float) -> TopoDS_Shape:
+    solid = {
+        "sphere": lambda: cq.Solid.makeSphere(r),
+        "torus": lambda: cq.Solid.makeTorus(r, r / 3),
+        "cone": lambda: cq.Solid.makeCone(r, 0, 1.5 * r),
+        "fillet_box": lambda: (
+            cq.Workplane()
+            .box(2 * r, r, r / 2)
+            .faces(">Z")
+            .workplane()
+            .hole(r / 3)
+            .edges()
+            .fillet(r / 20)
+            .val()
+        ),
+    }[kind]()
+    return BRepBuilderAPI_NurbsConvert(solid.wrapped, True).Shape()
+
+
 CATEGORIES: dict[str, Callable[[np.random.Generator], list[tuple[str, Any]]]] = {
     "fillet": _fillets,
     "chamfer": _chamfers,
@@ -1028,6 +1145,7 @@ CATEGORIES: dict[str, Callable[[np.random.Generator], list[tuple[str, Any]]]] = 
     "sewn": _sewns,
     "seam": _seams,
     "analytic": _analytics,
+    "feature": _features,
 }
 
 #: Entries that are deliberately invalid, name -> why (none at present).
