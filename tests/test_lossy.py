@@ -277,3 +277,29 @@ def test_pcurve_cache_builds_the_same_shape(name: str, tmp_path: Path) -> None:
         misses.append(cache.misses)
     assert misses[1] < misses[2] < misses[1] + misses[0]  # the mixed model: some of each
     assert misses[3] == misses[2] and cache.hits > hits  # the last build: all from the cache
+
+
+def test_fault_with_everything_exact_keeps_its_ranges(tmp_path: Path) -> None:
+    """A filleted box moved to x = 120 and written as faces-mode IGES: two
+    faces on a surface of revolution keep a BRepCheck fault with their
+    surface and curves exact and their pcurves stored, because
+    ``pcurves.vertex_ranges`` moved their circle edges' ends (by up to 1e-3
+    tol, past their 1e-7 tolerance).  The ladder's last rung keeps their
+    vertices and ranges as read; without it every pcurve was stored (the
+    "pcurves" fallback)."""
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_Transform
+    from OCP.gp import gp_Trsf, gp_Vec
+
+    from tests.stress.files import write_iges
+    from tests.stress.shapes import entries
+
+    entry = {e.name: e for e in entries(0)}["fillet_box_02"]
+    move = gp_Trsf()
+    move.SetTranslation(gp_Vec(120, 0, 0))
+    src = tmp_path / "moved.igs"
+    write_iges(BRepBuilderAPI_Transform(entry.build(), move, True).Shape(), src, 0)
+    report = pipeline.compress_file(src, tmp_path / "moved.nzc", tol=0.01)
+    assert report["validity"]["fallback"] == ""
+    assert report["validity"]["exact_faces"] == {"brepcheck": 2}
+    back = pipeline.decode_file(tmp_path / "moved.nzc")[0]
+    assert occ.is_valid(back)

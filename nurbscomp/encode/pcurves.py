@@ -9,6 +9,7 @@ on lines and circles as the rule "what the vertices give".
 from __future__ import annotations
 
 import collections
+from collections.abc import Set
 from dataclasses import replace
 from typing import Any
 
@@ -222,9 +223,9 @@ def unit_curves(m: BRepModel) -> BRepModel:
 RANGE_SLACK = 1e-3
 
 
-def vertex_ranges(m: BRepModel, tol: float) -> BRepModel:
+def vertex_ranges(m: BRepModel, tol: float, keep: Set[int] = frozenset()) -> BRepModel:
     """``m`` with the ranges of edges on lines and circles set to what their
-    vertices give.
+    vertices give, but for the edges in ``keep``.
 
     Such a range is then stored as a rule, not as two floats
     (:func:`joins.vertex_ranges`, ``serialize.RANGE_VERTICES``).  The ends
@@ -236,6 +237,8 @@ def vertex_ranges(m: BRepModel, tol: float) -> BRepModel:
     rng = m.edge_rep_range
     out_rng = rng.copy()
     for q, t in joins.vertex_ranges(m).items():
+        if int(m.edge_reps[q, 0]) in keep:
+            continue
         g = m.curves3d[int(m.edge_reps[q, 2])]
         speed = float(g.params[0]) if g.kind == Kind.CIRCLE else 1.0  # type: ignore[union-attr]
         d = np.abs(np.array(t) - rng[q])

@@ -39,7 +39,7 @@ import logging
 from collections.abc import Set
 from dataclasses import dataclass, field
 from enum import IntEnum
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -146,35 +146,52 @@ def build(m: BRepModel, cache: occ.PcurveCache | None = None) -> Any:
 
 
 class _Floor:
-    """The source as the STEP reader gives it back, made only when needed."""
+    """The source as the STEP reader gives it back, made only when needed.
+
+    Every STEP round trip (the floor's and each candidate's) runs in a child
+    process (:class:`occ.RoundTrip`), which keeps the re-read shape and
+    answers what is asked of it: OCCT's reader can crash on a file it is
+    given (a candidate, or even the source's own round trip), and that must
+    not take compress down.  Close it (:meth:`close`) when done.
+    """
 
     def __init__(self, source: Any, unit: str, report: ValidityReport, product: Any = None) -> None:
         self.source, self.unit, self.report = source, unit, report
         self.product = product  # the candidates are written as decompress writes them
         self.counts = occ.counts(source)
-        self._shape: Any = None
+        self._floor: occ.RoundTrip | None = None
         self._signatures: dict[str, np.ndarray] = {}  # the source's and the floor's
+        #: Why the floor cannot be had (OCCT's reader crashed on the source's
+        #: own round trip), or "": then no candidate is held to it.
+        self.broken = ""
 
-    @property
-    def shape(self) -> Any:
-        if self._shape is None:
-            self._shape = occ.step_round_trip(self.source, self.unit)
+    def _ask_floor(self, fn: Any) -> Any:
+        if self._floor is None:
+            source, unit = self.source, self.unit
+            self._floor = occ.RoundTrip(lambda: occ.step_round_trip(source, unit)).__enter__()
             self.report.step_round_trips += 1
-        return self._shape
+        return self._floor.ask(fn)
+
+    def close(self) -> None:
+        if self._floor is not None:
+            self._floor.__exit__(None, None, None)
+            self._floor = None
 
     @functools.cached_property
     def floor_counts(self) -> dict[str, int]:
-        return occ.counts(self.shape)
+        return cast(dict[str, int], self._ask_floor(occ.counts))
 
     @functools.cached_property
     def floor_valid(self) -> bool:
-        return occ.is_valid(self.shape)
+        return bool(self._ask_floor(occ.is_valid))
 
     def signatures(self, which: str) -> np.ndarray:
         """:func:`occ.face_signatures` of the ``"source"`` or the ``"floor"``, made once."""
         if which not in self._signatures:
-            shape = self.source if which == "source" else self.shape
-            self._signatures[which] = occ.face_signatures(shape)
+            if which == "source":
+                self._signatures[which] = occ.face_signatures(self.source)
+            else:
+                self._signatures[which] = self._ask_floor(occ.face_signatures)
         return self._signatures[which]
 
     def candidate_losses(self, shape: Any, tol: float) -> set[int] | None:
@@ -182,33 +199,39 @@ class _Floor:
 
         A STEP file of the candidate that OCCT's reader takes nothing from (an
         ``InputError`` of the re-read; seen on a face periodic in u and v whose
-        seams had widened tolerances) loses every face.
+        seams had widened tolerances) or that crashes it (``occ.ReaderCrash``)
+        loses every face.
         """
         self.report.step_round_trips += 1
+        unit, product = self.unit, self.product
         try:
-            back = occ.step_round_trip(shape, self.unit, self.product)
+            with occ.RoundTrip(lambda: occ.step_round_trip(shape, unit, product)) as back:
+                return self.losses(back, tol)
         except InputError as e:
             log.debug("STEP round trip of the candidate fails: %s", e)
             return {int(f) for f in self.model_face}
-        return self.losses(back, tol)
 
-    def losses(self, back: Any, tol: float) -> set[int] | None:
+    def losses(self, back: occ.RoundTrip, tol: float) -> set[int] | None:
         """None if the re-read ``back`` keeps what the floor keeps; else the
         source faces to blame (possibly none)."""
-        got = occ.counts(back)
-        if got == self.counts and occ.is_valid(back):
+        got = back.ask(occ.counts)
+        if got == self.counts and back.ask(occ.is_valid):
             return None  # as the source: whatever the floor is, this keeps it
-        floor = self.floor_counts
-        faulty = occ.faulty_faces(back) if self.floor_valid else set()
-        if not faulty and step_keeps(self.counts, floor, got):
-            return None
-        log.debug("STEP round trip %s != %s", got, floor)
+        try:
+            floor = self.floor_counts
+            faulty = back.ask(occ.faulty_faces) if self.floor_valid else set()
+            if not faulty and step_keeps(self.counts, floor, got):
+                return None
+            log.debug("STEP round trip %s != %s", got, floor)
+            floor_sig = self.signatures("floor")
+        except occ.ReaderCrash as e:
+            if self._floor is not None and self._floor.crashed:
+                # the source's own round trip crashes OCCT: nothing to hold to
+                self.broken = f"{e} (the source's own round trip)"
+                return None
+            raise
         lost = step_losses(
-            self.signatures("source"),
-            self.signatures("floor"),
-            occ.face_signatures(back),
-            tol,
-            faulty,
+            self.signatures("source"), floor_sig, back.ask(occ.face_signatures), tol, faulty
         )
         return {int(self.model_face[f]) for f in lost}
 
@@ -245,6 +268,7 @@ class _Plan:
         self.keep_e: set[int] = set()
         self.keep_f: set[int] = set()
         self.still_v: set[int] = set()
+        self.as_read_e: set[int] = set()  # edges whose ranges stay as read
         self.rung: dict[int, Rung] = {}  # source face -> highest rung taken
         self.tight_f: set[int] = set()  # faces tightened for a BRepCheck fault
         self.reason: dict[Rec | None, str] = {}  # record -> why it is exact
@@ -255,6 +279,7 @@ class _Plan:
             len(self.keep_e),
             len(self.keep_f),
             len(self.still_v),
+            len(self.as_read_e),
             sum(self.rung.values()),
             len(self.tight_f),
         )
@@ -262,7 +287,8 @@ class _Plan:
     def candidate(self) -> tuple[BRepModel, dict[Rec, Any], assembly.LossyReport]:
         target, codes, report = assembly.assemble(self.m, self.coded, self.exact, self.still_v)
         cand = pcurves.drop_pcurves(target, self.keep_e, self.keep_f)
-        return pcurves.vertex_ranges(pcurves.unit_curves(cand), self.tol), codes, report
+        ranged = pcurves.vertex_ranges(pcurves.unit_curves(cand), self.tol, self.as_read_e)
+        return ranged, codes, report
 
     def with_leaders(self, recs: set[Rec | None]) -> set[Rec | None]:
         """``recs`` with the records their copies follow: a copied curve's leader
@@ -293,7 +319,11 @@ class _Plan:
         that is valid at a smaller tolerance is valid at this one, and costs
         far less than stored pcurves: ec_turbine at 0.1 mm grew by 2 KB
         otherwise); then stored pcurves; where they are stored already, exact
-        records."""
+        records; where those are exact already, the faces' vertices stay
+        where they are, and their edges keep the ranges they were read with
+        (``pcurves.vertex_ranges`` moves an end along a line or circle by up
+        to 1e-3 tol, past a 1e-7 tolerance: a surface of revolution in a
+        faces-mode IGES file)."""
         faces = set(new_f) | {f for e in new_e for f in self.faces_of[e]}
         fresh = faces - self.tight_f
         if fresh:
@@ -304,13 +334,21 @@ class _Plan:
             nets.tighten(self.coded, self.m, [i for i in recs if i is not None], 2)
             new_e = {e for e in new_e if not set(self.faces_of[e]) & fresh}
             new_f = new_f - fresh
-        for e in new_e & self.keep_e:  # its curve, then its faces' surfaces
+        for e in new_e & self.keep_e:  # its curve, then its faces' surfaces, then vertices
+            around = {self.faces_rec[f] for f in self.faces_of[e]}
+            if self.edges_rec[e] in self.exact and around <= self.exact:
+                self.still_v |= {v for f in self.faces_of[e] for v in self.verts_of[f]}
+                self.as_read_e |= {g for f in self.faces_of[e] for g in self.edges_of[f]}
             if self.edges_rec[e] in self.exact:
-                self.make_exact({self.faces_rec[f] for f in self.faces_of[e]}, "brepcheck")
+                self.make_exact(around, "brepcheck")
             self.make_exact({self.edges_rec[e]}, "brepcheck")
-        for f in new_f & self.keep_f:  # its surface, then its edges' curves
+        for f in new_f & self.keep_f:  # its surface, then its edges' curves, then vertices
+            curves = {self.edges_rec[e] for e in self.edges_of[f]}
+            if self.faces_rec[f] in self.exact and curves <= self.exact:
+                self.still_v |= set(self.verts_of[f])
+                self.as_read_e |= set(self.edges_of[f])
             if self.faces_rec[f] in self.exact:
-                self.make_exact({self.edges_rec[e] for e in self.edges_of[f]}, "brepcheck")
+                self.make_exact(curves, "brepcheck")
             self.make_exact({self.faces_rec[f]}, "brepcheck")
         self.keep_e |= new_e
         self.keep_f |= new_f
@@ -365,10 +403,22 @@ def lossy_target(m: BRepModel, source: Any, tol: float, step_check: bool = True)
         Also hold the candidate to OCCT's STEP round trip.
     """
     vr = ValidityReport()
-    plan = _Plan(m, tol, source)
     if step_check:
         vr.step_skipped = step_reader_hangs(m)
     floor = _Floor(source, m.unit, vr, m.product) if step_check and not vr.step_skipped else None
+    try:
+        return _search(m, source, tol, vr, floor)
+    finally:
+        if floor is not None:
+            floor.close()
+            vr.step_skipped = vr.step_skipped or floor.broken
+
+
+def _search(
+    m: BRepModel, source: Any, tol: float, vr: ValidityReport, floor: _Floor | None
+) -> Target:
+    """The rounds and the fallbacks of :func:`lossy_target`."""
+    plan = _Plan(m, tol, source)
     old_e, old_f = occ.failures(source)
     cache = occ.PcurveCache()  # the candidates differ from round to round in a few records
     for _ in range(MAX_ROUNDS):

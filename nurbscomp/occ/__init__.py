@@ -14,6 +14,7 @@ from .files import (
     step_round_trip,
     write_shape,
 )
+from .isolated import ReaderCrash, RoundTrip
 from .measure import (
     counts,
     deviation,
@@ -37,6 +38,8 @@ __all__ = [
     "UNITS_MM",
     "CadFile",
     "PcurveCache",
+    "ReaderCrash",
+    "RoundTrip",
     "bintools_bytes",
     "counts",
     "cq",

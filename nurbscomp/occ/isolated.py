@@ -1,0 +1,185 @@
+"""OCCT's STEP round trip in a forked child, so that a crash of OCCT's cannot
+take the process down.
+
+OCCT's STEP reader heals what it reads (``ShapeFix_Shape``), and its healing
+can recurse without end: a faces-mode IGES model of 685 faces, coded at
+0.01 mm and written as one STEP part, sent ``ShapeFix_Face::FixOrientation``
+into a cycle of ``ShapeBuild_ReShape::Apply`` calls (a segmentation fault
+once the stack is spent; with no stack limit, all memory).  The STEP check of
+the encoder (``encode.validity``) writes and re-reads many such candidates,
+so it makes each round trip in a child process forked for it
+(:class:`RoundTrip`): the child writes the file, reads it back, keeps the
+shape, and answers what the check asks of it (counts, validity, faulty faces,
+face signatures).  If the child dies, :class:`ReaderCrash` says so, and the
+check counts the candidate as one OCCT's reader cannot take.
+
+A process with other threads is not forked (a fork copies only the calling
+thread, and a lock another thread holds would stay held in the child): there
+the round trip runs in this process, as it did before, unguarded.
+"""
+
+from __future__ import annotations
+
+import faulthandler
+import gc
+import os
+import pickle
+import signal
+import socket
+import struct
+import threading
+from collections.abc import Callable
+from typing import Any
+
+from ..errors import InputError
+
+_LEN = struct.Struct("<Q")
+
+
+class ReaderCrash(InputError):
+    """OCCT's STEP round trip killed the process it ran in."""
+
+
+def _send(sock: socket.socket, obj: Any) -> None:
+    data = pickle.dumps(obj, protocol=pickle.HIGHEST_PROTOCOL)
+    sock.sendall(_LEN.pack(len(data)) + data)
+
+
+def _recv(sock: socket.socket) -> Any:
+    head = _recv_exactly(sock, _LEN.size)
+    return pickle.loads(_recv_exactly(sock, _LEN.unpack(head)[0]))
+
+
+def _recv_exactly(sock: socket.socket, n: int) -> bytes:
+    parts, got = [], 0
+    while got < n:
+        chunk = sock.recv(min(n - got, 1 << 20))
+        if not chunk:
+            raise EOFError
+        parts.append(chunk)
+        got += len(chunk)
+    return b"".join(parts)
+
+
+def can_fork() -> bool:
+    """Whether a round trip may run in a forked child here (POSIX, one thread)."""
+    return hasattr(os, "fork") and threading.active_count() == 1
+
+
+class RoundTrip:
+    """The shape ``make()`` returns (OCCT's re-read of a STEP file), kept in a
+    child process; :meth:`ask` runs a function of it there and returns its
+    (picklable) result.
+
+    Use as a context manager: the child exits when the block does.
+
+    Raises
+    ------
+    ReaderCrash
+        From :meth:`ask`, when the child died (a signal, or any exit) before
+        it answered: the first question is answered once ``make`` returned.
+    InputError
+        From :meth:`ask`, when ``make`` raised one in the child (OCCT's
+        reader refused the file): re-raised with its message.
+    """
+
+    def __init__(self, make: Callable[[], Any]) -> None:
+        self._make = make
+        self._local: Any = None
+        self._pid = 0
+        self._sock: socket.socket | None = None
+        self._dead = ""
+
+    def __enter__(self) -> RoundTrip:
+        if not can_fork():
+            self._local = self._make()
+            return self
+        parent, child = socket.socketpair()
+        gc.freeze()  # the child's collections leave the parent's objects (and pages) alone
+        pid = -1
+        try:
+            pid = os.fork()
+        finally:
+            if pid != 0:
+                gc.unfreeze()
+        if pid == 0:  # the child: never returns into the caller's code
+            status = 1
+            try:
+                parent.close()
+                faulthandler.disable()  # a crash here is reported by the parent, once
+                for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+                    signal.signal(sig, signal.SIG_DFL)
+                status = _serve(child, self._make)
+            finally:
+                os._exit(status)
+        child.close()
+        self._pid, self._sock = pid, parent
+        return self
+
+    @property
+    def crashed(self) -> bool:
+        """Whether the child died before answering."""
+        return bool(self._dead)
+
+    def ask(self, fn: Callable[[Any], Any]) -> Any:
+        """``fn(shape)`` computed where the shape is."""
+        if self._sock is None:
+            return fn(self._local)
+        if self._dead:
+            raise ReaderCrash(self._dead)
+        try:
+            _send(self._sock, fn)
+            kind, value = _recv(self._sock)
+        except (EOFError, OSError):
+            self._dead = self._reap()
+            raise ReaderCrash(self._dead) from None
+        if kind == "error":
+            cls, msg = value
+            raise (InputError if cls == "InputError" else RuntimeError)(msg)
+        return value
+
+    def _reap(self) -> str:
+        """Why the child is gone (it is waited for)."""
+        _, status = os.waitpid(self._pid, 0)
+        self._pid = 0
+        if os.WIFSIGNALED(status):
+            name = signal.Signals(os.WTERMSIG(status)).name
+            return f"OCCT's STEP reader crashed ({name}) on the file it had written"
+        return f"OCCT's STEP round trip ended early (exit status {os.WEXITSTATUS(status)})"
+
+    def __exit__(self, *exc: object) -> None:
+        if self._sock is not None:
+            try:
+                _send(self._sock, None)
+            except OSError:
+                pass
+            self._sock.close()
+            self._sock = None
+        if self._pid:
+            os.waitpid(self._pid, 0)
+            self._pid = 0
+        self._local = None
+
+
+def _serve(sock: socket.socket, make: Callable[[], Any]) -> int:
+    """The child's loop: make the shape, then answer each function sent until None."""
+    failure: tuple[str, str] | None = None
+    shape: Any = None
+    try:
+        shape = make()
+    except InputError as e:
+        failure = ("InputError", str(e))
+    while True:
+        try:
+            fn = _recv(sock)
+        except EOFError:
+            return 0
+        if fn is None:
+            return 0
+        if failure is not None:
+            _send(sock, ("error", failure))
+            continue
+        try:
+            _send(sock, ("ok", fn(shape)))
+        except Exception as e:  # reported to the parent, raised there
+            _send(sock, ("error", (type(e).__name__, f"{type(e).__name__}: {e}")))

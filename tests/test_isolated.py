@@ -1,0 +1,90 @@
+"""STEP round trips in a forked child (``occ.isolated``): a crash of OCCT's
+reader is reported, never shared."""
+
+from __future__ import annotations
+
+import os
+import signal
+import threading
+from pathlib import Path
+
+import pytest
+
+from nurbscomp import occ, pipeline
+from nurbscomp.encode import validity
+from nurbscomp.errors import InputError
+
+from .conftest import SAMPLES
+
+
+def _crash() -> None:
+    os.kill(os.getpid(), signal.SIGSEGV)
+
+
+def _refuse() -> None:
+    raise InputError("cannot parse STEP file (Fail)")
+
+
+def _boom(shape: object) -> None:
+    raise ValueError("no")
+
+
+def _pid(shape: object) -> int:
+    return os.getpid()
+
+
+def test_answers_come_from_the_child() -> None:
+    shape = occ.read_cad(SAMPLES / "loft.step").shape
+    with occ.RoundTrip(lambda: shape) as r:
+        assert r.ask(occ.counts) == occ.counts(shape)
+        assert r.ask(_pid) != os.getpid()  # asked where the shape is
+        with pytest.raises(RuntimeError, match="ValueError: no"):
+            r.ask(_boom)
+        assert r.ask(occ.is_valid)  # still serving after an error
+
+
+def test_a_crash_is_reported_not_shared() -> None:
+    with occ.RoundTrip(_crash) as r:
+        with pytest.raises(occ.ReaderCrash, match="SIGSEGV"):
+            r.ask(occ.counts)
+        assert r.crashed
+        with pytest.raises(occ.ReaderCrash):
+            r.ask(occ.counts)
+    with occ.RoundTrip(_refuse) as r, pytest.raises(InputError, match="cannot parse"):
+        r.ask(occ.counts)
+
+
+def test_with_threads_it_runs_here() -> None:
+    done = threading.Event()
+    t = threading.Thread(target=done.wait)
+    t.start()
+    try:
+        assert not occ.isolated.can_fork()
+        with occ.RoundTrip(lambda: None) as r:
+            assert r.ask(_pid) == os.getpid()
+    finally:
+        done.set()
+        t.join()
+
+
+def test_compress_survives_a_reader_that_crashes(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Every candidate's STEP re-read crashes (as OCCT 7.9's did on a 685-face
+    faces-mode IGES model: ShapeBuild_ReShape::Apply recursing without end):
+    compress loses every face to the check, falls back, and still writes a
+    container that decodes within tol."""
+    real = occ.step_round_trip
+
+    def crashing(shape: object, unit: str = "MM", product: object = None) -> object:
+        if product is not None:  # candidates, written as decompress writes them
+            _crash()
+        return real(shape, unit, product)
+
+    monkeypatch.setattr(validity.occ, "step_round_trip", crashing)
+    src = SAMPLES / "loft.step"
+    report = pipeline.compress_file(src, tmp_path / "l.nzc", tol=0.01)
+    assert report["validity"]["fallback"] == "exact"
+    assert report["validity"]["step_round_trips"] >= 2
+    shape = pipeline.decode_file(tmp_path / "l.nzc")[0]
+    assert occ.counts(shape) == occ.counts(occ.read_cad(src).shape)
