@@ -93,10 +93,10 @@ class Limits:
     #: where a hostile container puts the curves off their surfaces (each
     #: point then searched over the whole surface), 1-4 ns where they lie on
     #: them (trj7 at 0.01 mm: 48 million units, 0.4 s).  At most
-    #: ``projection`` units whatever the container's size (4.7 s at worst),
+    #: ``projection`` units whatever the container's size (3.8 s at worst),
     #: or ``projection_ratio`` per byte of the container if that is more.
-    projection: int = 100_000_000
-    projection_ratio: int = 10_000
+    projection: int = 80_000_000
+    projection_ratio: int = 8_000
     #: Estimated output size (STEP and BREP write instances once, IGES
     #: flattens them): at most ``output_ratio`` bytes per byte of the
     #: container, but ``output_floor`` whatever the container's size, and
