@@ -62,8 +62,8 @@ class Limits:
 
     Measured on the public corpus (11 files, docs/format.md §4): at most
     10,482 references, depth 7, 44,620 poles and knots, 2,050 pcurves (if
-    every one were left out), estimated outputs of 8 MB and 160 bytes per
-    container byte.
+    every one were left out) and 48 million units of projection work,
+    estimated outputs of 8 MB and 160 bytes per container byte.
     """
 
     #: Rows of the tables the decoder loops over (shapes, sub-shape
@@ -84,14 +84,19 @@ class Limits:
     #: Pcurves the decoder computes (``occ.topology.rebuild_pcurves``), one per
     #: representation and face it projects onto (100x).
     pcurves: int = 200_000
-    #: Work of those projections: per projection, the poles of the surface
-    #: times (u degree + 1) x (v degree + 1) x (highest degree + 1) (16 for an
-    #: analytic surface; a trimmed or offset surface costs what its basis
-    #: does).  Measured: about 0.1 µs a unit where the curves lie on their
-    #: surfaces (trj7 at 0.01 mm: 16 million units), 0.3 to 6 µs where a
-    #: hostile container puts them off (three pcurves onto a 200 x 300 bicubic
-    #: net take 28 s; an 1100 x 1000 net of degree 25 crashes OCCT's projection).
-    projection: int = 100_000_000
+    #: Work of those projections (:func:`pcurves_to_compute`): per
+    #: projection, the points OCCT samples on the edge's 3-D curve
+    #: (:func:`curve_samples`, at least 23) times the surface's work per point,
+    #: its poles x (u degree + 1) x (v degree + 1) (16 for an analytic
+    #: surface; :func:`_swept_work` for a swept one; a trimmed or offset
+    #: surface costs what its basis does).  Measured: at most 47 ns a unit
+    #: where a hostile container puts the curves off their surfaces (each
+    #: point then searched over the whole surface), 1-4 ns where they lie on
+    #: them (trj7 at 0.01 mm: 48 million units, 0.4 s).  At most
+    #: ``projection`` units whatever the container's size (3.8 s at worst),
+    #: or ``projection_ratio`` per byte of the container if that is more.
+    projection: int = 80_000_000
+    projection_ratio: int = 8_000
     #: Estimated output size (STEP and BREP write instances once, IGES
     #: flattens them): at most ``output_ratio`` bytes per byte of the
     #: container, but ``output_floor`` whatever the container's size, and
@@ -108,6 +113,14 @@ class Limits:
         out = {f.name: int(getattr(self, f.name) * k) for f in dataclasses.fields(self)}
         out["depth"] = min(out["depth"], max(self.depth, DEPTH_CEILING))
         return Limits(**out)
+
+    def sized(self, container_bytes: int) -> Limits:
+        """The limits for a container of ``container_bytes``: projection work
+        up to ``projection_ratio`` per byte if that is above ``projection``
+        (a real container's bytes back its pcurves' work; a hostile one's do
+        not)."""
+        work = max(self.projection, self.projection_ratio * container_bytes)
+        return dataclasses.replace(self, projection=work)
 
     def output(self, container_bytes: int) -> int:
         """Largest estimated output a container of ``container_bytes`` may give."""
@@ -142,11 +155,31 @@ class _Table:
     poles: int
 
 
-def _table(table: list[Geometry]) -> _Table:
+def _swept_work(curves: list[Geometry], row: int) -> int:
+    """Projection work per sampled point onto a surface of revolution or of
+    linear extrusion of 3-D curve ``row``: n^2 (d + 1)^3 / 4 for a basis of n
+    poles and degree d (through trimmed and offset curves to their basis; 16
+    for an analytic one).  OCCT's point inversion onto such a surface grows
+    that fast: a revolution of a 30-pole curve of degree 25 takes 43 ms a
+    point, of a 60-pole one of degree 9, 24 ms (docs/format.md §4)."""
+    g = curves[row] if 0 <= row < len(curves) else None
+    for _ in range(len(curves)):
+        if not isinstance(g, Derived):
+            break
+        g = curves[g.basis] if 0 <= g.basis < len(curves) else None
+    if not isinstance(g, BSplineCurve):
+        return 16
+    n = len(g.poles)
+    d = n - 1 if g.bezier else g.degree
+    return max(16, n * n * (d + 1) ** 3 // 4)
+
+
+def _table(table: list[Geometry], curves: list[Geometry] | None = None) -> _Table:
     """One pass in row order: a derived row's basis precedes it (checked on
     reading), so its figures are known when the row is reached (memoised:
     chains of bases cost one step a row).  A swept surface's basis is a 3-D
-    curve, counted with the curves."""
+    curve, counted with the curves; ``curves`` (the 3-D curve table, for a
+    surface table) gives its projection work (:func:`_swept_work`)."""
     out = _Table([], [], [], 0)
     for i, (first, g) in enumerate(zip(first_row(table), table)):
         if isinstance(g, (BSplineSurface, BSplineCurve)):
@@ -158,7 +191,7 @@ def _table(table: list[Geometry]) -> _Table:
             if isinstance(g, BSplineSurface):
                 nu, nv = g.poles.shape[:2]
                 du, dv = (nu - 1, nv - 1) if g.bezier else (g.udegree, g.vdegree)
-                out.work.append(nu * nv * (du + 1) * (dv + 1) * (max(du, dv) + 1))
+                out.work.append(nu * nv * (du + 1) * (dv + 1))
             else:
                 out.work.append(16)
             if i == first:  # a record's later rows (COPY rows) hold nothing more
@@ -173,7 +206,10 @@ def _table(table: list[Geometry]) -> _Table:
         else:
             out.bytes.append(own)
             out.depth.append(1)
-            out.work.append(16)
+            if isinstance(g, Derived) and curves is not None:
+                out.work.append(_swept_work(curves, g.basis))
+            else:
+                out.work.append(16)
     return out
 
 
@@ -248,7 +284,7 @@ def expansion(m: BRepModel) -> Expansion:
             else:
                 inst[c] = min(inst[c] + inst[s], CAP)
     iges = sum(min(p * b, CAP) for p, b in zip(paths, cost))
-    tables = [_table(t) for t in (m.surfaces, m.curves3d, m.curves2d)]
+    tables = [_table(m.surfaces, m.curves3d), _table(m.curves3d), _table(m.curves2d)]
     poles = sum(t.poles for t in tables)
     bases = max((d for t in tables for d in t.depth), default=0)
     pcurves, projection = pcurves_to_compute(m, tables[0].work)
@@ -264,22 +300,76 @@ def expansion(m: BRepModel) -> Expansion:
     )
 
 
-def pcurves_to_compute(m: BRepModel, work: list[int] | None = None) -> tuple[int, int]:
-    """Projections ``occ.topology.rebuild_pcurves`` makes (each representation
-    whose pcurve is left out, onto every face with its surface row and
-    location), and their work (``Limits.projection``; ``work`` per surface
-    row, as :func:`_table` gives it)."""
+#: Points OCCT samples on a 3-D curve to project it, at least
+#: (``ShapeConstruct_ProjectCurveOnSurface::Perform``'s ``NCONTROL``).
+SAMPLES = 23
+
+
+def curve_samples(table: list[Geometry], row: int) -> int:
+    """Points OCCT samples on 3-D curve ``row`` to project it
+    (``ShapeConstruct_ProjectCurveOnSurface::Perform``), at most: 23, or, on
+    a B-spline (or a trimmed curve on one), (degree + 1) per knot interval
+    that meets the edge's range, rounded up to 23 + 22k.  Every interval is
+    counted: the ranges are not all known before the nets are decoded
+    (``decode.resolve_ranges``), and the corpus's edges mostly run over
+    their whole curve.  Each point is one inversion onto the surface: a
+    Newton step from the point before, or a search over the whole surface
+    where that fails."""
+    g = table[row] if 0 <= row < len(table) else None
+    for _ in range(len(table)):  # a chain of trimmed rows ends at its basis
+        if not (isinstance(g, Derived) and g.kind == Kind.TRIMMED_CURVE):
+            break
+        g = table[g.basis] if 0 <= g.basis < len(table) else None
+    if not isinstance(g, BSplineCurve) or g.bezier:
+        return SAMPLES
+    need = (len(g.knots) - 1) * (g.degree + 1)
+    steps = max(0, -(-(need - SAMPLES) // (SAMPLES - 1)))
+    return SAMPLES + (SAMPLES - 1) * steps
+
+
+def edge_samples(m: BRepModel, edges: set[int]) -> dict[int, int]:
+    """:func:`curve_samples` for the 3-D curve of each edge of ``edges`` (its
+    first 3-D curve representation, the one ``BRep_Tool::Curve`` gives), and
+    ``SAMPLES`` for an edge without one."""
+    out = dict.fromkeys(edges, SAMPLES)
+    seen: set[int] = set()
+    reps = m.edge_reps
+    for e, c in reps[reps[:, 1] == RepKind.CURVE3D][:, [0, 2]].tolist():
+        if e in out and e not in seen and c >= 0:
+            seen.add(e)
+            out[e] = curve_samples(m.curves3d, c)
+    return out
+
+
+def projections(m: BRepModel, work: list[int] | None = None) -> list[tuple[int, int, int]]:
+    """What ``occ.topology.rebuild_pcurves`` projects: per edge representation
+    whose pcurve is left out (in row order), its row, the faces with its
+    surface row and location (it is projected onto each), and its work
+    (``Limits.projection``): those faces times the surface's ``work`` per
+    point (per surface row, as :func:`_table` gives it) times the points
+    sampled on the edge's 3-D curve (:func:`curve_samples`).  Rows that no
+    face takes are left out."""
     if work is None:
-        work = _table(m.surfaces).work
+        work = _table(m.surfaces, m.curves3d).work
     faces = Counter(zip(m.face_surface.tolist(), m.face_loc.tolist()))
     reps = m.edge_reps
-    todo = reps[(reps[:, 1] != RepKind.CURVE3D) & (reps[:, 2] == REBUILD)]
-    count = total = 0
-    for s, loc in todo[:, [4, 6]].tolist():
+    rows = np.flatnonzero((reps[:, 1] != RepKind.CURVE3D) & (reps[:, 2] == REBUILD)).tolist()
+    todo = reps[rows][:, [0, 4, 6]].tolist()
+    samples = edge_samples(m, {e for e, _, _ in todo})
+    out = []
+    for q, (e, s, loc) in zip(rows, todo):
         n = faces.get((s, loc), 0)
         if n and 0 <= s < len(work):
-            count += n
-            total = min(total + n * work[s], CAP)
+            out.append((q, n, min(n * work[s] * samples[e], CAP)))
+    return out
+
+
+def pcurves_to_compute(m: BRepModel, work: list[int] | None = None) -> tuple[int, int]:
+    """The number of projections (:func:`projections`) and their work."""
+    count = total = 0
+    for _, n, w in projections(m, work):
+        count += n
+        total = min(total + w, CAP)
     return count, total
 
 
@@ -363,7 +453,10 @@ def check_structure(m: BRepModel, limits: Limits = DEFAULT) -> Expansion:
         ("poles", "poles and knots"),
         ("bases", "levels of geometry on geometry (trimmed, offset bases)"),
         ("pcurves", "pcurves to compute"),
-        ("projection", "units of work projecting them (poles x degrees of their surfaces)"),
+        (
+            "projection",
+            "units of work projecting them (points x poles x degrees of their surfaces)",
+        ),
     ):
         if getattr(e, name) > getattr(limits, name):
             raise _refuse(getattr(e, name), what, getattr(limits, name))

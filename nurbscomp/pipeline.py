@@ -30,6 +30,7 @@ from .decode import model_to_sections, sections_to_model
 from .errors import (
     CorruptError,
     InputError,
+    LimitError,
     NoBRepError,
     NurbscompError,
     OutputError,
@@ -233,10 +234,11 @@ def decode(
 ) -> tuple[BRepModel, dict[str, Any]]:
     """The model and metadata a checked container holds.
 
-    ``limits`` is the decoding budget (``budget.check_structure``), and the
-    estimated size of a ``fmt`` output (the format about to be written,
-    ``budget.check_output``) if given; None skips it (``compress`` verifying
-    what it just wrote).
+    ``limits`` is the decoding budget (``budget.check_structure``, with the
+    projection work allowed for the container's size: ``Limits.sized``), and
+    the estimated size of a ``fmt`` output (the format about to be written,
+    ``budget.check_output``) if given; None skips it (a trusted container:
+    the structure fuzzer's seeds).
 
     Raises
     ------
@@ -254,6 +256,8 @@ def decode(
         passthrough.read(c)  # a FormatError if it is not a sound passthrough container
         raise InputError("a passthrough container holds a file verbatim, not a B-rep")
     serialize.check_layout(c.tags(), c.minor, container.MINOR)
+    if limits is not None:
+        limits = limits.sized(c.file_bytes)
     try:
         m, meta = sections_to_model(c.get, min(c.minor, container.MINOR), limits)
     except NurbscompError:
@@ -474,12 +478,20 @@ def verify_encoded(enc: Encoded, data: bytes) -> None:
     encoded: the same model bit for bit, product data, the certified bound,
     the topology counts.
 
+    The container is decoded within the default decoding budget
+    (``budget.DEFAULT``): the writer never leaves a reader more pcurves to
+    compute than it accepts (``encode.pcurves.drop_pcurves``).
+
     Raises
     ------
     VerifyError
-        Any difference (a bug).
+        Any difference (a bug), or a container past the default decoding
+        limits.
     """
-    back, _ = decode(container.unpack(data), limits=None)
+    try:
+        back, _ = decode(container.unpack(data), budget.DEFAULT)
+    except LimitError as e:
+        raise VerifyError(f"the container is past a reader's default limits: {e}") from None
     diff = differences(enc.target, back)
     if enc.target.product is not None and not (
         back.product is not None and back.product.same(enc.target.product)

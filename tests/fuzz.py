@@ -437,6 +437,16 @@ def huge_net(m: BRepModel, nu: int, nv: int, degree: int) -> None:
     m.surfaces = [g if x is old else x for x in m.surfaces]
 
 
+def plane_net(m: BRepModel, nu: int, nv: int, degree: int) -> None:
+    """:func:`huge_net`, its poles on a plane: an (i, j, 0) grid (small
+    integers: packs to a few KB), a surface with area, which
+    ``budget.check_projections`` lets through."""
+    huge_net(m, nu, nv, degree)
+    g = m.surfaces[0]
+    assert isinstance(g, BSplineSurface)
+    g.poles[:, :, 1] = np.arange(nv)[None, :]
+
+
 def computed_pcurves(m: BRepModel, faces: int) -> None:
     """Every pcurve left for the decoder to compute, and ``faces`` more faces
     on the surface of face 0 (each computed pcurve on it is projected on each)."""

@@ -15,6 +15,7 @@ from click.testing import CliRunner
 
 from nurbscomp import budget, container, entropy, joins, model, occ, pipeline, serialize
 from nurbscomp.cli import cli, show
+from nurbscomp.encode import pcurves
 from nurbscomp.errors import (
     BadReferenceError,
     CorruptError,
@@ -22,6 +23,7 @@ from nurbscomp.errors import (
     InputError,
     LimitError,
     SectionError,
+    VerifyError,
 )
 from nurbscomp.model import BRepModel, RepKind, ShapeType
 from nurbscomp.occ import files
@@ -274,6 +276,164 @@ def test_pcurves_onto_a_surface_with_no_area_are_refused(name: str, n: int, degr
     assert time.perf_counter() - t < 5
     if e.type is CorruptError:
         assert "no area" in str(e.value)
+
+
+def _knots(n: int, degree: int) -> tuple[np.ndarray, np.ndarray]:
+    mults = np.ones(n - degree + 1, np.int64)
+    mults[[0, -1]] = degree + 1
+    return np.linspace(0.0, 1.0, n - degree + 1), mults
+
+
+def _computed(face: object) -> bytes:
+    """A container of ``face`` (an OCP face) with every pcurve left to compute."""
+    m, _ = occ.shape_to_model(face)
+    reps = m.edge_reps
+    on = (reps[:, 1] == RepKind.ON_SURFACE) | (reps[:, 1] == RepKind.ON_CLOSED_SURFACE)
+    reps[on, 2] = model.REBUILD
+    reps[reps[:, 1] == RepKind.ON_CLOSED_SURFACE, 3] = model.REBUILD
+    m.edge_rep_range[on] = 0.0
+    m.edge_rep_uv[on] = 0.0
+    return fuzz.pack_model(m, _model()[1])
+
+
+def _net_face(n: int, degree: int) -> bytes:
+    """A face on an n x n planar net of ``degree``, bounded by its iso curves
+    (3-D curves on the surface), every pcurve left to compute."""
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeFace
+    from OCP.Geom import Geom_BSplineSurface
+
+    from nurbscomp.occ import geometry
+
+    k, mults = _knots(n, degree)
+    poles = np.zeros((n, n, 3))
+    poles[:, :, 0] = np.arange(n)[:, None]
+    poles[:, :, 1] = np.arange(n)[None, :]
+    surf = Geom_BSplineSurface(
+        geometry._tcol_points2(poles),
+        geometry._tcol_reals(k),
+        geometry._tcol_reals(k),
+        geometry._tcol_ints(mults),
+        geometry._tcol_ints(mults),
+        degree,
+        degree,
+        False,
+        False,
+    )
+    return _computed(BRepBuilderAPI_MakeFace(surf, 0.0, 1.0, 0.0, 1.0, 1e-7).Face())
+
+
+def _revolution_face(n: int, degree: int) -> bytes:
+    """A face on the surface of revolution of an n-pole zigzag curve of ``degree``."""
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeFace
+    from OCP.Geom import Geom_BSplineCurve, Geom_SurfaceOfRevolution
+    from OCP.gp import gp_Ax1, gp_Dir, gp_Pnt
+
+    from nurbscomp.occ import geometry
+
+    k, mults = _knots(n, degree)
+    poles = np.zeros((n, 3))
+    poles[:, 0] = np.arange(n)
+    poles[:, 1] = 20.0 + 5.0 * (np.arange(n) % 2)
+    curve = Geom_BSplineCurve(
+        geometry._tcol_points1(poles),
+        geometry._tcol_reals(k),
+        geometry._tcol_ints(mults),
+        degree,
+        False,
+    )
+    surf = Geom_SurfaceOfRevolution(curve, gp_Ax1(gp_Pnt(0, 0, 0), gp_Dir(1, 0, 0)))
+    return _computed(BRepBuilderAPI_MakeFace(surf, 0.0, 1.0, 0.0, 3.0, 1e-7).Face())
+
+
+def test_projections_off_their_surface_are_refused(tmp_path: Path) -> None:
+    """A 100 x 100 planar net of degree 9 with the loft's edges to project onto
+    it, off the surface (OCCT: 9.7 s; 1 million units a point, 23 points or
+    more an edge) is refused before OCCT builds anything; a 30 x 30 cubic one
+    (0.1 s) is not."""
+    m, meta = _model()
+    fuzz.plane_net(m, 100, 100, 9)
+    fuzz.computed_pcurves(m, 1)
+    data = fuzz.pack_model(m, meta)
+    assert len(data) < 10_000
+    with pytest.raises(LimitError, match="units of work projecting"):
+        _decode(data)
+    assert "units of work projecting" in _cli_one_line(tmp_path, data, "test")
+    m, meta = _model()
+    fuzz.plane_net(m, 30, 30, 3)
+    fuzz.computed_pcurves(m, 1)
+    e = budget.expansion(_decode(fuzz.pack_model(m, meta)))
+    assert 0 < e.projection < budget.DEFAULT.projection
+
+
+@pytest.mark.parametrize(
+    ("make", "n", "degree"),
+    [(_net_face, 100, 9), (_net_face, 100, 25), (_revolution_face, 60, 9)],
+    ids=["net-100-9", "net-100-25", "revolution-60-9"],
+)
+def test_projections_onto_their_surface_are_bounded(make, n: int, degree: int) -> None:
+    """Edges that lie on their surface, pcurves to compute: OCCT took 1.5 s
+    (100 x 100, degree 9), 31 s (degree 25) and 25 s (a revolution of a
+    60-pole curve of degree 9, counted as 64 units before) for the four;
+    each container is under 10 KB and refused before anything is built."""
+    data = make(n, degree)
+    assert len(data) < 10_000
+    with pytest.raises(LimitError, match="units of work projecting"):
+        _decode(data)
+    # within limits raised for a trusted file: decoded (not built here)
+    m = pipeline.decode(container.unpack(data), budget.DEFAULT.scaled(1e4))[0]
+    assert budget.expansion(m).pcurves == 4
+
+
+def test_projection_work_grows_with_the_container() -> None:
+    """Past the floor, a container's bytes buy ``projection_ratio`` units each."""
+    lim = budget.DEFAULT
+    assert lim.sized(1_000).projection == lim.projection
+    assert lim.sized(100_000).projection == 100_000 * lim.projection_ratio
+    assert lim.scaled(2).sized(100_000).projection == 200_000 * lim.projection_ratio
+    assert lim.sized(100_000).pcurves == lim.pcurves
+
+
+def test_the_writer_stays_within_the_default_budget(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """With the default projection limit at half of what the loft's container
+    leaves to compute, compress keeps the costliest pcurves and verifies its
+    container with those limits (without ``drop_pcurves``'s budget, verify
+    refuses it)."""
+    src = SAMPLES / "loft.step"
+    pipeline.compress_file(src, tmp_path / "a.nzc", tol=0.01)
+    full = budget.expansion(_decode((tmp_path / "a.nzc").read_bytes()))
+    assert full.projection > 0
+    small = dataclasses.replace(budget.DEFAULT, projection=full.projection // 2, projection_ratio=0)
+    monkeypatch.setattr(budget, "DEFAULT", small)
+    pipeline.compress_file(src, tmp_path / "b.nzc", tol=0.01)
+    c = container.unpack((tmp_path / "b.nzc").read_bytes())
+    half = budget.expansion(pipeline.decode(c, small)[0])
+    assert 0 < half.projection <= small.projection
+    assert half.pcurves < full.pcurves
+    monkeypatch.setattr(pcurves, "_within_budget", lambda m, reps, limits: [])
+    with pytest.raises(VerifyError, match="default limits"):
+        pipeline.compress_file(src, tmp_path / "c.nzc", tol=0.01)
+
+
+def test_curve_samples_follow_occt() -> None:
+    """23 points, or (degree + 1) per knot interval (OCCT counts those within
+    the edge's range), rounded up to 23 + 22 k
+    (ShapeConstruct_ProjectCurveOnSurface::Perform)."""
+
+    def curve(n: int, degree: int, bezier: bool = False) -> model.BSplineCurve:
+        k, mults = _knots(n, degree)
+        return model.BSplineCurve(np.zeros((n, 3)), None, k, mults, degree, False, bezier)
+
+    assert budget.curve_samples([curve(4, 3)], 0) == 23
+    assert budget.curve_samples([curve(8, 3)], 0) == 23  # 5 intervals x 4 = 20
+    assert budget.curve_samples([curve(9, 3)], 0) == 45  # 24 points
+    assert budget.curve_samples([curve(100, 9)], 0) == 925  # 910
+    assert budget.curve_samples([curve(100, 9, True)], 0) == 23  # a Bezier curve
+    line = model.Analytic(model.Kind.LINE, np.zeros((2, 3)), np.zeros(0))
+    assert budget.curve_samples([line], 0) == 23
+    trimmed = model.Derived(model.Kind.TRIMMED_CURVE, 0, np.zeros((0, 3)), np.array([0.0, 1.0]))
+    assert budget.curve_samples([curve(100, 9), trimmed], 1) == 925
 
 
 def test_a_singular_location_to_a_negative_power_is_refused() -> None:

@@ -30,16 +30,24 @@ from ..model import (
 from ..serialize import SWEPT
 
 
-def drop_pcurves(m: BRepModel, keep_edges: set[int], keep_faces: set[int]) -> BRepModel:
+def drop_pcurves(
+    m: BRepModel,
+    keep_edges: set[int],
+    keep_faces: set[int],
+    limits: budget.Limits | None = None,
+) -> BRepModel:
     """A copy of ``m`` whose pcurves are left for the decoder to compute, where it can.
 
     A pcurve is dropped (its curve index set to ``REBUILD``) when its edge is
     not degenerated, has a 3-D curve, is not in ``keep_edges``, every face
     on its surface is outside ``keep_faces``, and the surface has an area
     (a reader refuses to project onto one whose poles lie on one line:
-    ``budget.degenerate_rows``).  Pcurves no longer referenced
-    leave the 2-D curve table.  The caller checks the rebuilt B-rep and keeps
-    what fails (:func:`nurbscomp.pipeline.compress_file`).
+    ``budget.degenerate_rows``); and as long as what is dropped stays within
+    the pcurves and projection work a reader computes whatever the
+    container's size (``limits``, default ``budget.DEFAULT``: the costliest
+    projections are kept first, :func:`_within_budget`).  Pcurves no longer
+    referenced leave the 2-D curve table.  The caller checks the rebuilt
+    B-rep and keeps what fails (:func:`nurbscomp.pipeline.compress_file`).
     """
     reps = m.edge_reps.copy()
     kind = reps[:, 1]
@@ -62,12 +70,35 @@ def drop_pcurves(m: BRepModel, keep_edges: set[int], keep_faces: set[int]) -> BR
         reps[q, 2] = REBUILD
         if kind[q] == RepKind.ON_CLOSED_SURFACE:
             reps[q, 3] = REBUILD
+    for q in _within_budget(m, reps, limits or budget.DEFAULT):
+        reps[q, 2:4] = m.edge_reps[q, 2:4]
     out: Any = replace(m)
     out.edge_reps = reps
     dropped = reps[:, 2] == REBUILD
     out.edge_rep_range = np.where(dropped[:, None], 0.0, m.edge_rep_range)
     out.edge_rep_uv = np.where(dropped[:, None], 0.0, m.edge_rep_uv)
     return prune_curves2d(out)
+
+
+def _within_budget(m: BRepModel, reps: np.ndarray, limits: budget.Limits) -> list[int]:
+    """Rows of ``reps`` (``m``'s representations, some left to compute) that
+    must be stored after all so that the rest stays within ``limits.pcurves``
+    and ``limits.projection`` (the floor, which a reader allows whatever the
+    container's size; counted as ``budget.pcurves_to_compute`` does): the
+    costliest first, then by row."""
+    cand: Any = replace(m)
+    cand.edge_reps = reps
+    todo = budget.projections(cand)
+    count = sum(n for _, n, _ in todo)
+    total = sum(w for _, _, w in todo)
+    keep = []
+    for q, n, w in sorted(todo, key=lambda x: (-x[2], x[0])):
+        if count <= limits.pcurves and total <= limits.projection:
+            break
+        keep.append(q)
+        count -= n
+        total -= w
+    return keep
 
 
 def prune_curves2d(m: BRepModel) -> BRepModel:
