@@ -30,7 +30,6 @@ from .decode import model_to_sections, sections_to_model
 from .errors import (
     CorruptError,
     InputError,
-    LimitError,
     NoBRepError,
     NurbscompError,
     OutputError,
@@ -478,20 +477,26 @@ def verify_encoded(enc: Encoded, data: bytes) -> None:
     encoded: the same model bit for bit, product data, the certified bound,
     the topology counts.
 
-    The container is decoded within the default decoding budget
-    (``budget.DEFAULT``): the writer never leaves a reader more pcurves to
-    compute than it accepts (``encode.pcurves.drop_pcurves``).
+    The pcurves the container leaves to compute must be within the default
+    limits whatever its size (``budget.DEFAULT.pcurves`` and ``.projection``):
+    how many it leaves is the writer's choice (``encode.pcurves.drop_pcurves``).
+    The other limits measure the source itself (its references, poles, output
+    size): a container of a large model may need ``--limit-scale`` to decode,
+    and is not refused here.
 
     Raises
     ------
     VerifyError
-        Any difference (a bug), or a container past the default decoding
-        limits.
+        Any difference (a bug), or more pcurves to compute than the default
+        limits allow.
     """
-    try:
-        back, _ = decode(container.unpack(data), budget.DEFAULT)
-    except LimitError as e:
-        raise VerifyError(f"the container is past a reader's default limits: {e}") from None
+    back, _ = decode(container.unpack(data), limits=None)
+    count, work = budget.pcurves_to_compute(back)
+    if count > budget.DEFAULT.pcurves or work > budget.DEFAULT.projection:
+        raise VerifyError(
+            f"the container leaves {count:,} pcurves ({work:,} units of work) to compute, "
+            "past a reader's default limits"
+        )
     diff = differences(enc.target, back)
     if enc.target.product is not None and not (
         back.product is not None and back.product.same(enc.target.product)
