@@ -60,9 +60,10 @@ fuzz: install
 	$(PY) -m tests.fuzz --cases $(FUZZ_CASES) --seed $(FUZZ_SEED)
 	$(PY) -m tests.fuzz --structure --cases $(FUZZ_CASES) --seed $(FUZZ_SEED)
 
-# The stress corpus (issue 10): ~210 generated shapes (fillets, shells, lofts,
+# The stress corpus (issue 10): ~230 generated shapes (fillets, shells, lofts,
 # sweeps, periodic, rational and degenerate B-spline faces, trimmed faces with
-# holes, instances, sewn shells, analytic faces) written as STEP, IGES BRep and
+# holes, instances, sewn shells, analytic faces, booleans, thick and offset
+# solids, NURBS-converted solids) written as STEP, IGES BRep and
 # IGES faces, each compressed at 0.001, 0.01 and 0.1 mm, decoded and checked
 # (no crash, same counts, within tol, valid, no new free edges).  Minutes; not
 # part of `make test` (tests/test_stress.py is the short run).  STRESS_ARGS=

@@ -44,6 +44,7 @@ def test_answers_come_from_the_child() -> None:
 
 
 def test_a_crash_is_reported_not_shared() -> None:
+    assert occ.isolated.can_fork()  # Linux: in a child, or this test would crash
     with occ.RoundTrip(_crash) as r:
         with pytest.raises(occ.ReaderCrash, match="SIGSEGV"):
             r.ask(occ.counts)
@@ -54,17 +55,26 @@ def test_a_crash_is_reported_not_shared() -> None:
         r.ask(occ.counts)
 
 
-def test_with_threads_it_runs_here() -> None:
+def test_other_threads_do_not_stop_the_fork() -> None:
+    """A progress bar's thread is running (as ``compress`` in a terminal has):
+    the round trip is still made, and crashes, in a child."""
     done = threading.Event()
-    t = threading.Thread(target=done.wait)
+    t = threading.Thread(target=done.wait, daemon=True)
     t.start()
     try:
-        assert not occ.isolated.can_fork()
         with occ.RoundTrip(lambda: None) as r:
-            assert r.ask(_pid) == os.getpid()
+            assert r.ask(_pid) != os.getpid()
+        with occ.RoundTrip(_crash) as r, pytest.raises(occ.ReaderCrash):
+            r.ask(occ.counts)
     finally:
         done.set()
         t.join()
+
+
+def test_without_fork_it_runs_here(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(occ.isolated, "can_fork", lambda: False)
+    with occ.RoundTrip(lambda: None) as r:
+        assert r.ask(_pid) == os.getpid()
 
 
 def test_compress_survives_a_reader_that_crashes(

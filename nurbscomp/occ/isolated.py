@@ -13,9 +13,14 @@ shape, and answers what the check asks of it (counts, validity, faulty faces,
 face signatures).  If the child dies, :class:`ReaderCrash` says so, and the
 check counts the candidate as one OCCT's reader cannot take.
 
-A process with other threads is not forked (a fork copies only the calling
-thread, and a lock another thread holds would stay held in the child): there
-the round trip runs in this process, as it did before, unguarded.
+The child is forked even when other threads run (a progress bar's, a
+thread pool's): a fork copies only the calling thread, and a lock another
+thread holds stays held in the child, but the child takes none of theirs.
+It runs OCCT, pickle and a socket; OCP holds the GIL through every OCCT call,
+so no other thread is inside OCCT (holding its mutexes) when this one forks;
+the GIL, the import lock and malloc's are reset in a child by Python and
+glibc.  Where there is no ``fork`` (Windows) or it is unsafe (macOS), the
+round trip runs in this process, unguarded.
 """
 
 from __future__ import annotations
@@ -27,7 +32,8 @@ import pickle
 import signal
 import socket
 import struct
-import threading
+import sys
+import warnings
 from collections.abc import Callable
 from typing import Any
 
@@ -62,8 +68,8 @@ def _recv_exactly(sock: socket.socket, n: int) -> bytes:
 
 
 def can_fork() -> bool:
-    """Whether a round trip may run in a forked child here (POSIX, one thread)."""
-    return hasattr(os, "fork") and threading.active_count() == 1
+    """Whether a round trip runs in a forked child here (POSIX but macOS)."""
+    return hasattr(os, "fork") and sys.platform != "darwin"
 
 
 class RoundTrip:
@@ -98,7 +104,9 @@ class RoundTrip:
         gc.freeze()  # the child's collections leave the parent's objects (and pages) alone
         pid = -1
         try:
-            pid = os.fork()
+            with warnings.catch_warnings():  # 3.12+: "multi-threaded, fork() may deadlock"
+                warnings.simplefilter("ignore", DeprecationWarning)
+                pid = os.fork()
         finally:
             if pid != 0:
                 gc.unfreeze()
