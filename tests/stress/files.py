@@ -11,7 +11,8 @@ Each shape gives three files, named after its entry:
 The STEP header's time stamp and the IGES dates are fixed and products are
 named after the entry, so the same shape gives the same bytes.
 
-``python -m tests.stress.files DIR [--only S] [--seed N]`` writes them all.
+``python -m tests.stress.files DIR [--only S,...] [--seed N] [--together]`` writes
+them all (``--together``: as one model, side by side).
 """
 
 from __future__ import annotations
@@ -142,16 +143,53 @@ def write_all(
     return paths
 
 
+def side_by_side(items: Iterable[Entry], errors: list[tuple[str, str]]) -> Any:
+    """One compound of the shapes of ``items``, ten to a row 60 mm apart (their
+    geometry moved, not located): a large model, the way an IGES surface
+    model or a STEP file of many bodies holds them.  A shape that fails to
+    build is left out and named in ``errors``."""
+    from OCP.BRep import BRep_Builder
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_Transform
+    from OCP.gp import gp_Trsf, gp_Vec
+    from OCP.TopoDS import TopoDS_Compound
+
+    b, out = BRep_Builder(), TopoDS_Compound()
+    b.MakeCompound(out)
+    for i, e in enumerate(items):
+        try:
+            shape = e.build()
+        except Exception as exc:
+            errors.append((e.name, f"{type(exc).__name__}: {exc}"))
+            continue
+        move = gp_Trsf()
+        move.SetTranslation(gp_Vec(60.0 * (i % 10), 60.0 * (i // 10), 0.0))
+        b.Add(out, BRepBuilderAPI_Transform(shape, move, True).Shape())
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description="Write the stress corpus to STEP and IGES files.")
     ap.add_argument("folder")
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--only", default="", help="only entries whose name contains this")
+    ap.add_argument(
+        "--only", default="", help="only entries whose name contains one of these (a,b,...)"
+    )
+    ap.add_argument(
+        "--together",
+        action="store_true",
+        help="one model of every shape asked for, side by side 60 mm apart (files together.*)",
+    )
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
-    items = [e for e in shapes_mod.entries(args.seed) if args.only in e.name]
+    parts = args.only.split(",")
+    items = [e for e in shapes_mod.entries(args.seed) if any(p in e.name for p in parts)]
     errors: list[tuple[str, str]] = []
-    paths = write_all(args.folder, items, errors=errors)
+    if args.together:
+        whole = side_by_side(items, errors)
+        Path(args.folder).mkdir(parents=True, exist_ok=True)
+        paths = write_entry(Entry("together", "together", lambda: whole, ""), args.folder)
+    else:
+        paths = write_all(args.folder, items, errors=errors)
     for name, msg in errors:
         print(f"error: {name}: {msg}")
     size = sum(p.stat().st_size for p in paths)
