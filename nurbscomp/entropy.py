@@ -24,7 +24,7 @@ on bodies over :data:`QUICK_MAX`: the LZMA settings are ranked on a sample of
 the body (:func:`_sample`), and zstd and brotli are not tried.  A lossless
 body is mostly exact doubles, where the coders differ least, and lossless is
 the mode meant to be fast: on the corpus's 11 lossless containers the stage
-went from 4.4 s to 1.2 s (wall) for +1,304 bytes (0.12%).
+went from 4.4 s to 1.6 s (wall, one process) for 3 bytes more in all.
 """
 
 from __future__ import annotations
@@ -133,7 +133,7 @@ def _jobs(
             else:
                 tunings = _lzma_rank(_sample(raw) if quick else raw)[:LZMA_FINALISTS]
             out += [(c, t) for t in tunings]
-        elif len(coders) == 1 or not quick and (c != Coder.BROTLI or len(raw) <= BROTLI_MAX):
+        elif len(coders) == 1 or (not quick and (c != Coder.BROTLI or len(raw) <= BROTLI_MAX)):
             out.append((c, None))
     return out
 

@@ -236,8 +236,9 @@ def decode(
     ``limits`` is the decoding budget (``budget.check_structure``, with the
     projection work allowed for the container's size: ``Limits.sized``), and
     the estimated size of a ``fmt`` output (the format about to be written,
-    ``budget.check_output``) if given; None skips it (a trusted container:
-    the structure fuzzer's seeds).
+    ``budget.check_output``) if given; None skips it (a container compress has
+    just written, whose own checks :func:`verify_encoded` makes; the structure
+    fuzzer's seeds).
 
     Raises
     ------

@@ -30,12 +30,7 @@ from ..model import (
 from ..serialize import SWEPT
 
 
-def drop_pcurves(
-    m: BRepModel,
-    keep_edges: set[int],
-    keep_faces: set[int],
-    limits: budget.Limits | None = None,
-) -> BRepModel:
+def drop_pcurves(m: BRepModel, keep_edges: set[int], keep_faces: set[int]) -> BRepModel:
     """A copy of ``m`` whose pcurves are left for the decoder to compute, where it can.
 
     A pcurve is dropped (its curve index set to ``REBUILD``) when its edge is
@@ -44,7 +39,7 @@ def drop_pcurves(
     (a reader refuses to project onto one whose poles lie on one line:
     ``budget.degenerate_rows``); and as long as what is dropped stays within
     the pcurves and projection work a reader computes whatever the
-    container's size (``limits``, default ``budget.DEFAULT``: the costliest
+    container's size (``budget.DEFAULT``'s floors: the costliest
     projections are kept first, :func:`_within_budget`).  Pcurves no longer
     referenced leave the 2-D curve table.  The caller checks the rebuilt
     B-rep and keeps what fails (:func:`nurbscomp.pipeline.compress_file`).
@@ -70,7 +65,7 @@ def drop_pcurves(
         reps[q, 2] = REBUILD
         if kind[q] == RepKind.ON_CLOSED_SURFACE:
             reps[q, 3] = REBUILD
-    for q in _within_budget(m, reps, limits or budget.DEFAULT):
+    for q in _within_budget(m, reps, budget.DEFAULT):
         reps[q, 2:4] = m.edge_reps[q, 2:4]
     out: Any = replace(m)
     out.edge_reps = reps

@@ -34,9 +34,10 @@ face kept exact is counted in :class:`ValidityReport` with its reason.
 from __future__ import annotations
 
 import collections
+import contextlib
 import functools
 import logging
-from collections.abc import Set
+from collections.abc import Iterable, Set
 from dataclasses import dataclass, field
 from enum import IntEnum
 from typing import Any, cast
@@ -159,6 +160,7 @@ class _Floor:
         self.source, self.unit, self.report = source, unit, report
         self.product = product  # the candidates are written as decompress writes them
         self.counts = occ.counts(source)
+        self._children = contextlib.ExitStack()  # the floor's round trip, once made
         self._floor: occ.RoundTrip | None = None
         self._signatures: dict[str, np.ndarray] = {}  # the source's and the floor's
         #: Why the floor cannot be had (OCCT's reader crashed on the source's
@@ -168,14 +170,14 @@ class _Floor:
     def _ask_floor(self, fn: Any) -> Any:
         if self._floor is None:
             source, unit = self.source, self.unit
-            self._floor = occ.RoundTrip(lambda: occ.step_round_trip(source, unit)).__enter__()
+            trip = occ.RoundTrip(lambda: occ.step_round_trip(source, unit))
+            self._floor = self._children.enter_context(trip)
             self.report.step_round_trips += 1
         return self._floor.ask(fn)
 
     def close(self) -> None:
-        if self._floor is not None:
-            self._floor.__exit__(None, None, None)
-            self._floor = None
+        self._children.close()
+        self._floor = None
 
     @functools.cached_property
     def floor_counts(self) -> dict[str, int]:
@@ -337,21 +339,26 @@ class _Plan:
         for e in new_e & self.keep_e:  # its curve, then its faces' surfaces, then vertices
             around = {self.faces_rec[f] for f in self.faces_of[e]}
             if self.edges_rec[e] in self.exact and around <= self.exact:
-                self.still_v |= {v for f in self.faces_of[e] for v in self.verts_of[f]}
-                self.as_read_e |= {g for f in self.faces_of[e] for g in self.edges_of[f]}
+                self.as_read(self.faces_of[e])
             if self.edges_rec[e] in self.exact:
                 self.make_exact(around, "brepcheck")
             self.make_exact({self.edges_rec[e]}, "brepcheck")
         for f in new_f & self.keep_f:  # its surface, then its edges' curves, then vertices
             curves = {self.edges_rec[e] for e in self.edges_of[f]}
             if self.faces_rec[f] in self.exact and curves <= self.exact:
-                self.still_v |= set(self.verts_of[f])
-                self.as_read_e |= set(self.edges_of[f])
+                self.as_read([f])
             if self.faces_rec[f] in self.exact:
                 self.make_exact(curves, "brepcheck")
             self.make_exact({self.faces_rec[f]}, "brepcheck")
         self.keep_e |= new_e
         self.keep_f |= new_f
+
+    def as_read(self, faces: Iterable[int]) -> None:
+        """The vertices of ``faces`` stay where they are, and their edges keep
+        the ranges they were read with (the BRepCheck ladder's last rung)."""
+        for f in faces:
+            self.still_v |= set(self.verts_of[f])
+            self.as_read_e |= set(self.edges_of[f])
 
     def step(self, blamed: set[int]) -> None:
         """One rung up for each blamed source face (or its neighbours when spent)."""
