@@ -21,10 +21,16 @@ size, and the total grew by 1,199 bytes (0.09%), 31 of them at 0.01 mm.
 
 A *quick* search (``thorough=False``, what ``--lossless`` asks for) does less
 on bodies over :data:`QUICK_MAX`: the LZMA settings are ranked on a sample of
-the body (:func:`_sample`), and zstd and brotli are not tried.  A lossless
-body is mostly exact doubles, where the coders differ least, and lossless is
-the mode meant to be fast: on the corpus's 11 lossless containers the stage
-went from 4.4 s to 1.6 s (wall, one process) for 3 bytes more in all.
+the body (:func:`_sample`), only the best one is run, at preset
+:data:`QUICK_PRESET` rather than 9e, and zstd and brotli are not tried.  A
+lossless body is mostly exact doubles, where the coders differ least, and
+lossless is the mode meant to be fast.  On the corpus's 11 lossless
+containers, ranking on samples took the stage from 4.4 s to 1.6 s (wall, one
+process) for 3 bytes more in all; one finalist at preset 6 instead of two at
+9e then took its CPU time from 1.78 s to 0.96 s for 1,315 bytes more in all
+(0.12%).  On these bodies preset 6 codes as small as 9e (one finalist each:
+1,058,108 against 1,058,304 bytes) in two thirds of the time; the second
+finalist is what the bytes paid for.
 """
 
 from __future__ import annotations
@@ -51,7 +57,8 @@ class Coder(IntEnum):
 
 #: Largest zstd window a reader accepts (level 19 uses 8 MiB at most).
 _ZSTD_MAX_WINDOW = 1 << 25
-_LZMA_FILTERS = [{"id": lzma.FILTER_LZMA2, "preset": 9 | lzma.PRESET_EXTREME}]
+_PRESET = 9 | lzma.PRESET_EXTREME
+_LZMA_FILTERS = [{"id": lzma.FILTER_LZMA2, "preset": _PRESET}]
 #: Literal-context settings (lc, lp, pb) the LZMA encoder tries besides the
 #: default (3, 0, 2), keeping the smallest stream.  An LZMA2 stream carries its
 #: settings in its chunk headers, so the decoder needs nothing more.  Binary
@@ -69,14 +76,18 @@ LZMA_TUNINGS = (
 )
 
 
-def _lzma_raw(raw: bytes, tuning: tuple[int, int, int] | None) -> bytes:
-    """One raw LZMA2 stream (preset 9e), with the default literal settings or ``tuning``."""
-    if tuning is None:
+def _lzma_raw(raw: bytes, tuning: tuple[int, int, int] | None, preset: int = _PRESET) -> bytes:
+    """One raw LZMA2 stream (``preset``, 9e by default), with the default literal
+    settings or ``tuning``.  Any preset decodes with :data:`_LZMA_FILTERS`: its
+    dictionary is no larger than 9e's."""
+    if tuning is None and preset == _PRESET:
         return lzma.compress(raw, format=lzma.FORMAT_RAW, filters=_LZMA_FILTERS)
     # the encoder needs no dictionary larger than its input (less memory to clear)
     size = min(1 << 26, max(1 << 16, 1 << max(len(raw) - 1, 1).bit_length()))
+    f = {"id": lzma.FILTER_LZMA2, "preset": preset, "dict_size": size}
+    if tuning is None:
+        return lzma.compress(raw, format=lzma.FORMAT_RAW, filters=[f])
     lc, lp, pb = tuning
-    f = {"id": lzma.FILTER_LZMA2, "preset": 9 | lzma.PRESET_EXTREME, "dict_size": size}
     f.update(lc=lc, lp=lp, pb=pb)
     return lzma.compress(raw, format=lzma.FORMAT_RAW, filters=[f])
 
@@ -89,6 +100,8 @@ BROTLI_MAX = 256 * 1024
 FULL_SEARCH_MAX = 16 * 1024
 #: A quick search treats bodies up to this size as a thorough one does.
 QUICK_MAX = 64 * 1024
+#: The LZMA preset of a quick search's one finalist.
+QUICK_PRESET = 6
 #: A quick search ranks the LZMA settings on this many pieces of the body ...
 SAMPLE_PIECES = 4
 #: ... of this many bytes each, evenly spaced.
@@ -116,34 +129,44 @@ def _lzma_rank(raw: bytes) -> list[tuple[int, int, int] | None]:
     return [t for _, _, t in sorted(sizes, key=lambda x: (x[0], x[1]))]
 
 
+def _quick(raw: bytes, thorough: bool) -> bool:
+    """Whether ``raw`` gets the quick search (module docstring)."""
+    return not thorough and len(raw) > QUICK_MAX
+
+
 def _jobs(
     coders: tuple[Coder, ...], raw: bytes, thorough: bool = True
 ) -> list[tuple[Coder, tuple[int, int, int] | None]]:
     """The streams tried on ``raw``: LZMA's finalists (every setting for a
     small body), zstd, and brotli on bodies up to :data:`BROTLI_MAX`; a quick
-    search on a body over :data:`QUICK_MAX` ranks on a sample and tries LZMA only
-    (module docstring)."""
+    search on a body over :data:`QUICK_MAX` ranks on a sample and tries one
+    LZMA stream only (module docstring)."""
     full = len(raw) <= FULL_SEARCH_MAX
-    quick = not thorough and len(raw) > QUICK_MAX
+    quick = _quick(raw, thorough)
     out: list[tuple[Coder, tuple[int, int, int] | None]] = []
     for c in coders:
         if c == Coder.LZMA:
             if full:
                 tunings = [None, *LZMA_TUNINGS]
+            elif quick:
+                tunings = _lzma_rank(_sample(raw))[:1]
             else:
-                tunings = _lzma_rank(_sample(raw) if quick else raw)[:LZMA_FINALISTS]
+                tunings = _lzma_rank(raw)[:LZMA_FINALISTS]
             out += [(c, t) for t in tunings]
         elif len(coders) == 1 or (not quick and (c != Coder.BROTLI or len(raw) <= BROTLI_MAX)):
             out.append((c, None))
     return out
 
 
-def _compress(coder: Coder, raw: bytes, tuning: tuple[int, int, int] | None = None) -> bytes:
-    """One coder's stream of ``raw`` (LZMA with the literal settings ``tuning``)."""
+def _compress(
+    coder: Coder, raw: bytes, tuning: tuple[int, int, int] | None = None, preset: int = _PRESET
+) -> bytes:
+    """One coder's stream of ``raw`` (LZMA with the literal settings ``tuning``
+    at ``preset``)."""
     if coder == Coder.STORED:
         return raw
     if coder == Coder.LZMA:
-        return _lzma_raw(raw, tuning)
+        return _lzma_raw(raw, tuning, preset)
     if coder == Coder.ZSTD:
         return zstandard.ZstdCompressor(level=19, write_content_size=False).compress(raw)
     return brotli.compress(raw, quality=11)
@@ -160,12 +183,13 @@ def compress(
     thread per core.
     """
     jobs = _jobs(coders, raw, thorough)
+    preset = QUICK_PRESET if _quick(raw, thorough) else _PRESET
     workers = max(1, min(len(jobs), os.cpu_count() or 1))
     if workers == 1 or len(raw) < 4096:
-        outs = [_compress(c, raw, t) for c, t in jobs]
+        outs = [_compress(c, raw, t, preset) for c, t in jobs]
     else:
         with ThreadPoolExecutor(workers) as pool:  # the slowest (brotli) first
-            outs = list(pool.map(lambda j: _compress(j[0], raw, j[1]), jobs[::-1]))[::-1]
+            outs = list(pool.map(lambda j: _compress(j[0], raw, j[1], preset), jobs[::-1]))[::-1]
     best = min(range(len(jobs)), key=lambda i: (len(outs[i]), jobs[i][0], i))
     return jobs[best][0], outs[best]
 

@@ -211,15 +211,15 @@ def test_large_bodies_try_fewer_streams() -> None:
 
 def test_quick_search_on_large_bodies() -> None:
     """A quick search (lossless mode) on a body over QUICK_MAX ranks the LZMA
-    settings on a sample and tries LZMA only; up to QUICK_MAX it is the
-    thorough search.  Both decode."""
+    settings on a sample and runs the best one only, at QUICK_PRESET; up to
+    QUICK_MAX it is the thorough search.  Both decode."""
     rng = __import__("numpy").random.default_rng(6)
     body = rng.integers(0, 16, 4 * entropy.QUICK_MAX, dtype="uint8").tobytes()
     sample = entropy._sample(body)
     assert len(sample) == entropy.SAMPLE_PIECES * entropy.SAMPLE_PIECE
     assert sample.startswith(body[: entropy.SAMPLE_PIECE]) and sample.endswith(body[-100:])
     quick = entropy._jobs(tuple(entropy.Coder), body, thorough=False)
-    assert [c for c, _ in quick] == [entropy.Coder.LZMA] * entropy.LZMA_FINALISTS
+    assert [c for c, _ in quick] == [entropy.Coder.LZMA]
     assert entropy.Coder.ZSTD in [c for c, _ in entropy._jobs(tuple(entropy.Coder), body)]
     mid = body[: entropy.QUICK_MAX]
     assert entropy._jobs(tuple(entropy.Coder), mid, thorough=False) == entropy._jobs(
@@ -227,6 +227,10 @@ def test_quick_search_on_large_bodies() -> None:
     )
     coder, out = entropy.compress(body, thorough=False)
     assert coder == entropy.Coder.LZMA and entropy.decompress(coder, out, len(body)) == body
+    # the quick stream is the preset-6 stream of the top-ranked settings
+    best = entropy._lzma_rank(sample)[0]
+    assert out == entropy._compress(entropy.Coder.LZMA, body, best, entropy.QUICK_PRESET)
+    assert out != entropy._compress(entropy.Coder.LZMA, body, best)
     assert (
         container.unpack(container.pack(SECTIONS, thorough=False)).sections
         == container.unpack(container.pack(SECTIONS)).sections
