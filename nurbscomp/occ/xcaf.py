@@ -431,9 +431,14 @@ def to_document(p: ProductData, shapes: list[Any]) -> Any:
             loc = place(i) or TopLoc_Location()
             labels[i] = st.AddComponent(labels[int(p.parent[i])], labels[int(p.ref[i])], loc)
         st.UpdateAssemblies()  # an assembly's shape exists from here on
+        subs: dict[tuple[int, Any], _SubShapes] = {}
         for i in np.flatnonzero(p.kind == SUBSHAPE).tolist():
-            sub = _sub_shape(p, i, shapes, labels[int(p.parent[i])])
-            labels[i] = st.AddSubShape(labels[int(p.parent[i])], sub or located(i))
+            part = labels[int(p.parent[i])]
+            kind = shapes[int(p.ref[i])].ShapeType()
+            if (int(p.parent[i]), kind) not in subs:
+                subs[int(p.parent[i]), kind] = _SubShapes(XCAFDoc_ShapeTool.GetShape_s(part), kind)
+            sub = subs[int(p.parent[i]), kind].find(p, i, shapes)
+            labels[i] = st.AddSubShape(part, sub or located(i))
     finally:
         XCAFDoc_ShapeTool.SetAutoNaming_s(auto)
     for i, lab in labels.items():
@@ -453,27 +458,43 @@ def to_document(p: ProductData, shapes: list[Any]) -> Any:
     return doc
 
 
-def _sub_shape(p: ProductData, i: int, shapes: list[Any], part: Any) -> Any:
-    """The sub-shape of ``part``'s shape that node ``i`` names: the one on the
-    node's ``SHAP`` row whose location has the node's placement (XDE needs the
-    very sub-shape, location included, not an equal copy); None if there is
-    none (XDE also takes a compound of sub-shapes, which is no sub-shape)."""
-    whole = XCAFDoc_ShapeTool.GetShape_s(part)
-    subs = TopTools_IndexedMapOfShape()
-    TopExp.MapShapes_s(whole, shapes[int(p.ref[i])].ShapeType(), subs)
-    key = shapes[int(p.ref[i])]
-    k = int(p.place[i])
-    want = None if k < 0 else p.placements[k].reshape(-1).tolist()
-    for j in range(1, subs.Extent() + 1):
-        s = subs.FindKey(j)
-        if not s.Located(TopLoc_Location()).IsSame(key):
-            continue
-        loc = s.Location()
-        if (want is None and loc.IsIdentity()) or (
-            want is not None and _trsf_rows(loc.Transformation()) == want
-        ):
-            return s.Oriented(_ORIENT[int(p.orient[i])])
-    return None
+class _SubShapes:
+    """The sub-shapes of one type in a part's shape, by the shape they locate.
+
+    Made once per part and type: looking each sub-shape node up by a scan of
+    all of them cost 0.13 s of a 0.18 s STEP write of featuretype (629 named
+    faces)."""
+
+    def __init__(self, whole: Any, kind: Any) -> None:
+        subs = TopTools_IndexedMapOfShape()
+        TopExp.MapShapes_s(whole, kind, subs)
+        plain = TopLoc_Location()
+        self._keys = TopTools_IndexedMapOfShape()  # the sub-shapes, unlocated
+        self._located: list[list[Any]] = []  # per key, its sub-shapes in map order
+        for j in range(1, subs.Extent() + 1):
+            s = subs.FindKey(j)
+            k = self._keys.Add(s.Located(plain))
+            if k > len(self._located):
+                self._located.append([])
+            self._located[k - 1].append(s)
+
+    def find(self, p: ProductData, i: int, shapes: list[Any]) -> Any:
+        """The sub-shape node ``i`` names: the one on the node's ``SHAP`` row
+        whose location has the node's placement (XDE needs the very
+        sub-shape, location included, not an equal copy); None if there is
+        none (XDE also takes a compound of sub-shapes, which is no sub-shape)."""
+        k = self._keys.FindIndex(shapes[int(p.ref[i])])
+        if k == 0:
+            return None
+        n = int(p.place[i])
+        want = None if n < 0 else p.placements[n].reshape(-1).tolist()
+        for s in self._located[k - 1]:
+            loc = s.Location()
+            if (want is None and loc.IsIdentity()) or (
+                want is not None and _trsf_rows(loc.Transformation()) == want
+            ):
+                return s.Oriented(_ORIENT[int(p.orient[i])])
+        return None
 
 
 def step_schema(header: dict[str, list[str]]) -> str:
