@@ -118,20 +118,23 @@ def range_kinds(m: BRepModel) -> np.ndarray:
     of3d = _range_of_3d(m)
     by_vertices = joins.vertex_ranges(m)
     out = np.full(len(reps), RANGE_STORED, np.int64)
-    for q in range(len(reps)):
-        if reps[q, 1] == RepKind.ON_TWO_SURFACES:
+    two, c3d = int(RepKind.ON_TWO_SURFACES), int(RepKind.CURVE3D)
+    words = bits.tolist()  # each range's two floats as integers, bit for bit
+    for q, (edge, kind) in enumerate(reps[:, :2].tolist()):
+        if kind == two:
             continue
-        if not bits[q].any():
+        mine = words[q]
+        if mine == [0, 0]:
             out[q] = RANGE_ZERO
             continue
         nat = _natural_range(_curve_of(m, q))
-        if nat is not None and (np.array(nat).view(np.int64) == bits[q]).all():
+        if nat is not None and np.array(nat).view(np.int64).tolist() == mine:
             out[q] = RANGE_NATURAL
             continue
-        r3 = of3d.get(int(reps[q, 0]))
-        if reps[q, 1] != RepKind.CURVE3D and r3 is not None and (bits[r3] == bits[q]).all():
+        r3 = of3d.get(edge)
+        if kind != c3d and r3 is not None and words[r3] == mine:
             out[q] = RANGE_OF_3D
-        elif q in by_vertices and (np.array(by_vertices[q]).view(np.int64) == bits[q]).all():
+        elif q in by_vertices and np.array(by_vertices[q]).view(np.int64).tolist() == mine:
             out[q] = RANGE_VERTICES
     return out
 

@@ -63,30 +63,32 @@ def curve_end_pins(
     if pinning would move a pole further than ``tol`` from the original.
     With ``tol`` None, the poles are not looked at (they may not be decoded yet).
     """
-    tidx = m.type_index()
-    edge_shapes = np.flatnonzero(m.shape_type == ShapeType.EDGE)
+    tidx = m.type_index().tolist()
+    edge_shapes = np.flatnonzero(m.shape_type == ShapeType.EDGE).tolist()
     out: dict[int, list[tuple[int, int]]] = {}
     reps = m.edge_reps
+    # plain lists and ints: numpy scalars and enum lookups cost more than the work here
+    start, child = m.child_start.tolist(), m.child_shape.tolist()
+    orient, cloc, stype = m.child_orient.tolist(), m.child_loc.tolist(), m.shape_type.tolist()
+    vertex = int(ShapeType.VERTEX)
     for q in np.flatnonzero(reps[:, 1] == RepKind.CURVE3D).tolist():
-        c = int(reps[q, 2])
-        if c not in coded_rows or c in out or reps[q, 6] != 0:
+        _, _, c, _, _, _, located = reps[q, :7].tolist()
+        if c not in coded_rows or c in out or located != 0:
             continue
         g = curves[c]
         if not isinstance(g, BSplineCurve) or not _clamped(g):
             continue
-        lo, hi = m.edge_rep_range[q]
-        first, last = (0.0, 1.0) if g.bezier else (g.knots[0], g.knots[-1])
+        lo, hi = m.edge_rep_range[q].tolist()
+        first, last = (0.0, 1.0) if g.bezier else (float(g.knots[0]), float(g.knots[-1]))
         if lo != first or hi != last:
             continue
-        s = int(edge_shapes[reps[q, 0]])
+        s = edge_shapes[reps[q, 0]]
         pins = []
-        for k in range(m.child_start[s], m.child_start[s + 1]):
-            o, v = int(m.child_orient[k]), int(m.child_shape[k])
-            if m.shape_type[v] != ShapeType.VERTEX or m.child_loc[k] != 0:
+        for k in range(start[s], start[s + 1]):
+            o, v = orient[k], child[k]
+            if stype[v] != vertex or cloc[k] != 0 or o not in (FORWARD, REVERSED):
                 continue
-            if o not in (FORWARD, REVERSED):
-                continue
-            i, row = (0 if o == FORWARD else len(g.poles) - 1), int(tidx[v])
+            i, row = (0 if o == FORWARD else len(g.poles) - 1), tidx[v]
             if tol is None or np.sqrt(((g.poles[i] - m.vertex_point[row]) ** 2).sum()) <= tol:
                 pins.append((i, row))
         if pins:

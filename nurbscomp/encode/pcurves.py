@@ -54,16 +54,18 @@ def drop_pcurves(m: BRepModel, keep_edges: set[int], keep_faces: set[int]) -> BR
         faces_on[key].append(f)
     degenerated = (m.edge_flags & 1).astype(bool)
     flat = budget.degenerate_rows(m.surfaces)
-    pc = (kind == RepKind.ON_SURFACE) | (kind == RepKind.ON_CLOSED_SURFACE)
+    closed = kind == RepKind.ON_CLOSED_SURFACE
+    pc = (kind == RepKind.ON_SURFACE) | closed
+    skip = degenerated | ~has3d
     for q in np.flatnonzero(pc).tolist():
-        e = int(reps[q, 0])
-        if degenerated[e] or not has3d[e] or e in keep_edges or flat[int(reps[q, 4])]:
+        e, _, _, _, surface, _, loc, _ = reps[q].tolist()
+        if skip[e] or e in keep_edges or flat[surface]:
             continue
-        on = faces_on.get((int(reps[q, 4]), int(reps[q, 6])), [])
+        on = faces_on.get((surface, loc), [])
         if not on or any(f in keep_faces for f in on):
             continue
         reps[q, 2] = REBUILD
-        if kind[q] == RepKind.ON_CLOSED_SURFACE:
+        if closed[q]:
             reps[q, 3] = REBUILD
     for q in _within_budget(m, reps, budget.DEFAULT):
         reps[q, 2:4] = m.edge_reps[q, 2:4]
@@ -136,13 +138,8 @@ def _mantissa_bits(x: np.ndarray) -> int:
     """Significant mantissa bits of float64 values, summed: how dear they are to store."""
     frac = x.astype(np.float64).view(np.uint64) & np.uint64((1 << 52) - 1)
     nz = frac[frac != 0]
-    trailing = np.zeros(len(nz), np.int64)
-    for _ in range(52):  # count trailing zero bits
-        even = (nz & np.uint64(1)) == 0
-        if not even.any():
-            break
-        trailing += even & (nz != 0)
-        nz = np.where(even, nz >> np.uint64(1), nz)
+    low = nz & (~nz + np.uint64(1))  # the lowest set bit: a power of two below 2**52
+    trailing = np.frexp(low.astype(np.float64))[1] - 1  # exact for powers of two
     return int((52 - trailing).sum())
 
 

@@ -79,6 +79,12 @@ _FLAG_NAMES = (
 )
 _ORIENT = [TopAbs_Orientation(i) for i in range(4)]
 _CONT = [GeomAbs_Shape(i) for i in range(7)]
+# plain ints for the builder's loops (an enum member looked up on its class
+# costs a Python call in 3.11, thousands of times a build)
+_VERTEX, _EDGE, _FACE = int(ShapeType.VERTEX), int(ShapeType.EDGE), int(ShapeType.FACE)
+_CURVE3D, _ON_SURFACE = int(RepKind.CURVE3D), int(RepKind.ON_SURFACE)
+_ON_CLOSED_SURFACE, _ON_TWO_SURFACES = int(RepKind.ON_CLOSED_SURFACE), int(RepKind.ON_TWO_SURFACES)
+_ON_CURVE, _ON_CURVE_ON_SURFACE = int(PointRepKind.ON_CURVE), int(PointRepKind.ON_CURVE_ON_SURFACE)
 
 
 def _flags(ts: Any) -> int:
@@ -192,11 +198,11 @@ class _Reader:
         """Append one TShape whose sub-shapes are in the table; its index."""
         ts = key.TShape()
         t = key.ShapeType().value
-        if t == ShapeType.VERTEX:
+        if t == _VERTEX:
             self._vertex(ts)
-        elif t == ShapeType.EDGE:
+        elif t == _EDGE:
             self._edge(ts)
-        elif t == ShapeType.FACE:
+        elif t == _FACE:
             self._face(ts)
         i = len(self.types)
         self.index_of[k] = i
@@ -387,15 +393,17 @@ def model_to_shape(m: BRepModel, cache: PcurveCache | None = None) -> Any:
             acc = acc.Multiplied(TopLoc_Location(datums[d]).Powered(p))
         locs.append(acc)
 
-    tidx = m.type_index()
+    tidx = m.type_index().tolist()
     vreps = _group(m.vertex_reps[:, 0], len(m.vertex_tol))
     pending: list[tuple[Any, int, int, bool, int]] = []
     ereps = _group(m.edge_reps[:, 0], len(m.edge_tol))
     built: list[Any] = []
+    start, child_shape = m.child_start.tolist(), m.child_shape.tolist()
+    child_orient, child_loc = m.child_orient.tolist(), m.child_loc.tolist()
     for s, t in enumerate(m.shape_type.tolist()):
-        k = int(tidx[s])
+        k = tidx[s]
         sh: TopoDS_Shape
-        if t == ShapeType.VERTEX:
+        if t == _VERTEX:
             sh = TopoDS_Vertex()
             b.MakeVertex(sh, gp_Pnt(*m.vertex_point[k]), float(m.vertex_tol[k]))
             tv = cast(BRep_TVertex, sh.TShape())  # TShape() returns the subclass at run time
@@ -404,15 +412,15 @@ def model_to_shape(m: BRepModel, cache: PcurveCache | None = None) -> Any:
             for q in vreps[k]:
                 _, kind, g, surf, loc = m.vertex_reps[q].tolist()
                 u, v = m.vertex_rep_params[q].tolist()
-                if kind == PointRepKind.ON_CURVE:
+                if kind == _ON_CURVE:
                     pts.Append(BRep_PointOnCurve(u, geo.curve3d(g), locs[loc]))
-                elif kind == PointRepKind.ON_CURVE_ON_SURFACE:
+                elif kind == _ON_CURVE_ON_SURFACE:
                     pts.Append(
                         BRep_PointOnCurveOnSurface(u, geo.curve2d(g), geo.surface(surf), locs[loc])
                     )
                 else:
                     pts.Append(BRep_PointOnSurface(u, v, geo.surface(surf), locs[loc]))
-        elif t == ShapeType.EDGE:
+        elif t == _EDGE:
             sh = TopoDS_Edge()
             b.MakeEdge(sh)
             te = cast(BRep_TEdge, sh.TShape())
@@ -423,19 +431,12 @@ def model_to_shape(m: BRepModel, cache: PcurveCache | None = None) -> Any:
             te.SameRange(bool(f & 4))
             curves = te.ChangeCurves()
             for q in ereps[k]:
-                if m.edge_reps[q, 2] == REBUILD:
-                    pending.append(
-                        (
-                            sh,
-                            int(m.edge_reps[q, 4]),
-                            int(m.edge_reps[q, 6]),
-                            m.edge_reps[q, 1] == RepKind.ON_CLOSED_SURFACE,
-                            k,
-                        )
-                    )
+                row = m.edge_reps[q].tolist()
+                if row[2] == REBUILD:
+                    pending.append((sh, row[4], row[6], row[1] == _ON_CLOSED_SURFACE, k))
                 else:
-                    curves.Append(_edge_rep(m, q, geo, locs))
-        elif t == ShapeType.FACE:
+                    curves.Append(_edge_rep(m, q, geo, locs, row))
+        elif t == _FACE:
             sh = TopoDS_Face()
             b.MakeFace(
                 sh, geo.surface(int(m.face_surface[k])), locs[m.face_loc[k]], float(m.face_tol[k])
@@ -447,12 +448,12 @@ def model_to_shape(m: BRepModel, cache: PcurveCache | None = None) -> Any:
             cls, maker = _MAKERS[ShapeType(t)]
             sh = cls()
             getattr(b, maker)(sh)
-        for c in range(m.child_start[s], m.child_start[s + 1]):
-            child = built[m.child_shape[c]]
-            b.Add(sh, child.Oriented(_ORIENT[m.child_orient[c]]).Located(locs[m.child_loc[c]]))
+        for c in range(start[s], start[s + 1]):
+            child = built[child_shape[c]]
+            b.Add(sh, child.Oriented(_ORIENT[child_orient[c]]).Located(locs[child_loc[c]]))
         built.append(sh)
     if pending:
-        faces = [sh for sh, t in zip(built, m.shape_type.tolist()) if t == ShapeType.FACE]
+        faces = [sh for sh, t in zip(built, m.shape_type.tolist()) if t == _FACE]
         rows = list(zip(m.face_surface.tolist(), m.face_loc.tolist()))
         keys = _PcurveKeys(m, ereps) if cache is not None else None
         rebuild_pcurves(pending, faces, rows, cache, keys)
@@ -654,7 +655,7 @@ class _PcurveKeys:
             out = []
             for q in self.ereps[k]:
                 _, kind, c, _, _, _, loc = self._reps[q]
-                if kind == RepKind.CURVE3D and c != REBUILD:
+                if kind == _CURVE3D and c != REBUILD:
                     rng = self._ranges[16 * q : 16 * q + 16]
                     out.append((self._record(Table.CURVE3D, c), self.location(loc), rng))
             got = self._edge[k] = tuple(out)
@@ -669,20 +670,23 @@ def _group(owner: np.ndarray, n: int) -> list[list[int]]:
     return out
 
 
-def _edge_rep(m: BRepModel, q: int, geo: GeometryBuilder, locs: list[Any]) -> Any:
-    _, kind, c1, c2, s1, s2, l1, l2 = m.edge_reps[q].tolist()
+def _edge_rep(
+    m: BRepModel, q: int, geo: GeometryBuilder, locs: list[Any], row: list[int] | None = None
+) -> Any:
+    """Representation ``q`` of ``m``'s edges (``row``: its ``edge_reps`` row, as a list)."""
+    _, kind, c1, c2, s1, s2, l1, l2 = m.edge_reps[q].tolist() if row is None else row
     first, last = m.edge_rep_range[q].tolist()
-    if kind == RepKind.CURVE3D:
+    if kind == _CURVE3D:
         c3d = BRep_Curve3D(geo.curve3d(c1), locs[l1])
         c3d.SetRange(first, last)
         return c3d
-    if kind == RepKind.ON_TWO_SURFACES:
+    if kind == _ON_TWO_SURFACES:
         return BRep_CurveOn2Surfaces(
             geo.surface(s1), geo.surface(s2), locs[l1], locs[l2], _CONT[m.edge_rep_cont[q]]
         )
     uv = m.edge_rep_uv[q].tolist()
     rep: BRep_CurveOnSurface
-    if kind == RepKind.ON_SURFACE:
+    if kind == _ON_SURFACE:
         rep = BRep_CurveOnSurface(geo.curve2d(c1), geo.surface(s1), locs[l1])
     else:
         rep = BRep_CurveOnClosedSurface(
