@@ -64,3 +64,30 @@ def test_iges_output_is_byte_identical(tmp_path: Path) -> None:
     _cli("decompress", "-q", str(src), "-o", str(b), seed="5")
     assert a.read_bytes() == b.read_bytes()
     assert b"15H19700101.000000" in a.read_bytes()
+
+
+def test_ap203_output_has_no_wall_clock(tmp_path: Path) -> None:
+    """OCCT's AP203 writer dates its approvals with the wall clock; decompress
+    writes the fixed time stamp instead, so the bytes do not depend on when."""
+    import cadquery as cq
+    from OCP.Interface import Interface_Static
+    from OCP.STEPControl import STEPControl_AsIs, STEPControl_Writer
+
+    src = tmp_path / "part.step"
+    old = Interface_Static.CVal_s("write.step.schema")
+    Interface_Static.SetCVal_s("write.step.schema", "AP203")
+    try:
+        w = STEPControl_Writer()
+        w.Transfer(cq.Workplane().box(1, 2, 3).val().wrapped, STEPControl_AsIs)
+        w.Write(str(src))
+    finally:
+        Interface_Static.SetCVal_s("write.step.schema", old)
+    text = src.read_text()
+    assert "CONFIG_CONTROL_DESIGN" in text and "CALENDAR_DATE(1970" not in text
+    nzc, out = tmp_path / "part.nzc", tmp_path / "back.step"
+    pipeline.compress_file(src, nzc, lossless=True)
+    pipeline.decompress_file(nzc, out)
+    back = out.read_text()
+    assert "CONFIG_CONTROL_DESIGN" in back
+    assert "CALENDAR_DATE(1970,1,1)" in back and "LOCAL_TIME(0," in back
+    assert "CALENDAR_DATE(2" not in back

@@ -22,7 +22,7 @@ from OCP.IFSelect import IFSelect_ReturnStatus
 from OCP.IGESControl import IGESControl_Reader, IGESControl_Writer
 from OCP.Interface import Interface_Static
 from OCP.Message import Message
-from OCP.StepBasic import StepBasic_Product
+from OCP.StepBasic import StepBasic_CalendarDate, StepBasic_LocalTime, StepBasic_Product
 from OCP.STEPControl import STEPControl_AsIs, STEPControl_Reader, STEPControl_Writer
 from OCP.StepRepr import StepRepr_NextAssemblyUsageOccurrence
 from OCP.TCollection import TCollection_HAsciiString
@@ -338,7 +338,7 @@ def fix_iges_dates(model: Any) -> None:
 
 def _name_products(model: Any, name: str) -> None:
     """Name the PRODUCTs of a STEP model after ``name`` (``name``, ``name 2`` …)
-    and number its assembly occurrences (:func:`number_occurrences`)."""
+    and settle the rest (:func:`settle_model`)."""
     products = 0
     for i in range(1, model.NbEntities() + 1):
         e = model.Value(i)
@@ -347,18 +347,32 @@ def _name_products(model: Any, name: str) -> None:
             label = TCollection_HAsciiString(name if products == 1 else f"{name} {products}")
             e.SetName(label)
             e.SetId(label)
-    number_occurrences(model)
+    settle_model(model)
 
 
-def number_occurrences(model: Any) -> None:
-    """Number a STEP model's assembly occurrences 1, 2 … in entity order:
-    OCCT's own ids count what was written before in the same process."""
+def settle_model(model: Any) -> None:
+    """Make a STEP model's bytes depend on nothing but the shape: number its
+    assembly occurrences 1, 2 … in entity order (OCCT's own ids count what
+    was written before in the same process), and date its dates and times
+    ``STEP_TIME_STAMP`` (OCCT's AP203 writer dates its approvals and
+    security classification with the wall clock)."""
     occurrences = 0
+    year, month, day = (int(x) for x in STEP_TIME_STAMP[:10].split("-"))
     for i in range(1, model.NbEntities() + 1):
         e = model.Value(i)
         if isinstance(e, StepRepr_NextAssemblyUsageOccurrence):
             occurrences += 1
             e.SetId(TCollection_HAsciiString(str(occurrences)))
+        elif isinstance(e, StepBasic_CalendarDate):
+            e.SetYearComponent(year)
+            e.SetMonthComponent(month)
+            e.SetDayComponent(day)
+        elif isinstance(e, StepBasic_LocalTime):
+            e.SetHourComponent(0)
+            if e.HasMinuteComponent():
+                e.SetMinuteComponent(0)
+            if e.HasSecondComponent():
+                e.SetSecondComponent(0.0)
 
 
 def bintools_bytes(shape: Any) -> bytes:

@@ -67,7 +67,7 @@ from .files import (
     STEP_TIME_STAMP,
     _check_readable,
     fix_iges_dates,
-    number_occurrences,
+    settle_model,
     sniff_format,
 )
 from .measure import faces as faces_of
@@ -570,7 +570,8 @@ def write(
         if not sw.Transfer(doc, STEPControl_AsIs):
             raise RebuildError("the STEP writer refused the product")
         model = sw.ChangeWriter().Model()
-        number_occurrences(model)
+        if schema == "AP203" or (p.kind == INSTANCE).any():  # dates, occurrences
+            settle_model(model)
         default = {
             "name": [name],
             "time_stamp": [STEP_TIME_STAMP],
