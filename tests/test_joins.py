@@ -214,8 +214,39 @@ def test_close_pairs_finds_what_the_tree_finds() -> None:
         assert want <= {tuple(p) for p in got.tolist()}
         for i, j in got.tolist():
             assert np.sqrt(((pts[i] - pts[j]) ** 2).sum()) <= r * (1 + 1e-8)
-    assert joins.close_pairs(np.zeros((300, 3)), 1.0) is None  # all in one place
+    # points in one place: swept while few (every pair), a tree's job beyond
+    assert len(joins.close_pairs(np.zeros((300, 3)), 1.0)) == 300 * 299 // 2
+    assert joins.close_pairs(np.zeros((joins._SWEEP_RUN + 2, 3)), 1.0) is None
     assert joins.close_pairs(np.array([[0.0, 0, 0], [np.nan, 0, 0]]), 1.0) is None
+
+
+def test_pairs_components_and_nearest_match_scipy() -> None:
+    """joins.within + first_of_components give scipy's connected components
+    (each labelled by its first point), and joins.nearest cKDTree's nearest
+    points (of duplicates, the first), on random clouds with duplicates and chains."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+
+    rng = np.random.default_rng(11)
+    for n, r in [(2, 0.5), (200, 0.04), (600, 0.03), (50, 0.0)]:
+        pts = rng.random((n, 3))
+        dup = pts[1::7].copy()  # exact duplicates
+        pts[: 7 * len(dup) : 7] = dup
+        pairs = cKDTree(pts).query_pairs(r, output_type="ndarray")
+        graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+        _, label = connected_components(graph, directed=False)
+        first = np.full(label.max() + 1, n)
+        np.minimum.at(first, label, np.arange(n))
+        got = joins.close_pairs(pts, r)
+        assert got is not None
+        assert joins.within(pts, got, r).tolist() == sorted(pairs.tolist())
+        assert joins.vertex_clusters(pts, r).tolist() == first[label].tolist()
+        queries = rng.random((97, 3))
+        d, i = joins.nearest(pts, queries)
+        dt, it = cKDTree(pts).query(queries)
+        assert np.allclose(d, dt, rtol=1e-12, atol=0)
+        assert (pts[i] == pts[it]).all() and (i <= it).all()  # ties: the first of equals
 
 
 def test_bspline_points_match_scipy() -> None:

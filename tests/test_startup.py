@@ -52,3 +52,24 @@ def test_help_and_version_import_no_ocp_nor_numpy(args: list[str]) -> None:
 def test_info_and_test_on_damaged_import_no_ocp(args: list[str]) -> None:
     names = imported(*args)
     assert "OCP" not in names and "scipy" not in names
+
+
+def test_compress_of_a_small_part_imports_no_scipy(tmp_path: Path) -> None:
+    """Compress finds close points, clusters and nearest faces with numpy
+    (``joins.close_pairs``, ``first_of_components``, ``nearest``): importing
+    scipy.spatial cost 0.2 s a process, more than OCCT's whole read of a
+    small file.  Faces-mode IGES (its faces' corners are separate vertices
+    at one place, which must be clustered) and STEP, with the STEP check."""
+    import cadquery as cq
+
+    from tests.stress import files
+
+    shape = cq.Workplane().box(4, 3, 2).edges().fillet(0.5).val().wrapped
+    for name, write in (
+        ("part.igs", lambda p: files.write_iges(shape, p, 0)),
+        ("part.step", lambda p: files.write_step(shape, p, "part")),
+    ):
+        src = tmp_path / name
+        write(src)
+        names = imported("compress", "-q", "--tol", "0.01", str(src), "-o", str(src) + ".nzc")
+        assert "OCP" in names and "scipy" not in names, name

@@ -505,15 +505,21 @@ def vertex_neighbours(m: BRepModel, tol: float) -> list[set[int]]:
 
     A STEP reader re-projecting the edges at a tiny edge (trj7: 23 nm long,
     between four faces) mends all four: two of them touch the others only
-    through a vertex of their own.
+    through a vertex of their own.  Pairs of vertices within tol merge their
+    faces in order (sorted pairs; a chain a-b, b-c gives a and c each other's
+    faces only as far as the order carries them).
     """
     around = faces_around(m, ShapeType.VERTEX)
     near = joins.close_pairs(m.vertex_point, tol)
-    if near is None or len(near):  # pairs to merge, in the tree's (set) order
+    if near is None:  # piled-up points: a k-d tree's pairs
         from scipy.spatial import cKDTree
 
-        for a, b in cKDTree(m.vertex_point).query_pairs(tol) if len(m.vertex_point) else ():
-            around[a] = around[b] = sorted({*around[a], *around[b]})
+        near = cKDTree(m.vertex_point).query_pairs(tol, output_type="ndarray")
+        near = near[np.lexsort((near[:, 1], near[:, 0]))] if len(near) else near
+    else:
+        near = joins.within(m.vertex_point, near, tol)
+    for a, b in near.tolist():  # pairs to merge, in order
+        around[a] = around[b] = sorted({*around[a], *around[b]})
     out: list[set[int]] = [set() for _ in range(len(m.face_surface))]
     for fs in around:
         for f in fs:
@@ -549,41 +555,42 @@ def step_losses(
     source face.  Every index returned is a source face's, in signature order
     (:meth:`_Floor.losses` maps it to the model's face).
     """
-    from scipy.spatial import cKDTree
+    nearest = joins.nearest
 
     if not len(src):
         return set()
     if not len(back):
         return set(range(len(src)))
     topo = slice(4, None)
-    to_src, to_back = cKDTree(src[:, 1:4]), cKDTree(back[:, 1:4])
     idx = np.arange(len(src))
     same_order = False
     if len(back) == len(src):
         # in order where face i of back is (one of) the nearest to source face i
-        near = to_src.query(back[:, 1:4])[0]
+        near = nearest(src[:, 1:4], back[:, 1:4])[0]
         here = np.sqrt(((back[:, 1:4] - src[:, 1:4]) ** 2).sum(-1))
         same_order = bool((here <= near + 3 * tol).mean() >= 0.9)
-    in_back = idx if same_order else to_back.query(src[:, 1:4])[1]
+    in_back = idx if same_order else nearest(back[:, 1:4], src[:, 1:4])[1]
     ok = (back[in_back, topo] == src[:, topo]).all(-1)
     floor_extra = np.zeros((0, back.shape[1]))
     if len(floor):
         if len(floor) == len(src) and same_order:  # the order holds there too
             in_floor = idx
         else:
-            in_floor = cKDTree(floor[:, 1:4]).query(src[:, 1:4])[1]
+            in_floor = nearest(floor[:, 1:4], src[:, 1:4])[1]
         ok |= (back[in_back, topo] == floor[in_floor, topo]).all(-1)
         floor_extra = floor[np.setdiff1d(np.arange(len(floor)), in_floor)]
     lost = {int(i) for i in np.flatnonzero(~ok)}
     source_of = {int(j): i for i, j in enumerate(in_back.tolist())}
 
     def source_face(j: int) -> int:
-        return source_of[j] if j in source_of else int(to_src.query(back[j, 1:4])[1])
+        if j in source_of:
+            return source_of[j]
+        return int(nearest(src[:, 1:4], back[j : j + 1, 1:4])[1][0])
 
     lost |= {source_face(j) for j in faulty if 0 <= j < len(back)}
     for j in np.setdiff1d(np.arange(len(back)), in_back).tolist():
         if len(floor_extra):
-            k = cKDTree(floor_extra[:, 1:4]).query(back[j, 1:4])[1]
+            k = int(nearest(floor_extra[:, 1:4], back[j : j + 1, 1:4])[1][0])
             if (floor_extra[k, topo] == back[j, topo]).all():
                 continue
         lost.add(source_face(j))
