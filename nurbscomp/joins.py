@@ -509,14 +509,25 @@ def first_of_components(n: int, pairs: np.ndarray) -> np.ndarray:
             return first
 
 
+#: :func:`nearest` compares every pair up to this many (points x queries).
+_NEAREST_MAX = 1 << 21
+
+
 def nearest(points: np.ndarray, queries: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Per row of ``queries``, the distance to the nearest row of ``points`` and
-    its index (the first of equals), as a k-d tree's ``query`` gives them; by
-    brute force, in blocks (no import of scipy.spatial)."""
+    its index, as a k-d tree's ``query`` gives them.  Up to
+    :data:`_NEAREST_MAX` pairs by brute force, in blocks (no import of
+    scipy.spatial; of equal distances, the first point); beyond, by scipy's
+    k-d tree (a model of thousands of faces, where its import is cheap)."""
     p = np.asarray(points, np.float64)
     q = np.asarray(queries, np.float64)
+    if len(p) * len(q) > _NEAREST_MAX:
+        from scipy.spatial import cKDTree
+
+        d, i = cKDTree(p).query(q)
+        return np.asarray(d, np.float64), np.asarray(i, np.int64)
     dist, idx = np.empty(len(q)), np.empty(len(q), np.int64)
-    step = max(1, (1 << 22) // max(1, len(p)))
+    step = max(1, (1 << 20) // max(1, len(p)))
     for i in range(0, len(q), step):
         d2 = ((q[i : i + step, None, :] - p[None, :, :]) ** 2).sum(-1)
         k = d2.argmin(axis=1)

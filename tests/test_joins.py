@@ -247,6 +247,11 @@ def test_pairs_components_and_nearest_match_scipy() -> None:
         dt, it = cKDTree(pts).query(queries)
         assert np.allclose(d, dt, rtol=1e-12, atol=0)
         assert (pts[i] == pts[it]).all() and (i <= it).all()  # ties: the first of equals
+    # a large cloud goes to the tree: the same distances
+    big, queries = rng.random((3000, 3)), rng.random((2000, 3))
+    assert len(big) * len(queries) > joins._NEAREST_MAX
+    d, i = joins.nearest(big, queries)
+    assert np.array_equal(i, cKDTree(big).query(queries)[1])
 
 
 def test_bspline_points_match_scipy() -> None:
