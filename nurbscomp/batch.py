@@ -188,6 +188,21 @@ def plan(
     return tasks
 
 
+def largest_first(tasks: list[Task]) -> list[Task]:
+    """``tasks`` with the largest inputs first (ties, and streams, in their
+    order): the longest jobs start first, so that no worker is left with one
+    at the end.  The corpus at 0.01 mm took 29.5 s with ``-j 2`` in name order,
+    its second-largest file (15 s of the 45 s) starting ninth of eleven."""
+
+    def size(t: Task) -> int:
+        try:
+            return -1 if t.src == STDIO else os.stat(t.src).st_size
+        except OSError:
+            return -1
+
+    return sorted(tasks, key=size, reverse=True)
+
+
 def _task(src: Path, rel: Path, opts: Options, output_dir: str | None) -> Task:
     out = default_output(src, opts)
     if output_dir is None:
@@ -463,7 +478,7 @@ class Runner:
         done = False
         futures: dict[cf.Future[dict[str, Any]], Task] = {}
         try:
-            futures = {ex.submit(run_task, t, self.opts): t for t in tasks}
+            futures = {ex.submit(run_task, t, self.opts): t for t in largest_first(tasks)}
             for f in cf.as_completed(futures):
                 try:
                     rec = f.result()
@@ -491,7 +506,7 @@ class Runner:
             raise SchedulerError(f"cannot connect to the Dask scheduler: {e}") from None
         futures: dict[Any, Task] = {}
         try:
-            for t in self.tasks:
+            for t in largest_first(self.tasks):
                 if t.src == STDIO or t.dst is None:  # a stream: done here
                     yield self._via_bytes(t)
                     continue

@@ -464,3 +464,16 @@ def test_progress_bar_only_on_a_terminal(tmp_path: Path) -> None:
     assert re.search(r"(teapot|bracket)\.step: (read|code|write|check)", shown), shown
     code, shown = _on_a_terminal([*args, "-q", "-f"], tmp_path)
     assert code == 0 and shown == "", shown
+
+
+def test_largest_inputs_start_first(tmp_path: Path) -> None:
+    """A pool gets the largest files first (ties and streams in their order), so
+    that a long job does not start last and keep one worker busy alone."""
+    sizes = {"a.step": 10, "b.step": 300, "c.step": 10, "d.step": 50}
+    for name, n in sizes.items():
+        (tmp_path / name).write_bytes(b"x" * n)
+    tasks = [batch.Task(str(tmp_path / n), None) for n in sizes]
+    tasks.insert(2, batch.Task(batch.STDIO, None))
+    tasks.append(batch.Task(str(tmp_path / "missing.step"), None))
+    order = [Path(t.src).name for t in batch.largest_first(tasks)]
+    assert order == ["b.step", "d.step", "a.step", "c.step", "-", "missing.step"]
