@@ -104,8 +104,10 @@ QUICK_MAX = 64 * 1024
 QUICK_PRESET = 6
 #: A quick search ranks the LZMA settings on this many pieces of the body ...
 SAMPLE_PIECES = 4
-#: ... of this many bytes each, evenly spaced.
-SAMPLE_PIECE = 16 * 1024
+#: ... of this many bytes each, evenly spaced (8 kB: the ranking took 0.32 s
+#: of the stage's 0.96 s on the corpus's lossless bodies with 16 kB pieces,
+#: 0.16 s with these, and chose streams 191 bytes smaller in all).
+SAMPLE_PIECE = 8 * 1024
 
 
 def _sample(raw: bytes) -> bytes:
