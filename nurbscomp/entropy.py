@@ -106,18 +106,20 @@ QUICK_PRESET = 6
 SAMPLE_PIECES = 4
 #: ... of this many bytes each, evenly spaced (8 kB: the ranking took 0.32 s
 #: of the stage's 0.96 s on the corpus's lossless bodies with 16 kB pieces,
-#: 0.16 s with these, and chose streams 191 bytes smaller in all).
+#: 0.16 s with these, and chose streams 108 bytes smaller in all).
 SAMPLE_PIECE = 8 * 1024
 
 
 def _sample(raw: bytes) -> bytes:
-    """:data:`SAMPLE_PIECES` evenly spaced pieces of ``raw``, joined (all of
-    ``raw`` when it is no longer than they are)."""
+    """:data:`SAMPLE_PIECES` evenly spaced pieces of ``raw``, joined, the first
+    at its start and the last at its end (all of ``raw`` when it is no longer
+    than they are)."""
     n, k = len(raw), SAMPLE_PIECES * SAMPLE_PIECE
     if n <= k:
         return raw
-    step = (n - SAMPLE_PIECE) // (SAMPLE_PIECES - 1)
-    return b"".join(raw[i * step : i * step + SAMPLE_PIECE] for i in range(SAMPLE_PIECES))
+    last = SAMPLE_PIECES - 1
+    starts = [i * (n - SAMPLE_PIECE) // last for i in range(SAMPLE_PIECES)]
+    return b"".join(raw[a : a + SAMPLE_PIECE] for a in starts)
 
 
 def _lzma_rank(raw: bytes) -> list[tuple[int, int, int] | None]:
