@@ -155,6 +155,17 @@ class _Table:
     poles: int
 
 
+def _basis(table: list[Geometry], row: int, kinds: tuple[Kind, ...]) -> Geometry | None:
+    """The record under row ``row`` of a curve table, through derived rows of
+    ``kinds`` to their bases (None for a row out of range)."""
+    g = table[row] if 0 <= row < len(table) else None
+    for _ in range(len(table)):  # a chain of bases ends (checked on reading)
+        if not (isinstance(g, Derived) and g.kind in kinds):
+            break
+        g = table[g.basis] if 0 <= g.basis < len(table) else None
+    return g
+
+
 def _swept_work(curves: list[Geometry], row: int) -> int:
     """Projection work per sampled point onto a surface of revolution or of
     linear extrusion of 3-D curve ``row``: n^2 (d + 1)^3 / 4 for a basis of n
@@ -162,11 +173,7 @@ def _swept_work(curves: list[Geometry], row: int) -> int:
     for an analytic one).  OCCT's point inversion onto such a surface grows
     that fast: a revolution of a 30-pole curve of degree 25 takes 43 ms a
     point, of a 60-pole one of degree 9, 24 ms (docs/format.md §4)."""
-    g = curves[row] if 0 <= row < len(curves) else None
-    for _ in range(len(curves)):
-        if not isinstance(g, Derived):
-            break
-        g = curves[g.basis] if 0 <= g.basis < len(curves) else None
+    g = _basis(curves, row, (Kind.TRIMMED_CURVE, Kind.OFFSET_CURVE))
     if not isinstance(g, BSplineCurve):
         return 16
     n = len(g.poles)
@@ -315,11 +322,7 @@ def curve_samples(table: list[Geometry], row: int) -> int:
     their whole curve.  Each point is one inversion onto the surface: a
     Newton step from the point before, or a search over the whole surface
     where that fails."""
-    g = table[row] if 0 <= row < len(table) else None
-    for _ in range(len(table)):  # a chain of trimmed rows ends at its basis
-        if not (isinstance(g, Derived) and g.kind == Kind.TRIMMED_CURVE):
-            break
-        g = table[g.basis] if 0 <= g.basis < len(table) else None
+    g = _basis(table, row, (Kind.TRIMMED_CURVE,))
     if not isinstance(g, BSplineCurve) or g.bezier:
         return SAMPLES
     need = (len(g.knots) - 1) * (g.degree + 1)

@@ -475,14 +475,20 @@ def vertex_clusters(points: np.ndarray, eps: float) -> np.ndarray:
     n = len(points)
     if n == 0:
         return np.zeros(0, np.int64)
-    near = close_pairs(points, eps)
-    if near is None:  # piled-up points: a k-d tree's pairs
-        from scipy.spatial import cKDTree
+    return first_of_components(n, pairs_within(points, eps))
 
-        near = cKDTree(points).query_pairs(eps, output_type="ndarray")
-    else:
-        near = within(points, near, eps)
-    return first_of_components(n, near)
+
+def pairs_within(points: np.ndarray, r: float) -> np.ndarray:
+    """Pairs (i, j), i < j, sorted, of rows of ``points`` within ``r`` of each
+    other: :func:`close_pairs` cut to ``r`` (:func:`within`), or a k-d tree's
+    where the points pile up."""
+    near = close_pairs(points, r)
+    if near is not None:
+        return within(points, near, r)
+    from scipy.spatial import cKDTree
+
+    near = cKDTree(points).query_pairs(r, output_type="ndarray")
+    return near[np.lexsort((near[:, 1], near[:, 0]))] if len(near) else near.reshape(0, 2)
 
 
 def within(points: np.ndarray, pairs: np.ndarray, r: float) -> np.ndarray:

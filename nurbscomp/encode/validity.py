@@ -510,15 +510,7 @@ def vertex_neighbours(m: BRepModel, tol: float) -> list[set[int]]:
     faces only as far as the order carries them).
     """
     around = faces_around(m, ShapeType.VERTEX)
-    near = joins.close_pairs(m.vertex_point, tol)
-    if near is None:  # piled-up points: a k-d tree's pairs
-        from scipy.spatial import cKDTree
-
-        near = cKDTree(m.vertex_point).query_pairs(tol, output_type="ndarray")
-        near = near[np.lexsort((near[:, 1], near[:, 0]))] if len(near) else near
-    else:
-        near = joins.within(m.vertex_point, near, tol)
-    for a, b in near.tolist():  # pairs to merge, in order
+    for a, b in joins.pairs_within(m.vertex_point, tol).tolist():  # pairs to merge, in order
         around[a] = around[b] = sorted({*around[a], *around[b]})
     out: list[set[int]] = [set() for _ in range(len(m.face_surface))]
     for fs in around:
@@ -564,9 +556,10 @@ def step_losses(
     topo = slice(4, None)
     idx = np.arange(len(src))
     same_order = False
+    # per face of back, the nearest source face (and how near)
+    near, back_src = nearest(src[:, 1:4], back[:, 1:4])
     if len(back) == len(src):
         # in order where face i of back is (one of) the nearest to source face i
-        near = nearest(src[:, 1:4], back[:, 1:4])[0]
         here = np.sqrt(((back[:, 1:4] - src[:, 1:4]) ** 2).sum(-1))
         same_order = bool((here <= near + 3 * tol).mean() >= 0.9)
     in_back = idx if same_order else nearest(back[:, 1:4], src[:, 1:4])[1]
@@ -583,15 +576,13 @@ def step_losses(
     source_of = {int(j): i for i, j in enumerate(in_back.tolist())}
 
     def source_face(j: int) -> int:
-        if j in source_of:
-            return source_of[j]
-        return int(nearest(src[:, 1:4], back[j : j + 1, 1:4])[1][0])
+        return source_of[j] if j in source_of else int(back_src[j])
 
     lost |= {source_face(j) for j in faulty if 0 <= j < len(back)}
-    for j in np.setdiff1d(np.arange(len(back)), in_back).tolist():
-        if len(floor_extra):
-            k = int(nearest(floor_extra[:, 1:4], back[j : j + 1, 1:4])[1][0])
-            if (floor_extra[k, topo] == back[j, topo]).all():
-                continue
-        lost.add(source_face(j))
+    extra = np.setdiff1d(np.arange(len(back)), in_back)
+    like = np.zeros(len(extra), bool)  # like an extra face of the floor
+    if len(extra) and len(floor_extra):
+        k = nearest(floor_extra[:, 1:4], back[extra, 1:4])[1]
+        like = (floor_extra[k, topo] == back[extra, topo]).all(-1)
+    lost |= {source_face(j) for j in extra[~like].tolist()}
     return lost

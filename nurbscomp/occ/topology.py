@@ -670,11 +670,9 @@ def _group(owner: np.ndarray, n: int) -> list[list[int]]:
     return out
 
 
-def _edge_rep(
-    m: BRepModel, q: int, geo: GeometryBuilder, locs: list[Any], row: list[int] | None = None
-) -> Any:
+def _edge_rep(m: BRepModel, q: int, geo: GeometryBuilder, locs: list[Any], row: list[int]) -> Any:
     """Representation ``q`` of ``m``'s edges (``row``: its ``edge_reps`` row, as a list)."""
-    _, kind, c1, c2, s1, s2, l1, l2 = m.edge_reps[q].tolist() if row is None else row
+    _, kind, c1, c2, s1, s2, l1, l2 = row
     first, last = m.edge_rep_range[q].tolist()
     if kind == _CURVE3D:
         c3d = BRep_Curve3D(geo.curve3d(c1), locs[l1])
