@@ -137,13 +137,17 @@ def screen_step(path: Path) -> None:
     with open(path, "rb") as fh:
         while chunk := fh.read(_SCAN_CHUNK):
             b = np.frombuffer(chunk, np.uint8)
-            q = np.cumsum(b == ord("'"), dtype=np.int64)
+            # only apostrophes and parentheses (bytes 39, 40, 41) move the state:
+            # the scan runs over them alone, a tenth of the bytes of a STEP file
+            at_mark = np.flatnonzero((b >= ord("'")) & (b <= ord(")")))
+            c = b[at_mark]
+            q = np.cumsum(c == ord("'"), dtype=np.int64)
             inside = (q + quoted) % 2 == 1
-            step = (b == ord("(")).astype(np.int64) - (b == ord(")"))
+            step = (c == ord("(")).astype(np.int64) - (c == ord(")"))
             step[inside] = 0
             level = depth + np.cumsum(step)
             if len(level) and level.max() > MAX_STEP_NESTING:
-                where = at + int(np.argmax(level > MAX_STEP_NESTING))
+                where = at + int(at_mark[np.argmax(level > MAX_STEP_NESTING)])
                 raise InputError(
                     f"STEP parentheses nested more than {MAX_STEP_NESTING} deep "
                     f"(at byte {where}); OCCT's parser cannot read it"
