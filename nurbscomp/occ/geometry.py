@@ -83,11 +83,11 @@ def _ints(a: Any) -> np.ndarray:
 
 
 def _xyz(p: Any) -> tuple[float, ...]:
-    return (p.X(), p.Y(), p.Z())
+    return p.Coord()  # one call for the three (X(), Y(), Z() cost three)
 
 
 def _xy(p: Any) -> tuple[float, ...]:
-    return (p.X(), p.Y())
+    return p.Coord()
 
 
 def _points1(a: Any, dim: int) -> np.ndarray:
@@ -316,6 +316,24 @@ class GeometryTable:
         return j
 
 
+#: Conic curve classes (``Geom2d_`` read as ``Geom_``) and their kinds.
+_CONICS = {
+    "Geom_Circle": Kind.CIRCLE,
+    "Geom_Ellipse": Kind.ELLIPSE,
+    "Geom_Hyperbola": Kind.HYPERBOLA,
+    "Geom_Parabola": Kind.PARABOLA,
+}
+
+
+def _conic_params(c: Any, kind: Kind) -> list[float]:
+    """A conic's radii (circle: one; ellipse, hyperbola: major, minor) or focal length."""
+    if kind == Kind.CIRCLE:
+        return [c.Radius()]
+    if kind == Kind.PARABOLA:
+        return [c.Focal()]
+    return [c.MajorRadius(), c.MinorRadius()]
+
+
 class GeometryReader:
     """Reads OCCT geometry into three deduplicated tables."""
 
@@ -416,16 +434,10 @@ class GeometryReader:
             p = c.Position()
             get = _xyz if dim == 3 else _xy
             return Analytic(Kind.LINE, np.array([get(p.Location()), get(p.Direction())]), _EMPTY)
-        conics = {
-            "Geom_Circle": (Kind.CIRCLE, lambda: [c.Radius()]),
-            "Geom_Ellipse": (Kind.ELLIPSE, lambda: [c.MajorRadius(), c.MinorRadius()]),
-            "Geom_Hyperbola": (Kind.HYPERBOLA, lambda: [c.MajorRadius(), c.MinorRadius()]),
-            "Geom_Parabola": (Kind.PARABOLA, lambda: [c.Focal()]),
-        }
-        if name in conics:
-            kind, params = conics[name]
+        if name in _CONICS:
+            kind = _CONICS[name]
             frame = _ax2_rows(c.Position()) if dim == 3 else _ax22d_rows(c.Position())
-            return Analytic(kind, frame, np.array(params(), np.float64))
+            return Analytic(kind, frame, np.array(_conic_params(c, kind), np.float64))
         if name in ("Geom_BSplineCurve", "Geom_BezierCurve"):
             poles = _points1(c.Poles(), dim)
             weights = _reals(c.Weights()) if c.IsRational() else None
