@@ -143,29 +143,52 @@ def _mantissa_bits(x: np.ndarray) -> int:
     return int((52 - trailing).sum())
 
 
-def _cheaper(m: BRepModel, maps: dict[int, tuple[float, float]]) -> bool:
+def _cheaper(
+    m: BRepModel,
+    maps: dict[int, tuple[float, float]],
+    memo: dict[tuple[Any, ...], bool] | None = None,
+) -> bool:
     """Whether the model's knots, surfaces' and curves', compress smaller with
     ``maps`` (by a curve record's first row) applied to the curves' (a
-    curve's knots may repeat a surface's)."""
+    curve's knots may repeat a surface's).
+
+    ``memo`` keeps answers by ``maps`` and the knots themselves: the validity
+    stage's candidates share their knots (coding moves poles only) and mostly
+    their maps, and the two LZMA passes are a third of :func:`unit_curves`.
+    """
+    import hashlib
     import lzma
 
-    def packed(mapped: bool) -> int:
-        parts = [
-            k
-            for g in m.surfaces
-            if isinstance(g, BSplineSurface) and not g.bezier
-            for k in (g.uknots, g.vknots)
-        ]
-        for i, (first, g) in enumerate(zip(first_row(m.curves3d), m.curves3d)):
-            if first == i and isinstance(g, BSplineCurve) and not g.bezier:
-                ab = maps.get(i) if mapped else None
-                parts.append(g.knots if ab is None else (g.knots - ab[0]) / (ab[1] - ab[0]))
-        return len(lzma.compress(np.concatenate(parts).tobytes() if parts else b""))
+    surface_knots = [
+        k
+        for g in m.surfaces
+        if isinstance(g, BSplineSurface) and not g.bezier
+        for k in (g.uknots, g.vknots)
+    ]
+    curves = [
+        (i, g)
+        for i, (first, g) in enumerate(zip(first_row(m.curves3d), m.curves3d))
+        if first == i and isinstance(g, BSplineCurve) and not g.bezier
+    ]
 
-    return packed(True) < packed(False)
+    def joined(mapped: bool) -> bytes:
+        parts = list(surface_knots)
+        for i, g in curves:
+            ab = maps.get(i) if mapped else None
+            parts.append(g.knots if ab is None else (g.knots - ab[0]) / (ab[1] - ab[0]))
+        return np.concatenate(parts).tobytes() if parts else b""
+
+    plain = joined(False)
+    key = (tuple(sorted(maps.items())), hashlib.sha1(plain).digest())
+    if memo is not None and key in memo:
+        return memo[key]
+    answer = len(lzma.compress(joined(True))) < len(lzma.compress(plain))
+    if memo is not None:
+        memo[key] = answer
+    return answer
 
 
-def unit_curves(m: BRepModel) -> BRepModel:
+def unit_curves(m: BRepModel, memo: dict[tuple[Any, ...], bool] | None = None) -> BRepModel:
     """``m`` with its free 3-D B-spline curves reparametrized onto [0, 1].
 
     A curve's knots are only its parametrization when nothing else holds its
@@ -180,6 +203,7 @@ def unit_curves(m: BRepModel) -> BRepModel:
     simpler as they are (0, 1, 2, 3 against 0, 1/3, 2/3, 1) stay.  Curve codes do
     not depend on the knots, and the records keep their rows: the codes of
     ``m``'s records (:func:`assembly.assemble`) stand as they are.
+    ``memo`` keeps the size test's answers across calls (:func:`_cheaper`).
     """
     reps = m.edge_reps
     kind = reps[:, 1]
@@ -221,7 +245,7 @@ def unit_curves(m: BRepModel) -> BRepModel:
                 rng[q] = (0.0, 1.0)
             else:  # a partial range would cost more as a mapped float than the knots save
                 maps.pop(first[int(reps[q, 2])], None)
-    if not maps or not _cheaper(m, maps):
+    if not maps or not _cheaper(m, maps, memo):
         return m
     table: list[Geometry] = []
     for i, g in enumerate(m.curves3d):

@@ -248,6 +248,7 @@ class _Plan:
 
     def __init__(self, m: BRepModel, tol: float, source: Any) -> None:
         self.m, self.tol = m, tol
+        self.knot_memo: dict[tuple[Any, ...], bool] = {}  # pcurves.unit_curves's answers
         every = list(range(len(m.edge_tol)))
         self.coded = nets.code_model(
             m, tol, points=occ.edge_points(source, every), sewn=occ.sewn_edge_pairs(source)
@@ -289,7 +290,9 @@ class _Plan:
     def candidate(self) -> tuple[BRepModel, dict[Rec, Any], assembly.LossyReport]:
         target, codes, report = assembly.assemble(self.m, self.coded, self.exact, self.still_v)
         cand = pcurves.drop_pcurves(target, self.keep_e, self.keep_f)
-        ranged = pcurves.vertex_ranges(pcurves.unit_curves(cand), self.tol, self.as_read_e)
+        ranged = pcurves.vertex_ranges(
+            pcurves.unit_curves(cand, self.knot_memo), self.tol, self.as_read_e
+        )
         return ranged, codes, report
 
     def with_leaders(self, recs: set[Rec | None]) -> set[Rec | None]:
