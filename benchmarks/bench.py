@@ -1261,7 +1261,7 @@ def report(
         rows.append(
             [
                 m if m == lossless else f"{m} mm",
-                ratio_cell(c, rr, 1),
+                ratio_cell(c, rr),  # two decimals: the goals sit at 2x and 4x
                 ratio_cell(d, rr),
                 ratio_cell(x, rw),
             ]
@@ -1457,7 +1457,7 @@ def behind_lines(
         lines.append(
             f"**Compression is slow**: {comp_ratio:.1f}× OCCT's own read of the same files "
             f"at {DEFAULT_TOL:g} mm (goal ≤ {SPEED_GOALS['compress']:g}×), against "
-            f"{fx(ll_comp, 1)}× for `--lossless`: the per-net search and the validity loop "
+            f"{fx(ll_comp, 2)}× for `--lossless`: the per-net search and the validity loop "
             "(which rebuilds the shape and round-trips it through STEP) are the cost."
         )
     if dec_ratio is not None and dec_ratio > SPEED_GOALS["decode"]:
