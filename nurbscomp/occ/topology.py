@@ -89,8 +89,8 @@ _ON_SURFACE_POINT = int(PointRepKind.ON_SURFACE)
 
 
 def _flags(ts: Any) -> int:
-    """The TShape's eight flags as bits, in ``_FLAG_NAMES`` order (each called
-    by name: a ``getattr`` loop cost a tenth of reading a shape)."""
+    """The TShape's eight flags as bits, in ``_FLAG_NAMES`` order (each method
+    called by name, not looked up by ``getattr`` in a loop)."""
     return (
         ts.Free()
         | ts.Modified() << 1
