@@ -113,28 +113,31 @@ def range_kinds(m: BRepModel) -> np.ndarray:
     on its line or circle (``RANGE_VERTICES``, :func:`joins.vertex_ranges`), or the two
     floats.  Only a bit for bit equal prediction is used, so the format stays
     lossless."""
-    reps, rng = m.edge_reps, m.edge_rep_range
-    bits = rng.view(np.int64)
+    reps = m.edge_reps
+
+    def words(pair: Any) -> list[int]:  # a range's two floats as integers, bit for bit
+        return np.asarray(pair, np.float64).view(np.int64).tolist()
+
     of3d = _range_of_3d(m)
     by_vertices = joins.vertex_ranges(m)
     out = np.full(len(reps), RANGE_STORED, np.int64)
     two, c3d = int(RepKind.ON_TWO_SURFACES), int(RepKind.CURVE3D)
-    words = bits.tolist()  # each range's two floats as integers, bit for bit
+    stored = words(m.edge_rep_range)
     for q, (edge, kind) in enumerate(reps[:, :2].tolist()):
         if kind == two:
             continue
-        mine = words[q]
+        mine = stored[q]
         if mine == [0, 0]:
             out[q] = RANGE_ZERO
             continue
         nat = _natural_range(_curve_of(m, q))
-        if nat is not None and np.array(nat).view(np.int64).tolist() == mine:
+        if nat is not None and words(nat) == mine:
             out[q] = RANGE_NATURAL
             continue
         r3 = of3d.get(edge)
-        if kind != c3d and r3 is not None and words[r3] == mine:
+        if kind != c3d and r3 is not None and stored[r3] == mine:
             out[q] = RANGE_OF_3D
-        elif q in by_vertices and np.array(by_vertices[q]).view(np.int64).tolist() == mine:
+        elif q in by_vertices and words(by_vertices[q]) == mine:
             out[q] = RANGE_VERTICES
     return out
 

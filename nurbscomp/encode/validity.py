@@ -550,8 +550,6 @@ def step_losses(
     source face.  Every index returned is a source face's, in signature order
     (:meth:`_Floor.losses` maps it to the model's face).
     """
-    nearest = joins.nearest
-
     if not len(src):
         return set()
     if not len(back):
@@ -560,19 +558,19 @@ def step_losses(
     idx = np.arange(len(src))
     same_order = False
     # per face of back, the nearest source face (and how near)
-    near, back_src = nearest(src[:, 1:4], back[:, 1:4])
+    near, back_src = joins.nearest(src[:, 1:4], back[:, 1:4])
     if len(back) == len(src):
         # in order where face i of back is (one of) the nearest to source face i
         here = np.sqrt(((back[:, 1:4] - src[:, 1:4]) ** 2).sum(-1))
         same_order = bool((here <= near + 3 * tol).mean() >= 0.9)
-    in_back = idx if same_order else nearest(back[:, 1:4], src[:, 1:4])[1]
+    in_back = idx if same_order else joins.nearest(back[:, 1:4], src[:, 1:4])[1]
     ok = (back[in_back, topo] == src[:, topo]).all(-1)
     floor_extra = np.zeros((0, back.shape[1]))
     if len(floor):
         if len(floor) == len(src) and same_order:  # the order holds there too
             in_floor = idx
         else:
-            in_floor = nearest(floor[:, 1:4], src[:, 1:4])[1]
+            in_floor = joins.nearest(floor[:, 1:4], src[:, 1:4])[1]
         ok |= (back[in_back, topo] == floor[in_floor, topo]).all(-1)
         floor_extra = floor[np.setdiff1d(np.arange(len(floor)), in_floor)]
     lost = {int(i) for i in np.flatnonzero(~ok)}
@@ -585,7 +583,7 @@ def step_losses(
     extra = np.setdiff1d(np.arange(len(back)), in_back)
     like = np.zeros(len(extra), bool)  # like an extra face of the floor
     if len(extra) and len(floor_extra):
-        k = nearest(floor_extra[:, 1:4], back[extra, 1:4])[1]
+        k = joins.nearest(floor_extra[:, 1:4], back[extra, 1:4])[1]
         like = (floor_extra[k, topo] == back[extra, topo]).all(-1)
     lost |= {source_face(j) for j in extra[~like].tolist()}
     return lost

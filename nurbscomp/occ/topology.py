@@ -67,16 +67,6 @@ from ..model import (
 from .geometry import GeometryBuilder, GeometryReader, record_key
 from .lists import items
 
-_FLAG_NAMES = (
-    "Free",
-    "Modified",
-    "Checked",
-    "Orientable",
-    "Closed",
-    "Infinite",
-    "Convex",
-    "Locked",
-)
 _ORIENT = [TopAbs_Orientation(i) for i in range(4)]
 _CONT = [GeomAbs_Shape(i) for i in range(7)]
 # plain ints for the builder's loops (an enum member looked up on its class
@@ -89,8 +79,8 @@ _ON_SURFACE_POINT = int(PointRepKind.ON_SURFACE)
 
 
 def _flags(ts: Any) -> int:
-    """The TShape's eight flags as bits, in ``_FLAG_NAMES`` order (each method
-    called by name, not looked up by ``getattr`` in a loop)."""
+    """The TShape's eight flags as bits 0-7: Free, Modified, Checked,
+    Orientable, Closed, Infinite, Convex, Locked (docs/format.md, the shape flags)."""
     return (
         ts.Free()
         | ts.Modified() << 1
