@@ -130,7 +130,7 @@ def compress(
             f"cannot compress a {_what(obj)}: give a path, STEP/IGES bytes, a cadquery "
             "Shape, Workplane or Assembly, or a TopoDS_Shape"
         )
-    enc = pipeline.encode_cad(pipeline.shape_source(shape), "", 0, **opts)
+    enc = pipeline.encode_cad(pipeline.shape_source(shape), "", 0, for_verify=verify, **opts)
     if verify:
         pipeline.verify_encoded(enc, enc.data)
     return enc.data
@@ -143,7 +143,7 @@ def _compress_file(path: Path, name: str, verify: bool, opts: dict[str, Any]) ->
     except NoBRepError as e:
         reason = str(e)
     else:
-        enc = pipeline.encode_cad(cad, name, path.stat().st_size, **opts)
+        enc = pipeline.encode_cad(cad, name, path.stat().st_size, for_verify=verify, **opts)
         if verify:
             pipeline.verify_encoded(enc, enc.data)
         return enc.data

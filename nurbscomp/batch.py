@@ -352,12 +352,16 @@ def _stop_worker(signum: int, frame: Any) -> None:
 
 def _init_worker() -> None:
     """A pool worker: handle the stop signals; OCP is imported already (the fork
-    server preloads it, ``WORKER_PRELOAD``), or here, once for all its files."""
+    server preloads it, ``WORKER_PRELOAD``), or here, once for all its files.
+    The workers keep the cores busy, so the validity stage begins no STEP
+    round trip it may not need (``encode.validity.SPECULATE``)."""
     for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
         signal.signal(sig, _stop_worker)
     from . import occ
+    from .encode import validity
 
     occ.read_cad  # noqa: B018 (the import itself: seconds, once per worker)
+    validity.SPECULATE = False
 
 
 # ---------------------------------------------------------------- running

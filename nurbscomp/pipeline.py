@@ -19,6 +19,7 @@ import stat
 import tempfile
 import time
 from collections.abc import Callable, Iterator
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeVar, cast
 
@@ -375,7 +376,7 @@ class Encoded:
     step_safe: bool
     lossy_report: Any  # encode.assembly.LossyReport, tolerance mode only
     pcurves_rebuilt: int
-    built: Any  # the shape the validity stage built from ``target``, if it did
+    built: Any  # the shape built from ``target`` (validity stage, or lossless for verify)
     validity: Any  # encode.validity.ValidityReport, tolerance mode only
     warnings: list[str]
 
@@ -426,9 +427,16 @@ def encode_cad(
     tol: float | None = DEFAULT_TOL_MM,
     lossless: bool = False,
     step_safe: bool = True,
+    for_verify: bool = True,
 ) -> Encoded:
     """Code the shape of ``cad`` (an ``occ.CadFile``) into container bytes;
-    ``name`` and ``source_bytes`` go to META (see :func:`compress_file`)."""
+    ``name`` and ``source_bytes`` go to META (see :func:`compress_file`).
+
+    ``for_verify``: the caller will run :func:`verify_encoded`.  In lossless
+    mode the shape it checks is then built here, from the model, while the
+    entropy stage packs the container in another thread (LZMA releases the
+    GIL): the decoded model must be this model bit for bit, so it builds this
+    shape.  In tolerance mode the validity stage builds it anyway."""
     m, warnings = occ.shape_to_model(cad.shape)
     m.unit, m.source_format, m.product = cad.unit, cad.source_format, cad.product
     meta = {
@@ -438,23 +446,36 @@ def encode_cad(
         "source_bytes": source_bytes,
         "writer": f"nurbscomp {__version__}",
     }
+    flags = container.FLAG_LOSSLESS if lossless else 0
+
+    def pack(target: BRepModel, codes: dict[Any, Any]) -> bytes:
+        target.product = m.product  # exact in every mode, placements included
+        sections = model_to_sections(target, meta, codes)
+        # lossless is the fast mode: a quick entropy search (entropy.compress)
+        return container.pack(sections, flags, thorough=not lossless)
+
     rebuilt, built, vreport = 0, None, None
+    codes: dict[Any, Any] = {}
     if lossless:
-        target, codes, lossy_report = m, {}, None
-        flags = container.FLAG_LOSSLESS
+        target, lossy_report = m, None
+        if for_verify:  # beside the build of the shape verify_encoded checks
+            with ThreadPoolExecutor(1) as pool:
+                packing = pool.submit(pack, target, codes)
+                built = build(target)
+                data = packing.result()
+        else:
+            data = pack(target, codes)
     else:
         assert tol is not None and tol > 0
         from .encode import validity
 
-        t = validity.lossy_target(m, cad.shape, tol, step_safe)
+        t = validity.lossy_target(m, cad.shape, tol, step_safe, pack)
         target, codes, lossy_report, rebuilt = t.model, t.codes, t.report, t.pcurves_rebuilt
         built, vreport = t.shape, t.validity
         if vreport.step_skipped:
             warnings.append(f"no STEP check: {vreport.step_skipped}")
-        flags = 0
-    target.product = m.product  # exact in every mode, placements included
-    # lossless is the fast mode: a quick entropy search (entropy.compress)
-    data = container.pack(model_to_sections(target, meta, codes), flags, thorough=not lossless)
+        # packed while the STEP check of its last round ran, if it had one
+        data = t.early if t.early is not None else pack(target, codes)
     return Encoded(
         data,
         m,
@@ -509,7 +530,7 @@ def verify_encoded(enc: Encoded, data: bytes) -> None:
     if enc.tol is not None and not enc.lossless and worst > enc.tol:
         raise VerifyError(f"a decoded control net moved {worst:g} mm > tol {enc.tol:g} mm")
     # the decoded model is the target bit for bit, so it builds the
-    # shape the validity stage built from it
+    # shape built from it (by the validity stage, or beside the lossless packing)
     built = build(back) if enc.built is None else enc.built
     if occ.counts(built) != occ.counts(enc.cad.shape):
         raise VerifyError("decoded shape has other topology counts than the input")
@@ -608,6 +629,7 @@ def compress_file(
         tol=tol,
         lossless=lossless,
         step_safe=step_safe,
+        for_verify=verify,
     )
     stage("write")
     with atomic_output(dst_p, force, (src_p,)) as tmp:

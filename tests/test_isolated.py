@@ -6,11 +6,13 @@ from __future__ import annotations
 import os
 import signal
 import threading
+import time
 from pathlib import Path
 
 import pytest
 
-from nurbscomp import occ, pipeline
+from nurbscomp import container, occ, pipeline
+from nurbscomp.decode import model_to_sections
 from nurbscomp.encode import validity
 from nurbscomp.errors import InputError
 
@@ -86,10 +88,12 @@ def test_compress_survives_a_reader_that_crashes(
     container that decodes within tol."""
     real = occ.step_round_trip
 
-    def crashing(shape: object, unit: str = "MM", product: object = None) -> object:
+    def crashing(
+        shape: object, unit: str = "MM", product: object = None, folder: object = None
+    ) -> object:
         if product is not None:  # candidates, written as decompress writes them
             _crash()
-        return real(shape, unit, product)
+        return real(shape, unit, product, folder)
 
     monkeypatch.setattr(validity.occ, "step_round_trip", crashing)
     src = SAMPLES / "loft.step"
@@ -98,3 +102,47 @@ def test_compress_survives_a_reader_that_crashes(
     assert report["validity"]["step_round_trips"] >= 2
     shape = pipeline.decode_file(tmp_path / "l.nzc")[0]
     assert occ.counts(shape) == occ.counts(occ.read_cad(src).shape)
+
+
+def test_leaving_the_block_stops_a_child_still_at_work() -> None:
+    """A round trip begun beside other work and no longer wanted (its
+    candidate failed BRepCheck) is not waited for: the child is killed."""
+    t0 = time.perf_counter()
+    with occ.RoundTrip(lambda: time.sleep(60)) as r:
+        pid = r._pid
+    assert time.perf_counter() - t0 < 10
+    with pytest.raises(ChildProcessError):
+        os.waitpid(pid, os.WNOHANG)  # reaped already
+
+
+def _pack(model: object, codes: dict) -> tuple[int, bytes]:
+    return id(model), container.pack(model_to_sections(model, {}, codes), 0, thorough=False)
+
+
+@pytest.mark.parametrize("speculate", [True, False])
+def test_what_is_packed_meanwhile_is_the_target(
+    speculate: bool, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``lossy_target(meanwhile=...)`` runs while a candidate's STEP round trip
+    does: what it returns is kept for the model returned, which is still as
+    it was then; the floor begun at once (``SPECULATE``) or when needed
+    changes nothing but time."""
+    monkeypatch.setattr(validity, "SPECULATE", speculate)
+    cad = occ.read_cad(SAMPLES / "loft.step")
+    m, _ = occ.shape_to_model(cad.shape)
+    t = validity.lossy_target(m, cad.shape, 0.01, meanwhile=_pack)
+    assert t.early is not None and t.early[0] == id(t.model)
+    assert t.early[1] == _pack(t.model, t.codes)[1]
+    assert t.validity.step_round_trips >= 1
+
+
+def test_nothing_is_packed_meanwhile_for_a_fallback(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """When every candidate fails, the model returned (every record exact)
+    was never checked: no early result comes with it."""
+    monkeypatch.setattr(validity.occ, "step_round_trip", lambda *a: _crash())
+    cad = occ.read_cad(SAMPLES / "loft.step")
+    m, _ = occ.shape_to_model(cad.shape)
+    t = validity.lossy_target(m, cad.shape, 0.01, meanwhile=_pack)
+    assert t.validity.fallback == "exact" and t.early is None

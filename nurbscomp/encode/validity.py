@@ -37,9 +37,11 @@ import collections
 import contextlib
 import functools
 import logging
-from collections.abc import Iterable, Set
+import tempfile
+from collections.abc import Callable, Iterable, Set
 from dataclasses import dataclass, field
 from enum import IntEnum
+from pathlib import Path
 from typing import Any, cast
 
 import numpy as np
@@ -53,6 +55,17 @@ log = logging.getLogger(__name__)
 
 #: Rounds of remedies before the fallbacks.
 MAX_ROUNDS = 20
+
+#: Begin OCCT's own STEP round trip of the source (the floor) at the start,
+#: in a child beside the net search, in case a candidate needs it; a batch
+#: that keeps every core busy already turns this off (``batch``): there the
+#: round trips no candidate needs would cost other files' time.
+SPECULATE = True
+#: The niceness the floor's round trip gets when begun that way.
+SPECULATIVE_NICE = 10
+
+#: What :func:`lossy_target` may run on a candidate while its STEP round trip runs.
+Meanwhile = Callable[[BRepModel, dict[Rec, Any]], Any]
 
 
 class Rung(IntEnum):
@@ -110,6 +123,8 @@ class Target:
     shape: Any
     validity: ValidityReport
     pcurves_rebuilt: int
+    #: What ``meanwhile`` made of this model (:func:`lossy_target`), or None.
+    early: Any = None
 
 
 def step_reader_hangs(m: BRepModel) -> str:
@@ -154,6 +169,12 @@ class _Floor:
     answers what is asked of it: OCCT's reader can crash on a file it is
     given (a candidate, or even the source's own round trip), and that must
     not take compress down.  Close it (:meth:`close`) when done.
+
+    A child works beside this process until it is asked: a candidate's round
+    trip is begun before its BRepCheck (:func:`_check`), and with
+    :data:`SPECULATE` the floor's is begun at once (:meth:`begin`), beside the
+    net search, and stopped unused if no candidate needs it.  Only the round
+    trips whose answers are used count in the report.
     """
 
     def __init__(self, source: Any, unit: str, report: ValidityReport, product: Any = None) -> None:
@@ -162,16 +183,35 @@ class _Floor:
         self.counts = occ.counts(source)
         self._children = contextlib.ExitStack()  # the floor's round trip, once made
         self._floor: occ.RoundTrip | None = None
+        self._floor_used = False
         self._signatures: dict[str, np.ndarray] = {}  # the source's and the floor's
         #: Why the floor cannot be had (OCCT's reader crashed on the source's
         #: own round trip), or "": then no candidate is held to it.
         self.broken = ""
 
-    def _ask_floor(self, fn: Any) -> Any:
+    def trip(
+        self, shape: Any, stack: contextlib.ExitStack, product: Any = None, nice: int = 0
+    ) -> occ.RoundTrip:
+        """A round trip of ``shape``, begun now in a child (``nice``: its
+        niceness increment) and held by ``stack`` (with the folder its STEP
+        file is written to)."""
+        folder = Path(stack.enter_context(tempfile.TemporaryDirectory(prefix="nurbscomp-")))
+        make = functools.partial(occ.step_round_trip, shape, self.unit, product, folder)
+        return stack.enter_context(occ.RoundTrip(make, nice))
+
+    def begin(self, speculative: bool = False) -> None:
+        """Begin the floor's round trip now (it is counted once asked); a
+        ``speculative`` one runs at a lower priority (:data:`SPECULATIVE_NICE`),
+        on what the candidates' work leaves of the cores."""
         if self._floor is None:
-            source, unit = self.source, self.unit
-            trip = occ.RoundTrip(lambda: occ.step_round_trip(source, unit))
-            self._floor = self._children.enter_context(trip)
+            nice = SPECULATIVE_NICE if speculative else 0
+            self._floor = self.trip(self.source, self._children, nice=nice)
+
+    def _ask_floor(self, fn: Any) -> Any:
+        self.begin()
+        assert self._floor is not None
+        if not self._floor_used:
+            self._floor_used = True
             self.report.step_round_trips += 1
         return self._floor.ask(fn)
 
@@ -196,8 +236,9 @@ class _Floor:
                 self._signatures[which] = self._ask_floor(occ.face_signatures)
         return self._signatures[which]
 
-    def candidate_losses(self, shape: Any, tol: float) -> set[int] | None:
-        """:meth:`losses` of the candidate ``shape`` written to STEP and read back.
+    def candidate_losses(self, back: occ.RoundTrip, tol: float) -> set[int] | None:
+        """:meth:`losses` of a candidate's round trip ``back`` (:meth:`trip`,
+        with the product data).
 
         A STEP file of the candidate that OCCT's reader takes nothing from (an
         ``InputError`` of the re-read; seen on a face periodic in u and v whose
@@ -205,10 +246,8 @@ class _Floor:
         loses every face.
         """
         self.report.step_round_trips += 1
-        unit, product = self.unit, self.product
         try:
-            with occ.RoundTrip(lambda: occ.step_round_trip(shape, unit, product)) as back:
-                return self.losses(back, tol)
+            return self.losses(back, tol)
         except InputError as e:
             log.debug("STEP round trip of the candidate fails: %s", e)
             return {int(f) for f in self.model_face}
@@ -399,7 +438,13 @@ class _Plan:
         return dict(sorted(out.items()))
 
 
-def lossy_target(m: BRepModel, source: Any, tol: float, step_check: bool = True) -> Target:
+def lossy_target(
+    m: BRepModel,
+    source: Any,
+    tol: float,
+    step_check: bool = True,
+    meanwhile: Meanwhile | None = None,
+) -> Target:
     """The cheapest decodable model that is as valid as the source (module docstring).
 
     Parameters
@@ -411,13 +456,19 @@ def lossy_target(m: BRepModel, source: Any, tol: float, step_check: bool = True)
     tol : float
     step_check : bool
         Also hold the candidate to OCCT's STEP round trip.
+    meanwhile : callable, optional
+        Called with a candidate model and its codes while its STEP round trip
+        runs in a child (the container is packed then, in case the candidate
+        passes); the result for the model returned is ``Target.early``.
     """
     vr = ValidityReport()
     if step_check:
         vr.step_skipped = step_reader_hangs(m)
     floor = _Floor(source, m.unit, vr, m.product) if step_check and not vr.step_skipped else None
     try:
-        return _search(m, source, tol, vr, floor)
+        if floor is not None and SPECULATE:
+            floor.begin(speculative=True)
+        return _search(m, source, tol, vr, floor, meanwhile)
     finally:
         if floor is not None:
             floor.close()
@@ -425,7 +476,12 @@ def lossy_target(m: BRepModel, source: Any, tol: float, step_check: bool = True)
 
 
 def _search(
-    m: BRepModel, source: Any, tol: float, vr: ValidityReport, floor: _Floor | None
+    m: BRepModel,
+    source: Any,
+    tol: float,
+    vr: ValidityReport,
+    floor: _Floor | None,
+    meanwhile: Meanwhile | None,
 ) -> Target:
     """The rounds and the fallbacks of :func:`lossy_target`."""
     plan = _Plan(m, tol, source)
@@ -436,7 +492,9 @@ def _search(
         cand, codes, report = plan.candidate()
         shape = build(cand, cache)
         vr.rounds += 1
-        new_e, new_f, blamed = _check(shape, old_e, old_f, floor, tol)
+        new_e, new_f, blamed, early = _check(
+            shape, old_e, old_f, floor, tol, _bind(meanwhile, cand, codes)
+        )
         log.debug(
             "validity round %d: %d exact records, pcurves kept on %d faces; "
             "new faults: %d edges, %d faces",
@@ -449,7 +507,7 @@ def _search(
         if new_e or new_f:
             plan.brepcheck(new_e, new_f)
         elif blamed is None:
-            return _done(plan, cand, codes, report, shape, vr)
+            return _done(plan, cand, codes, report, shape, vr, early)
         elif blamed:
             plan.step(blamed)
         else:  # split or merged with no face to blame: C0 knots stay exact
@@ -460,13 +518,15 @@ def _search(
     target, codes, report = assembly.assemble(m, plan.coded, plan.exact, plan.still_v)
     shape = build(target, cache)
     vr.rounds += 1
-    new_e, new_f, blamed = _check(shape, old_e, old_f, floor, tol)
+    new_e, new_f, blamed, early = _check(
+        shape, old_e, old_f, floor, tol, _bind(meanwhile, target, codes)
+    )
     if not new_e and not new_f and blamed is None:
         vr.fallback = "pcurves"
         vr.exact_faces = plan.exact_faces(report)
         vr.pcurves_kept = len(m.face_surface)
         vr.tightened = plan.tightened()
-        return Target(target, codes, report, shape, vr, 0)
+        return Target(target, codes, report, shape, vr, 0, early)
     everything: set[Rec | None] = {*plan.coded.surfaces, *plan.coded.curves}
     target, codes, report = assembly.assemble(m, plan.coded, everything)
     vr.fallback = "exact"
@@ -481,25 +541,48 @@ def _done(
     report: assembly.LossyReport,
     shape: Any,
     vr: ValidityReport,
+    early: Any,
 ) -> Target:
     vr.exact_faces = plan.exact_faces(report)
     vr.pcurves_kept = len(plan.keep_f)
     vr.tightened = plan.tightened()
     rebuilt = int((cand.edge_reps[:, 2] == REBUILD).sum())
-    return Target(cand, codes, report, shape, vr, rebuilt)
+    return Target(cand, codes, report, shape, vr, rebuilt, early)
+
+
+def _bind(
+    meanwhile: Meanwhile | None, model: BRepModel, codes: dict[Rec, Any]
+) -> Callable[[], Any] | None:
+    return None if meanwhile is None else functools.partial(meanwhile, model, codes)
 
 
 def _check(
-    shape: Any, old_e: set[int], old_f: set[int], floor: _Floor | None, tol: float
-) -> tuple[set[int], set[int], set[int] | None]:
+    shape: Any,
+    old_e: set[int],
+    old_f: set[int],
+    floor: _Floor | None,
+    tol: float,
+    meanwhile: Callable[[], Any] | None = None,
+) -> tuple[set[int], set[int], set[int] | None, Any]:
     """A candidate's BRepCheck faults the source lacks (edges, faces) and, when
     it has none and there is a floor, the faces its STEP re-read loses
-    (:meth:`_Floor.candidate_losses`; None: it keeps what the floor keeps)."""
-    bad_e, bad_f = occ.failures(shape)
-    new_e, new_f = bad_e - old_e, bad_f - old_f
-    if new_e or new_f or floor is None:
-        return new_e, new_f, None
-    return new_e, new_f, floor.candidate_losses(shape, tol)
+    (:meth:`_Floor.candidate_losses`; None: it keeps what the floor keeps);
+    last, what ``meanwhile()`` returned (None if it was not called).
+
+    The STEP round trip is begun first, in its child.  BRepCheck runs here
+    meanwhile (a candidate with new faults stops the round trip unused), then
+    ``meanwhile``, on a candidate BRepCheck passes, before the round trip's
+    answers are waited for."""
+    with contextlib.ExitStack() as stack:
+        back = floor.trip(shape, stack, floor.product) if floor is not None else None
+        bad_e, bad_f = occ.failures(shape)
+        new_e, new_f = bad_e - old_e, bad_f - old_f
+        if new_e or new_f:
+            return new_e, new_f, None, None
+        early = meanwhile() if meanwhile is not None else None
+        if floor is None or back is None:
+            return new_e, new_f, None, early
+        return new_e, new_f, floor.candidate_losses(back, tol), early
 
 
 def vertex_neighbours(m: BRepModel, tol: float) -> list[set[int]]:

@@ -8,6 +8,7 @@ back in it.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import re
 from dataclasses import dataclass, field
@@ -389,8 +390,11 @@ def bintools_bytes(shape: Any) -> bytes:
         return Path(f).read_bytes()
 
 
-def step_round_trip(shape: Any, unit: str = "MM", product: Any = None) -> Any:
-    """The shape as OCCT reads it back after writing it to STEP (in a temporary file).
+def step_round_trip(
+    shape: Any, unit: str = "MM", product: Any = None, folder: Path | None = None
+) -> Any:
+    """The shape as OCCT reads it back after writing it to STEP (in a temporary
+    file, in ``folder`` if given: the caller removes that).
 
     With ``product`` (a ``product.ProductData`` of the shape's model) the file
     is written as ``decompress`` writes it, through OCCT's XDE writer
@@ -399,7 +403,8 @@ def step_round_trip(shape: Any, unit: str = "MM", product: Any = None) -> Any:
     """
     import tempfile
 
-    with tempfile.TemporaryDirectory() as d:
+    with contextlib.ExitStack() as stack:
+        d = folder or stack.enter_context(tempfile.TemporaryDirectory())
         f = Path(d) / "rt.step"
         write_shape(shape, f, "STEP", unit, products=False, product=product)
         return read_cad(f, own=True).shape

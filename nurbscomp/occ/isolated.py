@@ -25,6 +25,7 @@ round trip runs in this process, unguarded.
 
 from __future__ import annotations
 
+import contextlib
 import faulthandler
 import gc
 import os
@@ -77,7 +78,10 @@ class RoundTrip:
     child process; :meth:`ask` runs a function of it there and returns its
     (picklable) result.
 
-    Use as a context manager: the child exits when the block does.
+    Use as a context manager.  The child starts on ``make`` as the block is
+    entered, so the caller may do other work before it asks; it is killed
+    when the block ends, done or not (files it writes belong in a folder the
+    caller removes afterwards).
 
     Raises
     ------
@@ -89,8 +93,9 @@ class RoundTrip:
         reader refused the file): re-raised with its message.
     """
 
-    def __init__(self, make: Callable[[], Any]) -> None:
+    def __init__(self, make: Callable[[], Any], nice: int = 0) -> None:
         self._make = make
+        self._nice = nice  # the child's niceness increment: work only a spare core should do
         self._local: Any = None
         self._pid = 0
         self._sock: socket.socket | None = None
@@ -117,6 +122,8 @@ class RoundTrip:
                 faulthandler.disable()  # a crash here is reported by the parent, once
                 for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
                     signal.signal(sig, signal.SIG_DFL)
+                if self._nice:
+                    os.nice(self._nice)
                 status = _serve(child, self._make)
             finally:
                 os._exit(status)
@@ -156,14 +163,15 @@ class RoundTrip:
         return f"OCCT's STEP round trip ended early (exit status {os.WEXITSTATUS(status)})"
 
     def __exit__(self, *exc: object) -> None:
+        """End the child at once, whatever it is doing: a round trip begun
+        beside other work (the encoder's BRepCheck, say) may no longer be
+        wanted, and its answers are never waited for here."""
         if self._sock is not None:
-            try:
-                _send(self._sock, None)
-            except OSError:
-                pass
             self._sock.close()
             self._sock = None
         if self._pid:
+            with contextlib.suppress(ProcessLookupError):
+                os.kill(self._pid, signal.SIGKILL)
             os.waitpid(self._pid, 0)
             self._pid = 0
         self._local = None
