@@ -116,7 +116,8 @@ def test_leaving_the_block_stops_a_child_still_at_work() -> None:
 
 
 def _pack(model: object, codes: dict) -> tuple[int, bytes]:
-    return id(model), container.pack(model_to_sections(model, {}, codes), 0, thorough=False)
+    meta = {"mode": "tolerance", "tolerance_mm": 0.01}
+    return id(model), container.pack(model_to_sections(model, meta, codes), 0, thorough=False)
 
 
 @pytest.mark.parametrize("speculate", [True, False])
