@@ -354,7 +354,9 @@ def _init_worker() -> None:
     """A pool worker: handle the stop signals; OCP is imported already (the fork
     server preloads it, ``WORKER_PRELOAD``), or here, once for all its files.
     The workers keep the cores busy, so the validity stage begins no STEP
-    round trip it may not need (``encode.validity.SPECULATE``)."""
+    round trip it may not need (``encode.validity.SPECULATE``) and a build
+    forks no child to share its projections
+    (``occ.topology.SPLIT_PROJECTIONS``)."""
     for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
         signal.signal(sig, _stop_worker)
     from . import occ
@@ -362,6 +364,7 @@ def _init_worker() -> None:
 
     occ.read_cad  # noqa: B018 (the import itself: seconds, once per worker)
     validity.SPECULATE = False
+    occ.topology.SPLIT_PROJECTIONS = False
 
 
 # ---------------------------------------------------------------- running

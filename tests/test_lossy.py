@@ -279,6 +279,65 @@ def test_pcurve_cache_builds_the_same_shape(name: str, tmp_path: Path) -> None:
     assert misses[3] == misses[2] and cache.hits > hits  # the last build: all from the cache
 
 
+GOLDEN = Path(__file__).parent / "golden"
+
+
+def _split_and_serial(name: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> list[int]:
+    """Build a golden container's model serially and with its projections
+    split with a child; assert the shapes are the same, bit for bit; return
+    how many projections each split build took from the child."""
+    from OCP.BRepTools import BRepTools
+
+    from nurbscomp.model import differences
+    from nurbscomp.occ import topology
+
+    m, _ = pipeline.decode(pipeline.read_container(GOLDEN / name))
+    handed: list[int] = []
+    split = topology._split
+    monkeypatch.setattr(topology, "_split", lambda *a: handed.append(split(*a)) or handed[-1])
+    monkeypatch.setattr(topology, "SPLIT_MIN", 0)
+
+    def text(shape) -> str:
+        BRepTools.Write_s(shape, str(tmp_path / "s.brep"))
+        return (tmp_path / "s.brep").read_text()
+
+    monkeypatch.setattr(topology, "SPLIT_PROJECTIONS", False)
+    serial = occ.model_to_shape(m)
+    monkeypatch.setattr(topology, "SPLIT_PROJECTIONS", True)
+    for share in (0.45, 0.9):  # edges dealt out two ways
+        monkeypatch.setattr(topology, "CHILD_SHARE", share)
+        shape = occ.model_to_shape(m)
+        assert text(shape) == text(serial)
+        assert differences(occ.shape_to_model(shape)[0], occ.shape_to_model(serial)[0]) == []
+    return handed
+
+
+@pytest.mark.parametrize("name", ["blob.tol0.01.nzc", "teapot.faces.tol0.01.nzc"])
+def test_split_projections_build_the_serial_shape(
+    name: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A decode whose projections a forked child shares builds the shape a
+    serial build gives, with the child's pcurves replayed."""
+    handed = _split_and_serial(name, tmp_path, monkeypatch)
+    assert len(handed) == 2 and 0 < handed[0] < handed[1]
+
+
+def test_split_projections_survive_their_child(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """If the child dies, the parent projects its share: the same shape, none handed."""
+    import os
+    import signal
+
+    from nurbscomp.occ import topology
+
+    def dying(jobs):
+        os.kill(os.getpid(), signal.SIGKILL)
+
+    monkeypatch.setattr(topology, "_child_projections", dying)
+    assert _split_and_serial("blob.tol0.01.nzc", tmp_path, monkeypatch) == [0, 0]
+
+
 def test_fault_with_everything_exact_keeps_its_ranges(tmp_path: Path) -> None:
     """A filleted box moved to x = 120 and written as faces-mode IGES: two
     faces on a surface of revolution keep a BRepCheck fault with their

@@ -65,6 +65,7 @@ from ..model import (
     Table,
 )
 from .geometry import GeometryBuilder, GeometryReader, record_key
+from .isolated import ReaderCrash, RoundTrip, can_fork
 from .lists import items
 
 _ORIENT = [TopAbs_Orientation(i) for i in range(4)]
@@ -472,13 +473,25 @@ def model_to_shape(m: BRepModel, cache: PcurveCache | None = None) -> Any:
     return root.Oriented(_ORIENT[m.root_orient]).Located(locs[m.root_loc])
 
 
+#: Whether a build with no :class:`PcurveCache` (a decode) may hand a share
+#: of its projections to a forked child (:func:`rebuild_pcurves`); batch
+#: workers turn it off, as the other core is busy with another file there.
+SPLIT_PROJECTIONS = True
+#: Fewest projections worth a fork (a fork of a process holding OCP costs
+#: some 20 ms; a projection some 0.3 ms).
+SPLIT_MIN = 400
+#: The child's share of the projections: the parent also builds the child's
+#: curves and replays them.
+CHILD_SHARE = 0.45
+
+
 def rebuild_pcurves(
     pending: list[tuple[Any, int, int, bool, int]],
     faces: list[Any],
     rows: list[tuple[int, int]],
     cache: PcurveCache | None = None,
     keys: _PcurveKeys | None = None,
-) -> None:
+) -> int:
     """Compute the pcurves a model left out, on the faces whose surface they name.
 
     Each pending item is (edge, surface row, location, seam, edge index).  The 3-D curve
@@ -488,23 +501,34 @@ def rebuild_pcurves(
     as OCCT's own STEP reader does.  Deterministic: the same model gives the
     same pcurves.  With a ``cache`` (and the ``keys`` of the model) a
     projection made before from the same data is replayed
-    (:meth:`PcurveCache.add`) instead of made again.
+    (:meth:`PcurveCache.add`) instead of made again.  Without one, and with
+    :data:`SPLIT_PROJECTIONS` and at least :data:`SPLIT_MIN` projections, a
+    forked child makes a share of them while this process makes the rest
+    (:func:`_split`); the edges get the same pcurves either way.
+
+    Returns how many projections the child made.
     """
     by_row: dict[tuple[int, int], list[Any]] = {}
     for f, key in zip(faces, rows):
         by_row.setdefault(key, []).append(f)
-    fix = ShapeFix_Edge()
-    # TopoDS.Face/Wire are TopoDS.Face_s/Wire_s in OCP 7.9; the stubs lack the _s names.
+    jobs = []
     touched: dict[int, Any] = {}
-    dirty: set[int] = set()  # edges whose 3-D curve a projection replaced
     for edge, srow, loc, seam, k in pending:
         for face in by_row.get((srow, loc), []):
-            f = TopoDS.Face(face)
-            if cache is None or keys is None:
-                fix.FixAddPCurve(edge, f, seam, BRep_Tool.Tolerance_s(edge))
-            else:
-                cache.add(fix, edge, f, seam, k, srow, loc, keys, dirty)
+            # TopoDS.Face/Wire are TopoDS.Face_s/Wire_s in OCP 7.9; the stubs lack the _s names.
+            jobs.append((edge, TopoDS.Face(face), seam, k, srow, loc))
             touched[id(face)] = face
+    fix = ShapeFix_Edge()
+    handed = 0
+    if cache is not None and keys is not None:
+        dirty: set[int] = set()  # edges whose 3-D curve a projection replaced
+        for edge, face, seam, k, srow, loc in jobs:
+            cache.add(fix, edge, face, seam, k, srow, loc, keys, dirty)
+    elif SPLIT_PROJECTIONS and len(jobs) >= SPLIT_MIN and can_fork():
+        handed = _split(fix, jobs)
+    else:
+        for edge, face, seam, _, _, _ in jobs:
+            fix.FixAddPCurve(edge, face, seam, BRep_Tool.Tolerance_s(edge))
     for face in touched.values():
         f = TopoDS.Face(face)
         it = TopoDS_Iterator(face, False, False)
@@ -513,6 +537,131 @@ def rebuild_pcurves(
             if w.ShapeType() == TopAbs_WIRE:
                 ShapeFix_Wire(TopoDS.Wire(w), f, 1e-7).FixShifted()
             it.Next()
+    return handed
+
+
+#: What a projection left on its edge, to be replayed: the pcurve, the second
+#: pcurve of a seam (or None), and the range on the surface.
+_Kept = tuple[Any, Any, float, float]
+
+
+def _settled(edge: Any, face: Any, k: int, dirty: set[int], sae: Any) -> Any:
+    """The face's located surface, or None where ``FixAddPCurve`` would not
+    project the edge's own 3-D curve afresh (it does nothing, or works from
+    the edge's pcurve there, or from a 3-D curve an earlier projection
+    replaced): such a call is made, never replayed."""
+    surf_loc = TopLoc_Location()
+    surf = BRep_Tool.Surface_s(face, surf_loc)
+    if k in dirty or sae.HasPCurve(edge, surf, surf_loc):
+        return None
+    return surf, surf_loc
+
+
+def _project(
+    fix: Any, edge: Any, face: Any, seam: bool, k: int, at: Any, dirty: set[int]
+) -> _Kept | None:
+    """``FixAddPCurve`` of a settled edge (``at``: :func:`_settled`'s answer),
+    and what it left to replay, or None (and ``k`` made dirty) where it did
+    not simply add the projected pcurves."""
+    surf, surf_loc = at
+    done = fix.FixAddPCurve(edge, face, seam, BRep_Tool.Tolerance_s(edge))
+    if not done or fix.Status(ShapeExtend_FAIL) or fix.Projector().Status(ShapeExtend_DONE3):
+        dirty.add(k)
+        return None
+    te = cast(BRep_TEdge, edge.TShape())
+    for cr in items(te.Curves()):
+        if cr.IsCurveOnSurface(surf, surf_loc):
+            closed = cr.IsCurveOnClosedSurface()
+            if closed != bool(seam):
+                break
+            return cr.PCurve(), cr.PCurve2() if closed else None, cr.First(), cr.Last()
+    dirty.add(k)
+    return None
+
+
+def _replay(b: Any, edge: Any, at: Any, kept: _Kept) -> None:
+    """The two builder calls with which ``FixAddPCurve`` stores its pcurves
+    (``kept``'s curves are the edge's own from here on)."""
+    surf, surf_loc = at
+    c1, c2, first, last = kept
+    if c2 is None:
+        b.UpdateEdge(edge, c1, surf, surf_loc, 0.0)
+    else:
+        b.UpdateEdge(edge, c1, c2, surf, surf_loc, 0.0)
+        b.Range(edge, surf, surf_loc, first, last)
+
+
+def _split(fix: Any, jobs: list[Any]) -> int:
+    """Project ``jobs`` (edge, face, seam, edge index, ...) here and in a child.
+
+    The edges are dealt out between the two processes in turn (every job of
+    an edge to the same one, about :data:`CHILD_SHARE` of the jobs to the
+    child): projections of different edges touch different edges only, so
+    they commute, and each edge sees its own jobs in their serial order.  The
+    child, forked with the edges as they are, projects its jobs and sends
+    back what each left (:func:`_child_projections`) while this process
+    projects its own.  Then this process takes the child's jobs in order,
+    replaying each that the child kept (its edge was settled: no pcurve on
+    that surface yet, its 3-D curve its own; the edge is in the same state
+    here) and projecting the others itself, so every edge ends with the
+    pcurves of a serial build, in the same order.  If the child dies, this
+    process projects its jobs.
+    """
+    side: dict[int, bool] = {}  # edge index -> the child's?
+    mine: list[Any] = []
+    theirs: list[Any] = []
+    for job in jobs:
+        k = job[3]
+        if k not in side:
+            side[k] = len(theirs) < CHILD_SHARE * (len(mine) + len(theirs) + 1)
+        (theirs if side[k] else mine).append(job)
+    with RoundTrip(lambda: _child_projections(theirs)) as child:
+        for edge, face, seam, _, _, _ in mine:
+            fix.FixAddPCurve(edge, face, seam, BRep_Tool.Tolerance_s(edge))
+        try:
+            records, answers = child.ask(_itself)
+        except ReaderCrash:
+            records, answers = [], [None] * len(theirs)
+    geo = GeometryBuilder([], [], records)
+    b, sae, dirty, handed = BRep_Builder(), ShapeAnalysis_Edge(), set[int](), 0
+    for (edge, face, seam, k, _, _), got in zip(theirs, answers):
+        at = _settled(edge, face, k, dirty, sae)
+        if at is None:
+            fix.FixAddPCurve(edge, face, seam, BRep_Tool.Tolerance_s(edge))
+        elif got is None:
+            _project(fix, edge, face, seam, k, at, dirty)
+        else:
+            i1, i2, first, last = got
+            c1, c2 = geo.curve2d(i1).Copy(), None if i2 < 0 else geo.curve2d(i2).Copy()
+            _replay(b, edge, at, (c1, c2, first, last))  # copies: a serial build shares none
+            handed += 1
+    return handed
+
+
+def _child_projections(jobs: list[Any]) -> tuple[list[Any], list[Any]]:
+    """In the child: each job projected in order as the serial build would,
+    and what it left as rows of a 2-D curve table (None where the parent
+    must project it itself)."""
+    reader, fix, sae = GeometryReader(), ShapeFix_Edge(), ShapeAnalysis_Edge()
+    dirty: set[int] = set()
+    answers: list[Any] = []
+    for edge, face, seam, k, _, _ in jobs:
+        at = _settled(edge, face, k, dirty, sae)
+        if at is None:
+            fix.FixAddPCurve(edge, face, seam, BRep_Tool.Tolerance_s(edge))
+            answers.append(None)
+            continue
+        kept = _project(fix, edge, face, seam, k, at, dirty)
+        if kept is None:
+            answers.append(None)
+        else:
+            c1, c2, first, last = kept
+            answers.append((reader.curve2d(c1), reader.curve2d(c2), first, last))
+    return reader.curves2d.records, answers
+
+
+def _itself(x: Any) -> Any:
+    return x
 
 
 class PcurveCache:
@@ -539,7 +688,7 @@ class PcurveCache:
     """
 
     def __init__(self) -> None:
-        self._kept: dict[tuple[Any, ...], tuple[Any, Any, float, float]] = {}
+        self._kept: dict[tuple[Any, ...], _Kept] = {}
         self.hits = 0
         self.misses = 0
         self._sae = ShapeAnalysis_Edge()
@@ -559,13 +708,9 @@ class PcurveCache:
     ) -> None:
         """What ``fix.FixAddPCurve(edge, face, seam, tolerance of edge)`` does,
         from the cache when it can be."""
-        tol = BRep_Tool.Tolerance_s(edge)
-        surf_loc = TopLoc_Location()
-        surf = BRep_Tool.Surface_s(face, surf_loc)
-        if k in dirty or self._sae.HasPCurve(edge, surf, surf_loc):
-            # FixAddPCurve does nothing, or works from the edge's own pcurve
-            # or replaced 3-D curve: not from what the key describes
-            fix.FixAddPCurve(edge, face, seam, tol)
+        at = _settled(edge, face, k, dirty, self._sae)
+        if at is None:
+            fix.FixAddPCurve(edge, face, seam, BRep_Tool.Tolerance_s(edge))
             return
         v1, v2 = TopoDS_Vertex(), TopoDS_Vertex()
         TopExp.Vertices_s(edge, v1, v2)
@@ -574,7 +719,7 @@ class PcurveCache:
             keys.surface(srow),
             keys.location(loc),
             bool(seam),
-            tol,
+            BRep_Tool.Tolerance_s(edge),
             -1.0 if v1.IsNull() else BRep_Tool.Tolerance_s(v1),
             -1.0 if v2.IsNull() else BRep_Tool.Tolerance_s(v2),
         )
@@ -582,32 +727,13 @@ class PcurveCache:
         if kept is not None:
             self.hits += 1
             c1, c2, first, last = kept
-            if c2 is None:
-                self._b.UpdateEdge(edge, c1.Copy(), surf, surf_loc, 0.0)
-            else:
-                self._b.UpdateEdge(edge, c1.Copy(), c2.Copy(), surf, surf_loc, 0.0)
-                self._b.Range(edge, surf, surf_loc, first, last)
+            _replay(self._b, edge, at, (c1.Copy(), None if c2 is None else c2.Copy(), first, last))
             return
         self.misses += 1
-        done = fix.FixAddPCurve(edge, face, seam, tol)
-        if not done or fix.Status(ShapeExtend_FAIL) or fix.Projector().Status(ShapeExtend_DONE3):
-            dirty.add(k)
-            return
-        te = cast(BRep_TEdge, edge.TShape())
-        for cr in items(te.Curves()):
-            if cr.IsCurveOnSurface(surf, surf_loc):
-                closed = cr.IsCurveOnClosedSurface()
-                if closed != bool(seam):
-                    dirty.add(k)
-                    return
-                self._kept[key] = (
-                    cr.PCurve().Copy(),
-                    cr.PCurve2().Copy() if closed else None,
-                    cr.First(),
-                    cr.Last(),
-                )
-                return
-        dirty.add(k)
+        got = _project(fix, edge, face, seam, k, at, dirty)
+        if got is not None:
+            c1, c2, first, last = got
+            self._kept[key] = (c1.Copy(), None if c2 is None else c2.Copy(), first, last)
 
 
 def _array_key(a: np.ndarray) -> tuple[Any, ...]:
