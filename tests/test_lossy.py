@@ -242,13 +242,24 @@ def test_unit_curves_keep_every_edge_point_for_point(name: str) -> None:
     assert moved > 0 and held > 0
 
 
+@pytest.mark.parametrize("split", [False, True])
 @pytest.mark.parametrize("name", ["teapot.step", "blob.step"])
-def test_pcurve_cache_builds_the_same_shape(name: str, tmp_path: Path) -> None:
+def test_pcurve_cache_builds_the_same_shape(
+    name: str, split: bool, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     """A build that reuses pcurves projected for another model (the validity
-    stage's candidates) is the fresh build, bit for bit."""
+    stage's candidates) is the fresh build, bit for bit; so is one whose
+    empty cache is filled by projections shared with a child (``split``)."""
     from OCP.BRepTools import BRepTools
 
     from nurbscomp.model import REBUILD, differences
+    from nurbscomp.occ import topology
+
+    handed: list[int] = []
+    real_split = topology._split
+    monkeypatch.setattr(topology, "_split", lambda *a: handed.append(real_split(*a)) or handed[-1])
+    monkeypatch.setattr(topology, "SPLIT_PROJECTIONS", split)
+    monkeypatch.setattr(topology, "SPLIT_MIN", 0)
 
     path = next(p for p in sample_files() if p.name == name)
     models = []
@@ -269,6 +280,7 @@ def test_pcurve_cache_builds_the_same_shape(name: str, tmp_path: Path) -> None:
     )
     cache = occ.PcurveCache()
     misses = []
+    handed.clear()  # the compressions' builds split too
     for m in (a, b, mixed, a):  # cold, cold, mixed, then every pcurve from the cache
         hits = cache.hits
         fresh, cached = occ.model_to_shape(m), occ.model_to_shape(m, cache)
@@ -277,6 +289,8 @@ def test_pcurve_cache_builds_the_same_shape(name: str, tmp_path: Path) -> None:
         misses.append(cache.misses)
     assert misses[1] < misses[2] < misses[1] + misses[0]  # the mixed model: some of each
     assert misses[3] == misses[2] and cache.hits > hits  # the last build: all from the cache
+    # split: the four fresh builds, and the first cached one (its cache was empty)
+    assert len(handed) == (5 if split else 0) and all(n > 0 for n in handed)
 
 
 GOLDEN = Path(__file__).parent / "golden"

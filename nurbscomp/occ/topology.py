@@ -12,6 +12,7 @@ order, same sharing, same flags, same numbers.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any, cast
 
 import numpy as np
@@ -520,12 +521,22 @@ def rebuild_pcurves(
             touched[id(face)] = face
     fix = ShapeFix_Edge()
     handed = 0
+    dirty: set[int] = set()  # edges whose 3-D curve a projection replaced
+    do: _Do | None = None
     if cache is not None and keys is not None:
-        dirty: set[int] = set()  # edges whose 3-D curve a projection replaced
-        for edge, face, seam, k, srow, loc in jobs:
-            cache.add(fix, edge, face, seam, k, srow, loc, keys, dirty)
-    elif SPLIT_PROJECTIONS and len(jobs) >= SPLIT_MIN and can_fork():
-        handed = _split(fix, jobs)
+        kc, kk = cache, keys
+
+        def do(job: Any, got: _Kept | None = None) -> bool:
+            edge, face, seam, k, srow, loc = job
+            return kc.add(fix, edge, face, seam, k, srow, loc, kk, dirty, got)
+
+    # a cache holding nothing yet (a first build) has every projection to make
+    split = cache is None or not cache
+    if split and SPLIT_PROJECTIONS and len(jobs) >= SPLIT_MIN and can_fork():
+        handed = _split(fix, jobs, dirty, do)
+    elif do is not None:
+        for job in jobs:
+            do(job)
     else:
         for edge, face, seam, _, _, _ in jobs:
             fix.FixAddPCurve(edge, face, seam, BRep_Tool.Tolerance_s(edge))
@@ -591,7 +602,13 @@ def _replay(b: Any, edge: Any, at: Any, kept: _Kept) -> None:
         b.Range(edge, surf, surf_loc, first, last)
 
 
-def _split(fix: Any, jobs: list[Any]) -> int:
+#: A job of :func:`rebuild_pcurves` done through its cache
+#: (:meth:`PcurveCache.add`), with the pcurves a child projected for it, if
+#: any; whether those were used.
+_Do = Callable[..., bool]
+
+
+def _split(fix: Any, jobs: list[Any], dirty: set[int], do: _Do | None = None) -> int:
     """Project ``jobs`` (edge, face, seam, edge index, ...) here and in a child.
 
     The edges are dealt out between the two processes in turn (every job of
@@ -605,7 +622,9 @@ def _split(fix: Any, jobs: list[Any]) -> int:
     that surface yet, its 3-D curve its own; the edge is in the same state
     here) and projecting the others itself, so every edge ends with the
     pcurves of a serial build, in the same order.  If the child dies, this
-    process projects its jobs.
+    process projects its jobs.  With ``do`` (a build with a cache) every job
+    goes through the cache, the child's with what the child projected, so
+    the cache keeps those too.
     """
     side: dict[int, bool] = {}  # edge index -> the child's?
     mine: list[Any] = []
@@ -616,24 +635,35 @@ def _split(fix: Any, jobs: list[Any]) -> int:
             side[k] = len(theirs) < CHILD_SHARE * (len(mine) + len(theirs) + 1)
         (theirs if side[k] else mine).append(job)
     with RoundTrip(lambda: _child_projections(theirs)) as child:
-        for edge, face, seam, _, _, _ in mine:
-            fix.FixAddPCurve(edge, face, seam, BRep_Tool.Tolerance_s(edge))
+        for job in mine:
+            if do is not None:
+                do(job)
+            else:
+                edge, face, seam = job[:3]
+                fix.FixAddPCurve(edge, face, seam, BRep_Tool.Tolerance_s(edge))
         try:
             records, answers = child.ask(_itself)
         except ReaderCrash:
             records, answers = [], [None] * len(theirs)
     geo = GeometryBuilder([], [], records)
-    b, sae, dirty, handed = BRep_Builder(), ShapeAnalysis_Edge(), set[int](), 0
-    for (edge, face, seam, k, _, _), got in zip(theirs, answers):
+    b, sae, handed = BRep_Builder(), ShapeAnalysis_Edge(), 0
+    for job, got in zip(theirs, answers):
+        kept = None
+        if got is not None:  # copies: a serial build shares no curve between edges
+            i1, i2, first, last = got
+            c2 = None if i2 < 0 else geo.curve2d(i2).Copy()
+            kept = (geo.curve2d(i1).Copy(), c2, first, last)
+        if do is not None:
+            handed += do(job, kept)
+            continue
+        edge, face, seam, k = job[:4]
         at = _settled(edge, face, k, dirty, sae)
         if at is None:
             fix.FixAddPCurve(edge, face, seam, BRep_Tool.Tolerance_s(edge))
-        elif got is None:
+        elif kept is None:
             _project(fix, edge, face, seam, k, at, dirty)
         else:
-            i1, i2, first, last = got
-            c1, c2 = geo.curve2d(i1).Copy(), None if i2 < 0 else geo.curve2d(i2).Copy()
-            _replay(b, edge, at, (c1, c2, first, last))  # copies: a serial build shares none
+            _replay(b, edge, at, kept)
             handed += 1
     return handed
 
@@ -705,13 +735,16 @@ class PcurveCache:
         loc: int,
         keys: _PcurveKeys,
         dirty: set[int],
-    ) -> None:
+        projected: _Kept | None = None,
+    ) -> bool:
         """What ``fix.FixAddPCurve(edge, face, seam, tolerance of edge)`` does,
-        from the cache when it can be."""
+        from the cache when it can be, else from ``projected`` (what a child
+        that forked with this edge as it is now kept of that call:
+        :func:`_split`) if given.  Whether ``projected`` was used."""
         at = _settled(edge, face, k, dirty, self._sae)
         if at is None:
             fix.FixAddPCurve(edge, face, seam, BRep_Tool.Tolerance_s(edge))
-            return
+            return False
         v1, v2 = TopoDS_Vertex(), TopoDS_Vertex()
         TopExp.Vertices_s(edge, v1, v2)
         key = (
@@ -728,12 +761,21 @@ class PcurveCache:
             self.hits += 1
             c1, c2, first, last = kept
             _replay(self._b, edge, at, (c1.Copy(), None if c2 is None else c2.Copy(), first, last))
-            return
+            return False
         self.misses += 1
-        got = _project(fix, edge, face, seam, k, at, dirty)
+        if projected is not None:
+            _replay(self._b, edge, at, projected)
+            got: _Kept | None = projected
+        else:
+            got = _project(fix, edge, face, seam, k, at, dirty)
         if got is not None:
             c1, c2, first, last = got
             self._kept[key] = (c1.Copy(), None if c2 is None else c2.Copy(), first, last)
+        return projected is not None
+
+    def __len__(self) -> int:
+        """Projections kept."""
+        return len(self._kept)
 
 
 def _array_key(a: np.ndarray) -> tuple[Any, ...]:
