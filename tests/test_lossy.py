@@ -260,6 +260,7 @@ def test_pcurve_cache_builds_the_same_shape(
     monkeypatch.setattr(topology, "_split", lambda *a: handed.append(real_split(*a)) or handed[-1])
     monkeypatch.setattr(topology, "SPLIT_PROJECTIONS", split)
     monkeypatch.setattr(topology, "SPLIT_MIN", 0)
+    monkeypatch.setattr(topology, "spare_core", lambda: True)  # whatever the load
 
     path = next(p for p in sample_files() if p.name == name)
     models = []
@@ -310,6 +311,7 @@ def _split_and_serial(name: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
     split = topology._split
     monkeypatch.setattr(topology, "_split", lambda *a: handed.append(split(*a)) or handed[-1])
     monkeypatch.setattr(topology, "SPLIT_MIN", 0)
+    monkeypatch.setattr(topology, "spare_core", lambda: True)  # whatever the load
 
     def text(shape) -> str:
         BRepTools.Write_s(shape, str(tmp_path / "s.brep"))
@@ -334,6 +336,44 @@ def test_split_projections_build_the_serial_shape(
     serial build gives, with the child's pcurves replayed."""
     handed = _split_and_serial(name, tmp_path, monkeypatch)
     assert len(handed) == 2 and 0 < handed[0] < handed[1]
+
+
+def test_split_projections_only_with_a_spare_core(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A build splits its projections only where another core looks idle."""
+    import os
+
+    from nurbscomp.occ import topology
+
+    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0, 1}, raising=False)
+    monkeypatch.setattr(topology, "_others_running", lambda: 0)  # idle
+    for load, spare in ((0.9, True), (1.5, True), (1.6, False), (2.3, False)):
+        monkeypatch.setattr(os, "getloadavg", lambda load=load: (load, load, load))
+        assert topology.spare_core() is spare
+    monkeypatch.setattr(topology, "_others_running", lambda: 1)  # another process running
+    assert topology.spare_core() is False
+    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0}, raising=False)
+    monkeypatch.setattr(os, "getloadavg", lambda: (0.0, 0.0, 0.0))
+    monkeypatch.setattr(topology, "_others_running", lambda: 0)
+    assert topology.spare_core() is False  # one core: nothing to share
+
+
+@pytest.mark.skipif(not Path("/proc/self/task").is_dir(), reason="Linux's /proc")
+def test_a_busy_process_is_seen_running() -> None:
+    """A process spinning on the CPU counts among the others running."""
+    import subprocess
+    import sys
+    import time
+
+    from nurbscomp.occ import topology
+
+    spin = "import time\nt = time.time()\nwhile time.time() - t < 5: pass"
+    p = subprocess.Popen([sys.executable, "-c", spin])
+    try:
+        time.sleep(0.3)
+        assert topology._others_running() >= 1
+    finally:
+        p.kill()
+        p.wait()
 
 
 def test_split_projections_survive_their_child(
