@@ -360,6 +360,7 @@ def test_split_projections_only_with_a_spare_core(monkeypatch: pytest.MonkeyPatc
 @pytest.mark.skipif(not Path("/proc/self/task").is_dir(), reason="Linux's /proc")
 def test_a_busy_process_is_seen_running() -> None:
     """A process spinning on the CPU counts among the others running."""
+    import os
     import subprocess
     import sys
     import time
@@ -371,6 +372,15 @@ def test_a_busy_process_is_seen_running() -> None:
     try:
         time.sleep(0.3)
         assert topology._others_running() >= 1
+    finally:
+        p.kill()
+        p.wait()
+    # a niced one yields the core, and is not counted
+    base = topology._others_running()
+    p = subprocess.Popen([sys.executable, "-c", spin], preexec_fn=lambda: os.nice(10))
+    try:
+        time.sleep(0.3)
+        assert topology._others_running() <= base
     finally:
         p.kill()
         p.wait()
