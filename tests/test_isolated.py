@@ -8,6 +8,7 @@ import signal
 import threading
 import time
 from pathlib import Path
+from typing import Any, cast
 
 import pytest
 
@@ -147,3 +148,31 @@ def test_nothing_is_packed_meanwhile_for_a_fallback(
     m, _ = occ.shape_to_model(cad.shape)
     t = validity.lossy_target(m, cad.shape, 0.01, meanwhile=_pack)
     assert t.validity.fallback == "exact" and t.early is None
+
+
+def test_a_busy_machine_makes_no_round_trip_for_a_faulty_candidate(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """With a core to spare a candidate's STEP round trip begins before its
+    BRepCheck; without one it waits for BRepCheck to pass, so a candidate
+    with a new fault costs no round trip at all."""
+    from nurbscomp.encode import validity
+
+    trips: list[object] = []
+
+    class Floor:
+        product = None
+
+        def trip(self, shape: object, stack: object, product: object = None) -> object:
+            trips.append(shape)
+            return object()
+
+    monkeypatch.setattr(validity.occ, "failures", lambda shape: ({1}, set()))
+    for spare, made in ((True, 1), (False, 0)):
+        monkeypatch.setattr(validity.occ, "spare_core", lambda spare=spare: spare)
+        trips.clear()
+        new_e, new_f, blamed, early = validity._check(
+            "shape", set(), set(), cast(Any, Floor()), 0.01
+        )
+        assert (new_e, new_f, blamed, early) == ({1}, set(), None, None)
+        assert len(trips) == made

@@ -338,23 +338,23 @@ def test_split_projections_build_the_serial_shape(
     assert len(handed) == 2 and 0 < handed[0] < handed[1]
 
 
-def test_split_projections_only_with_a_spare_core(monkeypatch: pytest.MonkeyPatch) -> None:
-    """A build splits its projections only where another core looks idle."""
+def test_spare_core_rule(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Work is shared with a child only where another core looks idle."""
     import os
 
-    from nurbscomp.occ import topology
+    from nurbscomp.occ import isolated
 
     monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0, 1}, raising=False)
-    monkeypatch.setattr(topology, "_others_running", lambda: 0)  # idle
+    monkeypatch.setattr(isolated, "_others_running", lambda: 0)  # idle
     for load, spare in ((0.9, True), (1.5, True), (1.6, False), (2.3, False)):
         monkeypatch.setattr(os, "getloadavg", lambda load=load: (load, load, load))
-        assert topology.spare_core() is spare
-    monkeypatch.setattr(topology, "_others_running", lambda: 1)  # another process running
-    assert topology.spare_core() is False
+        assert isolated.spare_core() is spare
+    monkeypatch.setattr(isolated, "_others_running", lambda: 1)  # another process running
+    assert isolated.spare_core() is False
     monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0}, raising=False)
     monkeypatch.setattr(os, "getloadavg", lambda: (0.0, 0.0, 0.0))
-    monkeypatch.setattr(topology, "_others_running", lambda: 0)
-    assert topology.spare_core() is False  # one core: nothing to share
+    monkeypatch.setattr(isolated, "_others_running", lambda: 0)
+    assert isolated.spare_core() is False  # one core: nothing to share
 
 
 @pytest.mark.skipif(not Path("/proc/self/task").is_dir(), reason="Linux's /proc")
@@ -365,22 +365,22 @@ def test_a_busy_process_is_seen_running() -> None:
     import sys
     import time
 
-    from nurbscomp.occ import topology
+    from nurbscomp.occ import isolated
 
     spin = "import time\nt = time.time()\nwhile time.time() - t < 5: pass"
     p = subprocess.Popen([sys.executable, "-c", spin])
     try:
         time.sleep(0.3)
-        assert topology._others_running() >= 1
+        assert isolated._others_running() >= 1
     finally:
         p.kill()
         p.wait()
     # a niced one yields the core, and is not counted
-    base = topology._others_running()
+    base = isolated._others_running()
     p = subprocess.Popen([sys.executable, "-c", spin], preexec_fn=lambda: os.nice(10))
     try:
         time.sleep(0.3)
-        assert topology._others_running() <= base
+        assert isolated._others_running() <= base
     finally:
         p.kill()
         p.wait()

@@ -57,9 +57,10 @@ log = logging.getLogger(__name__)
 MAX_ROUNDS = 20
 
 #: Begin OCCT's own STEP round trip of the source (the floor) at the start,
-#: in a child beside the net search, in case a candidate needs it; a batch
-#: that keeps every core busy already turns this off (``batch``): there the
-#: round trips no candidate needs would cost other files' time.
+#: in a child beside the net search, in case a candidate needs it, where a
+#: core is spare (``occ.spare_core``); a batch that keeps every core busy
+#: turns this off (``batch``): there the round trips no candidate needs
+#: would cost other files' time.
 SPECULATE = True
 #: The niceness the floor's round trip gets when begun that way.
 SPECULATIVE_NICE = 10
@@ -170,8 +171,9 @@ class _Floor:
     given (a candidate, or even the source's own round trip), and that must
     not take compress down.  Close it (:meth:`close`) when done.
 
-    A child works beside this process until it is asked: a candidate's round
-    trip is begun before its BRepCheck (:func:`_check`), and with
+    A child works beside this process until it is asked: with a core to
+    spare, a candidate's round trip is begun before its BRepCheck
+    (:func:`_check`), and with
     :data:`SPECULATE` the floor's is begun at once (:meth:`begin`), beside the
     net search, and stopped unused if no candidate needs it.  Only the round
     trips whose answers are used count in the report.
@@ -466,7 +468,7 @@ def lossy_target(
         vr.step_skipped = step_reader_hangs(m)
     floor = _Floor(source, m.unit, vr, m.product) if step_check and not vr.step_skipped else None
     try:
-        if floor is not None and SPECULATE:
+        if floor is not None and SPECULATE and occ.spare_core():
             floor.begin(speculative=True)
         return _search(m, source, tol, vr, floor, meanwhile)
     finally:
@@ -569,19 +571,25 @@ def _check(
     (:meth:`_Floor.candidate_losses`; None: it keeps what the floor keeps);
     last, what ``meanwhile()`` returned (None if it was not called).
 
-    The STEP round trip is begun first, in its child.  BRepCheck runs here
-    meanwhile (a candidate with new faults stops the round trip unused), then
-    ``meanwhile``, on a candidate BRepCheck passes, before the round trip's
-    answers are waited for."""
+    With a core to spare (``occ.spare_core``) the STEP round trip is begun
+    first, in its child, and BRepCheck runs here meanwhile (a candidate with
+    new faults stops the round trip unused); else, not to take a busy core's
+    time for a round trip that may be thrown away, only once BRepCheck has
+    passed.  Then ``meanwhile`` runs, on a candidate BRepCheck passes, before
+    the round trip's answers are waited for."""
     with contextlib.ExitStack() as stack:
-        back = floor.trip(shape, stack, floor.product) if floor is not None else None
+        back = None
+        if floor is not None and occ.spare_core():
+            back = floor.trip(shape, stack, floor.product)
         bad_e, bad_f = occ.failures(shape)
         new_e, new_f = bad_e - old_e, bad_f - old_f
         if new_e or new_f:
             return new_e, new_f, None, None
+        if floor is None:
+            return new_e, new_f, None, meanwhile() if meanwhile is not None else None
+        if back is None:
+            back = floor.trip(shape, stack, floor.product)
         early = meanwhile() if meanwhile is not None else None
-        if floor is None or back is None:
-            return new_e, new_f, None, early
         return new_e, new_f, floor.candidate_losses(back, tol), early
 
 

@@ -14,7 +14,7 @@ from .files import (
     step_round_trip,
     write_shape,
 )
-from .isolated import ReaderCrash, RoundTrip
+from .isolated import ReaderCrash, RoundTrip, spare_core
 from .measure import (
     counts,
     deviation,
@@ -61,6 +61,7 @@ __all__ = [
     "read_cad",
     "sewn_edge_pairs",
     "shape_to_model",
+    "spare_core",
     "step_round_trip",
     "write_shape",
 ]
