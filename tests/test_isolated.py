@@ -122,20 +122,25 @@ def _pack(model: object, codes: dict) -> tuple[int, bytes]:
 
 
 @pytest.mark.parametrize("speculate", [True, False])
+@pytest.mark.parametrize("spare", [True, False])
 def test_what_is_packed_meanwhile_is_the_target(
-    speculate: bool, monkeypatch: pytest.MonkeyPatch
+    speculate: bool, spare: bool, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """``lossy_target(meanwhile=...)`` runs while a candidate's STEP round trip
     does: what it returns is kept for the model returned, which is still as
     it was then; the floor begun at once (``SPECULATE``) or when needed
-    changes nothing but time."""
+    changes nothing but time.  With no core to spare it does not run."""
     monkeypatch.setattr(validity, "SPECULATE", speculate)
+    monkeypatch.setattr(validity.occ, "spare_core", lambda: spare)
     cad = occ.read_cad(SAMPLES / "loft.step")
     m, _ = occ.shape_to_model(cad.shape)
     t = validity.lossy_target(m, cad.shape, 0.01, meanwhile=_pack)
+    assert t.validity.step_round_trips >= 1
+    if not spare:
+        assert t.early is None
+        return
     assert t.early is not None and t.early[0] == id(t.model)
     assert t.early[1] == _pack(t.model, t.codes)[1]
-    assert t.validity.step_round_trips >= 1
 
 
 def test_nothing_is_packed_meanwhile_for_a_fallback(
@@ -144,6 +149,7 @@ def test_nothing_is_packed_meanwhile_for_a_fallback(
     """When every candidate fails, the model returned (every record exact)
     was never checked: no early result comes with it."""
     monkeypatch.setattr(validity.occ, "step_round_trip", lambda *a: _crash())
+    monkeypatch.setattr(validity.occ, "spare_core", lambda: True)
     cad = occ.read_cad(SAMPLES / "loft.step")
     m, _ = occ.shape_to_model(cad.shape)
     t = validity.lossy_target(m, cad.shape, 0.01, meanwhile=_pack)

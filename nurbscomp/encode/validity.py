@@ -575,12 +575,13 @@ def _check(
     first, in its child, and BRepCheck runs here meanwhile (a candidate with
     new faults stops the round trip unused); else, not to take a busy core's
     time for a round trip that may be thrown away, only once BRepCheck has
-    passed.  Then ``meanwhile`` runs, on a candidate BRepCheck passes, before
-    the round trip's answers are waited for."""
+    passed.  Then, with that core to spare, ``meanwhile`` runs, on a
+    candidate BRepCheck passes, before the round trip's answers are waited
+    for (on a busy machine the work it would do for candidates the round trip
+    then fails is other jobs' time: trj7 makes seven round trips)."""
+    spare = occ.spare_core()
     with contextlib.ExitStack() as stack:
-        back = None
-        if floor is not None and occ.spare_core():
-            back = floor.trip(shape, stack, floor.product)
+        back = floor.trip(shape, stack, floor.product) if floor is not None and spare else None
         bad_e, bad_f = occ.failures(shape)
         new_e, new_f = bad_e - old_e, bad_f - old_f
         if new_e or new_f:
@@ -589,7 +590,7 @@ def _check(
             return new_e, new_f, None, meanwhile() if meanwhile is not None else None
         if back is None:
             back = floor.trip(shape, stack, floor.product)
-        early = meanwhile() if meanwhile is not None else None
+        early = meanwhile() if meanwhile is not None and spare else None
         return new_e, new_f, floor.candidate_losses(back, tol), early
 
 
