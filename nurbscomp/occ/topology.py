@@ -474,9 +474,10 @@ def model_to_shape(m: BRepModel, cache: PcurveCache | None = None) -> Any:
     return root.Oriented(_ORIENT[m.root_orient]).Located(locs[m.root_loc])
 
 
-#: Whether a build with no :class:`PcurveCache` (a decode) may hand a share
-#: of its projections to a forked child (:func:`rebuild_pcurves`); batch
-#: workers turn it off, as the other core is busy with another file there.
+#: Whether a build with no :class:`PcurveCache` or an empty one (a decode, or
+#: a compress's first candidate) may hand a share of its projections to a
+#: forked child (:func:`rebuild_pcurves`); batch workers turn it off, as the
+#: other core is busy with another file there.
 SPLIT_PROJECTIONS = True
 #: Fewest projections worth a fork (a fork of a process holding OCP costs
 #: some 20 ms; a projection some 0.3 ms).
@@ -555,6 +556,13 @@ def rebuild_pcurves(
 #: What a projection left on its edge, to be replayed: the pcurve, the second
 #: pcurve of a seam (or None), and the range on the surface.
 _Kept = tuple[Any, Any, float, float]
+
+
+def _copied(kept: _Kept) -> _Kept:
+    """``kept`` with copies of its curves, so that neither the edge it is
+    replayed on nor the one it came from shares a curve with the other."""
+    c1, c2, first, last = kept
+    return (c1.Copy(), None if c2 is None else c2.Copy(), first, last)
 
 
 def _settled(edge: Any, face: Any, k: int, dirty: set[int], sae: Any) -> Any:
@@ -652,8 +660,7 @@ def _split(fix: Any, jobs: list[Any], dirty: set[int], do: _Do | None = None) ->
         kept = None
         if got is not None:  # copies: a serial build shares no curve between edges
             i1, i2, first, last = got
-            c2 = None if i2 < 0 else geo.curve2d(i2).Copy()
-            kept = (geo.curve2d(i1).Copy(), c2, first, last)
+            kept = _copied((geo.curve2d(i1), None if i2 < 0 else geo.curve2d(i2), first, last))
         if do is not None:
             handed += do(job, kept)
             continue
@@ -760,8 +767,7 @@ class PcurveCache:
         kept = self._kept.get(key)
         if kept is not None:
             self.hits += 1
-            c1, c2, first, last = kept
-            _replay(self._b, edge, at, (c1.Copy(), None if c2 is None else c2.Copy(), first, last))
+            _replay(self._b, edge, at, _copied(kept))
             return False
         self.misses += 1
         if projected is not None:
@@ -770,8 +776,7 @@ class PcurveCache:
         else:
             got = _project(fix, edge, face, seam, k, at, dirty)
         if got is not None:
-            c1, c2, first, last = got
-            self._kept[key] = (c1.Copy(), None if c2 is None else c2.Copy(), first, last)
+            self._kept[key] = _copied(got)
         return projected is not None
 
     def __len__(self) -> int:
