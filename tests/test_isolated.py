@@ -116,6 +116,82 @@ def test_leaving_the_block_stops_a_child_still_at_work() -> None:
         os.waitpid(pid, os.WNOHANG)  # reaped already
 
 
+def test_a_reader_that_does_not_answer_in_time_is_stopped() -> None:
+    """A round trip given a time limit is killed past it (OCCT's reader can
+    loop: an offset of a surface of revolution), and says so from then on."""
+    t0 = time.perf_counter()
+    with occ.RoundTrip(lambda: time.sleep(60), limit=0.5) as r:
+        pid = r._pid
+        with pytest.raises(occ.ReaderTimeout, match="did not finish within 0.5 s"):
+            r.ask(occ.counts)
+        assert r.crashed
+        with pytest.raises(occ.ReaderTimeout):
+            r.ask(occ.counts)
+        with pytest.raises(ChildProcessError):
+            os.waitpid(pid, os.WNOHANG)  # killed and reaped at once
+    assert time.perf_counter() - t0 < 10
+    shape = occ.read_cad(SAMPLES / "loft.step").shape
+    with occ.RoundTrip(lambda: shape, limit=30) as r:  # in time: as with no limit
+        assert r.ask(occ.counts) == occ.counts(shape)
+
+
+def _offset_of_revolution() -> Any:
+    """One face on an offset of a surface of revolution of a B-spline profile,
+    the kind ``validity.step_reader_hangs`` names."""
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeFace
+    from OCP.Geom import Geom_OffsetSurface, Geom_SurfaceOfRevolution
+    from OCP.GeomAPI import GeomAPI_PointsToBSpline
+    from OCP.gp import gp_Ax1, gp_Dir, gp_Pnt
+    from OCP.TColgp import TColgp_Array1OfPnt
+
+    points = TColgp_Array1OfPnt(1, 4)
+    for i, (x, z) in enumerate([(5, 0), (6, 3), (5.5, 6), (7, 9)], 1):
+        points.SetValue(i, gp_Pnt(x, 0, z))
+    profile = GeomAPI_PointsToBSpline(points).Curve()
+    rev = Geom_SurfaceOfRevolution(profile, gp_Ax1(gp_Pnt(0, 0, 0), gp_Dir(0, 0, 1)))
+    return BRepBuilderAPI_MakeFace(Geom_OffsetSurface(rev, 0.8), 0, 4.0, 0, 1, 1e-7).Face()
+
+
+def test_a_model_the_reader_may_loop_on_is_still_checked(tmp_path: Path) -> None:
+    """Such a model's round trips only get a time limit: this one's come back,
+    and its coded edges' tolerances (some 5e-3) would have had OCCT's reader
+    add a degenerated edge (4 -> 5 edges) in the decompressed STEP, which the
+    check keeps out."""
+    src = tmp_path / "offrev.step"
+    occ.write_shape(_offset_of_revolution(), src, "STEP")
+    m = occ.shape_to_model(occ.read_cad(src).shape)[0]
+    assert validity.step_reader_hangs(m) and validity.step_time_limit(m)
+    report = pipeline.compress_file(src, tmp_path / "o.nzc", tol=0.01)
+    assert not report["validity"]["step_skipped"]
+    assert report["validity"]["rounds"] >= 2  # the first candidate gained the edge
+    pipeline.decompress_file(tmp_path / "o.nzc", tmp_path / "o.step")
+    assert occ.counts(occ.read_cad(tmp_path / "o.step").shape) == occ.counts(
+        occ.step_round_trip(occ.read_cad(src).shape)
+    )
+
+
+def test_a_reader_that_loops_on_the_source_too_leaves_no_check(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """If every round trip loops, the source's own included, compress waits one
+    time limit (the source's runs beside the candidate's), then goes on with
+    no STEP check and says why."""
+    src = tmp_path / "offrev.step"
+    occ.write_shape(_offset_of_revolution(), src, "STEP")
+
+    def looping(*a: object, **k: object) -> None:
+        time.sleep(60)
+
+    monkeypatch.setattr(validity.occ, "step_round_trip", looping)
+    monkeypatch.setattr(validity, "HANG_SECONDS", 1.0)
+    t0 = time.perf_counter()
+    report = pipeline.compress_file(src, tmp_path / "o.nzc", tol=0.01)
+    assert time.perf_counter() - t0 < 20
+    assert "did not finish within" in report["validity"]["step_skipped"]
+    assert any("no STEP check" in w for w in report["warnings"])
+    assert occ.counts(pipeline.decode_file(tmp_path / "o.nzc")[0])["faces"] == 1
+
+
 def _pack(model: object, codes: dict) -> tuple[int, bytes]:
     meta = {"mode": "tolerance", "tolerance_mm": 0.01}
     return id(model), container.pack(model_to_sections(model, meta, codes), 0, thorough=False)
@@ -168,6 +244,7 @@ def test_a_busy_machine_makes_no_round_trip_for_a_faulty_candidate(
 
     class Floor:
         product = None
+        broken = ""
 
         def trip(self, shape: object, stack: object, product: object = None) -> object:
             trips.append(shape)

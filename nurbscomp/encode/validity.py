@@ -129,13 +129,14 @@ class Target:
 
 
 def step_reader_hangs(m: BRepModel) -> str:
-    """Why OCCT's STEP reader would not come back from this model, or ``""``.
+    """Why OCCT's STEP reader may not come back from this model, or ``""``.
 
-    An offset of a surface of revolution: OCCT 7.9's reader loops forever in
-    ``ShapeFix_Wire::FixShifted`` (``ShapeAnalysis_Surface::ComputeSingularities``
+    An offset of a surface of revolution: OCCT 7.9's reader can loop forever
+    in ``ShapeFix_Wire::FixShifted`` (``ShapeAnalysis_Surface::ComputeSingularities``
     evaluating the offset's derivatives), on the source's own round trip as on
-    ours (seen on an IGES offset of a partial cylinder of revolution).  Such a
-    model gets no STEP check: it could not finish.
+    ours (seen on a faces-mode IGES offset of a partial cylinder, which IGES
+    holds as a surface of revolution; others of the kind read back at once).
+    Such a model's round trips get a time limit (:func:`step_time_limit`).
     """
     for g in m.surfaces:
         if isinstance(g, Derived) and g.kind == Kind.OFFSET_SURFACE:
@@ -145,6 +146,20 @@ def step_reader_hangs(m: BRepModel) -> str:
             if isinstance(b, Derived) and b.kind == Kind.REVOLUTION:
                 return "an offset surface of revolution (OCCT's STEP reader loops on it)"
     return ""
+
+
+#: A round trip of a model :func:`step_reader_hangs` names may take this many
+#: seconds, plus :data:`HANG_PER_FACE` a face, before it is taken for a loop
+#: (a round trip takes some 2.5 ms a face: NIST_MBE_PMI_2's 597 in 1.5 s).
+HANG_SECONDS = 10.0
+HANG_PER_FACE = 0.02
+
+
+def step_time_limit(m: BRepModel) -> float | None:
+    """Seconds a STEP round trip of ``m`` may take (None: no limit), with why."""
+    if not step_reader_hangs(m):
+        return None
+    return HANG_SECONDS + HANG_PER_FACE * len(m.face_surface)
 
 
 def build(m: BRepModel, cache: occ.PcurveCache | None = None) -> Any:
@@ -179,8 +194,16 @@ class _Floor:
     trips whose answers are used count in the report.
     """
 
-    def __init__(self, source: Any, unit: str, report: ValidityReport, product: Any = None) -> None:
+    def __init__(
+        self,
+        source: Any,
+        unit: str,
+        report: ValidityReport,
+        product: Any = None,
+        limit: float | None = None,
+    ) -> None:
         self.source, self.unit, self.report = source, unit, report
+        self.limit = limit  # seconds a round trip may take (step_time_limit)
         self.product = product  # the candidates are written as decompress writes them
         self.counts = occ.counts(source)
         self._children = contextlib.ExitStack()  # the floor's round trip, once made
@@ -199,7 +222,7 @@ class _Floor:
         file is written to)."""
         folder = Path(stack.enter_context(tempfile.TemporaryDirectory(prefix="nurbscomp-")))
         make = functools.partial(occ.step_round_trip, shape, self.unit, product, folder)
-        return stack.enter_context(occ.RoundTrip(make, nice))
+        return stack.enter_context(occ.RoundTrip(make, nice, self.limit))
 
     def begin(self, speculative: bool = False) -> None:
         """Begin the floor's round trip now (it is counted once asked); a
@@ -250,6 +273,16 @@ class _Floor:
         self.report.step_round_trips += 1
         try:
             return self.losses(back, tol)
+        except occ.ReaderTimeout as e:
+            # held to the source's own round trip: if that loops too, there is
+            # nothing to hold the candidate to (``broken``)
+            try:
+                self.floor_counts  # noqa: B018 (asks the floor)
+            except occ.ReaderCrash as f:
+                self.broken = f"{f} (the source's own round trip)"
+                return None
+            log.debug("STEP round trip of the candidate fails: %s", e)
+            return {int(f) for f in self.model_face}
         except InputError as e:
             log.debug("STEP round trip of the candidate fails: %s", e)
             return {int(f) for f in self.model_face}
@@ -464,11 +497,11 @@ def lossy_target(
         passes); the result for the model returned is ``Target.early``.
     """
     vr = ValidityReport()
-    if step_check:
-        vr.step_skipped = step_reader_hangs(m)
-    floor = _Floor(source, m.unit, vr, m.product) if step_check and not vr.step_skipped else None
+    floor = _Floor(source, m.unit, vr, m.product, step_time_limit(m)) if step_check else None
     try:
-        if floor is not None and SPECULATE and occ.spare_core():
+        if floor is not None and floor.limit is not None:
+            floor.begin()  # beside the candidates': a loop costs one limit, not two
+        elif floor is not None and SPECULATE and occ.spare_core():
             floor.begin(speculative=True)
         return _search(m, source, tol, vr, floor, meanwhile)
     finally:
@@ -580,6 +613,8 @@ def _check(
     for (on a busy machine the work it would do for candidates the round trip
     then fails is other jobs' time: trj7 makes seven round trips)."""
     spare = occ.spare_core()
+    if floor is not None and floor.broken:
+        floor = None  # the source's own round trip cannot be had: nothing to hold to
     with contextlib.ExitStack() as stack:
         back = floor.trip(shape, stack, floor.product) if floor is not None and spare else None
         bad_e, bad_f = occ.failures(shape)

@@ -14,7 +14,7 @@ from .files import (
     step_round_trip,
     write_shape,
 )
-from .isolated import ReaderCrash, RoundTrip, spare_core
+from .isolated import ReaderCrash, ReaderTimeout, RoundTrip, spare_core
 from .measure import (
     counts,
     deviation,
@@ -39,6 +39,7 @@ __all__ = [
     "CadFile",
     "PcurveCache",
     "ReaderCrash",
+    "ReaderTimeout",
     "RoundTrip",
     "bintools_bytes",
     "counts",

@@ -34,6 +34,7 @@ import signal
 import socket
 import struct
 import sys
+import time
 import warnings
 from collections.abc import Callable
 from typing import Any
@@ -41,10 +42,18 @@ from typing import Any
 from ..errors import InputError
 
 _LEN = struct.Struct("<Q")
+#: Seconds a child past its time limit still gets to answer (it may have made
+#: its shape long ago, while its parent was busy).
+GRACE = 2.0
 
 
 class ReaderCrash(InputError):
     """OCCT's STEP round trip killed the process it ran in."""
+
+
+class ReaderTimeout(ReaderCrash):
+    """OCCT's STEP round trip did not answer within its time limit (its
+    child is killed: OCCT's reader loops on some shapes)."""
 
 
 def _send(sock: socket.socket, obj: Any) -> None:
@@ -131,13 +140,20 @@ class RoundTrip:
         reader refused the file): re-raised with its message.
     """
 
-    def __init__(self, make: Callable[[], Any], nice: int = 0) -> None:
+    def __init__(self, make: Callable[[], Any], nice: int = 0, limit: float | None = None) -> None:
         self._make = make
         self._nice = nice  # the child's niceness increment: work only a spare core should do
+        #: Seconds the child may take to make its shape, from its start, and
+        #: then to answer each question (None: no limit); past them, it is
+        #: killed and :meth:`ask` raises ReaderTimeout.
+        self.limit = limit
+        self._started = 0.0
+        self._answered = False
         self._local: Any = None
         self._pid = 0
         self._sock: socket.socket | None = None
         self._dead = ""
+        self._timed_out = False
 
     def __enter__(self) -> RoundTrip:
         if not can_fork():
@@ -167,6 +183,7 @@ class RoundTrip:
                 os._exit(status)
         child.close()
         self._pid, self._sock = pid, parent
+        self._started = time.monotonic()
         return self
 
     @property
@@ -176,13 +193,20 @@ class RoundTrip:
 
     def ask(self, fn: Callable[[Any], Any]) -> Any:
         """``fn(shape)`` computed where the shape is."""
+        if self._dead:
+            raise (ReaderTimeout if self._timed_out else ReaderCrash)(self._dead)
         if self._sock is None:
             return fn(self._local)
-        if self._dead:
-            raise ReaderCrash(self._dead)
+        self._sock.settimeout(self._wait())
         try:
             _send(self._sock, fn)
             kind, value = _recv(self._sock)
+            self._answered = True
+        except TimeoutError:
+            self._kill()
+            self._timed_out = True
+            self._dead = f"OCCT's STEP reader did not finish within {self.limit:g} s"
+            raise ReaderTimeout(self._dead) from None
         except (EOFError, OSError):
             self._dead = self._reap()
             raise ReaderCrash(self._dead) from None
@@ -190,6 +214,14 @@ class RoundTrip:
             cls, msg = value
             raise (InputError if cls == "InputError" else RuntimeError)(msg)
         return value
+
+    def _wait(self) -> float | None:
+        """How long the next answer may take: what is left of :attr:`limit`
+        since the child began, until it has answered once (with a grace of
+        :data:`GRACE` seconds for an answer already made), then the limit."""
+        if self.limit is None or self._answered:
+            return self.limit
+        return max(GRACE, self._started + self.limit - time.monotonic())
 
     def _reap(self) -> str:
         """Why the child is gone (it is waited for)."""
@@ -204,6 +236,10 @@ class RoundTrip:
         """End the child at once, whatever it is doing: a round trip begun
         beside other work (the encoder's BRepCheck, say) may no longer be
         wanted, and its answers are never waited for here."""
+        self._kill()
+        self._local = None
+
+    def _kill(self) -> None:
         if self._sock is not None:
             self._sock.close()
             self._sock = None
@@ -212,7 +248,6 @@ class RoundTrip:
                 os.kill(self._pid, signal.SIGKILL)
             os.waitpid(self._pid, 0)
             self._pid = 0
-        self._local = None
 
 
 def _serve(sock: socket.socket, make: Callable[[], Any]) -> int:

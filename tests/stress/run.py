@@ -22,6 +22,10 @@ OCCT's own STEP round trip of it (``occ.step_round_trip``):
     file read back fails where OCCT's own STEP round trip of the source
     passes (a source that is invalid as OCCT reads it may come back as it
     is: nurbscomp keeps the B-rep it was given);
+``step``
+    the decoded shape's STEP file read back keeps less than OCCT's own STEP
+    round trip of the source keeps (``validity.step_keeps`` on the topology
+    counts: each at least as close to the source's);
 ``free_edges``
     more free edges than the source: edges left free when the faces are
     sewn at 1e-7 (``ShapeAnalysis_FreeBounds(shape, 1e-7, False, False)``,
@@ -57,13 +61,23 @@ from pathlib import Path
 from typing import Any
 
 from nurbscomp import occ, pipeline
-from nurbscomp.encode.validity import step_reader_hangs
+from nurbscomp.encode.validity import step_keeps, step_time_limit
 from nurbscomp.errors import NurbscompError
 
 from . import files, shapes
 
 ROOT = Path(__file__).resolve().parents[2]
-KINDS = ("generate", "crash", "error", "counts", "deviation", "invalid", "free_edges", "measure")
+KINDS = (
+    "generate",
+    "crash",
+    "error",
+    "counts",
+    "deviation",
+    "invalid",
+    "step",
+    "free_edges",
+    "measure",
+)
 #: Slack on the deviation check (float noise of the sampling).
 SLACK = 1e-9
 #: Sewing tolerance of the free-edge count (the issue's definition).
@@ -126,29 +140,45 @@ class Reference:
     valid: bool
     floor_valid: bool
     notes: list[str]
+    #: OCCT's own STEP round trip's counts (None: it failed or looped)
+    floor_counts: dict[str, int] | None = None
+    #: seconds a STEP round trip may take (``validity.step_time_limit``)
+    limit: float | None = None
 
 
 def reference(path: Path) -> Reference:
     """OCCT's read of ``path`` and its own STEP round trip (raises if unreadable)."""
     cad = occ.read_cad(path)
     notes = []
-    hangs = step_reader_hangs(occ.shape_to_model(cad.shape)[0])
-    if hangs:  # OCCT's reader would not come back from its own round trip
+    limit = step_time_limit(occ.shape_to_model(cad.shape)[0])
+    floor_counts: dict[str, int] | None = None
+    try:
+        floor_valid, floor_counts = step_trip(cad.shape, cad.unit, limit)
+    except occ.ReaderTimeout as e:  # OCCT's reader loops on its own round trip
         floor_valid = False
-        notes.append(f"no STEP round trip: {hangs}")
-    else:
-        try:
-            floor_valid = occ.is_valid(occ.step_round_trip(cad.shape, cad.unit))
-        except Exception as e:  # OCCT's own round trip fails: no validity to keep
-            floor_valid = False
-            notes.append(f"OCCT's STEP round trip fails: {_one_line(e)}")
+        notes.append(f"no STEP round trip: {e}")
+    except Exception as e:  # OCCT's own round trip fails: no validity to keep
+        floor_valid = False
+        notes.append(f"OCCT's STEP round trip fails: {_one_line(e)}")
     if not floor_valid and not notes:
         notes.append("OCCT's STEP round trip is invalid")
     valid = occ.is_valid(cad.shape)
     if not valid:
         notes.append("the source is invalid as OCCT reads it")
     counts, free = occ.counts(cad.shape), free_edges(cad.shape)
-    return Reference(cad.shape, cad.unit, counts, free, valid, floor_valid, notes)
+    return Reference(
+        cad.shape, cad.unit, counts, free, valid, floor_valid, notes, floor_counts, limit
+    )
+
+
+def step_trip(shape: Any, unit: str, limit: float | None) -> tuple[bool, dict[str, int]]:
+    """BRepCheck's verdict and the topology counts of ``shape`` written to STEP
+    and read back by OCCT, in a child process given ``limit`` seconds
+    (``occ.RoundTrip``; raises ``occ.ReaderTimeout`` past them)."""
+    with tempfile.TemporaryDirectory() as d:
+        make = lambda: occ.step_round_trip(shape, unit, None, Path(d))  # noqa: E731
+        with occ.RoundTrip(make, 0, limit) as back:
+            return bool(back.ask(occ.is_valid)), back.ask(occ.counts)
 
 
 def check_one(path: Path, tol: float, ref: Reference, work: Path) -> Result:
@@ -191,13 +221,29 @@ def compare(r: Result, ref: Reference, shape: Any, tol: float) -> None:
                 )
         if ref.valid and not occ.is_valid(shape):
             r.fail("invalid", f"faces {sorted(occ.faulty_faces(shape))[:8]} fail BRepCheck")
-        elif ref.floor_valid and not occ.is_valid(occ.step_round_trip(shape, ref.unit)):
-            r.fail("invalid", "its STEP file read back fails BRepCheck")
+        elif ref.floor_counts is not None:
+            step_check(r, ref, shape)
         fe = free_edges(shape)
         if fe > ref.free:
             r.fail("free_edges", f"{ref.free}->{fe}")
     except Exception as e:
         r.fail("measure", f"{_one_line(e)}{_where(e)}")
+
+
+def step_check(r: Result, ref: Reference, shape: Any) -> None:
+    """The ``invalid`` and ``step`` checks of the decoded shape's STEP re-read."""
+    assert ref.floor_counts is not None
+    try:
+        valid, back = step_trip(shape, ref.unit, ref.limit)
+    except occ.ReaderTimeout as e:
+        r.fail("step", f"its STEP file read back: {e}, unlike the source's")
+        return
+    if ref.floor_valid and not valid:
+        r.fail("invalid", "its STEP file read back fails BRepCheck")
+    if not step_keeps(ref.counts, ref.floor_counts, back):
+        ours = ", ".join(f"{k} {ref.counts[k]}->{v}" for k, v in back.items() if v != ref.counts[k])
+        occts = ", ".join(f"{k} {v}" for k, v in ref.floor_counts.items() if v != ref.counts[k])
+        r.fail("step", f"its STEP file read back: {ours} (OCCT's own: {occts or 'as read'})")
 
 
 def check_file(path: Path, tols: Sequence[float], work: Path) -> list[Result]:
