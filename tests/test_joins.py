@@ -330,3 +330,28 @@ def test_edges_that_meet_in_part_keep_meeting(tmp_path: Path) -> None:
     pipeline.compress_file(src, nzc, tol=0.01)
     shape = pipeline.decode_file(nzc)[0]
     assert occ.free_edges_sewn(shape) <= occ.free_edges_sewn(source)
+
+
+def test_free_edges_count_faces_in_no_shell_beside_a_solid() -> None:
+    """``occ.free_edges`` (what ``eval`` reports) counts a loose face's edges
+    whether or not a solid sits beside it: a box and a loose square face
+    have the square's 4, as the same face wrapped in a shell of its own
+    (OCCT's STEP writer does that) has."""
+    from OCP.BRep import BRep_Builder
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeFace
+    from OCP.BRepPrimAPI import BRepPrimAPI_MakeBox
+    from OCP.gp import gp_Pln
+    from OCP.TopoDS import TopoDS_Compound, TopoDS_Shell
+
+    box = BRepPrimAPI_MakeBox(1.0, 1.0, 1.0).Shape()
+    face = BRepBuilderAPI_MakeFace(gp_Pln(), 5.0, 6.0, 5.0, 6.0).Face()
+    b = BRep_Builder()
+    loose, shelled, shell = TopoDS_Compound(), TopoDS_Compound(), TopoDS_Shell()
+    b.MakeShell(shell)
+    b.Add(shell, face)
+    for c, part in ((loose, face), (shelled, shell)):
+        b.MakeCompound(c)
+        b.Add(c, box)
+        b.Add(c, part)
+    assert occ.free_edges(box) == 0
+    assert occ.free_edges(loose) == occ.free_edges(shelled) == 4

@@ -10,7 +10,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from OCP.BRep import BRep_Tool
+from OCP.BRep import BRep_Builder, BRep_Tool
 from OCP.BRepBuilderAPI import BRepBuilderAPI_Sewing
 from OCP.BRepCheck import BRepCheck_Analyzer, BRepCheck_NoError
 from OCP.BRepTools import BRepTools
@@ -66,19 +66,31 @@ def is_valid(shape: Any) -> bool:
 
 
 def free_edges(shape: Any) -> int:
-    """Number of free (unshared) edges, by ShapeAnalysis_FreeBounds, per shell or face set."""
-    n = 0
+    """Number of free (unshared) edges, by ShapeAnalysis_FreeBounds, per shell,
+    and over the faces that are in no shell, taken as one face set (the loose
+    faces of an IGES surface model, or beside a solid)."""
+    from OCP.TopoDS import TopoDS_Compound
+    from OCP.TopTools import TopTools_IndexedDataMapOfShapeListOfShape
+
+    sets = []
     exp = TopExp_Explorer(shape, TopAbs_SHELL)
-    shells = []
     while exp.More():
-        shells.append(exp.Current())
+        sets.append(exp.Current())
         exp.Next()
-    if not shells:
-        shells = [shape]
-    for sh in shells:
+    f2s = TopTools_IndexedDataMapOfShapeListOfShape()
+    TopExp.MapShapesAndAncestors_s(shape, TopAbs_FACE, TopAbs_SHELL, f2s)
+    loose = [f2s.FindKey(i) for i in range(1, f2s.Extent() + 1) if f2s.FindFromIndex(i).Size() == 0]
+    if loose:
+        b, comp = BRep_Builder(), TopoDS_Compound()
+        b.MakeCompound(comp)
+        for f in loose:
+            b.Add(comp, f)
+        sets.append(comp)
+    n = 0
+    for sh in sets:
         fb = ShapeAnalysis_FreeBounds(sh, False, False)
-        for comp in (fb.GetClosedWires(), fb.GetOpenWires()):
-            n += _map(comp, TopAbs_EDGE).Extent()
+        for wires in (fb.GetClosedWires(), fb.GetOpenWires()):
+            n += _map(wires, TopAbs_EDGE).Extent()
     return n
 
 
