@@ -18,14 +18,16 @@ OCCT's own STEP round trip of it (``occ.step_round_trip``):
     points sampled inside each source face (``occ.deviation``) are further
     than tol (+ 1e-9) from the decoded face of the same index;
 ``invalid``
-    the decoded shape fails BRepCheck where the source passes, or its STEP
-    file read back fails where OCCT's own STEP round trip of the source
+    the decoded shape fails BRepCheck where the source passes, or its
+    decompressed STEP file read back fails where OCCT's own STEP round trip of the source
     passes (a source that is invalid as OCCT reads it may come back as it
     is: nurbscomp keeps the B-rep it was given);
 ``step``
-    the decoded shape's STEP file read back keeps less than OCCT's own STEP
-    round trip of the source keeps (``validity.step_keeps`` on the topology
-    counts: each at least as close to the source's);
+    the decompressed STEP file (``pipeline.decompress_file``) read back keeps
+    less than OCCT's own STEP round trip of the source keeps
+    (``validity.step_keeps`` on the topology counts: each at least as close
+    to the source's), or OCCT's reader does not finish on it where it does on
+    the source's;
 ``free_edges``
     more free edges than the source: edges left free when the faces are
     sewn at 1e-7 (``ShapeAnalysis_FreeBounds(shape, 1e-7, False, False)``,
@@ -171,12 +173,18 @@ def reference(path: Path) -> Reference:
     )
 
 
-def step_trip(shape: Any, unit: str, limit: float | None) -> tuple[bool, dict[str, int]]:
+def step_trip(
+    shape: Any, unit: str, limit: float | None, written: Path | None = None
+) -> tuple[bool, dict[str, int]]:
     """BRepCheck's verdict and the topology counts of ``shape`` written to STEP
-    and read back by OCCT, in a child process given ``limit`` seconds
+    (or of the STEP file ``written``, as ``decompress`` wrote it) and read
+    back by OCCT, in a child process given ``limit`` seconds
     (``occ.RoundTrip``; raises ``occ.ReaderTimeout`` past them)."""
     with tempfile.TemporaryDirectory() as d:
-        make = lambda: occ.step_round_trip(shape, unit, None, Path(d))  # noqa: E731
+        if written is None:
+            make = lambda: occ.step_round_trip(shape, unit, None, Path(d))  # noqa: E731
+        else:
+            make = lambda: occ.read_cad(written, own=True).shape  # noqa: E731
         with occ.RoundTrip(make, 0, limit) as back:
             return bool(back.ask(occ.is_valid)), back.ask(occ.counts)
 
@@ -186,25 +194,31 @@ def check_one(path: Path, tol: float, ref: Reference, work: Path) -> Result:
     r = Result(path.name, tol, notes=list(ref.notes))
     t0 = time.perf_counter()
     dst = work / f"{path.name}.{tol:g}.nzc"
+    step = work / f"{path.name}.{tol:g}.step"  # as decompress writes it (XDE, product data)
     try:
         stage = "compress"
         pipeline.compress_file(path, dst, tol=tol, force=True)
         stage = "decode"
         shape, _, _ = pipeline.decode_file(dst)
+        stage = "decompress"
+        pipeline.decompress_file(dst, step, force=True)
     except NurbscompError as e:
         r.fail("error", f"{stage}: {_one_line(e)}")
     except Exception as e:
         r.fail("crash", f"{stage}: {_one_line(e)}{_where(e)}")
     else:
-        compare(r, ref, shape, tol)
+        compare(r, ref, shape, tol, step)
     finally:
         dst.unlink(missing_ok=True)
+        step.unlink(missing_ok=True)
     r.seconds = time.perf_counter() - t0
     return r
 
 
-def compare(r: Result, ref: Reference, shape: Any, tol: float) -> None:
-    """Checks 2-5 of a decoded ``shape`` against the source's ``ref``, into ``r``."""
+def compare(r: Result, ref: Reference, shape: Any, tol: float, written: Path | None = None) -> None:
+    """Checks 2-5 of a decoded ``shape`` (and ``written``, its decompressed
+    STEP file, if given; else ``shape`` written plainly) against the source's
+    ``ref``, into ``r``."""
     try:
         got = occ.counts(shape)
         if got != ref.counts:
@@ -222,7 +236,7 @@ def compare(r: Result, ref: Reference, shape: Any, tol: float) -> None:
         if ref.valid and not occ.is_valid(shape):
             r.fail("invalid", f"faces {sorted(occ.faulty_faces(shape))[:8]} fail BRepCheck")
         elif ref.floor_counts is not None:
-            step_check(r, ref, shape)
+            step_check(r, ref, shape, written)
         fe = free_edges(shape)
         if fe > ref.free:
             r.fail("free_edges", f"{ref.free}->{fe}")
@@ -230,11 +244,11 @@ def compare(r: Result, ref: Reference, shape: Any, tol: float) -> None:
         r.fail("measure", f"{_one_line(e)}{_where(e)}")
 
 
-def step_check(r: Result, ref: Reference, shape: Any) -> None:
+def step_check(r: Result, ref: Reference, shape: Any, written: Path | None) -> None:
     """The ``invalid`` and ``step`` checks of the decoded shape's STEP re-read."""
     assert ref.floor_counts is not None
     try:
-        valid, back = step_trip(shape, ref.unit, ref.limit)
+        valid, back = step_trip(shape, ref.unit, ref.limit, written)
     except occ.ReaderTimeout as e:
         r.fail("step", f"its STEP file read back: {e}, unlike the source's")
         return
