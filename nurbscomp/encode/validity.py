@@ -156,7 +156,7 @@ HANG_PER_FACE = 0.02
 
 
 def step_time_limit(m: BRepModel) -> float | None:
-    """Seconds a STEP round trip of ``m`` may take (None: no limit), with why."""
+    """Seconds a STEP round trip of ``m`` may take (None: no limit)."""
     if not step_reader_hangs(m):
         return None
     return HANG_SECONDS + HANG_PER_FACE * len(m.face_surface)
@@ -273,19 +273,21 @@ class _Floor:
         self.report.step_round_trips += 1
         try:
             return self.losses(back, tol)
-        except occ.ReaderTimeout as e:
-            # held to the source's own round trip: if that loops too, there is
-            # nothing to hold the candidate to (``broken``)
-            try:
-                self.floor_counts  # noqa: B018 (asks the floor)
-            except occ.ReaderCrash as f:
-                self.broken = f"{f} (the source's own round trip)"
-                return None
-            log.debug("STEP round trip of the candidate fails: %s", e)
-            return {int(f) for f in self.model_face}
         except InputError as e:
+            if isinstance(e, occ.ReaderTimeout) and self._floor_fails():
+                return None  # the source's own round trip loops too: nothing to hold to
             log.debug("STEP round trip of the candidate fails: %s", e)
             return {int(f) for f in self.model_face}
+
+    def _floor_fails(self) -> bool:
+        """Whether the source's own round trip cannot be had (then ``broken``
+        says why)."""
+        try:
+            self.floor_counts  # noqa: B018 (asks the floor)
+        except occ.ReaderCrash as e:
+            self.broken = f"{e} (the source's own round trip)"
+            return True
+        return False
 
     def losses(self, back: occ.RoundTrip, tol: float) -> set[int] | None:
         """None if the re-read ``back`` keeps what the floor keeps; else the
