@@ -30,6 +30,7 @@ from OCP.BRep import BRep_Tool
 from OCP.BRepTools import BRepTools
 from OCP.IFSelect import IFSelect_ReturnStatus
 from OCP.IGESCAFControl import IGESCAFControl_Reader, IGESCAFControl_Writer
+from OCP.IGESControl import IGESControl_Controller
 from OCP.Interface import Interface_HArray1OfHAsciiString, Interface_Static
 from OCP.Quantity import Quantity_Color, Quantity_ColorRGBA, Quantity_TypeOfColor
 from OCP.STEPCAFControl import (
@@ -74,9 +75,16 @@ from .measure import faces as faces_of
 from .mesh import face_meshes
 from .topology import _trsf, _trsf_rows
 
-# XDE's STEP options (read/write.stepcaf.*) exist only once its controller is
-# set up; set it up now, so that setting them works in any order
+# XDE's STEP options (read/write.stepcaf.*) and IGES's (write.iges.*) exist
+# only once their controllers are set up; set them up now, so that setting
+# them works in any order
 STEPCAFControl_Controller.Init_s()
+IGESControl_Controller.Init_s()
+
+#: IGES is written in BRep mode (MSBO solids, shells and shared edges: entity
+#: 186/514/504), as ``files.write_shape`` does, never in OCCT's default faces
+#: mode (each face trimmed on its own, 0 solids and every edge free).
+IGES_BREP_MODE = ("write.iges.brep.mode", "BRep")
 
 _TYPES = [XCAFDoc_ColorType(i) for i in range(3)]
 _ORIENT = [TopAbs_Orientation(i) for i in range(4)]
@@ -545,7 +553,10 @@ def write(
     """
     doc = to_document(p, shape_rows(root)[2])
     if fmt == "IGES":
-        with _static("write.iges.unit", "IN" if unit == "INCH" else unit):
+        with (
+            _static("write.iges.unit", "IN" if unit == "INCH" else unit),
+            _static(*IGES_BREP_MODE),
+        ):
             w = IGESCAFControl_Writer()
             w.SetColorMode(True)
             w.SetNameMode(True)
@@ -642,10 +653,11 @@ def round_trip(src: str | os.PathLike[str], dst: str | os.PathLike[str]) -> None
     doc = new_document()
     caf.Transfer(doc)
     if Path(dst).suffix.lower() in (".igs", ".iges"):
-        w: Any = IGESCAFControl_Writer()
-        w.Transfer(doc)
-        w.ComputeModel()
-        w.Write(str(dst))
+        with _static(*IGES_BREP_MODE):
+            w: Any = IGESCAFControl_Writer()
+            w.Transfer(doc)
+            w.ComputeModel()
+            w.Write(str(dst))
         return
     schema = step_schema(step_header(plain) if fmt == "STEP" else {})
     with _static("write.step.schema", schema), _static("write.stepcaf.subshapes.name", "1"):
