@@ -33,8 +33,8 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
-from . import budget, pipeline
-from .errors import InputError, NurbscompError, OutputError
+from . import budget, pipeline, signals
+from .errors import EXIT_INPUT, EXIT_INTERNAL, InputError, NurbscompError, OutputError
 from .formats import (
     BREP_SUFFIXES,
     FORMAT_SUFFIX,
@@ -48,7 +48,11 @@ from .formats import (
 WALK_SUFFIXES = {
     "compress": (*STEP_SUFFIXES, *IGES_SUFFIXES),
     "decompress": (pipeline.SUFFIX,),
+    "test": (pipeline.SUFFIX,),
+    "info": (pipeline.SUFFIX,),
 }
+#: The commands that read files and write none (their tasks have no output).
+CHECKS = ("test", "info")
 #: What the fork server of the worker processes imports before forking them.
 WORKER_PRELOAD = ("nurbscomp.pipeline", "nurbscomp.occ", "nurbscomp.encode.validity")
 #: The name standing for standard input and standard output.
@@ -76,7 +80,7 @@ class SchedulerError(RuntimeError):
 class Options:
     """What every file of a batch is done with."""
 
-    command: str  # "compress" or "decompress"
+    command: str  # "compress", "decompress", or "test" (no output)
     force: bool = False
     skip_existing: bool = False
     tol: float | None = pipeline.DEFAULT_TOL_MM
@@ -85,7 +89,8 @@ class Options:
     step_safe: bool = True
     fmt: str | None = None  # decompress: "STEP", "IGES" or "BREP"
     debug: bool = False  # failures carry their traceback
-    limit_scale: float = 1.0  # decompress: the decoding budget times this (--limit-scale)
+    limit_scale: float = 1.0  # decompress, test: the decoding budget times this (--limit-scale)
+    remove_input: bool = False  # --rm: remove each input once its output is written (verified)
 
 
 @dataclass(frozen=True)
@@ -102,7 +107,9 @@ class Task:
 
 def default_output(src: Path, opts: Options) -> Path:
     """The output beside ``src``: ``part.step.nzc``, or ``part.step`` (``.igs``,
-    ``.brep`` with ``opts.fmt``)."""
+    ``.brep`` with ``opts.fmt``); ``src`` itself for a command that writes none."""
+    if opts.command in CHECKS:
+        return src
     if opts.command == "compress":
         return pipeline.default_compressed_name(src)
     out = pipeline.default_decompressed_name(src)
@@ -140,27 +147,34 @@ def plan(
 ) -> list[Task]:
     """The tasks for ``inputs`` (files, folders, ``-``), each with its output.
 
+    A command that writes no output (``test``, ``info``) gets tasks whose
+    output is None.
+
     Raises
     ------
     UsageError
         ``output`` with several inputs or a folder, ``output`` with
         ``output_dir``, ``-`` twice, standard output with several files,
-        ``decompress`` to standard output without a format, ``force`` with
-        ``skip_existing``, standard input with ``output_dir``.
+        ``force`` with ``skip_existing``, standard input with ``output_dir``,
+        ``remove_input`` with standard output or without verification.
     """
     if opts.force and opts.skip_existing:
         raise UsageError("--force and --skip-existing exclude each other")
+    if opts.remove_input and (to_stdout or output == STDIO):
+        raise UsageError("--rm and -c/--stdout exclude each other (the input is kept)")
+    if opts.remove_input and opts.command == "compress" and not opts.verify:
+        raise UsageError("--rm needs the output verified (drop --no-verify)")
     if output == STDIO:
         output, to_stdout = None, True
     if output is not None and output_dir is not None:
-        raise UsageError("-o/--output and -d/--output-dir exclude each other")
+        raise UsageError("-o/--output and -O/--output-dir exclude each other")
     if inputs.count(STDIO) > 1:
         raise UsageError("standard input (-) can be read once")
     tasks: list[Task] = []
     for name in inputs:
         if name == STDIO:
             if output_dir is not None:
-                raise UsageError("standard input (-) goes to standard output or -o, not -d")
+                raise UsageError("standard input (-) goes to standard output or -o, not -O")
             tasks.append(Task(STDIO, output))  # to standard output unless -o
             continue
         p = Path(name)
@@ -183,8 +197,8 @@ def plan(
         if len(tasks) != 1:
             raise UsageError("-c/--stdout takes a single input file")
         tasks = [replace(tasks[0], dst=None, make_parent=False)]
-    if opts.command == "decompress" and opts.fmt is None and any(t.dst is None for t in tasks):
-        raise UsageError("decompress to standard output needs --format step|iges|brep")
+    if opts.command in CHECKS:
+        tasks = [replace(t, dst=None, make_parent=False) for t in tasks]
     return tasks
 
 
@@ -213,20 +227,29 @@ def _task(src: Path, rel: Path, opts: Options, output_dir: str | None) -> Task:
 # ---------------------------------------------------------------- one file
 
 
-def _failure(e: BaseException, opts: Options) -> dict[str, Any]:
-    """The record fields of a file that failed with ``e`` (called in its ``except``)."""
+def failure(e: BaseException, debug: bool = False) -> dict[str, Any]:
+    """The record fields of a file that failed with ``e`` (called in its
+    ``except``), with the exit code of its kind (``errors.EXIT_*``).
+
+    Raises
+    ------
+    signals.Interrupted
+        A stop signal has come: the failure may be its doing (an import cut
+        short by Ctrl-C fails with ``ImportError``), and is not reported.
+    """
+    signals.check()
     if isinstance(e, NurbscompError):
         rec = {"error_class": type(e).__name__, "error": str(e), "exit_code": e.exit_code}
     elif isinstance(e, MemoryError):
-        rec = {"error_class": "MemoryError", "error": "out of memory", "exit_code": 1}
+        rec = {"error_class": "MemoryError", "error": "out of memory", "exit_code": EXIT_INPUT}
     else:  # a bug or an OCCT failure no check caught: reported with its class
         rec = {
             "error_class": type(e).__name__,
             "error": f"internal error ({type(e).__name__}: {e}); rerun with --debug for details",
-            "exit_code": 1,
+            "exit_code": EXIT_INTERNAL,
             "internal": True,
         }
-    if opts.debug:
+    if debug:
         rec["traceback"] = traceback.format_exc()
     return {"status": "failed", **rec}
 
@@ -236,17 +259,22 @@ def run_task(
 ) -> dict[str, Any]:
     """Do one file here and now; its record (``status`` ok, skipped or failed).
 
-    ``task.dst`` must be a path (standard output goes through :func:`run_bytes`).
+    ``task.dst`` must be a path (standard output goes through :func:`run_bytes`),
+    or None for a command that writes no output (``test``, ``info``).
     ``stage`` is told each stage of the file as it starts (``pipeline.compress_file``).
     ``KeyboardInterrupt`` (and so SIGTERM, SIGHUP in the CLI and in workers)
     is not caught: the output being written is removed on the way out.
     """
     if _stopping:
         raise KeyboardInterrupt
-    assert task.dst is not None
-    src, dst = Path(task.src), Path(task.dst)
+    src = Path(task.src)
     base = {"command": opts.command, "input": task.src, "output": task.dst}
     try:
+        if opts.command in CHECKS:
+            r = _check(src, opts)
+            return {**r, **base, "status": "ok", "exit_code": 0, "input_bytes": src.stat().st_size}
+        assert task.dst is not None
+        dst = Path(task.dst)
         if opts.skip_existing and (dst.exists() or dst.is_symlink()):
             return {**base, "status": "skipped", "exit_code": 0, "reason": "output exists"}
         if src.is_dir():
@@ -271,11 +299,19 @@ def run_task(
             limits = budget.DEFAULT.scaled(opts.limit_scale)
             r = pipeline.decompress_file(src, dst, force=opts.force, limits=limits, stage=stage)
     except Exception as e:  # one file's failure, reported in its record (MemoryError too)
-        return {**base, **_failure(e, opts)}
+        return {**base, **failure(e, opts.debug)}
     if "input_bytes" not in r:
         r["input_bytes"] = src.stat().st_size
     r.setdefault("passthrough", False)
     return {**r, **base, "status": "ok", "exit_code": 0}
+
+
+def _check(src: Path, opts: Options) -> dict[str, Any]:
+    """``test`` or ``info`` of one container (no output)."""
+    limits = budget.DEFAULT.scaled(opts.limit_scale)
+    if opts.command == "test":
+        return pipeline.test_file(src, limits)
+    return pipeline.info(src, limits)
 
 
 def run_bytes(
@@ -295,9 +331,26 @@ def run_bytes(
         src = Path(scratch) / "in" / (Path(name).name or "stdin")
         src.parent.mkdir()
         src.write_bytes(data)
-        out = Path(scratch) / (Path(out_name).name if out_name else default_output(src, opts).name)
-        rec = run_task(Task(str(src), str(out)), replace(opts, force=False, skip_existing=False))
+        scratch_opts = replace(opts, force=False, skip_existing=False, remove_input=False)
+        if opts.command in CHECKS:
+            return run_task(Task(str(src), None), scratch_opts), None
+        out = Path(scratch) / (Path(out_name).name if out_name else _output_name(src, opts))
+        rec = run_task(Task(str(src), str(out)), scratch_opts)
         return rec, out.read_bytes() if rec["status"] == "ok" else None
+
+
+def _output_name(src: Path, opts: Options) -> str:
+    """The name of an output with no name of its own (standard output): by
+    :func:`default_output`, in the format of the container's source when
+    ``decompress`` is given no format (``decompress -c``)."""
+    out = default_output(src, opts)
+    if opts.command == "decompress" and opts.fmt is None:
+        try:
+            fmt = pipeline.source_format(src)
+        except NurbscompError:  # the decode fails on it again, with its own message
+            return out.name
+        out = out.with_suffix(FORMAT_SUFFIX[fmt])
+    return out.name
 
 
 def stdin_name(data: bytes, opts: Options) -> str:
@@ -328,7 +381,7 @@ def deliver(rec: dict[str, Any], blob: bytes, task: Task, opts: Options) -> dict
     except (OSError, NurbscompError) as e:
         if isinstance(e, OSError):
             e = OutputError(f"cannot write {dst}: {e.strerror or e}")
-        return {**rec, **_failure(e, opts)}
+        return {**rec, **failure(e, opts.debug)}
     return rec
 
 
@@ -408,21 +461,64 @@ class Runner:
         self.read_stdin = read_stdin
         self.stage = stage
         self.running: list[str] = []
+        self._reported: set[tuple[str, str]] = set()
+        # what each output is before the batch: an output found replaced after
+        # an interrupt was renamed into place complete (settled)
+        self._before = {t.dst: _identity(t.dst) for t in tasks if t.dst is not None}
 
     def records(self) -> Generator[tuple[dict[str, Any], bytes | None], None, None]:
         """``(record, output bytes)`` per task; the bytes only for a task whose
-        output is standard output (the caller writes them)."""
+        output is standard output (the caller writes them).  With
+        ``opts.remove_input`` (``--rm``), each input whose output is written
+        (and verified, by ``compress``) is removed as its record is yielded."""
         if self.scheduler is not None:
-            yield from self._dask()
+            inner = self._dask()
         elif self.jobs == 1:
-            yield from self._serial()
+            inner = self._serial()
         else:
-            yield from self._pool()
+            inner = self._pool()
+        try:
+            for rec, blob in inner:
+                self._reported.add((rec["input"], rec["output"] or STDIO))
+                if self.opts.remove_input and rec["status"] == "ok":
+                    rec = remove_input(rec)
+                yield rec, blob
+        finally:
+            inner.close()
 
-    def _serial(self) -> Iterator[tuple[dict[str, Any], bytes | None]]:
+    def settled(self) -> list[dict[str, Any]]:
+        """After an interrupt: the records of the tasks not yet reported whose
+        output was renamed into place before it (the file is complete and
+        verified: the rename is the last step), as ``ok`` records with
+        ``"interrupted": True``; their inputs are not removed."""
+        out = []
+        for t in self.tasks:
+            if t.dst is None or (t.src, t.dst) in self._reported:
+                continue
+            now = _identity(t.dst)
+            if now is None or now == self._before.get(t.dst):
+                continue
+            self._reported.add((t.src, t.dst))
+            size_in = _identity(t.src) if t.src != STDIO else None
+            out.append(
+                {
+                    "command": self.opts.command,
+                    "input": t.src,
+                    "output": t.dst,
+                    "status": "ok",
+                    "exit_code": 0,
+                    "interrupted": True,
+                    "passthrough": False,
+                    "input_bytes": size_in[3] if size_in else 0,
+                    "output_bytes": now[3],
+                }
+            )
+        return out
+
+    def _serial(self) -> Generator[tuple[dict[str, Any], bytes | None], None, None]:
         for t in self.tasks:
             self.running = [t.src]
-            if t.src == STDIO or t.dst is None:
+            if t.src == STDIO or (t.dst is None and self.opts.command not in CHECKS):
                 yield self._via_bytes(t)
             else:
                 yield run_task(t, self.opts, self._stage_of(t)), None
@@ -459,9 +555,9 @@ class Runner:
 
     def _failed(self, t: Task, e: Exception) -> dict[str, Any]:
         base = {"command": self.opts.command, "input": t.src, "output": t.dst or STDIO}
-        return {**base, **_failure(e, self.opts)}
+        return {**base, **failure(e, self.opts.debug)}
 
-    def _pool(self) -> Iterator[tuple[dict[str, Any], bytes | None]]:
+    def _pool(self) -> Generator[tuple[dict[str, Any], bytes | None], None, None]:
         """The tasks in ``jobs`` worker processes.  A worker that dies (a crash
         in OCCT, say) breaks the pool and every task not finished with it; each
         of those is then run again alone, in a pool of its own, so that only the
@@ -504,7 +600,7 @@ class Runner:
                 self.running = [futures[f].src for f in futures if f.running()]
                 _stop_pool(ex)
 
-    def _dask(self) -> Iterator[tuple[dict[str, Any], bytes | None]]:
+    def _dask(self) -> Generator[tuple[dict[str, Any], bytes | None], None, None]:
         from distributed import Client, as_completed
 
         try:
@@ -555,6 +651,39 @@ class Runner:
         except NurbscompError as e:
             return self._failed(t, e)
         return None
+
+
+def _identity(path: str) -> tuple[int, int, int, int] | None:
+    """(device, inode, mtime in ns, size) of a path, None if nothing is there."""
+    try:
+        st = os.lstat(path)
+    except OSError:
+        return None
+    return st.st_dev, st.st_ino, st.st_mtime_ns, st.st_size
+
+
+def remove_input(rec: dict[str, Any]) -> dict[str, Any]:
+    """``--rm``: remove the input of a file done (``rec``, status ok) once its
+    output is written, and, by ``compress``, verified; a warning in the record
+    where it is not (standard input, an unverified output, an OS refusal)."""
+    src = rec["input"]
+    why = None
+    if src == STDIO or rec["output"] in (None, STDIO):
+        why = "standard input or output"
+    elif rec["command"] == "compress" and not rec.get("verified"):
+        why = "the output was not verified"
+    else:
+        try:
+            os.unlink(src)
+        except OSError as e:
+            why = e.strerror or str(e)
+        else:
+            return {**rec, "input_removed": True}
+    return {
+        **rec,
+        "input_removed": False,
+        "warnings": [*rec.get("warnings", []), f"input kept: {why}"],
+    }
 
 
 def _read_input(p: Path) -> bytes:

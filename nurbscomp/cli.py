@@ -1,29 +1,32 @@
 """The command line.  The only module that prints or exits.
 
-Exit codes: 0 ok; 1 bad input, bad container, output exists, or any other
-failure on a file (a batch exits with its worst file's code); 2 usage;
+Exit codes (``errors.EXIT_*``): 0 ok; 1 bad input file; 2 usage; 3 output
+exists or cannot be written; 4 damaged container; 5 verification failed;
+6 ``eval`` found the reconstruction failing its verdict; 70 internal error;
 128 + the signal's number when interrupted (130 SIGINT, 129 SIGHUP, 143
-SIGTERM).  Errors are one line,
-``error: FILE: message``, on stderr; ``--debug`` adds the traceback.  README,
-"Exit codes and errors", lists every error class.
+SIGTERM).  A batch exits with the highest code among its files.  Errors are
+one line, ``error: FILE: message``, on stderr; ``--debug`` adds the
+traceback.  README, "Exit codes and errors", lists every error class.
+
+gzip's, xz's and zstd's habits hold where they do not clash with the verbs:
+``nurbscomp -d FILE`` decompresses, ``-t`` tests, ``-l`` lists, ``-z``
+compresses (:class:`_Group`); ``-k`` is accepted (inputs are always kept) and
+``--rm`` removes them.
 """
 
 from __future__ import annotations
 
 import json
-import signal
 import sys
 import threading
 import time
-import traceback
 from collections.abc import Callable
-from functools import partial
 from typing import Any
 
 import click
 
-from . import __version__
-from .errors import NurbscompError
+from . import __version__, signals
+from .errors import EXIT_DIFFERS, EXIT_USAGE
 from .units import DEFAULT_TOL_MM, parse_length
 
 
@@ -43,27 +46,7 @@ class _State:
     def __init__(self, debug: bool) -> None:
         self.debug = debug
         self.failed = False
-
-
-class Interrupted(KeyboardInterrupt):
-    """SIGTERM or SIGHUP, raised like Ctrl-C's ``KeyboardInterrupt`` so that the
-    file being written is removed (``pipeline.atomic_output``)."""
-
-    def __init__(self, signum: int) -> None:
-        super().__init__(signum)
-        self.signum = signum
-
-
-def _raise_interrupted(signum: int, frame: Any) -> None:
-    raise Interrupted(signum)
-
-
-def catch_signals() -> None:
-    """Handle SIGTERM and SIGHUP like SIGINT (unless they are ignored, as under
-    ``nohup``).  SIGKILL cannot be caught: it leaves the temporary file."""
-    for sig in (signal.SIGTERM, signal.SIGHUP):
-        if signal.getsignal(sig) is signal.SIG_DFL:
-            signal.signal(sig, _raise_interrupted)
+        self.exit_code = 0
 
 
 def show(x: Any) -> str:
@@ -78,47 +61,152 @@ def show(x: Any) -> str:
 
 def _interrupted(e: KeyboardInterrupt, names: list[str]) -> None:
     """Report an interrupt (one line per file being worked on) and exit 128 + signal."""
-    signum = e.signum if isinstance(e, Interrupted) else signal.SIGINT
-    name = "interrupted"
-    if signum != signal.SIGINT:
-        name += f" ({signal.Signals(signum).name})"
+    signum = signals.signum_of(e)
     for path in names or ["batch"]:
-        click.echo(f"error: {show(path)}: {name}", err=True)
+        click.echo(f"error: {show(path)}: {signals.describe(signum)}", err=True)
     sys.exit(128 + signum)
 
 
-def _error(state: _State, path: str, msg: str, tb: str | None) -> None:
-    """One ``error:`` line on stderr, after the traceback with ``--debug``."""
-    if state.debug and tb:
-        click.echo(tb.rstrip("\n"), err=True)
-    click.echo(f"error: {show(path)}: {show(msg)}", err=True)
-    state.failed = True
-
-
 def _run(state: _State, path: str, fn: Callable[[], dict[str, Any]]) -> dict[str, Any] | None:
-    """Run one file's work; turn any failure into one ``error:`` line."""
+    """Run one file's work; turn any failure into one ``error:`` line
+    (``batch.failure``'s classes and exit codes); None then."""
+    from .batch import failure
+
     try:
         return fn()
     except KeyboardInterrupt as e:
         _interrupted(e, [path])
-    except NurbscompError as e:
-        msg, tb = str(e), traceback.format_exc()
-    except MemoryError:
-        msg, tb = "out of memory", traceback.format_exc()
-    except Exception as e:  # an OCCT or internal failure: still one line
-        msg = f"internal error ({type(e).__name__}: {e}); rerun with --debug for details"
-        tb = traceback.format_exc()
-    _error(state, path, msg, tb)
+    except Exception as e:  # reported by its class: an OCCT or internal failure too
+        try:
+            r = failure(e, state.debug)
+        except KeyboardInterrupt as stop:  # the failure was the interrupt's doing
+            _interrupted(stop, [path])
+    if r.get("traceback"):
+        click.echo(r["traceback"].rstrip("\n"), err=True)
+    click.echo(f"error: {show(path)}: {show(r['error'])}", err=True)
+    state.failed = True
+    state.exit_code = max(state.exit_code, r["exit_code"])
     return None
 
 
+#: Plurals that are not the noun and an ``s``.
+_PLURALS = {"vertex": "vertices", "assembly": "assemblies"}
+_SINGULARS = {v: k for k, v in _PLURALS.items()}
+
+
+def _plural(n: int, word: str) -> str:
+    """``1 face``, ``2 faces``: a count with its noun in the number it takes."""
+    return f"{n} {word if n == 1 else _PLURALS.get(word, word + 's')}"
+
+
+def _by_kind(c: dict[str, int]) -> str:
+    """Counts by kind, kind first (``plane 60, bspline_surface 6``): no noun to inflect."""
+    return ", ".join(f"{k} {v}" for k, v in c.items())
+
+
+def _geometry_counts(g: dict[str, int]) -> str:
+    """``info``'s geometry line: ``3 surfaces, 3 3-D curves, 1 2-D curve``."""
+    names = {"surfaces": "surface", "curves3d": "3-D curve", "curves2d": "2-D curve"}
+    return ", ".join(_plural(n, names.get(k, k)) for k, n in g.items())
+
+
 def _fmt_counts(c: dict[str, int]) -> str:
-    return ", ".join(f"{v} {k}" for k, v in c.items())
+    """Counts keyed by plural or singular nouns (``faces`` or ``face``), with
+    each noun in the number its count takes."""
+    out = []
+    for k, v in c.items():
+        word = _SINGULARS.get(k, k[:-1] if k.endswith("s") else k)
+        out.append(_plural(v, word))
+    return ", ".join(out)
 
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+#: gzip's operation modes, short and long, and the command each stands for.
+_MODES = {
+    "-z": "compress",
+    "--compress": "compress",
+    "-d": "decompress",
+    "--decompress": "decompress",
+    "--uncompress": "decompress",
+    "-t": "test",
+    "--test": "test",
+    "-l": "info",
+    "--list": "info",
+}
+#: Short options that take no value: they may be grouped with a mode (``-dk``, ``-tv``).
+_FLAG_LETTERS = set("zdtlkfcrqv")
+#: The group's own options, which stay before the command a mode puts in.
+_GROUP_OPTIONS = ("--debug", "-V", "--version")
+
+
+def _modes_to_command(args: list[str], commands: Any) -> list[str]:
+    """``-d FILE`` -> ``decompress FILE`` (and ``-z``, ``-t``, ``-l``), as gzip,
+    xz and zstd take them, anywhere before ``--``; grouped short flags are
+    split (``-dkf`` -> ``decompress -kf``).
+
+    Raises
+    ------
+    click.UsageError
+        Two modes, or a mode and another command (``compress -d DIR``, the
+        output folder's old short option, says so).
+    """
+    modes: list[tuple[str, str]] = []
+    rest: list[str] = []
+    for i, a in enumerate(args):
+        if a == "--":
+            rest += args[i:]
+            break
+        if a in _MODES:
+            modes.append((a, _MODES[a]))
+            continue
+        if (
+            a.startswith("-")
+            and not a.startswith("--")
+            and len(a) > 2
+            and set(a[1:]) <= _FLAG_LETTERS
+        ):
+            found = [c for c in a[1:] if f"-{c}" in _MODES]
+            modes += [(f"-{c}", _MODES[f"-{c}"]) for c in found]
+            others = "".join(c for c in a[1:] if f"-{c}" not in _MODES)
+            if others:
+                rest.append(f"-{others}")
+            continue
+        rest.append(a)
+    if not modes:
+        return args
+    if len({m for _, m in modes}) > 1:
+        raise click.UsageError(f"{modes[0][0]} and {modes[1][0]} exclude each other")
+    flag, mode = modes[0]
+    i = 0
+    while i < len(rest) and rest[i] in _GROUP_OPTIONS:
+        i += 1
+    named = rest[i] if i < len(rest) else None
+    if named in commands:
+        if named != mode:
+            hint = " (the output folder is -O/--output-dir)" if flag == "-d" else ""
+            raise click.UsageError(f"{flag} means {mode}; it cannot go with {named}{hint}")
+        return rest
+    return [*rest[:i], mode, *rest[i:]]
+
+
+class _Group(click.Group):
+    """The command group, taking gzip's mode flags for commands (:func:`_modes_to_command`)."""
+
+    def parse_args(self, ctx: click.Context, args: list[str]) -> list[str]:
+        return super().parse_args(ctx, _modes_to_command(list(args), self.commands))
+
+
+def _mode_flag(short: str, long: str, what: str) -> Callable[[Any], Any]:
+    """A mode flag in ``--help``; :class:`_Group` turns it into its command first."""
+    return click.option(short, long, is_flag=True, expose_value=False, help=what)
+
+
+@click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, "-V", "--version", prog_name="nurbscomp")
 @click.option("--debug", is_flag=True, help="Show the traceback of each error.")
+@_mode_flag("-z", "--compress", "Compress: the same as the compress command.")
+@_mode_flag("-d", "--decompress", "Decompress (also --uncompress): nurbscomp -d FILE.nzc.")
+@_mode_flag("-t", "--test", "Test containers: the same as the test command.")
+@_mode_flag("-l", "--list", "List what containers hold: the same as the info command.")
 @click.pass_context
 def cli(ctx: click.Context, debug: bool) -> None:
     """Compress STEP and IGES B-reps into .nzc containers, and back to STEP.
@@ -128,22 +216,26 @@ def cli(ctx: click.Context, debug: bool) -> None:
       nurbscomp compress part.step            # -> part.step.nzc (tol 0.01 mm)
       nurbscomp compress --lossless *.stp     # exact geometry
       nurbscomp decompress part.step.nzc      # -> part.step
+      nurbscomp -d part.step.nzc              # the same, as gzip -d
       nurbscomp decompress a.nzc -o a.igs     # IGES (or .brep) by extension
-      nurbscomp info part.step.nzc --json
+      nurbscomp info part.step.nzc --json     # or nurbscomp -l *.nzc
+      nurbscomp test -r archive/ -j 2         # or nurbscomp -t *.nzc
+      nurbscomp eval part.step part.step.nzc  # deviation and a verdict
     \b
     Batches, pipes:
-      nurbscomp compress -r parts/ -d archive/ -j 4 --json > report.jsonl
-      nurbscomp compress -r parts/ -d archive/ --skip-existing   # resume
-      nurbscomp decompress -r archive/ -d back/                  # mirror the tree
-      nurbscomp compress -r parts/ -d archive/ --scheduler tcp://host:8786
+      nurbscomp compress -r parts/ -O archive/ -j 4 --json > report.jsonl
+      nurbscomp compress -r parts/ -O archive/ --skip-existing   # resume
+      nurbscomp decompress -r archive/ -O back/                  # mirror the tree
+      nurbscomp compress -r parts/ -O archive/ --scheduler tcp://host:8786
       cat part.step | nurbscomp compress - -c > part.nzc
-      nurbscomp decompress -c --format step part.nzc | head
+      nurbscomp decompress -c part.nzc | head   # in the source's format
 
     \b
-    Exit codes: 0 ok; 1 bad input, damaged container, output exists or any
-    other failure on a file (a batch exits with its worst file's code);
-    2 bad usage; 130 interrupted (Ctrl-C), 143 terminated (SIGTERM), 129 hung
-    up (SIGHUP).
+    Exit codes: 0 ok; 1 bad input file; 2 bad usage; 3 output exists or
+    cannot be written; 4 damaged container (or past the decoding limits);
+    5 verification failed; 6 eval: the reconstruction fails its verdict;
+    70 internal error; a batch exits with the highest code among its files.
+    130 interrupted (Ctrl-C), 143 terminated (SIGTERM), 129 hung up (SIGHUP).
     """
     ctx.obj = _State(debug)
 
@@ -165,32 +257,55 @@ def _limit_scale(f: Any) -> Any:
     )(f)
 
 
+def _options(f: Any, opts: list[Any]) -> Any:
+    for opt in reversed(opts):
+        f = opt(f)
+    return f
+
+
+_RECURSIVE = click.option("-r", "--recursive", is_flag=True, help="Walk folders given as inputs.")
+_JOBS = click.option(
+    "-j",
+    "--jobs",
+    type=click.IntRange(min=0),
+    default=0,
+    help="Worker processes (default 0: one per core; 1: no workers).",
+)
+_JSON = click.option(
+    "--json",
+    "as_json",
+    is_flag=True,
+    help="One JSON line per file, failures included, then a summary line.",
+)
+_QUIET = click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
+_KEEP = click.option(
+    "-k",
+    "--keep",
+    is_flag=True,
+    expose_value=False,
+    help="Keep the inputs: always so (accepted for gzip's habit; --rm removes them).",
+)
+
+
 def _batch_options(verbose_help: str) -> Callable[[Any], Any]:
     """The options every file-converting command shares, like xz and zstd."""
 
     def wrap(f: Any) -> Any:
-        for opt in reversed(
+        return _options(
+            f,
             [
                 click.option(
                     "-o", "--output", type=click.Path(), help="Output file (one input; -: stdout)."
                 ),
                 click.option(
-                    "-d",
+                    "-O",
                     "--output-dir",
                     type=click.Path(file_okay=False),
                     help="Write outputs here, mirroring the folders walked by -r.",
                 ),
-                click.option(
-                    "-r", "--recursive", is_flag=True, help="Walk folders given as inputs."
-                ),
+                _RECURSIVE,
                 click.option("-c", "--stdout", "to_stdout", is_flag=True, help="Write to stdout."),
-                click.option(
-                    "-j",
-                    "--jobs",
-                    type=click.IntRange(min=0),
-                    default=0,
-                    help="Worker processes (default 0: one per core; 1: no workers).",
-                ),
+                _JOBS,
                 click.option(
                     "--scheduler",
                     metavar="tcp://HOST:PORT",
@@ -200,24 +315,33 @@ def _batch_options(verbose_help: str) -> Callable[[Any], Any]:
                 click.option(
                     "--skip-existing", is_flag=True, help="Skip files whose output exists (resume)."
                 ),
+                _KEEP,
                 click.option(
-                    "--json",
-                    "as_json",
+                    "--rm",
+                    "remove_input",
                     is_flag=True,
-                    help="One JSON line per file, failures included, then a summary line.",
+                    help="Remove each input once its output is written (and verified, by "
+                    "compress).",
                 ),
-                click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors."),
+                _JSON,
+                _QUIET,
                 click.option("-v", "--verbose", is_flag=True, help=verbose_help),
-            ]
-        ):
-            f = opt(f)
-        return f
+            ],
+        )
 
     return wrap
 
 
-def _mb(n: int) -> str:
-    return f"{n / 1e6:.2f} MB" if n >= 10**5 else f"{n} bytes"
+def _sizes(a: int, b: int) -> str:
+    """``A -> B`` bytes in one unit, chosen by the larger (bytes, kB or MB),
+    each to three significant digits: ``0.862 MB -> 0.0219 MB``."""
+    big = max(a, b)
+    unit, div = ("MB", 1e6) if big >= 10**6 else ("kB", 1e3) if big >= 10**4 else ("bytes", 1.0)
+
+    def num(x: float) -> str:
+        return str(int(x)) if div == 1 else f"{x:.0f}" if x >= 1000 else f"{x:.3g}"
+
+    return f"{num(a / div)} {unit} -> {num(b / div)} {unit}"
 
 
 class _Bar:
@@ -258,8 +382,7 @@ class _Bar:
             self.bytes_out += r.get("output_bytes", 0)
         if self.bytes_in and self.bytes_out:
             self.bar.set_postfix_str(
-                f"{_mb(self.bytes_in)} -> {_mb(self.bytes_out)}, "
-                f"{self.bytes_in / self.bytes_out:.1f}x",
+                f"{_sizes(self.bytes_in, self.bytes_out)}, {self.bytes_in / self.bytes_out:.1f}x",
                 refresh=False,
             )
         self.bar.update(1)
@@ -284,9 +407,12 @@ def _batch(
     opts: Any,
     kw: dict[str, Any],
     text: Callable[[dict[str, Any]], str],
+    json_summary: bool = True,
 ) -> None:
     """Plan the tasks, run them (here, in workers or on a cluster), print a line
-    per file and a summary; exit with the worst file's code."""
+    per file and a summary; exit with the highest code among the files.  On an
+    interrupt, the files whose outputs were renamed into place count as done,
+    in the lines and the summary, and the exit status is 128 + the signal."""
     from . import batch
 
     as_json, quiet = kw["as_json"], kw["quiet"]
@@ -295,23 +421,18 @@ def _batch(
             list(files),
             opts,
             recursive=kw["recursive"],
-            output=kw["output"],
-            output_dir=kw["output_dir"],
-            to_stdout=kw["to_stdout"],
+            output=kw.get("output"),
+            output_dir=kw.get("output_dir"),
+            to_stdout=kw.get("to_stdout", False),
         )
     except batch.UsageError as e:
         raise click.UsageError(str(e)) from None
-    to_stdout = any(t.dst is None for t in tasks)
-    if to_stdout and sys.stdout.isatty() and (opts.command == "compress" or opts.fmt == "BREP"):
+    to_stdout = any(t.dst is None for t in tasks) and opts.command not in batch.CHECKS
+    binary = opts.command == "compress" or opts.fmt == "BREP"
+    if to_stdout and sys.stdout.isatty() and binary:
         raise click.UsageError("refusing to write binary data to a terminal (redirect, or -o)")
     if any(t.src == batch.STDIO for t in tasks) and sys.stdin.isatty():
         raise click.UsageError("refusing to read data from a terminal (pipe a file into -)")
-    if opts.command == "compress" and opts.tol is not None and not opts.lossless:
-        if kw["tol"] is None and not quiet and not as_json:
-            click.echo(
-                f"tolerance {opts.tol} mm (default; --tol to change)",
-                err=True,
-            )
     jobs = kw["jobs"] or batch.cores()
     show_bar = not quiet and len(tasks) > 0 and sys.stderr.isatty()
     bar = _Bar(len(tasks), show_bar)
@@ -319,7 +440,7 @@ def _batch(
         tasks,
         opts,
         jobs,
-        kw["scheduler"],
+        kw.get("scheduler"),
         read_stdin=lambda: sys.stdin.buffer.read(),
         stage=bar.stage if show_bar else None,
     )
@@ -327,18 +448,32 @@ def _batch(
     records: list[dict[str, Any]] = []
     t0 = time.perf_counter()
     gen = runner.records()
+    stop: KeyboardInterrupt | None = None
+
+    # the default tolerance is said once, with the first file it was used on
+    untold = opts.command == "compress" and kw.get("tol") is None and not opts.lossless
+    untold = untold and not (quiet or as_json)
+
+    def report(r: dict[str, Any]) -> None:
+        nonlocal untold
+        records.append(r)
+        bar.update(r)
+        if untold and r["status"] == "ok" and r.get("mode") == "tolerance":
+            bar.write(f"tolerance {opts.tol:g} mm (default; --tol to change)", True)
+            untold = False
+        _report(state, r, as_json, quiet, text, bar, say_err)
+
     try:
         for r, blob in gen:
             if blob is not None:
                 sys.stdout.buffer.write(blob)
                 sys.stdout.buffer.flush()
-            records.append(r)
-            bar.update(r)
-            _report(state, r, as_json, quiet, text, bar, say_err)
+            report(r)
     except KeyboardInterrupt as e:
-        gen.close()
-        bar.close()
-        _interrupted(e, runner.running)
+        stop = e
+        gen.close()  # stops the workers: each removes the output it was writing
+        for r in runner.settled():
+            report(r)
     except batch.SchedulerError as e:
         bar.close()
         click.echo(f"error: {show(kw['scheduler'])}: {show(e)}", err=True)
@@ -347,17 +482,33 @@ def _batch(
         gen.close()
         bar.close()
     s = batch.summary(records, time.perf_counter() - t0)
+    if stop is not None:
+        s["interrupted"] = True
+        s["exit_code"] = 128 + signals.signum_of(stop)
     if as_json:
-        click.echo(json.dumps(s, sort_keys=True), err=say_err)
-    elif not quiet and len(records) > 1:
-        ratio = f", {s['ratio']:.1f}x" if s["ratio"] else ""
-        click.echo(
-            f"{s['files']} files: {s['ok']} ok ({s['passthrough']} stored verbatim), "
-            f"{s['failed']} failed, {s['skipped']} skipped; "
-            f"{_mb(s['bytes_in'])} -> {_mb(s['bytes_out'])}{ratio}; {s['seconds']:.1f} s",
-            err=say_err,
-        )
+        if json_summary or stop is not None:
+            click.echo(json.dumps(s, sort_keys=True), err=say_err)
+    elif not quiet and (len(records) > 1 or stop is not None):
+        click.echo(_summary_text(s), err=say_err)
+    if stop is not None:
+        _interrupted(stop, runner.running)
     sys.exit(s["exit_code"])
+
+
+def _summary_text(s: dict[str, Any]) -> str:
+    """The batch's summary line."""
+    counts = f"{_plural(s['files'], 'file')}: {s['ok']} ok"
+    if s["passthrough"]:
+        counts += f" ({s['passthrough']} stored verbatim)"
+    counts += f", {s['failed']} failed"
+    if s["skipped"]:
+        counts += f", {s['skipped']} skipped"
+    if s.get("interrupted"):
+        counts += ", then interrupted"
+    if s["command"] in ("test", "info") or not s["bytes_in"]:
+        return f"{counts}; {s['seconds']:.1f} s"
+    ratio = f", {s['ratio']:.1f}x" if s["ratio"] else ""
+    return f"{counts}; {_sizes(s['bytes_in'], s['bytes_out'])}{ratio}; {s['seconds']:.1f} s"
 
 
 def _report(
@@ -437,11 +588,14 @@ def compress(
         verify=not no_verify,
         step_safe=step_safe,
         debug=state.debug,
+        remove_input=kw["remove_input"],
     )
     _batch(state, files, opts, {**kw, "tol": tol}, lambda r: _compress_text(r, verbose))
 
 
 def _compress_text(r: dict[str, Any], verbose: bool) -> str:
+    if r.get("interrupted"):
+        return f"{r['input']} -> {r['output']}: done before the interrupt"
     if r["mode"] == "passthrough":
         return (
             f"{r['input']} -> {r['output']}: {r['input_bytes']} -> {r['output_bytes']} bytes "
@@ -456,10 +610,10 @@ def _compress_text(r: dict[str, Any], verbose: bool) -> str:
     )
     if verbose:
         line += f"\n  {_fmt_counts(r['counts'])}; unit {r['unit']}; faces by type: "
-        line += ", ".join(f"{v} {k}" for k, v in r["faces_by_type"].items())
+        line += _by_kind(r["faces_by_type"])
         if r["faces_by_method"]:
             line += "\n  faces by method: "
-            line += ", ".join(f"{v} {k}" for k, v in sorted(r["faces_by_method"].items()))
+            line += _by_kind(dict(sorted(r["faces_by_method"].items())))
         v = r.get("validity") or {}
         if v:
             kept = ", ".join(f"{n} ({why})" for why, n in v["exact_faces"].items()) or "none"
@@ -486,7 +640,7 @@ def _compress_text(r: dict[str, Any], verbose: bool) -> str:
     "--format",
     "fmt",
     type=click.Choice(["step", "iges", "brep"], case_sensitive=False),
-    help="Output format (needed with -c; default: by -o's extension, else STEP).",
+    help="Output format (default: by -o's extension; with -c, the source's; else STEP).",
 )
 @_limit_scale
 @_batch_options("Print topology counts.")
@@ -508,9 +662,12 @@ def decompress(
         fmt=fmt.upper() if fmt else None,
         debug=state.debug,
         limit_scale=kw.pop("limit_scale"),
+        remove_input=kw["remove_input"],
     )
 
     def text(r: dict[str, Any]) -> str:
+        if r.get("interrupted"):
+            return f"{r['input']} -> {r['output']}: done before the interrupt"
         if r.get("passthrough"):
             return f"{r['input']} -> {r['output']}: {r['format']} stored verbatim, exact bytes"
         line = f"{r['input']} -> {r['output']}: {r['format']} in {r['unit']}"
@@ -521,58 +678,68 @@ def decompress(
 
 
 @cli.command()
-@click.argument("file", type=click.Path())
-@click.option("--json", "as_json", is_flag=True, help="Print the report as JSON.")
+@click.argument("files", nargs=-1, required=True, type=click.Path())
+@_RECURSIVE
+@click.option("--json", "as_json", is_flag=True, help="One JSON line per file, failures included.")
+@_QUIET
 @_limit_scale
 @click.pass_obj
-def info(state: _State, file: str, as_json: bool, limit_scale: float) -> None:
-    """Show what a .nzc container holds."""
-    from . import budget, pipeline
+def info(state: _State, files: tuple[str, ...], **kw: Any) -> None:
+    """Show what .nzc FILES hold (like xz -l): version, mode, unit, counts,
+    bytes per section, product.  FILES may be folders (with -r)."""
+    from .batch import Options
 
-    r = _run(state, file, lambda: pipeline.info(file, budget.DEFAULT.scaled(limit_scale)))
-    if r is None:
-        sys.exit(1)
-    if as_json:
-        click.echo(json.dumps(r, sort_keys=True))
-        return
+    opts = Options("info", debug=state.debug, limit_scale=kw.pop("limit_scale"))
+    first = True
+
+    def text(r: dict[str, Any]) -> str:
+        nonlocal first
+        lines = "\n".join(_info_lines(r))
+        lines, first = (lines if first else "\n" + lines), False
+        return lines
+
+    _batch(state, files, opts, {**kw, "jobs": 1}, text, json_summary=False)
+
+
+def _info_lines(r: dict[str, Any]) -> list[str]:
+    """``info``'s text for one container."""
+    head = [
+        f"file:        {r['input']} ({r['file_bytes']} bytes)",
+        f"format:      .nzc {r['format_version']}, body coded with {r['coder']}",
+    ]
     if r.get("passthrough"):
-        lines = [
-            f"file:        {r['input']} ({r['file_bytes']} bytes)",
-            f"format:      .nzc {r['format_version']}, body coded with {r['coder']}",
+        return [
+            *head,
             f"mode:        passthrough (the file stored verbatim: {r['reason']})",
             f"source:      {r['source_name']} ({r['source_format']}, {r['source_bytes']} bytes)",
             f"ratio:       {r['source_bytes'] / r['file_bytes']:.1f}x",
         ]
-        click.echo("\n".join(show(line) for line in lines))
-        return
     mode = "lossless" if r["mode"] == "lossless" else f"tolerance {r['tolerance_mm']:g} mm"
-    lines = [
-        f"file:        {r['input']} ({r['file_bytes']} bytes)",
-        f"format:      .nzc {r['format_version']}, body coded with {r['coder']}",
+    return [
+        *head,
         f"mode:        {mode}",
         f"source:      {r['source_name']} ({r['source_format']}, "
         f"{r['source_bytes']} bytes, unit {r['unit']})",
         f"ratio:       {r['source_bytes'] / r['file_bytes']:.1f}x",
         f"shapes:      {_fmt_counts(r['shapes'])}",
-        "faces:       " + ", ".join(f"{v} {k}" for k, v in r["faces_by_type"].items()),
-        f"geometry:    {_fmt_counts(r['geometry'])}",
+        f"faces:       {_by_kind(r['faces_by_type'])}",
+        f"geometry:    {_geometry_counts(r['geometry'])}",
         "sections:    "
         + ", ".join(f"{k} {v}" for k, v in r["section_raw_bytes"].items())
         + f" bytes raw; {r['body_stored_bytes']} bytes coded",
         *_product_lines(r.get("product")),
     ]
-    click.echo("\n".join(show(line) for line in lines))
 
 
 def _product_lines(p: dict[str, Any] | None) -> list[str]:
     """``info``'s product summary (format 1.2), or a line saying there is none."""
     if p is None:
         return ["product:     none stored (a format 1.0/1.1 container, or none in the source)"]
-    coloured = ", ".join(f"{v} {k}s" for k, v in p["coloured"].items()) or "nothing"
+    coloured = ", ".join(_plural(v, k) for k, v in p["coloured"].items()) or "nothing"
+    counts = _fmt_counts({k: p[k] for k in ("parts", "assemblies", "instances")})
     return [
-        f"product:     {p['parts']} parts, {p['assemblies']} assemblies, "
-        f"{p['instances']} instances, depth {p['depth']}, {p['named']} names",
-        f"colours:     {p['colours']} colours on {coloured}",
+        f"product:     {counts}, depth {p['depth']}, {_plural(p['named'], 'name')}",
+        f"colours:     {_plural(p['colours'], 'colour')} on {coloured}",
         f"layers:      {p['layers']}",
         f"schema:      {', '.join(p['schema']) or '-'}",
         f"dropped:     {'; '.join(p['dropped']) or 'nothing'}",
@@ -581,21 +748,26 @@ def _product_lines(p: dict[str, Any] | None) -> list[str]:
 
 @cli.command("test")
 @click.argument("files", nargs=-1, required=True, type=click.Path())
-@click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
+@_RECURSIVE
+@_JOBS
+@_JSON
+@_QUIET
+@_KEEP
 @_limit_scale
 @click.pass_obj
-def test_cmd(state: _State, files: tuple[str, ...], quiet: bool, limit_scale: float) -> None:
-    """Check .nzc FILES: checksums, references, the decoding limits, and a full
-    rebuild (like xz -t)."""
-    from . import budget, pipeline
+def test_cmd(state: _State, files: tuple[str, ...], **kw: Any) -> None:
+    """Check .nzc FILES (like xz -t): checksums, references, the decoding
+    limits, and a full rebuild.  FILES may be folders (with -r) and -
+    (standard input)."""
+    from .batch import Options
 
-    limits = budget.DEFAULT.scaled(limit_scale)
-    for f in files:
-        r = _run(state, f, partial(pipeline.test_file, f, limits))
-        if r is not None and not quiet:
-            what = "stored verbatim" if r.get("passthrough") else f"{r['faces']} faces"
-            click.echo(f"{show(f)}: OK ({what})")
-    sys.exit(1 if state.failed else 0)
+    opts = Options("test", debug=state.debug, limit_scale=kw.pop("limit_scale"))
+
+    def text(r: dict[str, Any]) -> str:
+        what = "stored verbatim" if r.get("passthrough") else _plural(r["faces"], "face")
+        return f"{r['input']}: OK ({what})"
+
+    _batch(state, files, opts, kw, text)
 
 
 @cli.command("eval")
@@ -612,7 +784,8 @@ def test_cmd(state: _State, files: tuple[str, ...], quiet: bool, limit_scale: fl
     "--tol",
     type=_Length(),
     default=None,
-    help="Tolerance marked on the heatmap (default: the container's, if RECONSTRUCTED is one).",
+    help="Tolerance to hold the deviation to, and to mark on the heatmap (default: the "
+    "container's if RECONSTRUCTED is one, 0 for a lossless one; else no deviation check).",
 )
 @click.option("-f", "--force", is_flag=True, help="Overwrite an existing PNG.")
 @click.pass_obj
@@ -625,12 +798,16 @@ def eval_cmd(
     tol: float | None,
     force: bool,
 ) -> None:
-    """Compare two CAD files (STEP, IGES or .nzc): deviation, topology, validity.
+    """Compare two CAD files (STEP, IGES or .nzc): deviation, topology,
+    validity, free edges, and a verdict.
 
     Faces are paired by index; points sampled inside each ORIGINAL face are
-    measured against the RECONSTRUCTED face of the same index.  --heatmap
-    renders the RECONSTRUCTED model offscreen with a colour bar in mm, the
-    tolerance marked and the worst face on its own.
+    measured against the RECONSTRUCTED face of the same index.  The verdict
+    passes when the deviation is within the tolerance, the topology counts are
+    the same, the reconstruction is valid wherever the original is, and it
+    has no more free edges; otherwise eval exits 6.  --heatmap renders the
+    RECONSTRUCTED model offscreen with a colour bar in mm, the tolerance
+    marked and the worst face on its own.
     """
     from . import pipeline
 
@@ -640,16 +817,23 @@ def eval_cmd(
         lambda: pipeline.evaluate(original, reconstructed, tol=tol, heatmap=heatmap, force=force),
     )
     if r is None:
-        sys.exit(1)
+        sys.exit(state.exit_code)
+    code = 0 if r["verdict"] == "pass" else EXIT_DIFFERS
     if as_json:
-        click.echo(json.dumps(r, sort_keys=True))
-        return
+        click.echo(json.dumps({**r, "exit_code": code}, sort_keys=True))
+        sys.exit(code)
+    fe = r["free_edges"]
+    if r["tolerance_mm"] is None:
+        given = "none (--tol to check the deviation)"
+    else:
+        given = f"{r['tolerance_mm']:g} mm" + (" (the container's)" if tol is None else "")
     lines = [
+        f"tolerance:   {given}",
         f"topology:    {_fmt_counts(r['counts']['original'])}",
         f"             {_fmt_counts(r['counts']['reconstructed'])}"
-        + ("" if r["same_topology"] else "  (differs)"),
+        + ("" if r["topology_same"] else "  (differs)"),
         f"valid:       {r['valid']['original']} -> {r['valid']['reconstructed']}",
-        f"free edges:  {r['free_edges']['original']} -> {r['free_edges']['reconstructed']}",
+        f"free edges:  {fe['original']} -> {fe['reconstructed']}",
     ]
     if "max_deviation_mm" in r:
         lines.append(
@@ -661,13 +845,55 @@ def eval_cmd(
         )
     if heatmap:
         lines.append(f"heatmap:     {heatmap}")
-    click.echo("\n".join(lines))
+    lines.append(f"verdict:     {_verdict_text(r)}")
+    click.echo("\n".join(show(line) for line in lines))
+    sys.exit(code)
+
+
+def _verdict_text(r: dict[str, Any]) -> str:
+    """``eval``'s verdict line: ``pass: ...`` or ``FAIL: ...``, each check named."""
+    fe = r["free_edges"]
+    said: dict[str, dict[bool | None, str]] = {
+        "within_tolerance": {
+            True: f"within {r['tolerance_mm']:g} mm",
+            False: f"deviation {r.get('max_deviation_mm', 0):.3g} mm beyond "
+            f"{r['tolerance_mm'] or 0:g} mm",
+            None: "deviation not checked",
+        },
+        "topology_same": {True: "same topology", False: "topology differs"},
+        "valid_kept": {
+            True: "valid" if r["valid"]["reconstructed"] else "invalid as the original",
+            False: "invalid where the original is valid",
+        },
+        "free_edges_kept": {
+            True: "no new free edges",
+            False: f"{fe['reconstructed']} free edges where the original has {fe['original']}",
+        },
+    }
+    words = ", ".join(said[k][r[k]] for k in said)
+    return f"pass: {words}" if r["verdict"] == "pass" else f"FAIL: {words}"
 
 
 def main() -> None:
-    """Console-script entry point."""
-    catch_signals()
-    cli(prog_name="nurbscomp")
+    """Console-script entry point: handles the stop signals
+    (``signals.install``), and prints a usage error under ``--json`` as one
+    JSON line too."""
+    signals.install()
+    try:
+        cli.main(prog_name="nurbscomp", standalone_mode=False)
+    except click.UsageError as e:
+        if "--json" in sys.argv[1:]:
+            err = {"status": "failed", "error_class": "UsageError", "error": e.format_message()}
+            click.echo(json.dumps({**err, "exit_code": EXIT_USAGE}, sort_keys=True))
+        e.show()
+        sys.exit(EXIT_USAGE)
+    except click.ClickException as e:
+        e.show()
+        sys.exit(e.exit_code)
+    except click.Abort:  # click turns an interrupt in its own code into Abort
+        _interrupted(KeyboardInterrupt(), [])
+    except KeyboardInterrupt as e:
+        _interrupted(e, [])
 
 
 if __name__ == "__main__":

@@ -1,16 +1,29 @@
 """One exception family for nurbscomp; ``cli.py`` is the only place that catches it.
 
 Every error carries a one-line message. The CLI prints ``error: FILE: message``
-and exits with the code of the class (see README, "Exit codes").
+and exits with the code of the class (see README, "Exit codes"); a batch
+exits with the highest code among its files.
 """
 
 from __future__ import annotations
+
+#: Exit codes (README, "Exit codes and errors").  A batch exits with the
+#: highest code among its files, so the codes rise with how much a failure
+#: says about the tool rather than about its input.
+EXIT_OK = 0
+EXIT_INPUT = 1  # a bad input file (or a failure no other code names: out of memory)
+EXIT_USAGE = 2  # bad options (click's own code)
+EXIT_OUTPUT = 3  # the output exists (without --force) or cannot be written
+EXIT_CONTAINER = 4  # a damaged container, or one past the decoding limits
+EXIT_VERIFY = 5  # compress decoded what it wrote and it differs (a bug)
+EXIT_DIFFERS = 6  # eval: the reconstruction fails its verdict
+EXIT_INTERNAL = 70  # an internal error (sysexits' EX_SOFTWARE)
 
 
 class NurbscompError(Exception):
     """Base class of every error nurbscomp raises on purpose."""
 
-    exit_code = 1
+    exit_code = EXIT_INPUT
 
 
 class InputError(NurbscompError):
@@ -25,6 +38,8 @@ class NoBRepError(InputError):
 
 class FormatError(NurbscompError):
     """A ``.nzc`` container is damaged or not a container at all."""
+
+    exit_code = EXIT_CONTAINER
 
 
 class BadMagicError(FormatError):
@@ -87,9 +102,13 @@ class UndiagnosedError(CorruptError):
 class OutputError(NurbscompError):
     """The output cannot be written: it exists already, or its folder is missing."""
 
+    exit_code = EXIT_OUTPUT
+
 
 class VerifyError(NurbscompError):
     """The written container does not decode to what was encoded."""
+
+    exit_code = EXIT_VERIFY
 
 
 class UnsupportedError(NurbscompError):

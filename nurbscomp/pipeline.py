@@ -38,6 +38,7 @@ from .errors import (
     UndiagnosedError,
     VerifyError,
 )
+from .formats import FORMAT_SUFFIX
 from .lazy import lazy_module
 from .model import (
     BRepModel,
@@ -47,6 +48,7 @@ from .model import (
     Kind,
     differences,
 )
+from .report import verdict
 
 if TYPE_CHECKING:
     from . import occ
@@ -224,6 +226,23 @@ def read_container(path: Path) -> container.Container:
     except OSError as e:
         raise InputError(e.strerror or str(e)) from None
     return container.unpack(data)
+
+
+def source_format(path: Path) -> str:
+    """The format of the file a container was made from (``"STEP"``, ``"IGES"``,
+    or ``"BREP"`` for a shape given in memory), from its META alone: what
+    ``decompress -c`` writes when no ``--format`` is given.
+
+    Raises
+    ------
+    InputError, FormatError
+        As :func:`read_container`; a META that does not read.
+    """
+    c = read_container(path)
+    if c.flags & container.FLAG_PASSTHROUGH:
+        return str(passthrough.read(c)[0]["source_format"])
+    fmt = str(serialize.read_meta(c.get("META")).get("source_format", "STEP"))
+    return fmt if fmt in FORMAT_SUFFIX else "STEP"
 
 
 @one_blas_thread
@@ -762,10 +781,11 @@ def test_file(
 
 def load_shape(path: str | os.PathLike[str]) -> tuple[Any, float | None]:
     """The shape of a CAD file (STEP, IGES, or ``.nzc`` decoded), and the
-    tolerance its container was coded with (None: lossless, or not a container)."""
+    tolerance its container was coded with (0 for a lossless one; None: not a
+    container)."""
     if str(path).endswith(SUFFIX):
         shape, _, meta = decode_file(path)
-        return shape, meta.get("tolerance_mm")
+        return shape, 0.0 if meta.get("mode") == "lossless" else meta.get("tolerance_mm")
     return occ.read_cad(path).shape, None
 
 
@@ -799,7 +819,9 @@ def evaluate(
 
 
 def evaluate_shapes(a: Any, b: Any, worst: int = 5, *, tol: float | None = None) -> dict[str, Any]:
-    """Deviation, topology, validity and free edges between two shapes.
+    """Deviation, topology, validity and free edges between two shapes, and
+    the verdict on them (``report.verdict``: within ``tol``, same topology,
+    valid kept, free edges kept).
 
     Faces are paired by index in ``TopExp.MapShapes`` order; points sampled
     inside each face of ``a`` are measured against the face of ``b``.  Where
@@ -823,7 +845,7 @@ def evaluate_shapes(a: Any, b: Any, worst: int = 5, *, tol: float | None = None)
         out["worst_faces"] = [{"face": int(i) + 1, "max_mm": float(mx[i])} for i in order]
         out["face_max_mm"] = mx.tolist()
         out["face_mean_mm"] = mean.tolist()
-    return out
+    return {**out, **verdict(out)}
 
 
 def write_heatmap(
@@ -852,4 +874,5 @@ def write_heatmap(
     dev = np.asarray(report["face_max_mm"], float)
     dst = Path(path)
     with atomic_output(dst, force) as tmp:
-        heatmap.render(meshes, dev, report.get("tolerance_mm"), tmp, title=title)
+        # a lossless container's tolerance, 0, marks no face
+        heatmap.render(meshes, dev, report.get("tolerance_mm") or None, tmp, title=title)

@@ -1,4 +1,5 @@
-"""The typed report of ``nurbscomp.evaluate``: what the ``eval`` command prints."""
+"""The typed report of ``nurbscomp.evaluate``: what the ``eval`` command prints,
+and its verdict (:func:`verdict`)."""
 
 from __future__ import annotations
 
@@ -6,6 +7,40 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+
+#: How far a sampled point may be beyond the tolerance and still count within
+#: it: the precision of the measure (points projected on the other face by
+#: OCCT's extrema, to about 1e-9 mm on the corpus; a lossless container
+#: measures 5e-9 mm against its source), not a margin of the coder.
+MEASURE_SLACK_MM = 1e-6
+
+#: The checks of :func:`verdict`, in the order the verdict names them.
+CHECKS = ("within_tolerance", "topology_same", "valid_kept", "free_edges_kept")
+
+
+def verdict(r: dict[str, Any]) -> dict[str, Any]:
+    """The verdict on an ``eval`` report (``pipeline.evaluate_shapes``'s dict):
+
+    * ``within_tolerance``: every sampled point within ``tolerance_mm`` (plus
+      ``MEASURE_SLACK_MM``); None, not checked, without a tolerance or when
+      the face counts differ (faces are paired by index);
+    * ``topology_same``: the same counts of solids, shells, faces, edges, vertices;
+    * ``valid_kept``: the reconstruction is valid wherever the original is;
+    * ``free_edges_kept``: no more free edges than the original;
+    * ``verdict``: ``"pass"`` if no check failed, else ``"fail"``, and
+      ``failed``: the checks that failed.
+    """
+    tol, worst = r.get("tolerance_mm"), r.get("max_deviation_mm")
+    out: dict[str, Any] = {
+        "within_tolerance": None
+        if tol is None or worst is None
+        else bool(worst <= tol + MEASURE_SLACK_MM),
+        "topology_same": r["counts"]["original"] == r["counts"]["reconstructed"],
+        "valid_kept": bool(r["valid"]["reconstructed"] or not r["valid"]["original"]),
+        "free_edges_kept": r["free_edges"]["reconstructed"] <= r["free_edges"]["original"],
+    }
+    failed = [k for k in CHECKS if out[k] is False]
+    return {**out, "verdict": "fail" if failed else "pass", "failed": failed}
 
 
 @dataclass(frozen=True)
@@ -44,7 +79,7 @@ class Report:
     free_edges_original, free_edges_reconstructed : int
     tolerance_mm : float or None
         The tolerance given, or the one the reconstructed container was coded
-        with; None when neither applies.
+        with (0 for a lossless one); None when neither applies.
     max_deviation_mm, mean_deviation_mm : float or None
         Over all sampled points (the mean: of each face's mean); None when the
         face counts differ (faces are paired by index).
@@ -52,6 +87,17 @@ class Report:
         The worst faces first.
     face_max_mm, face_mean_mm : ndarray, shape (F,)
         Per face of the reconstruction; empty when the face counts differ.
+    within_tolerance : bool or None
+        Every sampled point within ``tolerance_mm`` (to the measure's
+        precision, ``MEASURE_SLACK_MM``); None if either is unknown.
+    valid_kept : bool
+        Valid wherever the original is.
+    free_edges_kept : bool
+        No more free edges than the original.
+    passed : bool
+        No check of :func:`verdict` failed (``eval`` exits 0).
+    failed : list of str
+        The checks that failed, names from ``CHECKS``.
     """
 
     original: str
@@ -69,13 +115,11 @@ class Report:
     worst_faces: list[FaceDeviation] = field(default_factory=list)
     face_max_mm: np.ndarray = field(default_factory=lambda: np.zeros(0))
     face_mean_mm: np.ndarray = field(default_factory=lambda: np.zeros(0))
-
-    @property
-    def within_tolerance(self) -> bool | None:
-        """Every sampled point within ``tolerance_mm``; None if either is unknown."""
-        if self.tolerance_mm is None or self.max_deviation_mm is None:
-            return None
-        return self.max_deviation_mm <= self.tolerance_mm
+    within_tolerance: bool | None = None
+    valid_kept: bool = True
+    free_edges_kept: bool = True
+    passed: bool = True
+    failed: list[str] = field(default_factory=list)
 
     @classmethod
     def from_dict(cls, r: dict[str, Any]) -> Report:
@@ -96,4 +140,9 @@ class Report:
             worst_faces=[FaceDeviation(w["face"], w["max_mm"]) for w in r.get("worst_faces", [])],
             face_max_mm=np.asarray(r.get("face_max_mm", []), float),
             face_mean_mm=np.asarray(r.get("face_mean_mm", []), float),
+            within_tolerance=r["within_tolerance"],
+            valid_kept=r["valid_kept"],
+            free_edges_kept=r["free_edges_kept"],
+            passed=r["verdict"] == "pass",
+            failed=list(r["failed"]),
         )

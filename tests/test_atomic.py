@@ -12,7 +12,7 @@ from click.testing import CliRunner
 
 from nurbscomp import occ, pipeline
 from nurbscomp.cli import cli
-from nurbscomp.errors import OutputError, RebuildError
+from nurbscomp.errors import EXIT_OUTPUT, OutputError, RebuildError
 
 from .conftest import default_signals
 
@@ -88,7 +88,7 @@ def test_ctrl_c_during_compress_verification(
 def test_decompress_never_overwrites_without_force(work: Path) -> None:
     (work / "part.step").write_bytes(b"keep me")
     r = CliRunner().invoke(cli, ["decompress", str(work / "part.step.nzc")])
-    assert r.exit_code == 1 and "--force" in r.stderr
+    assert r.exit_code == EXIT_OUTPUT and "--force" in r.stderr
     assert (work / "part.step").read_bytes() == b"keep me"
     r = CliRunner().invoke(cli, ["decompress", "-f", str(work / "part.step.nzc")])
     assert r.exit_code == 0, r.stderr
@@ -99,7 +99,7 @@ def test_decompress_never_overwrites_without_force(work: Path) -> None:
 def test_decompress_into_missing_folder(work: Path) -> None:
     out = work / "no" / "such" / "x.step"
     r = CliRunner().invoke(cli, ["decompress", str(work / "part.step.nzc"), "-o", str(out)])
-    assert r.exit_code == 1
+    assert r.exit_code == EXIT_OUTPUT
     assert "output folder" in r.stderr and "does not exist" in r.stderr
     assert _names(work) == ["part.step.nzc"]
 
@@ -117,7 +117,7 @@ def test_output_on_its_input_is_refused_even_with_force(work: Path) -> None:
             before_cad = cad.read_bytes()
             args = ["compress", "-f", "--lossless", str(cad), "-o", str(cad)]
         r = CliRunner().invoke(cli, args)
-        assert r.exit_code == 1, r.output
+        assert r.exit_code == EXIT_OUTPUT, r.output
         lines = r.stderr.strip().splitlines()
         assert len(lines) == 1 and "is the input file" in lines[0], r.stderr
     assert src.read_bytes() == before
@@ -146,7 +146,7 @@ def test_os_errors_on_output_are_output_errors(work: Path, monkeypatch: pytest.M
     with monkeypatch.context() as mp:
         mp.setattr(tempfile, "mkstemp", refuse)
         r = CliRunner().invoke(cli, ["decompress", str(work / "part.step.nzc")])
-    assert r.exit_code == 1
+    assert r.exit_code == EXIT_OUTPUT
     assert r.stderr.strip().endswith("Permission denied"), r.stderr
     assert "internal error" not in r.stderr
     monkeypatch.setattr(occ, "write_shape", _half_write(OSError(errno.ENOSPC, "No space left")))
@@ -170,7 +170,7 @@ def test_long_output_names(work: Path) -> None:
     with pytest.raises(OutputError, match="File name too long"):
         pipeline.decompress_file(src, work / ("z" * 300 + ".step"))
     r = CliRunner().invoke(cli, ["decompress", str(src), "-o", str(work / ("z" * 300))])
-    assert r.exit_code == 1 and "File name too long" in r.stderr
+    assert r.exit_code == EXIT_OUTPUT and "File name too long" in r.stderr
     assert len(_names(work)) == 3
 
 

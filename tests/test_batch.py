@@ -22,6 +22,7 @@ from click.testing import CliRunner
 
 from nurbscomp import batch, container, pipeline
 from nurbscomp.cli import cli
+from nurbscomp.errors import EXIT_CONTAINER, EXIT_INPUT, EXIT_INTERNAL, EXIT_OUTPUT
 from nurbscomp.occ import files as occ_files
 
 from .conftest import SAMPLES, default_signals
@@ -92,9 +93,10 @@ def test_plan_mirrors_the_tree(tmp_path: Path) -> None:
         (["a", "b"], {"to_stdout": True}, {}, "single input"),
         (["a"], {"output": "x", "output_dir": "d"}, {}, "exclude"),
         (["-", "-"], {}, {}, "once"),
-        (["-"], {"output_dir": "d"}, {}, "not -d"),
+        (["-"], {"output_dir": "d"}, {}, "not -O"),
         (["a"], {}, {"force": True, "skip_existing": True}, "exclude"),
-        (["a.nzc"], {"to_stdout": True}, {"command": "decompress"}, "--format"),
+        (["a.nzc"], {"to_stdout": True}, {"command": "decompress", "remove_input": True}, "--rm"),
+        (["a"], {}, {"verify": False, "remove_input": True}, "--rm needs"),
     ],
 )
 def test_plan_usage_errors(
@@ -128,7 +130,7 @@ def test_mixed_batch_json_and_back(tmp_path: Path, monkeypatch: pytest.MonkeyPat
 
     monkeypatch.setattr(occ_files, "open", refuse, raising=False)
     out, back = tmp_path / "out", tmp_path / "back"
-    code, stdout, err = run("compress", "-r", str(src), "-d", str(out), "-j", "1", "--json")
+    code, stdout, err = run("compress", "-r", str(src), "-O", str(out), "-j", "1", "--json")
     assert code == 1
     recs, total = lines(stdout)
     assert sorted(recs) == ["curve.stp", "garbage.step", "locked.step", "part.step", "tess.step"]
@@ -156,18 +158,18 @@ def test_mixed_batch_json_and_back(tmp_path: Path, monkeypatch: pytest.MonkeyPat
         "sub/curve.stp.nzc",
         "tess.step.nzc",
     ]
-    code, stdout, err = run("decompress", "-r", str(out), "-d", str(back), "-j", "1")
+    code, stdout, err = run("decompress", "-r", str(out), "-O", str(back), "-j", "1")
     assert code == 0, err
     assert "3 files: 3 ok (2 stored verbatim), 0 failed" in stdout
     assert (back / "tess.step").read_bytes() == TESSELLATED
     assert (back / "sub" / "curve.stp").read_bytes() == CURVE_ONLY
     assert (back / "part.step").read_bytes().startswith(b"ISO-10303-21;")
     # a second run skips what exists, --force redoes it
-    code, stdout, _ = run("decompress", "-r", str(out), "-d", str(back), "--skip-existing")
+    code, stdout, _ = run("decompress", "-r", str(out), "-O", str(back), "--skip-existing")
     assert code == 0 and "3 skipped" in stdout
-    code, stdout, err = run("decompress", "-r", str(out), "-d", str(back), "--json", "-j", "1")
-    assert code == 1 and err.count("already exists") == 3
-    code, stdout, _ = run("decompress", "-r", str(out), "-d", str(back), "--json", "-f", "-j", "1")
+    code, stdout, err = run("decompress", "-r", str(out), "-O", str(back), "--json", "-j", "1")
+    assert code == EXIT_OUTPUT and err.count("already exists") == 3
+    code, stdout, _ = run("decompress", "-r", str(out), "-O", str(back), "--json", "-f", "-j", "1")
     assert code == 0 and lines(stdout)[1]["ok"] == 3
     assert no_temporary_files(tmp_path)
 
@@ -182,21 +184,24 @@ def test_internal_error_is_reported_with_its_class(
 
     monkeypatch.setattr(pipeline, "compress_file", broken)
     code, out, err = run("compress", "--json", str(tmp_path / "loft.step"))
-    assert code == 1
+    assert code == EXIT_INTERNAL
     rec = lines(out)[0]["loft.step"]
     assert rec["internal"] and rec["error_class"] == "ZeroDivisionError"
     assert err.strip().endswith("rerun with --debug for details")
     assert "Traceback" not in err
     code, out, err = run("--debug", "compress", str(tmp_path / "loft.step"))
-    assert code == 1 and "Traceback (most recent call last)" in err and "1 / 0" in err
+    assert code == EXIT_INTERNAL and "Traceback (most recent call last)" in err and "1 / 0" in err
 
 
 def test_debug_prints_the_real_traceback(tmp_path: Path) -> None:
     (tmp_path / "bad.step").write_bytes(b"garbage\n")
     (tmp_path / "bad.nzc").write_bytes(b"\x89NZC garbage")
-    for args in (["compress", str(tmp_path / "bad.step")], ["info", str(tmp_path / "bad.nzc")]):
+    for args, want in (
+        (["compress", str(tmp_path / "bad.step")], EXIT_INPUT),
+        (["info", str(tmp_path / "bad.nzc")], EXIT_CONTAINER),
+    ):
         code, _, err = run("--debug", *args)
-        assert code == 1
+        assert code == want
         assert "Traceback (most recent call last)" in err and "NoneType: None" not in err
         assert "Error: " in err  # the exception's class closes the traceback
         assert err.strip().splitlines()[-1].startswith("error: ")
@@ -222,7 +227,7 @@ def test_output_that_is_not_a_regular_file_is_refused(tmp_path: Path, kind: str)
     else:
         out.mkdir()
     code, _, err = run("compress", "-f", "-q", str(tmp_path / "loft.step"), "-o", str(out))
-    assert code == 1
+    assert code == EXIT_OUTPUT
     assert len(err.strip().splitlines()) == 1
     if kind == "folder":
         assert "is a directory" in err
@@ -277,7 +282,7 @@ def test_workers_interrupted_then_resumed(tmp_path: Path) -> None:
         shutil.copy(SAMPLES / "bracket.step", src / f"bracket{i}.step")
     out = tmp_path / "out"
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    cmd = [sys.executable, "-m", "nurbscomp.cli", "compress", "-q", "-r", str(src), "-d", str(out)]
+    cmd = [sys.executable, "-m", "nurbscomp.cli", "compress", "-q", "-r", str(src), "-O", str(out)]
     p = subprocess.Popen(
         [*cmd, "-j", "2"],
         env=env,
@@ -312,7 +317,7 @@ def test_dask_local_cluster_gives_the_same_containers(tmp_path: Path) -> None:
     distributed = pytest.importorskip("distributed")
     src = mixed_folder(tmp_path)
     code, out, _ = run(
-        "compress", "-r", str(src), "-d", str(tmp_path / "local"), "-j", "1", "--json"
+        "compress", "-r", str(src), "-O", str(tmp_path / "local"), "-j", "1", "--json"
     )
     local, _ = lines(out)
     with distributed.LocalCluster(
@@ -321,7 +326,7 @@ def test_dask_local_cluster_gives_the_same_containers(tmp_path: Path) -> None:
         args = [
             "-r",
             str(src),
-            "-d",
+            "-O",
             str(tmp_path / "dask"),
             "--scheduler",
             cluster.scheduler_address,
@@ -357,12 +362,12 @@ def test_a_worker_that_dies_fails_only_its_file(tmp_path: Path) -> None:
         "batch.WORKER_PRELOAD += ('tests.crash_worker',); "
         "sys.argv = ['nurbscomp', *sys.argv[1:]]; cli.main()"
     )
-    args = ["compress", "-r", str(src), "-d", str(tmp_path / "out"), "-j", "2", "--json"]
+    args = ["compress", "-r", str(src), "-O", str(tmp_path / "out"), "-j", "2", "--json"]
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     r = subprocess.run(
         [sys.executable, "-c", code, *args], env=env, capture_output=True, cwd=ROOT, timeout=600
     )
-    assert r.returncode == 1, r.stderr
+    assert r.returncode == EXIT_INTERNAL, r.stderr
     recs, total = lines(r.stdout.decode())
     assert recs["crash.step"]["error_class"] == "WorkerDied" and recs["crash.step"]["internal"]
     others = {n: x for n, x in recs.items() if n != "crash.step" and x["status"] != "ok"}
@@ -377,12 +382,12 @@ def test_a_worker_that_dies_fails_only_its_file(tmp_path: Path) -> None:
 
 
 def archive_round_trip(cad: Path, tmp_path: Path) -> dict[str, dict[str, Any]]:
-    """``compress -r CAD MIXED -d OUT -j 2 --json`` over ``cad`` and a folder
-    of generated and bad files, then ``decompress -r OUT -d BACK -j 2``; the
+    """``compress -r CAD MIXED -O OUT -j 2 --json`` over ``cad`` and a folder
+    of generated and bad files, then ``decompress -r OUT -O BACK -j 2``; the
     compress records."""
     mixed = mixed_folder(tmp_path)
     out, back = tmp_path / "out", tmp_path / "back"
-    r = _cli("compress", "-r", str(cad), str(mixed), "-d", str(out), "-j", "2", "--json")
+    r = _cli("compress", "-r", str(cad), str(mixed), "-O", str(out), "-j", "2", "--json")
     assert r.returncode == 1, r.stderr  # the garbage file
     recs, total = lines(r.stdout.decode())
     want = {p.name for p in batch.walk(cad, "compress")} | {
@@ -393,7 +398,7 @@ def archive_round_trip(cad: Path, tmp_path: Path) -> dict[str, dict[str, Any]]:
     assert failed == {"garbage.step"}, {n: recs[n]["error"] for n in failed}
     assert not any(x.get("internal") for x in recs.values())
     assert total["failed"] == 1 and total["ok"] == len(want) - 1
-    r = _cli("decompress", "-r", str(out), "-d", str(back), "-j", "2", "--json")
+    r = _cli("decompress", "-r", str(out), "-O", str(back), "-j", "2", "--json")
     assert r.returncode == 0, r.stderr
     assert lines(r.stdout.decode())[1]["ok"] == len(want) - 1
     assert (back / "tess.step").read_bytes() == TESSELLATED
@@ -458,7 +463,7 @@ def test_progress_bar_only_on_a_terminal(tmp_path: Path) -> None:
     for name in ("bracket", "teapot"):
         for copy in (1, 2):
             shutil.copy(SAMPLES / f"{name}.step", tmp_path / f"{name}_{copy}.step")
-    args = ["compress", "-r", ".", "-d", "out", "-j", "1", "--no-verify"]
+    args = ["compress", "-r", ".", "-O", "out", "-j", "1", "--no-verify"]
     code, shown = _on_a_terminal(args, tmp_path)
     assert code == 0, shown
     # the rate: "1.2file/s, <bytes>, <ratio>]" or, below one file a second, "1.5s/file, ..."

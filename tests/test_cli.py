@@ -11,6 +11,7 @@ import pytest
 from click.testing import CliRunner
 
 from nurbscomp.cli import cli
+from nurbscomp.errors import EXIT_CONTAINER, EXIT_OUTPUT
 
 from .conftest import SAMPLES
 
@@ -43,7 +44,7 @@ def test_existing_output_needs_force(work: Path) -> None:
     out = work / "x.nzc"
     out.write_bytes(b"keep me")
     code, _, err = run("compress", str(work / "part.step"), "-o", str(out))
-    assert code == 1
+    assert code == EXIT_OUTPUT
     last = err.strip().splitlines()[-1]
     assert last.startswith(f"error: {work / 'part.step'}: ") and "--force" in last
     assert out.read_bytes() == b"keep me"
@@ -98,8 +99,8 @@ def test_output_with_several_inputs_is_usage_error(work: Path) -> None:
     assert run("compress", p, p, "-o", str(work / "a.nzc"))[0] == 2
 
 
-def _assert_clean_failure(work: Path, code: int, err: str, name: str) -> None:
-    assert code == 1
+def _assert_clean_failure(work: Path, code: int, err: str, name: str, want: int = 1) -> None:
+    assert code == want
     lines = err.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith(f"error: {name}: "), err
     assert "Traceback" not in err
@@ -241,13 +242,13 @@ def test_damaged_container(work: Path) -> None:
         (work / name).write_bytes(bytes(bad))
         for cmd in ("decompress", "test", "info"):
             code, _, err = run(cmd, str(work / name))
-            _assert_clean_failure(work, code, err, str(work / name))
+            _assert_clean_failure(work, code, err, str(work / name), EXIT_CONTAINER)
         assert not (work / name.replace(".nzc", ".step")).exists()
 
 
 def test_missing_output_folder(work: Path) -> None:
     code, _, err = run("compress", "-q", str(work / "part.step"), "-o", str(work / "no" / "x.nzc"))
-    _assert_clean_failure(work, code, err, str(work / "part.step"))
+    _assert_clean_failure(work, code, err, str(work / "part.step"), EXIT_OUTPUT)
 
 
 def test_decompress_to_iges_and_brep(work: Path) -> None:
@@ -339,7 +340,7 @@ def test_eval_heatmap_writes_a_readable_png(work: Path) -> None:
     assert len(np.unique(px, axis=0)) > 200  # a colour map and shading, not a flat fill
     assert (px.sum(1) < 600).mean() > 0.05  # not a white page
     code, _, err = run(*args)
-    assert code == 1 and "--force" in err
+    assert code == EXIT_OUTPUT and "--force" in err
     code, out, err = run(*args, "--force", "--json")
     assert code == 0, err
     rep = json.loads(out)

@@ -19,7 +19,13 @@ from hypothesis import strategies as st
 
 from nurbscomp import container, entropy, pipeline
 from nurbscomp.cli import cli
-from nurbscomp.errors import CorruptError, FormatError, RebuildError, UndiagnosedError
+from nurbscomp.errors import (
+    EXIT_CONTAINER,
+    CorruptError,
+    FormatError,
+    RebuildError,
+    UndiagnosedError,
+)
 
 from . import fuzz
 from .conftest import SAMPLES
@@ -93,7 +99,7 @@ def test_cli_decompress_on_mutations(
     if r.exit_code == 0:
         assert left == ["case.nzc", "case.step"]
         return
-    assert r.exit_code == 1, r.output
+    assert r.exit_code == EXIT_CONTAINER, r.output
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith(f"error: {src}: "), r.stderr
     assert "internal error" not in lines[0] and "Traceback" not in r.stderr
@@ -126,7 +132,7 @@ def test_shape_the_step_writer_refuses(tmp_path: Path, monkeypatch) -> None:
     with pytest.raises(RebuildError, match="STEP writer refused"):
         pipeline.decompress_file(bad, out)
     r = CliRunner().invoke(cli, ["decompress", str(bad), "-o", str(out)])
-    assert r.exit_code == 1
+    assert r.exit_code == EXIT_CONTAINER
     # the container holds product data (1.2): XDE's writer translates on Write,
     # which then has nothing to write
     assert r.stderr.strip() == f"error: {bad}: the STEP writer refused the shape (IFSelect_RetVoid)"

@@ -15,6 +15,7 @@ from click.testing import CliRunner
 
 from nurbscomp import container, errors, occ, pipeline
 from nurbscomp.cli import cli
+from nurbscomp.errors import EXIT_CONTAINER
 
 from .golden.make_golden import GOLDEN, VERSION, describe, golden_name, model_floats
 
@@ -83,7 +84,7 @@ def test_damaged_files_through_the_cli(tmp_path: Path) -> None:
         if want["error"] is None:
             assert r.exit_code == 0, r.stderr
             continue
-        assert r.exit_code == 1, name
+        assert r.exit_code == EXIT_CONTAINER, name
         lines = r.stderr.strip().splitlines()
         assert len(lines) == 1 and lines[0].startswith(f"error: {src}: "), r.stderr
         assert want["message"] in lines[0]

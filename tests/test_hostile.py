@@ -15,6 +15,7 @@ from click.testing import CliRunner
 
 from nurbscomp import budget, container, entropy, joins, model, occ, pipeline, serialize
 from nurbscomp.cli import cli, show
+from nurbscomp.errors import EXIT_CONTAINER
 from nurbscomp.encode import pcurves
 from nurbscomp.errors import (
     BadReferenceError,
@@ -48,11 +49,12 @@ def _meta(**edits: object) -> dict[str, object]:
 
 
 def _cli_one_line(tmp_path: Path, data: bytes, *args: str) -> str:
-    """Run ``nurbscomp ARGS FILE`` on ``data``: exit 1, one error line, nothing left."""
+    """Run ``nurbscomp ARGS FILE`` on ``data``: exit 4 (a damaged container), one
+    error line, nothing left."""
     src = tmp_path / "case.nzc"
     src.write_bytes(data)
     r = CliRunner().invoke(cli, [*args, str(src)])
-    assert r.exit_code == 1, r.output
+    assert r.exit_code == EXIT_CONTAINER, r.output
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith(f"error: {src}: "), r.stderr
     assert "internal error" not in r.stderr and "Undiagnosed" not in r.stderr
@@ -117,7 +119,7 @@ def test_printed_text_is_escaped(tmp_path: Path) -> None:
     bad = tmp_path / "z\x1b[31m.nzc"
     bad.write_bytes(b"junk")
     r = CliRunner().invoke(cli, ["info", str(bad)])
-    assert r.exit_code == 1 and "\x1b" not in r.stderr and "z\\x1b[31m.nzc" in r.stderr
+    assert r.exit_code == EXIT_CONTAINER and "\x1b" not in r.stderr and "z\\x1b[31m.nzc" in r.stderr
 
 
 def test_goldens_meta_still_reads() -> None:
@@ -190,7 +192,7 @@ def test_limit_scale_raises_the_limits(tmp_path: Path) -> None:
     src = tmp_path / "chain.nzc"
     src.write_bytes(fuzz.pack_model(m, meta))
     r = CliRunner().invoke(cli, ["test", str(src)])
-    assert r.exit_code == 1 and "levels of nested" in r.stderr
+    assert r.exit_code == EXIT_CONTAINER and "levels of nested" in r.stderr
     r = CliRunner().invoke(cli, ["test", "--limit-scale", "2", str(src)])
     assert r.exit_code == 0, r.stderr
     r = CliRunner().invoke(cli, ["test", "--limit-scale", "0", str(src)])
@@ -198,7 +200,7 @@ def test_limit_scale_raises_the_limits(tmp_path: Path) -> None:
     # the limits scale down too: a golden file is then refused
     g = GOLDEN / "teapot.lossless.nzc"
     r = CliRunner().invoke(cli, ["info", "--limit-scale", "0.0001", str(g)])
-    assert r.exit_code == 1 and "table rows" in r.stderr and "more than the 100 " in r.stderr
+    assert r.exit_code == EXIT_CONTAINER and "table rows" in r.stderr and "more than the 100 " in r.stderr
     assert budget.DEFAULT.scaled(1e6).depth == budget.DEPTH_CEILING
 
 
