@@ -45,13 +45,7 @@ def _solid(tmp: Path, suffix: str) -> Path:
     IGES, or STEP)."""
     import cadquery as cq
 
-    lofted = (
-        cq.Workplane("XY")
-        .rect(20, 12)
-        .workplane(offset=15)
-        .circle(5)
-        .loft()
-    )
+    lofted = cq.Workplane("XY").rect(20, 12).workplane(offset=15).circle(5).loft()
     box = cq.Workplane("XY").box(30, 20, 4).edges("|Z").fillet(2.0)
     shape = lofted.union(box).val().wrapped
     path = tmp / f"solid{suffix}"
