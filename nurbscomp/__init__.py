@@ -14,15 +14,10 @@ OCP (OpenCASCADE) when a function needs it.
 
 from __future__ import annotations
 
-from importlib.metadata import PackageNotFoundError, version
 from typing import TYPE_CHECKING, Any
 
-try:
-    __version__ = version("nurbscomp")
-except PackageNotFoundError:  # running from a source tree without install
-    __version__ = "0.0.0"
-
 if TYPE_CHECKING:
+    __version__: str
     from ._api import compress, decompress, evaluate, info
     from .report import Counts, FaceDeviation, Report
 
@@ -44,6 +39,15 @@ _REPORT = {"Counts", "FaceDeviation", "Report"}
 def __getattr__(name: str) -> Any:
     """The API's names, imported on first use (PEP 562): ``import nurbscomp``
     loads neither numpy's users nor OCP."""
+    if name == "__version__":  # importlib.metadata costs 25 ms: the script starts without it
+        from importlib.metadata import PackageNotFoundError, version
+
+        try:
+            v = version("nurbscomp")
+        except PackageNotFoundError:  # running from a source tree without install
+            v = "0.0.0"
+        globals()["__version__"] = v
+        return v
     if name in _API:
         from . import _api
 

@@ -1,0 +1,104 @@
+"""Interrupts (issue 26): Ctrl-C or SIGTERM at any moment, start-up included,
+exits 130 or 143, leaves no output and no temporary file, and is never
+reported as a bad input."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from nurbscomp import batch
+
+from .conftest import CORPUS, ROOT, SAMPLES, default_signals
+
+#: A corpus file whose compress lasts well past 2 s (about 7 s idle).
+LONG = CORPUS / "brlcad__NIST_MBE_PMI_2.stp"
+
+
+def _start(args: list[str], tmp: Path) -> subprocess.Popen[bytes]:
+    scratch = tmp / "scratch"
+    scratch.mkdir(exist_ok=True)
+    env = {**os.environ, "TMPDIR": str(scratch), "PYTHONPATH": str(ROOT)}
+    return subprocess.Popen(
+        [sys.executable, "-m", "nurbscomp", *args],
+        cwd=tmp,
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        preexec_fn=default_signals,
+    )
+
+
+def _left(tmp: Path) -> list[str]:
+    """Everything under ``tmp`` but the empty scratch folder."""
+    return sorted(str(p.relative_to(tmp)) for p in tmp.rglob("*") if p.name != "scratch")
+
+
+@pytest.mark.parametrize("after", [0.2, 0.5, 1.0, 2.0])
+def test_sigint_during_compress(tmp_path: Path, after: float) -> None:
+    p = _start(["compress", str(LONG), "-o", "out.nzc"], tmp_path)
+    time.sleep(after)
+    p.send_signal(signal.SIGINT)
+    out, err = p.communicate(timeout=120)
+    text = err.decode()
+    assert p.returncode == 130, text
+    assert "interrupted" in text and "Traceback" not in text, text
+    assert "OCCT failed" not in text and "internal error" not in text, text
+    assert _left(tmp_path) == [], _left(tmp_path)
+
+
+def test_sigterm_during_compress(tmp_path: Path) -> None:
+    p = _start(["compress", str(LONG), "-o", "out.nzc"], tmp_path)
+    time.sleep(1.0)
+    p.send_signal(signal.SIGTERM)
+    _, err = p.communicate(timeout=120)
+    assert p.returncode == 143, err.decode()
+    assert "interrupted (SIGTERM)" in err.decode()
+    assert _left(tmp_path) == []
+
+
+def test_a_batch_interrupted_counts_what_it_finished(tmp_path: Path) -> None:
+    """The first file's output is in place when the signal comes: it is a
+    done record, and the summary says so, with the exit status 130."""
+    args = ["compress", "-j", "1", "--json", str(SAMPLES / "loft.step"), str(LONG)]
+    args += ["-O", "out"]
+    p = _start(args, tmp_path)
+    first = tmp_path / "out" / "loft.step.nzc"
+    deadline = time.monotonic() + 120
+    while not first.exists() and p.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert first.exists()
+    p.send_signal(signal.SIGINT)
+    out, err = p.communicate(timeout=120)
+    assert p.returncode == 130, err.decode()
+    recs = [json.loads(line) for line in out.decode().splitlines()]
+    done = [r for r in recs if not r.get("summary")]
+    assert [(Path(r["input"]).name, r["status"]) for r in done] == [("loft.step", "ok")]
+    total = recs[-1]
+    assert total["summary"] and total["interrupted"] and total["exit_code"] == 130
+    assert (total["ok"], total["failed"]) == (1, 0)
+    assert _left(tmp_path) == ["out", "out/loft.step.nzc"]
+
+
+def test_settled_outputs_count_as_done(tmp_path: Path) -> None:
+    """An output renamed into place before the interrupt, its record not yet
+    reported, counts as done; one that was there before the batch does not."""
+    src = [tmp_path / f"{n}.step" for n in "abc"]
+    for s in src:
+        s.write_bytes(b"x" * 10)
+    old = tmp_path / "c.step.nzc"
+    old.write_bytes(b"old")
+    tasks = [batch.Task(str(s), str(s) + ".nzc") for s in src]
+    runner = batch.Runner(tasks, batch.Options("compress"))
+    Path(tasks[0].dst).write_bytes(b"new" * 5)  # as a worker's rename would
+    done = runner.settled()
+    assert [(r["input"], r["status"], r["output_bytes"]) for r in done] == [(str(src[0]), "ok", 15)]
+    assert done[0]["interrupted"] and done[0]["input_bytes"] == 10
+    assert runner.settled() == []  # reported once
