@@ -25,6 +25,7 @@ import zlib
 from dataclasses import dataclass
 
 from . import entropy
+from .formats import CONTAINER_MAGIC
 from .errors import (
     BadMagicError,
     ChecksumError,
@@ -36,7 +37,7 @@ from .errors import (
     VersionError,
 )
 
-MAGIC = b"\x89NZC"
+MAGIC = CONTAINER_MAGIC  # b"\x89NZC", formats' (it tells a container apart from CAD)
 #: Format 1.0, frozen (docs/format.md): a reader of 1.x reads every 1.y with y ≤ x.
 MAJOR = 1
 MINOR = 2

@@ -15,6 +15,8 @@ from .errors import InputError
 STEP_SUFFIXES = (".step", ".stp", ".p21")
 IGES_SUFFIXES = (".iges", ".igs")
 BREP_SUFFIXES = (".brep",)
+#: The first bytes of a ``.nzc`` container (``container.MAGIC``).
+CONTAINER_MAGIC = b"\x89NZC"
 #: The output formats of ``decompress --format`` and the suffix each gets.
 FORMAT_SUFFIX = {"STEP": ".step", "IGES": ".igs", "BREP": ".brep"}
 
@@ -25,8 +27,11 @@ def sniff_format(path: Path, head: bytes) -> str:
     Raises
     ------
     InputError
-        Neither the content nor the name says STEP or IGES.
+        Neither the content nor the name says STEP or IGES (or the content
+        is a ``.nzc`` container's, which the message says).
     """
+    if head.startswith(CONTAINER_MAGIC):
+        raise InputError("already a .nzc container (nurbscomp -d decompresses it)")
     if head.lstrip().startswith(b"ISO-10303-21"):
         return "STEP"
     lines = head.splitlines()

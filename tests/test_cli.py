@@ -3,7 +3,10 @@
 from __future__ import annotations
 
 import json
+import os
 import shutil
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -13,7 +16,7 @@ from click.testing import CliRunner
 from nurbscomp.cli import cli
 from nurbscomp.errors import EXIT_CONTAINER, EXIT_OUTPUT
 
-from .conftest import SAMPLES
+from .conftest import CORPUS, ROOT, SAMPLES
 
 
 @pytest.fixture()
@@ -345,3 +348,132 @@ def test_eval_heatmap_writes_a_readable_png(work: Path) -> None:
     assert code == 0, err
     rep = json.loads(out)
     assert rep["tolerance_mm"] == 0.01 and len(rep["face_max_mm"]) == 63
+
+
+# ---------------------------------------------------------------- gzip's habits (issue 26)
+
+
+def _script(*args: str, cwd: Path, stdin: bytes | None = None) -> subprocess.CompletedProcess:
+    """The real script (``python -m nurbscomp``), for what CliRunner skips:
+    ``main``'s usage errors under --json, pipes."""
+    return subprocess.run(
+        [sys.executable, "-m", "nurbscomp", *args],
+        cwd=cwd,
+        input=stdin,
+        capture_output=True,
+        timeout=300,
+        env={**os.environ, "PYTHONPATH": str(ROOT)},
+    )
+
+
+def test_mode_flags_run_their_commands(work: Path) -> None:
+    assert run("compress", "-q", str(work / "part.step"))[0] == 0
+    nzc = str(work / "part.step.nzc")
+    code, out, err = run("-k", "-t", nzc)
+    assert code == 0 and out.strip() == f"{nzc}: OK (3 faces)", err
+    code, out, _ = run("-tk", nzc)
+    assert code == 0 and "OK" in out
+    code, out, _ = run("-l", nzc)
+    assert code == 0 and "mode:        tolerance 0.01 mm" in out
+    (work / "part.step").rename(work / "orig.step")
+    code, _, err = run("-d", nzc)
+    assert code == 0, err
+    assert (work / "part.step").read_bytes().startswith(b"ISO-10303-21;")
+    code, _, err = run("--decompress", "-kf", nzc)  # grouped, and the long form
+    assert code == 0, err
+    code, _, err = run("-z", "-q", "-f", str(work / "orig.step"))
+    assert code == 0 and (work / "orig.step.nzc").exists(), err
+
+
+def test_mode_flags_refuse_another_command(work: Path) -> None:
+    code, _, err = run("compress", "-d", str(work / "out"), str(work / "part.step"))
+    assert code == 2 and "-O/--output-dir" in err
+    code, _, err = run("-d", "-t", str(work / "x.nzc"))
+    assert code == 2 and "exclude each other" in err
+    assert not (work / "out").exists()
+
+
+def test_rm_removes_inputs_once_done(work: Path) -> None:
+    src = work / "part.step"
+    code, out, err = run("compress", "--rm", "--json", str(src))
+    assert code == 0, err
+    assert json.loads(out.splitlines()[0])["input_removed"] and not src.exists()
+    code, _, err = run("decompress", "--rm", "-q", str(work / "part.step.nzc"))
+    assert code == 0, err
+    assert src.exists() and not (work / "part.step.nzc").exists()
+    code, _, err = run("compress", "--rm", "--no-verify", str(src))
+    assert code == 2 and "--rm needs" in err and src.exists()
+    # a failed file keeps its input
+    (work / "bad.step").write_bytes(b"garbage\n")
+    code, _, _ = run("compress", "--rm", "-q", str(work / "bad.step"))
+    assert code == 1 and (work / "bad.step").exists()
+
+
+def test_decompress_to_stdout_in_the_source_format(work: Path) -> None:
+    assert run("compress", "-q", str(work / "part.step"))[0] == 0
+    igs = work / "occ.nzc"  # no format in the name: the container's META tells
+    assert run("compress", "-q", str(CORPUS / "occt__occ22470.igs"), "-o", str(igs))[0] == 0
+    r = _script("decompress", "-c", "part.step.nzc", cwd=work)
+    assert r.returncode == 0 and r.stdout.startswith(b"ISO-10303-21;"), r.stderr
+    r = _script("-dc", "occ.nzc", cwd=work)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout[72:80] == b"S0000001"  # an IGES start record
+    r = _script("decompress", "-c", "--format", "step", "occ.nzc", cwd=work)
+    assert r.stdout.startswith(b"ISO-10303-21;")
+    data = (work / "part.step.nzc").read_bytes()
+    r = _script("decompress", "-", cwd=work, stdin=data)
+    assert r.returncode == 0 and r.stdout.startswith(b"ISO-10303-21;"), r.stderr
+
+
+def test_info_and_test_take_many_files(work: Path) -> None:
+    assert run("compress", "-q", "-O", str(work / "arc" / "sub"), str(work / "part.step"))[0] == 0
+    assert run("compress", "-q", "--lossless", "-O", str(work / "arc"), str(work / "part.step"))[0] == 0
+    a, b = work / "arc" / "part.step.nzc", work / "arc" / "sub" / "part.step.nzc"
+    code, out, _ = run("info", str(a), str(b), "--json")
+    assert code == 0
+    recs = [json.loads(line) for line in out.splitlines()]
+    assert [r["mode"] for r in recs] == ["lossless", "tolerance"]
+    code, out, _ = run("info", "-r", str(work / "arc"))
+    assert code == 0 and out.count("file:        ") == 2
+    code, out, err = run("test", "-r", str(work / "arc"), "-j", "2")
+    assert code == 0 and out.count(": OK (3 faces)") == 2, err
+    assert "2 files: 2 ok, 0 failed" in out
+    (work / "arc" / "bad.nzc").write_bytes(b"\x89NZC junk")
+    (work / "arc" / "gone.nzc").symlink_to(work / "nowhere.nzc")
+    code, out, _ = run("test", "-r", str(work / "arc"), "--json", "-j", "1")
+    recs = [json.loads(line) for line in out.splitlines()]
+    by_name = {Path(r["input"]).name: r["exit_code"] for r in recs if not r.get("summary")}
+    assert by_name == {"bad.nzc": EXIT_CONTAINER, "gone.nzc": 1, "part.step.nzc": 0}
+    assert code == EXIT_CONTAINER and recs[-1]["exit_code"] == EXIT_CONTAINER
+
+
+def test_usage_errors_under_json_are_json(work: Path) -> None:
+    r = _script("compress", "--json", "--tol", "-1", "part.step", cwd=work)
+    assert r.returncode == 2
+    (line,) = r.stdout.decode().splitlines()
+    rec = json.loads(line)
+    assert rec["status"] == "failed" and rec["exit_code"] == 2 and "--tol" in rec["error"]
+    assert "--tol" in r.stderr.decode()
+    r = _script("compress", "--tol", "-1", "part.step", cwd=work)
+    assert r.returncode == 2 and r.stdout == b""
+
+
+def test_words_and_units(work: Path) -> None:
+    code, _, err = run("compress", str(work))  # a folder: no tolerance notice before the error
+    assert code == 1 and err.strip().splitlines() == [f"error: {work}: is a directory (-r walks it)"]
+    assert run("compress", "-q", str(work / "part.step"))[0] == 0
+    code, out, _ = run("info", str(work / "part.step.nzc"))
+    assert "1 solid, 1 shell, 3 faces, 3 wires, 3 edges, 2 vertices" in out
+    assert "product:     1 part, 0 assemblies, 0 instances, depth 1, 1 name" in out
+    code, _, err = run("compress", str(work / "part.step.nzc"))
+    assert code == 1 and "already a .nzc container" in err
+
+
+def test_sizes_share_a_unit() -> None:
+    from nurbscomp.cli import _sizes
+
+    assert _sizes(862_000, 21_909) == "862 kB -> 21.9 kB"
+    assert _sizes(1_963_123, 49_418) == "1.96 MB -> 0.0494 MB"
+    assert _sizes(31_175, 1_787) == "31.2 kB -> 1.79 kB"
+    assert _sizes(950, 120) == "950 bytes -> 120 bytes"
+    assert _sizes(12_345_678, 1_234_567) == "12.3 MB -> 1.23 MB"
