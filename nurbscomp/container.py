@@ -25,7 +25,6 @@ import zlib
 from dataclasses import dataclass
 
 from . import entropy
-from .formats import CONTAINER_MAGIC
 from .errors import (
     BadMagicError,
     ChecksumError,
@@ -36,6 +35,7 @@ from .errors import (
     TruncatedError,
     VersionError,
 )
+from .formats import CONTAINER_MAGIC
 
 MAGIC = CONTAINER_MAGIC  # b"\x89NZC", formats' (it tells a container apart from CAD)
 #: Format 1.0, frozen (docs/format.md): a reader of 1.x reads every 1.y with y ≤ x.

@@ -426,8 +426,9 @@ def test_decompress_to_stdout_in_the_source_format(work: Path) -> None:
 
 
 def test_info_and_test_take_many_files(work: Path) -> None:
-    assert run("compress", "-q", "-O", str(work / "arc" / "sub"), str(work / "part.step"))[0] == 0
-    assert run("compress", "-q", "--lossless", "-O", str(work / "arc"), str(work / "part.step"))[0] == 0
+    part = str(work / "part.step")
+    assert run("compress", "-q", "-O", str(work / "arc" / "sub"), part)[0] == 0
+    assert run("compress", "-q", "--lossless", "-O", str(work / "arc"), part)[0] == 0
     a, b = work / "arc" / "part.step.nzc", work / "arc" / "sub" / "part.step.nzc"
     code, out, _ = run("info", str(a), str(b), "--json")
     assert code == 0
@@ -460,7 +461,8 @@ def test_usage_errors_under_json_are_json(work: Path) -> None:
 
 def test_words_and_units(work: Path) -> None:
     code, _, err = run("compress", str(work))  # a folder: no tolerance notice before the error
-    assert code == 1 and err.strip().splitlines() == [f"error: {work}: is a directory (-r walks it)"]
+    assert code == 1
+    assert err.strip().splitlines() == [f"error: {work}: is a directory (-r walks it)"]
     assert run("compress", "-q", str(work / "part.step"))[0] == 0
     code, out, _ = run("info", str(work / "part.step.nzc"))
     assert "1 solid, 1 shell, 3 faces, 3 wires, 3 edges, 2 vertices" in out
