@@ -21,13 +21,14 @@ Nothing here prints: the caller does, from the records.
 from __future__ import annotations
 
 import concurrent.futures as cf
+import contextlib
 import multiprocessing
 import os
 import signal
 import tempfile
 import time
 import traceback
-from collections.abc import Callable, Generator, Iterator
+from collections.abc import Callable, Generator, Iterable, Iterator
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -465,6 +466,8 @@ class Runner:
         # what each output is before the batch: an output found replaced after
         # an interrupt was renamed into place complete (settled)
         self._before = {t.dst: _identity(t.dst) for t in tasks if t.dst is not None}
+        # the folders -O will make: those left empty at the end are removed
+        self._new_folders = _missing_folders(t.dst for t in tasks if t.make_parent and t.dst)
 
     def records(self) -> Generator[tuple[dict[str, Any], bytes | None], None, None]:
         """``(record, output bytes)`` per task; the bytes only for a task whose
@@ -485,6 +488,7 @@ class Runner:
                 yield rec, blob
         finally:
             inner.close()
+            _remove_empty(self._new_folders)
 
     def settled(self) -> list[dict[str, Any]]:
         """After an interrupt: the records of the tasks not yet reported whose
@@ -651,6 +655,25 @@ class Runner:
         except NurbscompError as e:
             return self._failed(t, e)
         return None
+
+
+def _missing_folders(outputs: Iterable[str]) -> list[Path]:
+    """The folders above ``outputs`` that do not exist yet, deepest first."""
+    missing: set[Path] = set()
+    for out in outputs:
+        p = Path(out).parent
+        while p != p.parent and p not in missing and not p.exists():
+            missing.add(p)
+            p = p.parent
+    return sorted(missing, key=lambda p: len(p.parts), reverse=True)
+
+
+def _remove_empty(folders: list[Path]) -> None:
+    """Remove those of ``folders`` (deepest first) that are empty: the mirrored
+    folders of files that failed or were interrupted (``rmdir`` refuses the others)."""
+    for f in folders:
+        with contextlib.suppress(OSError):
+            f.rmdir()
 
 
 def _identity(path: str) -> tuple[int, int, int, int] | None:

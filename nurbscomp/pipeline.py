@@ -58,6 +58,8 @@ else:  # OCP takes seconds to import: only what builds or reads shapes pays for 
 log = logging.getLogger(__name__)
 
 DEFAULT_TOL_MM = units.DEFAULT_TOL_MM
+#: A tolerance above this fraction of the part's bounding-box diagonal is warned of.
+TOL_WARN_FRACTION = 0.1
 SUFFIX = ".nzc"
 
 _F = TypeVar("_F", bound=Any)
@@ -487,6 +489,13 @@ def encode_cad(
     else:
         assert tol is not None and tol > 0
         from .encode import validity
+
+        size = occ.diagonal(cad.shape)
+        if tol > size * TOL_WARN_FRACTION:
+            warnings.append(
+                f"tolerance {tol:g} mm is more than {TOL_WARN_FRACTION:.0%} of the part's size "
+                f"({size:.3g} mm across its bounding box): its shape may not be kept"
+            )
 
         t = validity.lossy_target(m, cad.shape, tol, step_safe, pack)
         target, codes, lossy_report, rebuilt = t.model, t.codes, t.report, t.pcurves_rebuilt

@@ -479,3 +479,21 @@ def test_sizes_share_a_unit() -> None:
     assert _sizes(31_175, 1_787) == "31.2 kB -> 1.79 kB"
     assert _sizes(950, 120) == "950 bytes -> 120 bytes"
     assert _sizes(12_345_678, 1_234_567) == "12.3 MB -> 1.23 MB"
+
+
+def test_no_empty_mirrored_folders(work: Path) -> None:
+    """-O makes the folders it mirrors; one whose only file failed is removed again."""
+    (work / "src" / "sub").mkdir(parents=True)
+    (work / "src" / "sub" / "bad.step").write_bytes(b"garbage\n")
+    shutil.copy(work / "part.step", work / "src" / "part.step")
+    code, _, _ = run("compress", "-q", "-r", str(work / "src"), "-O", str(work / "out"), "-j", "1")
+    assert code == 1
+    assert sorted(p.name for p in (work / "out").rglob("*")) == ["part.step.nzc"]
+
+
+def test_a_tolerance_larger_than_the_part_is_warned_of(work: Path) -> None:
+    code, _, err = run("compress", "--tol", "10m", str(work / "part.step"))
+    assert code == 0
+    assert "tolerance 10000 mm is more than 10% of the part's size" in err
+    code, _, err = run("compress", "-f", "--tol", "0.1", str(work / "part.step"))
+    assert code == 0 and "warning" not in err

@@ -10,6 +10,7 @@ free (occ22470: 0 solids and 88 free edges where the source has 1 and 0).
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import pytest
@@ -84,3 +85,36 @@ def test_occ22470_keeps_its_solid(tmp_path: Path, mode: str) -> None:
 )
 def test_corpus_to_iges(tmp_path: Path, name: str, mode: str) -> None:
     _assert_iges_keeps(CORPUS / name, tmp_path, mode)
+
+
+def test_eval_fails_the_faces_mode_output(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """``nurbscomp eval SRC OUT.igs`` on occ22470 at 0.01 mm: exit 6 (topology
+    differs, 88 free edges) for the faces-mode output the writer made before,
+    0 for the BRep-mode one."""
+    from click.testing import CliRunner
+
+    from nurbscomp.cli import cli
+    from nurbscomp.errors import EXIT_DIFFERS
+
+    src = CORPUS / "occt__occ22470.igs"
+    nzc = tmp_path / "occ.nzc"
+    pipeline.compress_file(src, nzc, tol=0.01)
+    faces, brep = tmp_path / "faces.igs", tmp_path / "brep.igs"
+    with monkeypatch.context() as mp:
+        mp.setattr(xcaf, "IGES_BREP_MODE", ("write.iges.brep.mode", "Faces"))
+        pipeline.decompress_file(nzc, faces)
+    pipeline.decompress_file(nzc, brep)
+    r = CliRunner().invoke(cli, ["eval", str(src), str(faces), "--tol", "0.01"])
+    assert r.exit_code == EXIT_DIFFERS, r.output
+    assert "verdict:     FAIL: within 0.01 mm, topology differs, " in r.stdout
+    assert "88 free edges where the original has 0" in r.stdout
+    r = CliRunner().invoke(cli, ["eval", str(src), str(brep), "--tol", "0.01"])
+    assert r.exit_code == 0, r.output
+    assert r.stdout.strip().endswith(
+        "verdict:     pass: within 0.01 mm, same topology, valid, no new free edges"
+    )
+    r = CliRunner().invoke(cli, ["eval", str(src), str(nzc), "--tol", "0.001", "--json"])
+    rep = json.loads(r.stdout)
+    assert r.exit_code == EXIT_DIFFERS and rep["exit_code"] == EXIT_DIFFERS
+    assert rep["within_tolerance"] is False and rep["failed"] == ["within_tolerance"]
+    assert rep["topology_same"] and rep["valid_kept"] and rep["free_edges_kept"]

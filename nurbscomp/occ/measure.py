@@ -10,7 +10,9 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from OCP.Bnd import Bnd_Box
 from OCP.BRep import BRep_Builder, BRep_Tool
+from OCP.BRepBndLib import BRepBndLib
 from OCP.BRepBuilderAPI import BRepBuilderAPI_Sewing
 from OCP.BRepCheck import BRepCheck_Analyzer, BRepCheck_NoError
 from OCP.BRepTools import BRepTools
@@ -63,6 +65,17 @@ def counts(shape: Any) -> dict[str, int]:
 def is_valid(shape: Any) -> bool:
     """BRepCheck's verdict on the whole shape."""
     return bool(BRepCheck_Analyzer(shape).IsValid())
+
+
+def diagonal(shape: Any) -> float:
+    """The length of the shape's bounding-box diagonal in mm (0 for an empty
+    shape): its size, to weigh a tolerance or a mesh deflection against."""
+    box = Bnd_Box()
+    BRepBndLib.Add_s(shape, box)
+    if box.IsVoid():
+        return 0.0
+    x0, y0, z0, x1, y1, z1 = box.Get()
+    return float(np.sqrt((x1 - x0) ** 2 + (y1 - y0) ** 2 + (z1 - z0) ** 2))
 
 
 def free_edges(shape: Any) -> int:

@@ -10,14 +10,12 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from OCP.Bnd import Bnd_Box
 from OCP.BRep import BRep_Tool
-from OCP.BRepBndLib import BRepBndLib
 from OCP.BRepMesh import BRepMesh_IncrementalMesh
 from OCP.TopAbs import TopAbs_REVERSED
 from OCP.TopLoc import TopLoc_Location
 
-from .measure import faces
+from .measure import diagonal, faces
 
 #: Linear deflection of the mesh, as a fraction of the shape's bounding-box diagonal.
 DEFLECTION = 1e-3
@@ -29,12 +27,9 @@ def face_meshes(shape: Any) -> list[tuple[np.ndarray, np.ndarray]]:
     """Per face, in ``TopExp.MapShapes`` order (``measure.faces``): its nodes,
     shape (n, 3), and triangles, shape (t, 3), 0-based, wound along the
     face's outward normal.  A face OCCT cannot mesh has empty arrays."""
-    box = Bnd_Box()
-    BRepBndLib.Add_s(shape, box)
-    if box.IsVoid():
+    diag = diagonal(shape)
+    if diag == 0.0:  # nothing to mesh
         return [(np.zeros((0, 3)), np.zeros((0, 3), np.int64)) for _ in faces(shape)]
-    x0, y0, z0, x1, y1, z1 = box.Get()
-    diag = float(np.sqrt((x1 - x0) ** 2 + (y1 - y0) ** 2 + (z1 - z0) ** 2)) or 1.0
     BRepMesh_IncrementalMesh(shape, DEFLECTION * diag, False, ANGLE, False)
     out = []
     for f in faces(shape):
