@@ -27,7 +27,7 @@ import click
 
 from . import __version__, signals
 from .errors import EXIT_DIFFERS, EXIT_USAGE
-from .units import DEFAULT_TOL_MM, parse_length
+from .units import DEFAULT_TOL_MM, TOL_RANGE_MM, check_tolerance, parse_length
 
 
 class _Length(click.ParamType):
@@ -38,6 +38,16 @@ class _Length(click.ParamType):
             return value
         try:
             return parse_length(str(value))
+        except ValueError as e:
+            self.fail(str(e), param, ctx)
+
+
+class _Tolerance(_Length):
+    """A length ``compress`` can code to (``units.TOL_RANGE_MM``)."""
+
+    def convert(self, value: Any, param: Any, ctx: Any) -> float:
+        try:
+            return check_tolerance(super().convert(value, param, ctx))
         except ValueError as e:
             self.fail(str(e), param, ctx)
 
@@ -544,9 +554,10 @@ def _report(
 @click.option("--lossless", is_flag=True, help="Keep every number bit for bit.")
 @click.option(
     "--tol",
-    type=_Length(),
+    type=_Tolerance(),
     default=None,
-    help=f"Tolerance, mm unless suffixed (um, in, mil...). Default {DEFAULT_TOL_MM} mm.",
+    help=f"Tolerance, mm unless suffixed (um, in, mil...), from {TOL_RANGE_MM[0]:g} to "
+    f"{TOL_RANGE_MM[1]:g} mm. Default {DEFAULT_TOL_MM} mm.",
 )
 @click.option("--no-verify", is_flag=True, help="Skip decoding the output to check it.")
 @click.option(

@@ -94,6 +94,13 @@ class Quant(IntEnum):
 MAX_INT = 2**40
 
 
+class NoCodeError(ValueError):
+    """No code of a net is within its bound: where a double's spacing nears
+    the quantizer's step (a net far from the origin, a tolerance near the
+    source's own precision), rounding breaks even ``SPATIAL``'s guarantee.
+    The encoder then keeps the net exact (``encode.nets``)."""
+
+
 class _Unusable(Exception):
     """A quantizer setting that cannot code this net (its integers would overflow)."""
 
@@ -1161,6 +1168,11 @@ def encode_net(
         see :func:`nurbscomp.encode.nets.feature_limit`); steps stay multiples
         tol·2^(e/4) of the container's tol, with e going further down.
 
+    Raises
+    ------
+    NoCodeError
+        No code is within the bound.
+
     Notes
     -----
     For each method and quantizer setting, steps are tried from coarse to fine
@@ -1217,5 +1229,5 @@ def encode_net(
                 if best is None or c.bits < best.bits:
                     best = c
     if best is None:
-        raise ValueError(f"no code within {limit} among {[m.name for m in methods]}")
+        raise NoCodeError(f"no code within {limit} among {[m.name for m in methods]}")
     return best

@@ -11,7 +11,7 @@ and the container see only these records.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from enum import IntEnum
 from typing import Any, NamedTuple
 
@@ -381,6 +381,44 @@ _ARRAY_FIELDS = (
     "face_natural",
     "side_joins",
 )
+
+
+#: The section each geometry table is written to, for messages.
+_TABLE_TAGS = (("surfaces", "SURF"), ("curves3d", "CRV3"), ("curves2d", "CRV2"))
+#: Per-model arrays of floats, with the section and name messages give them.
+_FLOAT_FIELDS = (
+    ("datums", "LOCS datums"),
+    ("vertex_point", "VERT points"),
+    ("vertex_tol", "VERT tolerances"),
+    ("vertex_rep_params", "VERT parameters"),
+    ("edge_tol", "EDGE tolerances"),
+    ("edge_rep_range", "EDGE ranges"),
+    ("edge_rep_uv", "EDGE uv"),
+    ("face_tol", "FACE tolerances"),
+)
+
+
+def nonfinite(m: BRepModel, bound: float) -> str | None:
+    """Where ``m`` holds a number that is not finite or not below ``bound`` in
+    magnitude (``"SURF poles"``, ``"VERT points"`` …), the first such place;
+    None if none.  A reader refuses such values (``serialize.finite``); the
+    encoder asks first, so that lossless and tolerance modes refuse the same
+    source with the same words."""
+
+    def bad(a: np.ndarray | None) -> bool:
+        with np.errstate(invalid="ignore"):
+            return a is not None and a.size > 0 and not bool((np.abs(a) < bound).all())
+
+    for name, where in _FLOAT_FIELDS:
+        if bad(getattr(m, name)):
+            return where
+    for name, tag in _TABLE_TAGS:
+        for g in getattr(m, name):
+            for f in fields(g):
+                v = getattr(g, f.name)
+                if isinstance(v, np.ndarray) and v.dtype.kind == "f" and bad(v):
+                    return f"{tag} {f.name}"
+    return None
 
 
 def _same(a: object, b: object) -> bool:

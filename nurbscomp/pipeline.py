@@ -47,6 +47,7 @@ from .model import (
     Derived,
     Kind,
     differences,
+    nonfinite,
 )
 from .report import verdict
 
@@ -459,6 +460,9 @@ def encode_cad(
     GIL): the decoded model must be this model bit for bit, so it builds this
     shape.  In tolerance mode the validity stage builds it anyway."""
     m, warnings = occ.shape_to_model(cad.shape)
+    bad = nonfinite(m, serialize.MAX_COORD)
+    if bad is not None:  # an invalid B-rep OCCT still reads: refused in both modes alike
+        raise InputError(f"{bad}: a value is not finite or out of range")
     m.unit, m.source_format, m.product = cad.unit, cad.source_format, cad.product
     meta = {
         "mode": "lossless" if lossless else "tolerance",

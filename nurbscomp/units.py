@@ -7,6 +7,11 @@ import re
 
 #: The default ``--tol``, in millimetres.
 DEFAULT_TOL_MM = 0.01
+#: The tolerances ``compress`` takes, in millimetres: from 1 nm, ten times
+#: OCCT's ``Precision::Confusion`` below which STEP files hold no meaning (a
+#: double's spacing there is near the quantizer's steps on ordinary parts),
+#: to 1 km, far past any part (steps and vertex grids stay in range).
+TOL_RANGE_MM = (1e-6, 1e6)
 
 #: Length units the STEP and IGES writers know (and a container's META may
 #: name), with their size in millimetres.
@@ -33,6 +38,7 @@ SUFFIX_MM = {
     "nm": 1e-6,
     "cm": 10.0,
     "m": 1000.0,
+    "km": 1e6,
     "in": 25.4,
     "inch": 25.4,
     '"': 25.4,
@@ -60,4 +66,21 @@ def parse_length(text: str) -> float:
     value = float(m.group(1)) * SUFFIX_MM[unit]
     if not math.isfinite(value) or value <= 0:
         raise ValueError(f"{text!r} must be a positive length")
+    return value
+
+
+def check_tolerance(value: float) -> float:
+    """``value`` (mm) if ``compress`` can code to it.
+
+    Raises
+    ------
+    ValueError
+        Outside ``TOL_RANGE_MM``, with the range in the message.
+    """
+    lo, hi = TOL_RANGE_MM
+    if not lo <= value <= hi:
+        raise ValueError(
+            f"tolerance {value:g} mm is outside the range coded, {lo:g} to {hi:g} mm "
+            "(--lossless keeps every number)"
+        )
     return value

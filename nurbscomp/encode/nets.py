@@ -98,6 +98,8 @@ class Coded:
     where: dict[int, np.ndarray] = field(default_factory=dict)
     #: per vertex, the first vertex of its cluster
     vlead: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    #: records no code is within tol for (``codec.NoCodeError``): kept exact
+    uncodable: set[Rec] = field(default_factory=set)
 
 
 #: A coded net moves by at most this fraction of its size (:func:`feature_limit`).
@@ -161,10 +163,12 @@ def _code_table(
     paper: bool,
     anchors: dict[Rec, np.ndarray] | None = None,
     limits: dict[Rec, float] | None = None,
+    uncodable: set[Rec] | None = None,
 ) -> dict[Rec, tuple[codec.NetCode, Geometry]]:
     """Code each distinct B-spline record of ``table`` (see :func:`code_model`);
     ``anchors`` maps records to :func:`joins.anchors` points, ``limits``
-    to a limit below :func:`feature_limit`'s."""
+    to a limit below :func:`feature_limit`'s.  A record no code is within its
+    limit for is left out (exact) and added to ``uncodable``."""
     out: dict[Rec, tuple[codec.NetCode, Geometry]] = {}
     origin = None
     for k, g in zip(records(table, which), table):
@@ -173,7 +177,12 @@ def _code_table(
         at = (anchors or {}).get(k, origin)
         limit = feature_limit(g.poles, tol)
         limit = min(limit, (limits or {}).get(k, limit))
-        out[k] = _code_one(g, tol, methods, paper, at, limit)
+        try:
+            out[k] = _code_one(g, tol, methods, paper, at, limit)
+        except codec.NoCodeError:  # doubles too coarse for the steps here: exact
+            if uncodable is not None:
+                uncodable.add(k)
+            continue
         origin = out[k][0].first
     return out
 
@@ -203,7 +212,10 @@ def tighten(coded: Coded, m: BRepModel, recs: Iterable[Rec], level: int = 1) -> 
             # never looser than it is (a twin leader may be held below its own limit)
             floor = max(code.bound, coded.tol / 1024)
             limit = min(feature_limit(g.poles, coded.tol) / TIGHTER**level, floor)
-            done[k] = _code_one(g, coded.tol, methods, False, code.origin, limit)
+            try:
+                done[k] = _code_one(g, coded.tol, methods, False, code.origin, limit)
+            except codec.NoCodeError:  # as tight as doubles allow here: the code it has
+                continue
             coded.fine.add(k)
             coded.tight[k] = level
 
@@ -252,6 +264,7 @@ def code_model(
     on = _edges_by_surface(m)
     sides = {k: v for k, v in sides.items() if not on[k[0]] & on[v[0][0]]}
     searched = codec.SURFACE_METHODS if paper else codec.SURFACE_SEARCH
+    uncodable: set[Rec] = set()
     surfaces = _code_table(
         m.surfaces,
         Table.SURFACE,
@@ -260,6 +273,7 @@ def code_model(
         searched,
         paper,
         limits=_leader_limits(m.surfaces, srec, sides, tol),
+        uncodable=uncodable,
     )
     h = serialize.vertex_grid(tol)
     # vertices at one point (within TWIN_VERTEX) snap as one: to their first's grid point
@@ -303,7 +317,11 @@ def code_model(
             code = surfaces[sk][0] if sk in surfaces else None
             if code is not None and code.bound > need:
                 assert isinstance(sg, BSplineSurface)
-                surfaces[sk] = _code_one(sg, tol, searched, paper, code.origin, need)
+                try:
+                    surfaces[sk] = _code_one(sg, tol, searched, paper, code.origin, need)
+                except codec.NoCodeError:
+                    del surfaces[sk]
+                    uncodable.add(sk)
     at = joins.anchors(m, m.curves3d, crows)
     coded = Coded(
         surfaces,
@@ -316,6 +334,7 @@ def code_model(
             paper,
             {crec[r]: a for r, a in at.items()},
             limits,
+            uncodable,
         ),
         tol,
         iso_recs,
@@ -324,6 +343,7 @@ def code_model(
         where=where,
         vlead=lead,
         sides={k: (lead_side, rev) for k, (lead_side, rev, _) in sides.items()},
+        uncodable=uncodable,
     )
     decoded = [coded.curves[k][1] if k in coded.curves else g for k, g in zip(crec, m.curves3d)]
     rows = {i for i, k in enumerate(crec) if k in coded.curves}

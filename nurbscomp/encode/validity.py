@@ -93,6 +93,8 @@ class ValidityReport:
         Reason -> number of faces whose coded record was *not* used because
         of it: ``"brepcheck"`` (a BRepCheck fault), ``"step"`` (the STEP
         reader mended it), ``"kinked"`` (C0 knots, split by the reader),
+        ``"precision"`` (no code within tol: doubles too coarse for its steps,
+        far from the origin or at a tol near the source's own precision),
         ``"fallback"`` (the last resort: every record exact).
     pcurves_kept : int
         Faces whose pcurves were stored because of a fault.
@@ -351,6 +353,7 @@ class _Plan:
         self.rung: dict[int, Rung] = {}  # source face -> highest rung taken
         self.tight_f: set[int] = set()  # faces tightened for a BRepCheck fault
         self.reason: dict[Rec | None, str] = {}  # record -> why it is exact
+        self.make_exact(set(self.coded.uncodable), "precision")
 
     def state(self) -> tuple[int, ...]:
         return (
@@ -446,7 +449,8 @@ class _Plan:
             wider = {g for f in blamed for e in self.edges_of[f] for g in self.faces_of[e]}
             if wider <= spent:
                 wider = {g for f in blamed for g in self.near_faces[f]}
-            blamed = wider - spent
+            blamed = wider
+        blamed = blamed - spent  # a spent face has no rung above (Rung(6) was an error)
         for f in sorted(blamed):
             r = Rung(self.rung.get(f, 0) + 1)
             self.rung[f] = r

@@ -1,0 +1,94 @@
+"""Extreme inputs (issue 27): never an internal error.
+
+A net no code is within tol for (a double's spacing near the quantizer's step,
+far from the origin) is kept exact and counted; a tolerance outside what the
+format codes is a usage error; a non-finite source value is one input error,
+in both modes."""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+
+from nurbscomp import occ, pipeline, units
+from nurbscomp.cli import cli
+from nurbscomp.errors import EXIT_INPUT, EXIT_USAGE, InputError
+
+
+def _part(tmp: Path, name: str, offset: float = 0.0) -> Path:
+    """A filleted, drilled box beside a lofted B-spline solid, moved by
+    ``offset`` mm along (1, 1, 1), as OCCT writes it to STEP."""
+    import cadquery as cq
+
+    box = cq.Workplane().box(10, 20, 5).edges("|Z").fillet(2).faces(">Z").workplane().hole(3)
+    loft = cq.Workplane("XY").rect(20, 12).workplane(offset=15).circle(5).loft()
+    shape = box.val().fuse(loft.val().translate(cq.Vector(40, 0, 0)))
+    shape = shape.translate(cq.Vector(offset, offset, offset))
+    path = tmp / name
+    occ.write_shape(shape.wrapped, path, "STEP")
+    return path
+
+
+@pytest.mark.parametrize("offset, tol", [(1e6, 0.001), (1e9, 0.001), (1e9, 0.01), (0.0, 1e-6)])
+def test_far_from_the_origin(tmp_path: Path, offset: float, tol: float) -> None:
+    """1e9 mm from the origin a double's spacing is 1.2e-7 mm: at 0.001 mm no
+    net code is within tol (it was 'internal error (ValueError: no code
+    within ...)'); those nets are kept exact, for the reason 'precision'."""
+    src = _part(tmp_path, "far.step", offset)
+    nzc = tmp_path / "far.nzc"
+    r = pipeline.compress_file(src, nzc, tol=tol)
+    ev = pipeline.evaluate(src, nzc)
+    assert ev["verdict"] == "pass", ev["failed"]
+    kept = r["validity"]["exact_faces"].get("precision", 0)
+    if offset >= 1e9 and tol <= 0.001:
+        assert kept > 0
+    if offset == 0:
+        assert kept == 0
+
+
+@pytest.mark.parametrize("tol", ["1e-12", "1e-300", "5e-324", "1e15", "1e300", "2km"])
+def test_tolerances_outside_the_range_are_usage_errors(tmp_path: Path, tol: str) -> None:
+    src = _part(tmp_path, "p.step")
+    r = CliRunner().invoke(cli, ["compress", "--tol", tol, str(src)])
+    assert r.exit_code == EXIT_USAGE, r.output
+    lo, hi = units.TOL_RANGE_MM
+    assert f"outside the range coded, {lo:g} to {hi:g} mm" in r.stderr
+    assert not (tmp_path / "p.step.nzc").exists()
+
+
+def test_the_range_ends_are_coded(tmp_path: Path) -> None:
+    src = _part(tmp_path, "p.step")
+    for tol in units.TOL_RANGE_MM:
+        r = CliRunner().invoke(cli, ["compress", "-f", "--json", "--tol", str(tol), str(src)])
+        assert r.exit_code == 0, r.output
+        assert json.loads(r.stdout.splitlines()[0])["tolerance_mm"] == tol
+
+
+def _with_value(src: Path, dst: Path, point: str, value: str) -> Path:
+    """``src`` with CARTESIAN_POINT ``#point``'s x set to ``value``."""
+    text = src.read_text()
+    pat = re.compile(rf"#{point} = CARTESIAN_POINT\('',\(([^,]*),")
+    assert pat.search(text), point
+    dst.write_text(pat.sub(f"#{point} = CARTESIAN_POINT('',({value},", text, count=1))
+    return dst
+
+
+@pytest.mark.parametrize("mode", [{"lossless": True, "tol": None}, {"tol": 0.01}])
+def test_non_finite_sources_are_one_input_error(tmp_path: Path, mode: dict) -> None:
+    src = _part(tmp_path, "p.step")
+    text = src.read_text()
+    vertex = re.search(r"VERTEX_POINT\('',#(\d+)\)", text)
+    net = re.search(r"B_SPLINE_SURFACE_WITH_KNOTS\('',\d+,\d+,\(\s*\(#(\d+)", text)
+    assert vertex and net
+    for point, value in ((vertex.group(1), "1.E300"), (net.group(1), "1.E300")):
+        bad = _with_value(src, tmp_path / "bad.step", point, value)
+        with pytest.raises(InputError, match="a value is not finite or out of range"):
+            pipeline.compress_file(bad, tmp_path / "bad.nzc", force=True, **mode)
+    r = CliRunner().invoke(cli, ["compress", "-q", "--tol", "0.01", str(bad)])
+    assert r.exit_code == EXIT_INPUT
+    assert r.stderr.count("\n") == 1 and "not finite or out of range" in r.stderr
+    assert "Warning" not in r.stderr and not (tmp_path / "bad.step.nzc").exists()
