@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import CorruptError, LimitError
+from .errors import CorruptError, LimitError, SectionError
 from .model import (
     REBUILD,
     Analytic,
@@ -104,6 +104,8 @@ class Limits:
     output_ratio: int = 2_000
     output_floor: int = 32 << 20
     output_bytes: int = 2 << 30
+    #: An output estimate the container's writer declared (:meth:`admit`).
+    output_declared: int = 0
 
     def scaled(self, k: float) -> Limits:
         """Every limit times ``k`` (the CLI's ``--limit-scale``); the depth at
@@ -124,10 +126,35 @@ class Limits:
 
     def output(self, container_bytes: int) -> int:
         """Largest estimated output a container of ``container_bytes`` may give."""
-        return min(self.output_bytes, max(self.output_floor, self.output_ratio * container_bytes))
+        sized = max(self.output_floor, self.output_ratio * container_bytes, self.output_declared)
+        return min(self.output_bytes, sized)
+
+    def admit(self, declared: dict[str, int]) -> Limits:
+        """The limits raised to what the container's writer declared it decodes
+        into (META ``decoded``, :func:`declare`), each at most ``CEILING``
+        times its default (the depth at most ``DEPTH_CEILING``): every
+        container ``compress`` writes decodes with the default limits, and a
+        hostile one that declares more than it holds is still bounded."""
+        out: dict[str, int] = {}
+        for name in ("rows", "references", "depth", "poles", "bases"):
+            if name in declared:
+                top = getattr(DEFAULT, name) * CEILING
+                top = min(top, DEPTH_CEILING) if name == "depth" else top
+                out[name] = max(getattr(self, name), min(declared[name], top))
+        size = max(declared.get("step_bytes", 0), declared.get("iges_bytes", 0))
+        out["output_declared"] = max(self.output_declared, min(size, self.output_bytes))
+        return dataclasses.replace(self, **out)
 
 
 DEFAULT = Limits()
+
+#: A writer's declaration (:meth:`Limits.admit`) raises a limit to at most
+#: this many times its default: 16 million references, 64 million poles.
+CEILING = 16
+#: What a writer declares of its model (META ``decoded``): the measures of the
+#: source itself.  Pcurves to compute are the writer's choice, held to the
+#: default limits (``pipeline.verify_encoded``), and are not declared.
+DECLARED = ("rows", "references", "depth", "poles", "bases", "step_bytes", "iges_bytes")
 
 
 @dataclass(frozen=True)
@@ -426,6 +453,40 @@ def check_projections(m: BRepModel) -> None:
             )
 
 
+def declare(m: BRepModel) -> dict[str, int]:
+    """What ``m`` decodes into, for META ``decoded`` (``DECLARED``)."""
+    e = expansion(m)
+    return {"rows": table_rows(m), **{k: getattr(e, k) for k in DECLARED if k != "rows"}}
+
+
+def declared(meta: dict[str, object]) -> dict[str, int]:
+    """META's ``decoded`` (absent: nothing declared).
+
+    Raises
+    ------
+    SectionError
+        Not an object of non-negative integers.
+    """
+    d = meta.get("decoded", {})
+    if not isinstance(d, dict):
+        raise SectionError("META: decoded is not an object")
+    out = {}
+    for k, v in d.items():
+        if not isinstance(v, int) or isinstance(v, bool) or v < 0:
+            raise SectionError("META: decoded holds a value that is not a count")
+        if k in DECLARED:
+            out[k] = v
+    return out
+
+
+def table_rows(m: BRepModel) -> int:
+    """Rows of the tables the decoder loops over: shapes, sub-shape
+    references, edge and vertex representations, geometry rows, location factors."""
+    rows = len(m.shape_type) + len(m.child_shape) + len(m.edge_reps) + len(m.vertex_reps)
+    rows += len(m.surfaces) + len(m.curves3d) + len(m.curves2d)
+    return rows + sum(len(loc.datums) for loc in m.locations)
+
+
 def _refuse(value: int, what: str, limit: int) -> LimitError:
     shown = f"{value:,}" if value < CAP else f"more than {CAP:,}"
     return LimitError(
@@ -442,9 +503,7 @@ def check_structure(m: BRepModel, limits: Limits = DEFAULT) -> Expansion:
     LimitError
         One line naming the measure, its value and the limit.
     """
-    rows = len(m.shape_type) + len(m.child_shape) + len(m.edge_reps) + len(m.vertex_reps)
-    rows += len(m.surfaces) + len(m.curves3d) + len(m.curves2d)
-    rows += sum(len(loc.datums) for loc in m.locations)
+    rows = table_rows(m)
     if rows > limits.rows:
         raise _refuse(
             rows, "table rows (shapes, references, representations, geometry)", limits.rows

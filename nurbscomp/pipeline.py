@@ -31,11 +31,13 @@ from .decode import model_to_sections, sections_to_model
 from .errors import (
     CorruptError,
     InputError,
+    LimitError,
     NoBRepError,
     NurbscompError,
     OutputError,
     RebuildError,
     UndiagnosedError,
+    UnsupportedError,
     VerifyError,
 )
 from .formats import FORMAT_SUFFIX
@@ -280,7 +282,9 @@ def decode(
         raise InputError("a passthrough container holds a file verbatim, not a B-rep")
     serialize.check_layout(c.tags(), c.minor, container.MINOR)
     if limits is not None:
-        limits = limits.sized(c.file_bytes)
+        # what the writer declared it decodes into is admitted, up to a ceiling
+        declared = budget.declared(serialize.read_meta(c.get("META")))
+        limits = limits.sized(c.file_bytes).admit(declared)
     try:
         m, meta = sections_to_model(c.get, min(c.minor, container.MINOR), limits)
     except NurbscompError:
@@ -463,6 +467,10 @@ def encode_cad(
     bad = nonfinite(m, serialize.MAX_COORD)
     if bad is not None:  # an invalid B-rep OCCT still reads: refused in both modes alike
         raise InputError(f"{bad}: a value is not finite or out of range")
+    try:  # what no reader decodes by default, even as declared, is not written
+        budget.check_structure(m, budget.DEFAULT.admit(budget.declare(m)))
+    except LimitError as e:
+        raise UnsupportedError(f"{e}; not compressed") from None
     m.unit, m.source_format, m.product = cad.unit, cad.source_format, cad.product
     meta = {
         "mode": "lossless" if lossless else "tolerance",
@@ -475,7 +483,9 @@ def encode_cad(
 
     def pack(target: BRepModel, codes: dict[Any, Any]) -> bytes:
         target.product = m.product  # exact in every mode, placements included
-        sections = model_to_sections(target, meta, codes)
+        # what it decodes into, for a reader to admit (budget.Limits.admit)
+        declared = {"decoded": budget.declare(target)}
+        sections = model_to_sections(target, {**meta, **declared}, codes)
         # lossless is the fast mode: a quick entropy search (entropy.compress)
         return container.pack(sections, flags, thorough=not lossless)
 
@@ -531,20 +541,24 @@ def verify_encoded(enc: Encoded, data: bytes) -> None:
     encoded: the same model bit for bit, product data, the certified bound,
     the topology counts.
 
-    The pcurves the container leaves to compute must be within the default
-    limits whatever its size (``budget.DEFAULT.pcurves`` and ``.projection``):
-    how many it leaves is the writer's choice (``encode.pcurves.drop_pcurves``).
-    The other limits measure the source itself (its references, poles, output
-    size): a container of a large model may need ``--limit-scale`` to decode,
-    and is not refused here.
+    It is decoded under the limits ``decompress`` applies by default (with
+    what the container declares it decodes into admitted, ``budget.Limits.admit``),
+    and its output in the source's format estimated: every container
+    ``compress`` writes is restored by the default command.  The pcurves the
+    container leaves to compute must be within the default limits whatever
+    its size (``budget.DEFAULT.pcurves`` and ``.projection``): how many it
+    leaves is the writer's choice (``encode.pcurves.drop_pcurves``).
 
     Raises
     ------
     VerifyError
-        Any difference (a bug), or more pcurves to compute than the default
-        limits allow.
+        Any difference (a bug), a limit the container is refused by, or more
+        pcurves to compute than the default limits allow.
     """
-    back, _ = decode(container.unpack(data), limits=None)
+    try:
+        back, _ = decode(container.unpack(data), budget.DEFAULT, enc.model.source_format)
+    except LimitError as e:
+        raise VerifyError(f"the container is past a reader's default limits: {e}") from None
     count, work = budget.pcurves_to_compute(back)
     if count > budget.DEFAULT.pcurves or work > budget.DEFAULT.projection:
         raise VerifyError(
