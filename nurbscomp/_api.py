@@ -11,6 +11,7 @@ are imported on the first call that needs them, not with ``nurbscomp``.
 from __future__ import annotations
 
 import math
+import numbers
 import os
 import tempfile
 from pathlib import Path
@@ -21,6 +22,7 @@ from .errors import ArgumentError, CorruptError, NoBRepError
 from .formats import sniff_format
 from .lazy import lazy_module
 from .report import Report
+from .units import parse_length
 
 if TYPE_CHECKING:
     from . import occ
@@ -32,17 +34,30 @@ else:
 Source = Union[str, "os.PathLike[str]", bytes, bytearray, memoryview, Any]
 #: What ``decompress`` and ``info`` take: a ``.nzc`` file's path or its bytes.
 Data = Union[str, "os.PathLike[str]", bytes, bytearray, memoryview]
+#: A tolerance: a number of millimetres, or a length with a unit as ``--tol``
+#: takes it (``"5um"``, ``"0.01mm"``, ``"1mil"``).
+Length = float | str
 
 _BYTES = (bytes, bytearray, memoryview)
 
 
-def _check_tol(tol: float) -> float:
-    try:
-        t = float(tol)
-    except (TypeError, ValueError):
-        raise ArgumentError(f"tol must be a number of mm, not {type(tol).__name__}") from None
+def _check_tol(tol: Any) -> float:
+    """``tol`` in mm: a real number (not a bool) of mm, or a string that
+    ``nurbscomp.units.parse_length`` reads (``--tol``'s syntax); positive and
+    finite.  Anything else raises ``ArgumentError``."""
+    if isinstance(tol, str):
+        try:
+            return parse_length(tol)
+        except ValueError as e:
+            raise ArgumentError(f"tol: {e}") from None
+    if isinstance(tol, bool) or not isinstance(tol, numbers.Real):
+        raise ArgumentError(
+            "tol must be a number of mm or a length with a unit such as '5um', "
+            f"not {_what(tol) if tol is not None else 'None'}"
+        )
+    t = float(tol)
     if not (math.isfinite(t) and t > 0):
-        raise ArgumentError(f"tol must be a positive number of mm, not {t!r}")
+        raise ArgumentError(f"tol must be a positive, finite number of mm, not {t!r}")
     return t
 
 
@@ -59,7 +74,7 @@ def _source_name(data: bytes) -> str:
 def compress(
     obj: Source,
     *,
-    tol: float = pipeline.DEFAULT_TOL_MM,
+    tol: Length = pipeline.DEFAULT_TOL_MM,
     lossless: bool = False,
     verify: bool = True,
     step_safe: bool = True,
@@ -73,9 +88,12 @@ def compress(
         in millimetres.  A ``Workplane`` gives its shapes (one, or a compound
         of several); an ``Assembly`` is written to STEP by cadquery's XDE
         writer and read back, so that its tree, names and colours are kept.
-    tol : float, optional
-        Tolerance in mm (default 0.01): no point of a coded B-spline surface
-        or curve moves further (certified).  Ignored with ``lossless``.
+    tol : float or str, optional
+        Tolerance (default 0.01 mm): no point of a coded B-spline surface or
+        curve moves further (certified).  A number is in mm; a string is a
+        length with a unit, as ``--tol`` takes it: ``"5um"``, ``"0.01mm"``,
+        ``"1mil"``, ``"0.0004in"`` (a bare number in a string is in mm).
+        Checked, then ignored, with ``lossless``.
     lossless : bool, optional
         Keep every number bit for bit.
     verify : bool, optional
@@ -96,7 +114,9 @@ def compress(
     nurbscomp.errors.InputError
         The file is missing or not STEP/IGES, or the shape has no faces.
     nurbscomp.errors.ArgumentError
-        ``obj`` is none of the above, or ``tol`` is not a positive number.
+        ``obj`` is none of the above, or ``tol`` is not a positive, finite
+        length (a bool, None, NaN, infinity, zero, a string with no known
+        unit...).
     nurbscomp.errors.NurbscompError
         Any other failure (one-line message).
 
@@ -107,7 +127,8 @@ def compress(
     >>> data[:4]
     b'\\x89NZC'
     """
-    t = None if lossless else _check_tol(tol)
+    checked = _check_tol(tol)
+    t = None if lossless else checked
     opts: dict[str, Any] = {"tol": t, "lossless": lossless, "step_safe": step_safe}
     if isinstance(obj, _BYTES):
         data = bytes(obj)
@@ -272,7 +293,7 @@ def evaluate(
     original: Source,
     reconstructed: Source,
     *,
-    tol: float | None = None,
+    tol: Length | None = None,
     worst: int = 5,
     heatmap: str | os.PathLike[str] | None = None,
     force: bool = False,
@@ -286,20 +307,29 @@ def evaluate(
         :func:`compress` takes them.  Faces are paired by index: points
         sampled inside each original face are measured against the
         reconstructed face of the same index.
-    tol : float, optional
-        The tolerance to report against; default: the one ``reconstructed``
-        was coded with, if it is a container.
+    tol : float or str, optional
+        The tolerance to report against, as :func:`compress` takes it (mm, or
+        a length with a unit: ``"5um"``); default (None): the one
+        ``reconstructed`` was coded with, if it is a container.
     worst : int, optional
         How many of the worst faces to list.
     heatmap : path, optional
         Also write a PNG of the reconstruction, each face coloured by its
-        deviation (as ``eval --heatmap``).
+        deviation (as ``eval --heatmap``), atomically, as the CLI writes.
     force : bool, optional
-        Overwrite an existing ``heatmap`` file.
+        Overwrite an existing ``heatmap`` file (``--force``).
 
     Returns
     -------
     Report
+
+    Raises
+    ------
+    nurbscomp.errors.ArgumentError
+        ``tol`` is not None nor a positive, finite length.
+    nurbscomp.errors.OutputError
+        ``heatmap`` exists and ``force`` is not set, or may not be written
+        (checked before any work is done).
 
     Examples
     --------

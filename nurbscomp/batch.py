@@ -22,8 +22,11 @@ from __future__ import annotations
 
 import concurrent.futures as cf
 import contextlib
+import itertools
 import multiprocessing
 import os
+import pickle
+import shutil
 import signal
 import tempfile
 import time
@@ -390,18 +393,90 @@ def deliver(rec: dict[str, Any], blob: bytes, task: Task, opts: Options) -> dict
 
 #: Set in a worker process once it has been told to stop: tasks not started are refused.
 _stopping = False
+#: In a worker, while :func:`_pool_task` does a file: its output's path, and
+#: what was at that path when the file began (:func:`_identity`).
+_doing: tuple[str, tuple[int, int] | None] | None = None
+
+
+def _identity(path: str) -> tuple[int, int] | None:
+    """What is at ``path`` (device and inode, the link itself), or None."""
+    try:
+        st = os.lstat(path)
+    except OSError:
+        return None
+    return st.st_dev, st.st_ino
+
+
+def _output_in_place() -> bool:
+    """Whether the file being done has renamed its output into place: its
+    output's path holds another file than when the file began.  (Another
+    process putting a file there meanwhile would look the same; the file
+    would then run on to its end before it stops.)"""
+    if _doing is None:
+        return False
+    dst, before = _doing
+    now = _identity(dst)
+    return now is not None and now != before
 
 
 def _stop_worker(signum: int, frame: Any) -> None:
     """SIGINT/SIGTERM/SIGHUP in a worker: the task running raises
     ``KeyboardInterrupt`` (its output's temporary file is removed on the way
     out) and no further task starts.  A second signal is ignored so that it
-    cannot cut that clean-up short."""
+    cannot cut that clean-up short.
+
+    A file whose output is already renamed into place is done: it is not
+    interrupted but finishes (a few dictionaries), so that :func:`_pool_task`
+    writes its record to the journal before the worker stops."""
     global _stopping
     if _stopping:
         return
     _stopping = True
+    if _output_in_place():
+        return
     raise KeyboardInterrupt
+
+
+def _pool_task(task: Task, opts: Options, journal: str, key: str) -> dict[str, Any]:
+    """:func:`run_task` in a pool worker; its record is also written to the
+    journal (``journal/KEY.rec``) before it is returned.
+
+    A pool that breaks (a worker died) fails every task whose result it has
+    not read, also a task finished, or finished by a worker that the broken
+    pool then stopped: the journal keeps their records for :class:`Runner`."""
+    global _doing
+    # a check (test) writes no output: nothing to be in place
+    _doing = (task.dst, _identity(task.dst)) if task.dst is not None else None
+    try:
+        rec = run_task(task, opts)
+        _write_journal(Path(journal), key, rec)
+    finally:
+        _doing = None
+    if _stopping:  # told to stop once the output was in place (_stop_worker)
+        raise KeyboardInterrupt
+    return rec
+
+
+def _write_journal(folder: Path, key: str, rec: dict[str, Any]) -> None:
+    """Keep ``rec`` as ``folder/KEY.rec``, whole or not at all.  A journal that
+    cannot be written only loses the record if the pool also breaks (the
+    file is then done again)."""
+    tmp = folder / f"{key}.tmp"
+    try:
+        tmp.write_bytes(pickle.dumps(rec))
+        os.replace(tmp, folder / f"{key}.rec")
+    except OSError:
+        pass
+
+
+def _read_journal(folder: Path, key: str) -> dict[str, Any] | None:
+    """The record a worker kept as ``folder/KEY.rec``, or None."""
+    try:
+        data = (folder / f"{key}.rec").read_bytes()
+    except FileNotFoundError:
+        return None
+    rec: dict[str, Any] = pickle.loads(data)  # written by this batch's workers
+    return rec
 
 
 def _init_worker() -> None:
@@ -468,6 +543,7 @@ class Runner:
         self._before = {t.dst: _identity(t.dst) for t in tasks if t.dst is not None}
         # the folders -O will make: those left empty at the end are removed
         self._new_folders = _missing_folders(t.dst for t in tasks if t.make_parent and t.dst)
+        self._keys = itertools.count()  # a journal entry per task submitted to a pool
 
     def records(self) -> Generator[tuple[dict[str, Any], bytes | None], None, None]:
         """``(record, output bytes)`` per task; the bytes only for a task whose
@@ -503,7 +579,6 @@ class Runner:
             if now is None or now == self._before.get(t.dst):
                 continue
             self._reported.add((t.src, t.dst))
-            size_in = _identity(t.src) if t.src != STDIO else None
             out.append(
                 {
                     "command": self.opts.command,
@@ -513,8 +588,8 @@ class Runner:
                     "exit_code": 0,
                     "interrupted": True,
                     "passthrough": False,
-                    "input_bytes": size_in[3] if size_in else 0,
-                    "output_bytes": now[3],
+                    "input_bytes": _size(t.src),
+                    "output_bytes": _size(t.dst),
                 }
             )
         return out
@@ -563,19 +638,27 @@ class Runner:
 
     def _pool(self) -> Generator[tuple[dict[str, Any], bytes | None], None, None]:
         """The tasks in ``jobs`` worker processes.  A worker that dies (a crash
-        in OCCT, say) breaks the pool and every task not finished with it; each
-        of those is then run again alone, in a pool of its own, so that only the
-        file that kills its worker is reported failed."""
-        broken: list[Task] = []
-        yield from self._in_pool(self.tasks, self.jobs, broken)
-        for t in list(broken):
-            yield from self._in_pool([t], 1, None)
+        in OCCT, say) breaks the pool and every task whose result the pool has
+        not read.  Those that a worker finished all the same (their output
+        renamed into place, their record in the journal, :func:`_pool_task`)
+        are done: their records are the journal's.  Each of the others is run
+        again alone, in a pool of its own, so that only the file that kills its
+        worker is reported failed, and no file is done twice."""
+        journal = Path(tempfile.mkdtemp(prefix="nurbscomp.journal."))
+        try:
+            broken: list[Task] = []
+            yield from self._in_pool(self.tasks, self.jobs, broken, journal)
+            for t in list(broken):
+                yield from self._in_pool([t], 1, None, journal)
+        finally:
+            shutil.rmtree(journal, ignore_errors=True)
 
     def _in_pool(
-        self, tasks: list[Task], jobs: int, broken: list[Task] | None
+        self, tasks: list[Task], jobs: int, broken: list[Task] | None, journal: Path
     ) -> Iterator[tuple[dict[str, Any], bytes | None]]:
         """Run ``tasks`` in a pool of ``jobs`` workers; the tasks the pool
-        breaks on are added to ``broken`` (None: reported failed)."""
+        breaks on that no worker finished are added to ``broken`` (None:
+        reported failed)."""
         # Workers are forked from a fork server that has imported OCP and the
         # coder once (no fork of this process, which may have threads): N
         # workers cost one import, not N.
@@ -583,17 +666,17 @@ class Runner:
         ctx.set_forkserver_preload(list(WORKER_PRELOAD))
         ex = cf.ProcessPoolExecutor(jobs, mp_context=ctx, initializer=_init_worker)
         done = False
-        futures: dict[cf.Future[dict[str, Any]], Task] = {}
+        futures: dict[cf.Future[dict[str, Any]], tuple[Task, str]] = {}
+        lost: list[tuple[Task, str, str]] = []  # broken on: task, journal key, why
         try:
-            futures = {ex.submit(run_task, t, self.opts): t for t in largest_first(tasks)}
+            for t in largest_first(tasks):
+                key = str(next(self._keys))
+                futures[ex.submit(_pool_task, t, self.opts, str(journal), key)] = (t, key)
             for f in cf.as_completed(futures):
                 try:
                     rec = f.result()
                 except BrokenProcessPool as e:
-                    if broken is not None:
-                        broken.append(futures[f])
-                    else:
-                        yield self._failed(futures[f], WorkerDied(str(e))), None
+                    lost.append((*futures[f], str(e)))
                     continue
                 yield rec, None
             done = True
@@ -601,8 +684,18 @@ class Runner:
             if done:
                 ex.shutdown(wait=True)
             else:  # interrupted: name the files started, stop the workers
-                self.running = [futures[f].src for f in futures if f.running()]
+                self.running = [futures[f][0].src for f in futures if f.running()]
                 _stop_pool(ex)
+        # Every worker has exited (a broken pool stops them all, and shutdown
+        # waits for them): the journal holds every record they will ever write.
+        for t, key, why in lost:
+            kept = _read_journal(journal, key)
+            if kept is not None:
+                yield kept, None
+            elif broken is not None:
+                broken.append(t)
+            else:
+                yield self._failed(t, WorkerDied(why)), None
 
     def _dask(self) -> Generator[tuple[dict[str, Any], bytes | None], None, None]:
         from distributed import Client, as_completed
@@ -657,6 +750,14 @@ class Runner:
         return None
 
 
+def _size(path: str) -> int:
+    """The size of a file, 0 if it is not there (or is standard input)."""
+    try:
+        return os.stat(path).st_size if path != STDIO else 0
+    except OSError:
+        return 0
+
+
 def _missing_folders(outputs: Iterable[str]) -> list[Path]:
     """The folders above ``outputs`` that do not exist yet, deepest first."""
     missing: set[Path] = set()
@@ -674,15 +775,6 @@ def _remove_empty(folders: list[Path]) -> None:
     for f in folders:
         with contextlib.suppress(OSError):
             f.rmdir()
-
-
-def _identity(path: str) -> tuple[int, int, int, int] | None:
-    """(device, inode, mtime in ns, size) of a path, None if nothing is there."""
-    try:
-        st = os.lstat(path)
-    except OSError:
-        return None
-    return st.st_dev, st.st_ino, st.st_mtime_ns, st.st_size
 
 
 def remove_input(rec: dict[str, Any]) -> dict[str, Any]:

@@ -392,7 +392,6 @@ _FLOAT_FIELDS = (
     ("vertex_tol", "VERT tolerances"),
     ("vertex_rep_params", "VERT parameters"),
     ("edge_tol", "EDGE tolerances"),
-    ("edge_rep_range", "EDGE ranges"),
     ("edge_rep_uv", "EDGE uv"),
     ("face_tol", "FACE tolerances"),
 )
@@ -412,6 +411,10 @@ def nonfinite(m: BRepModel, bound: float) -> str | None:
     for name, where in _FLOAT_FIELDS:
         if bad(getattr(m, name)):
             return where
+    # an edge without a 3-D curve (degenerated) has OCCT's default range, ±DBL_MAX
+    curveless = (m.edge_reps[:, 1] == RepKind.CURVE3D) & (m.edge_reps[:, 2] == -1)
+    if not np.isfinite(m.edge_rep_range).all() or bad(m.edge_rep_range[~curveless]):
+        return "EDGE ranges"
     for name, tag in _TABLE_TAGS:
         for g in getattr(m, name):
             for f in fields(g):

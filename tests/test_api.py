@@ -6,6 +6,7 @@ from __future__ import annotations
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -162,3 +163,89 @@ def test_every_sample_gives_the_cli_bytes(name: str, tmp_path: Path) -> None:
         out = tmp_path / f"{name}.nzc"
         pipeline.compress_file(src, out, force=True, **kw)
         assert nurbscomp.compress(src, **kw) == out.read_bytes(), kw
+
+
+# ---------------------------------------------------------------- tol and force (issue 26)
+
+
+@pytest.mark.parametrize(
+    "tol, mm", [("5um", 0.005), ("0.01mm", 0.01), ("1mil", 0.0254), (" 2 um", 0.002), (1, 1.0)]
+)
+def test_tol_takes_lengths_with_units(cq, tol: Any, mm: float) -> None:
+    """``tol`` as ``--tol`` takes it: a length with a unit, or a number of mm."""
+    box = cq.Workplane().box(1, 2, 3).val()
+    data = nurbscomp.compress(box, tol=tol)
+    assert nurbscomp.info(data)["tolerance_mm"] == pytest.approx(mm, rel=1e-12)
+    assert nurbscomp.evaluate(box, data, tol=tol).tolerance_mm == pytest.approx(mm, rel=1e-12)
+
+
+def test_tol_string_gives_the_cli_bytes(tmp_path: Path) -> None:
+    """``compress(path, tol="1mil")`` is ``nurbscomp compress --tol 1mil``, bit for bit."""
+    from click.testing import CliRunner
+
+    from nurbscomp.cli import cli
+
+    out = tmp_path / "loft.nzc"
+    r = CliRunner().invoke(
+        cli, ["compress", "-q", "--tol", "1mil", str(SAMPLES / "loft.step"), "-o", str(out)]
+    )
+    assert r.exit_code == 0, r.output
+    assert nurbscomp.compress(SAMPLES / "loft.step", tol="1mil") == out.read_bytes()
+
+
+BAD_TOLS = [
+    (True, "not builtins.bool"),
+    (False, "not builtins.bool"),
+    (None, "not None"),
+    ([0.01], "not builtins.list"),
+    (b"5um", "not builtins.bytes"),
+    (float("nan"), "positive, finite"),
+    (float("inf"), "positive, finite"),
+    (0, "positive, finite"),
+    (-1, "positive, finite"),
+    ("0um", "must be a positive length"),
+    ("1e400", "must be a positive length"),
+    ("5 parsecs", "is not a length"),
+    ("nan", "is not a length"),
+    ("", "is not a length"),
+]
+
+
+@pytest.mark.parametrize("tol, message", BAD_TOLS)
+def test_bad_tol_is_refused_before_any_work(tmp_path: Path, tol: Any, message: str) -> None:
+    """A tol that is no positive, finite length raises ``ArgumentError`` with a
+    one-line message, before the input is looked at (the input is missing
+    here: the error would otherwise be an ``InputError``); also with
+    ``lossless``, which then ignores tol, and in ``evaluate`` (but for None,
+    its default)."""
+    missing = tmp_path / "missing.step"
+    calls = [
+        lambda: nurbscomp.compress(missing, tol=tol),
+        lambda: nurbscomp.compress(missing, tol=tol, lossless=True),
+    ]
+    if tol is not None:
+        calls.append(lambda: nurbscomp.evaluate(missing, missing, tol=tol))
+    for call in calls:
+        with pytest.raises(errors.ArgumentError) as e:
+            call()
+        assert message in str(e.value) and "tol" in str(e.value)
+        assert "\n" not in str(e.value)
+
+
+def test_evaluate_heatmap_is_not_overwritten_without_force(cq, tmp_path: Path) -> None:
+    """``evaluate(heatmap=)``, the API's one file written: an existing picture
+    raises ``OutputError`` without ``force`` (before any work: the inputs are
+    not read), and is replaced with it."""
+    part = cq.Workplane().box(1, 2, 3).edges().fillet(0.2).val()
+    data = nurbscomp.compress(part, tol=0.001)
+    png = tmp_path / "error.png"
+    nurbscomp.evaluate(part, data, heatmap=png)
+    first = png.read_bytes()
+    assert first[:4] == b"\x89PNG"
+    with pytest.raises(errors.OutputError, match="already exists"):
+        nurbscomp.evaluate(tmp_path / "missing.step", data, heatmap=png)
+    assert png.read_bytes() == first
+    png.write_bytes(b"old")
+    nurbscomp.evaluate(part, data, heatmap=png, force=True)
+    assert png.read_bytes()[:4] == b"\x89PNG"
+    assert not [p for p in tmp_path.iterdir() if p.name.endswith(".tmp")]

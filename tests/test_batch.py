@@ -350,35 +350,91 @@ def test_dask_local_cluster_gives_the_same_containers(tmp_path: Path) -> None:
     assert no_temporary_files(tmp_path)
 
 
-def test_a_worker_that_dies_fails_only_its_file(tmp_path: Path) -> None:
-    """A worker killed on one file (as by a crash in OCCT) breaks the pool:
-    the other files are done again, and only that file is reported failed."""
-    src = tmp_path / "in"
-    src.mkdir()
-    for name in ("a.step", "crash.step", "b.step", "c.step"):
-        shutil.copy(SAMPLES / "loft.step", src / name)
+def _batch_with_a_crash(
+    src: Path, out: Path, barrier: Path, crash_after: str, hold: str = ""
+) -> tuple[dict[str, dict[str, Any]], dict[str, Any], list[str]]:
+    """``compress -r SRC -O OUT -j 2 --json`` with workers that die on
+    ``crash.step`` once the files ``crash_after`` names hold or are done, and
+    hold as ``hold`` says (``tests/crash_worker.py``); the records, the
+    summary, and the files compressed, once per compress begun."""
+    barrier.mkdir()
     code = (
         "import sys; from nurbscomp import batch, cli; "
         "batch.WORKER_PRELOAD += ('tests.crash_worker',); "
         "sys.argv = ['nurbscomp', *sys.argv[1:]]; cli.main()"
     )
-    args = ["compress", "-r", str(src), "-O", str(tmp_path / "out"), "-j", "2", "--json"]
-    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    args = ["compress", "-r", str(src), "-O", str(out), "-j", "2", "--json"]
+    env = {
+        **os.environ,
+        "PYTHONPATH": str(ROOT),
+        "NURBSCOMP_TEST_BARRIER": str(barrier),
+        "NURBSCOMP_TEST_CRASH_AFTER": crash_after,
+        "NURBSCOMP_TEST_HOLD": hold,
+    }
     r = subprocess.run(
         [sys.executable, "-c", code, *args], env=env, capture_output=True, cwd=ROOT, timeout=600
     )
     assert r.returncode == EXIT_INTERNAL, r.stderr
     recs, total = lines(r.stdout.decode())
+    runs = (barrier / "runs").read_text().split()
+    return recs, total, runs
+
+
+def test_a_worker_that_dies_fails_only_its_file(tmp_path: Path) -> None:
+    """A worker killed on one file (as by a crash in OCCT) breaks the pool:
+    the file in progress then is done again, the files finished are not, and
+    only the file that killed its worker is reported failed.  Its worker dies
+    once a.step and b.step are done and c.step has begun (and waits)."""
+    src = tmp_path / "in"
+    src.mkdir()
+    for name in ("a.step", "crash.step", "b.step", "c.step"):
+        shutil.copy(SAMPLES / "loft.step", src / name)
+    out = tmp_path / "out"
+    recs, total, runs = _batch_with_a_crash(
+        src, out, tmp_path / "barrier", "a.step,b.step,c.step", "c.step:start"
+    )
     assert recs["crash.step"]["error_class"] == "WorkerDied" and recs["crash.step"]["internal"]
     others = {n: x for n, x in recs.items() if n != "crash.step" and x["status"] != "ok"}
     assert not others, others  # a failure names its record (error class and message)
     assert sorted(recs) == ["a.step", "b.step", "c.step", "crash.step"]
     assert (total["ok"], total["failed"]) == (3, 1)
-    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == [
-        "a.step.nzc",
-        "b.step.nzc",
-        "c.step.nzc",
-    ]
+    assert sorted(p.name for p in out.iterdir()) == ["a.step.nzc", "b.step.nzc", "c.step.nzc"]
+    # c.step was stopped in its first pool and done again; crash.step killed two
+    assert sorted(runs) == ["a.step", "b.step", "c.step", "c.step", "crash.step", "crash.step"]
+    assert no_temporary_files(tmp_path)
+
+
+@pytest.mark.parametrize("point", ["written", "sending"])
+def test_a_file_its_dead_pool_finished_is_not_done_again(tmp_path: Path, point: str) -> None:
+    """The race of issue 26: c.step's output is renamed into place, then the
+    pool breaks (another worker dies) before c.step's record reaches this
+    process, its worker stopped either before it returned the record
+    (``written``) or as it sends it (``sending``).  The file is done: it
+    keeps its record, and is not compressed again into "already exists".
+
+    Three files for two workers: the pool watches a worker for its death
+    from the next ``submit`` on (CPython 3.11 wakes its manager thread before
+    it starts the worker), so with two files the death of the second worker
+    could go unseen while c.step's worker holds."""
+    src = tmp_path / "in"
+    src.mkdir()
+    for name in ("a.step", "c.step", "crash.step"):
+        shutil.copy(SAMPLES / "loft.step", src / name)
+    out = tmp_path / "out"
+    recs, total, runs = _batch_with_a_crash(
+        src, out, tmp_path / "barrier", "a.step,c.step", f"c.step:{point}"
+    )
+    c = recs["c.step"]
+    assert c["status"] == "ok", c
+    assert c["mode"] == "tolerance" and c["verified"] and c["output"] == str(out / "c.step.nzc")
+    assert c["output_bytes"] == (out / "c.step.nzc").stat().st_size
+    assert recs["crash.step"]["error_class"] == "WorkerDied"
+    assert recs["a.step"]["status"] == "ok", recs["a.step"]
+    assert (total["ok"], total["failed"], total["files"]) == (2, 1, 3)
+    assert sorted(runs) == ["a.step", "c.step", "crash.step", "crash.step"]  # each once
+    assert sorted(p.name for p in out.iterdir()) == ["a.step.nzc", "c.step.nzc"]
+    container.unpack((out / "c.step.nzc").read_bytes())
+    assert no_temporary_files(tmp_path)
 
 
 def archive_round_trip(cad: Path, tmp_path: Path) -> dict[str, dict[str, Any]]:
