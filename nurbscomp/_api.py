@@ -22,7 +22,7 @@ from .errors import ArgumentError, CorruptError, NoBRepError
 from .formats import sniff_format
 from .lazy import lazy_module
 from .report import Report
-from .units import parse_length
+from .units import check_tolerance, parse_length
 
 if TYPE_CHECKING:
     from . import occ
@@ -128,7 +128,10 @@ def compress(
     b'\\x89NZC'
     """
     checked = _check_tol(tol)
-    t = None if lossless else checked
+    try:
+        t = None if lossless else check_tolerance(checked)
+    except ValueError as e:  # outside what the format codes (units.TOL_RANGE_MM)
+        raise ArgumentError(str(e)) from None
     opts: dict[str, Any] = {"tol": t, "lossless": lossless, "step_safe": step_safe}
     if isinstance(obj, _BYTES):
         data = bytes(obj)

@@ -92,3 +92,14 @@ def test_non_finite_sources_are_one_input_error(tmp_path: Path, mode: dict) -> N
     assert r.exit_code == EXIT_INPUT
     assert r.stderr.count("\n") == 1 and "not finite or out of range" in r.stderr
     assert "Warning" not in r.stderr and not (tmp_path / "bad.step.nzc").exists()
+
+
+def test_the_api_refuses_the_same_tolerances(tmp_path: Path) -> None:
+    import nurbscomp
+    from nurbscomp.errors import ArgumentError
+
+    src = _part(tmp_path, "p.step")
+    for tol in (1e-9, "2km", 1e300):
+        with pytest.raises(ArgumentError, match="outside the range coded"):
+            nurbscomp.compress(src, tol=tol)
+    assert nurbscomp.compress(src, tol="1km")[:4] == b"\x89NZC"
