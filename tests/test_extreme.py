@@ -103,3 +103,39 @@ def test_the_api_refuses_the_same_tolerances(tmp_path: Path) -> None:
         with pytest.raises(ArgumentError, match="outside the range coded"):
             nurbscomp.compress(src, tol=tol)
     assert nurbscomp.compress(src, tol="1km")[:4] == b"\x89NZC"
+
+
+def _faulty_box() -> object:
+    """A box with one vertex moved off its edges (a BRepCheck fault)."""
+    import cadquery as cq
+    from OCP.BRep import BRep_Builder, BRep_Tool
+    from OCP.gp import gp_Pnt
+
+    box = cq.Workplane().box(4, 3, 2).val().wrapped
+    v = cq.Shape.cast(box).Vertices()[0].wrapped
+    p = BRep_Tool.Pnt_s(v)
+    BRep_Builder().UpdateVertex(v, gp_Pnt(p.X() + 0.5, p.Y(), p.Z()), 1e-7)
+    return box
+
+
+def test_an_instanced_part_is_checked_once() -> None:
+    """BRepCheck of 200 placements of one faulty part: the same faulty model
+    rows as the whole walk over every placement, from one placement's check."""
+    import cadquery as cq
+
+    from nurbscomp.occ import measure
+
+    part = _faulty_box()
+    placed = [
+        cq.Shape.cast(part).moved(cq.Location(cq.Vector(10 * i, 0, 0))).wrapped for i in range(200)
+    ]
+    whole = cq.Compound.makeCompound([cq.Shape.cast(s) for s in placed]).wrapped
+    once = measure.once_each(whole)
+    assert once is not None and occ.counts(once)["faces"] == 6
+    assert occ.counts(whole)["faces"] == 1200
+    got = occ.failures(whole)
+    bad_e, bad_f = measure._failures(whole)  # every placement walked
+    eo, fo = measure.model_order(whole, "edge"), measure.model_order(whole, "face")
+    assert got == ({int(eo[e]) for e in bad_e}, {int(fo[f]) for f in bad_f})
+    assert got[0] and len(got[0]) < 12  # the fault is found, on the part's edges
+    assert measure.once_each(part) is None  # nothing met twice: the whole shape is checked

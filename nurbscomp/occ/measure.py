@@ -341,18 +341,81 @@ def _failures(shape: Any) -> tuple[set[int], set[int]]:
     return bad_e, bad_f
 
 
+def once_each(shape: Any) -> Any | None:
+    """A compound holding each distinct part of ``shape`` once, where it is
+    met first, with the location it has there; None if no part is met twice.
+
+    A part is a sub-shape below the compounds (a solid, shell, face …); a
+    compound met again (an instanced sub-assembly) is skipped whole.  Two
+    placements of one part differ by a rigid motion, which BRepCheck's
+    verdicts do not see: checking each part once answers for every instance
+    (an assembly of 5,000 placed parts costs one part's check, not 5,000).
+    """
+    from OCP.TopAbs import TopAbs_COMPOUND
+    from OCP.TopLoc import TopLoc_Location
+    from OCP.TopoDS import TopoDS_Compound
+
+    plain = TopLoc_Location()
+    seen = TopTools_IndexedMapOfShape()
+    b, out = BRep_Builder(), TopoDS_Compound()
+    b.MakeCompound(out)
+    again = False
+    stack = [shape]
+    while stack:
+        s = stack.pop()
+        if seen.Contains(s.Located(plain)):
+            again = True
+            continue
+        seen.Add(s.Located(plain))
+        if s.ShapeType() != TopAbs_COMPOUND:
+            b.Add(out, s)
+            continue
+        it = TopoDS_Iterator(s)  # a child carries its parents' locations
+        kids = []
+        while it.More():
+            kids.append(it.Value())
+            it.Next()
+        stack.extend(reversed(kids))
+    return out if again else None
+
+
 def failures(shape: Any) -> tuple[set[int], set[int]]:
     """Where BRepCheck finds fault: (edge indices, face indices) of the model,
     0-based (:func:`model_order`: a fault on any instance of a located face
     counts against the model's one face).
 
-    See :func:`_failures` for what is walked.
+    Each distinct part is checked once (:func:`once_each`).  See
+    :func:`_failures` for what is walked.
     """
-    bad_e, bad_f = _failures(shape)
+    part = once_each(shape)
+    checked = shape if part is None else part
+    bad_e, bad_f = _failures(checked)
     if not bad_e and not bad_f:
         return bad_e, bad_f
-    eo, fo = model_order(shape, "edge"), model_order(shape, "face")
-    return {int(eo[e]) for e in bad_e}, {int(fo[f]) for f in bad_f}
+    if part is None:
+        eo, fo = model_order(shape, "edge"), model_order(shape, "face")
+        return {int(eo[e]) for e in bad_e}, {int(fo[f]) for f in bad_f}
+    return _rows_in(shape, checked, TopAbs_EDGE, bad_e), _rows_in(
+        shape, checked, TopAbs_FACE, bad_f
+    )
+
+
+def _rows_in(whole: Any, part: Any, kind: Any, found: set[int]) -> set[int]:
+    """Model rows (:func:`model_order` of ``whole``) of the sub-shapes of
+    ``part`` at ``found`` (0-based, ``MapShapes`` order of ``part``)."""
+    from OCP.TopAbs import TopAbs_FORWARD
+    from OCP.TopLoc import TopLoc_Location
+
+    plain = TopLoc_Location()
+    distinct = TopTools_IndexedMapOfShape()
+    m = _map(whole, kind)
+    for i in range(1, m.Extent() + 1):
+        distinct.Add(m.FindKey(i).Located(plain).Oriented(TopAbs_FORWARD))
+    sub = _map(part, kind)
+    return {
+        distinct.FindIndex(sub.FindKey(i + 1).Located(plain).Oriented(TopAbs_FORWARD)) - 1
+        for i in found
+    }
 
 
 def edges_per_face(shape: Any) -> list[int]:
