@@ -510,6 +510,13 @@ def encode_cad(
                 f"tolerance {tol:g} mm is more than {TOL_WARN_FRACTION:.0%} of the part's size "
                 f"({size:.3g} mm across its bounding box): its shape may not be kept"
             )
+        for i, bound in occ.thin_solids(cad.shape, tol):
+            change = f"up to {bound:.0%} of it" if bound <= 1 else "more than all of it"
+            warnings.append(
+                f"solid {i + 1} is thin against the tolerance: faces moving by {tol:g} mm "
+                f"could change its volume by {change}; a wall thinner than twice the "
+                "tolerance may cross itself (a smaller --tol keeps it)"
+            )
 
         t = validity.lossy_target(m, cad.shape, tol, step_safe, pack)
         target, codes, lossy_report, rebuilt = t.model, t.codes, t.report, t.pcurves_rebuilt

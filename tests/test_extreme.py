@@ -139,3 +139,19 @@ def test_an_instanced_part_is_checked_once() -> None:
     assert got == ({int(eo[e]) for e in bad_e}, {int(fo[f]) for f in bad_f})
     assert got[0] and len(got[0]) < 12  # the fault is found, on the part's edges
     assert measure.once_each(part) is None  # nothing met twice: the whole shape is checked
+
+
+@pytest.mark.parametrize("thickness, warned", [(0.001, True), (0.03, True), (1.0, False)])
+def test_a_wall_thinner_than_tol_is_warned_of(tmp_path: Path, thickness: float, warned: bool) -> None:
+    """A plate of B-spline faces 1 µm thick at 0.01 mm: its two faces may
+    cross (its volume changed by 88% in a trial) with the same counts and a
+    valid BRepCheck; the report says so."""
+    import cadquery as cq
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_NurbsConvert
+
+    box = cq.Workplane().box(100, 100, thickness).val().wrapped
+    src = tmp_path / "plate.step"
+    occ.write_shape(BRepBuilderAPI_NurbsConvert(box, True).Shape(), src, "STEP")
+    r = pipeline.compress_file(src, tmp_path / "plate.nzc", tol=0.01)
+    thin = [w for w in r["warnings"] if "thin against the tolerance" in w]
+    assert bool(thin) == warned, r["warnings"]

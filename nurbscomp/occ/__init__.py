@@ -31,6 +31,7 @@ from .measure import (
     is_valid,
     model_order,
     sewn_edge_pairs,
+    thin_solids,
 )
 from .mesh import face_meshes
 from .topology import PcurveCache, model_to_shape, shape_to_model
@@ -63,6 +64,7 @@ __all__ = [
     "output_format",
     "read_cad",
     "sewn_edge_pairs",
+    "thin_solids",
     "shape_to_model",
     "spare_core",
     "step_round_trip",

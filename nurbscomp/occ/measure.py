@@ -78,6 +78,41 @@ def diagonal(shape: Any) -> float:
     return float(np.sqrt((x1 - x0) ** 2 + (y1 - y0) ** 2 + (z1 - z0) ** 2))
 
 
+def thin_solids(shape: Any, tol: float, fraction: float = 0.2) -> list[tuple[int, float]]:
+    """Solids a tolerance is not small against: (index in ``MapShapes`` order,
+    the bound) where moving every face by ``tol`` could change the volume by
+    more than ``fraction`` of it (area x tol / volume: a plate of thickness
+    t gives about 2 tol / t).  A wall thinner than tol may then cross itself,
+    and neither the counts nor BRepCheck would see it.
+
+    Only solids whose bounding box is under 1,000 tol across in some
+    direction are measured (their volume and area cost a fraction of a
+    second on a large part): a thin solid is thin across its box.
+    """
+    from OCP.BRepGProp import BRepGProp
+    from OCP.GProp import GProp_GProps
+
+    out = []
+    solids = _map(shape, TopAbs_SOLID)
+    for i in range(1, solids.Extent() + 1):
+        s = solids.FindKey(i)
+        box = Bnd_Box()
+        BRepBndLib.Add_s(s, box)
+        if box.IsVoid():
+            continue
+        x0, y0, z0, x1, y1, z1 = box.Get()
+        if min(x1 - x0, y1 - y0, z1 - z0) > 1000 * tol:
+            continue
+        v, a = GProp_GProps(), GProp_GProps()
+        BRepGProp.VolumeProperties_s(s, v)
+        BRepGProp.SurfaceProperties_s(s, a)
+        volume = abs(v.Mass())
+        bound = a.Mass() * tol / volume if volume > 0 else float("inf")
+        if bound > fraction:
+            out.append((i - 1, bound))
+    return out
+
+
 def free_edges(shape: Any) -> int:
     """Number of free (unshared) edges, by ShapeAnalysis_FreeBounds, per shell,
     and over the faces that are in no shell, taken as one face set (the loose
