@@ -142,7 +142,9 @@ def test_an_instanced_part_is_checked_once() -> None:
 
 
 @pytest.mark.parametrize("thickness, warned", [(0.001, True), (0.03, True), (1.0, False)])
-def test_a_wall_thinner_than_tol_is_warned_of(tmp_path: Path, thickness: float, warned: bool) -> None:
+def test_a_wall_thinner_than_tol_is_warned_of(
+    tmp_path: Path, thickness: float, warned: bool
+) -> None:
     """A plate of B-spline faces 1 µm thick at 0.01 mm: its two faces may
     cross (its volume changed by 88% in a trial) with the same counts and a
     valid BRepCheck; the report says so."""
