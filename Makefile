@@ -3,7 +3,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 PIP    := $(VENV)/bin/pip
 
-.PHONY: install test test-fast lint samples bench bench-product fuzz stress clean
+.PHONY: install test test-fast lint samples bench bench-product fuzz stress stress-big clean
 
 install: $(VENV)/bin/nurbscomp
 
@@ -68,9 +68,17 @@ fuzz: install
 # (no crash, same counts, within tol, valid, no new free edges).  Minutes; not
 # part of `make test` (tests/test_stress.py is the short run).  STRESS_ARGS=
 # passes options: `--only periodic`, `--limit 40`, `--jobs 2`, `--out DIR`.
+# Then the extreme cases (issue 27: far from the origin, thin walls, extreme
+# tolerances, non-finite values, instances), through the command line as a
+# user runs it; `make stress-big` adds the slow tier (a 700 x 700 net, 5,000
+# placed instances: minutes).
 STRESS_ARGS ?=
 stress: install
 	$(PY) -m tests.stress.run $(STRESS_ARGS)
+	$(PY) -m tests.stress.extreme
+
+stress-big: install
+	$(PY) -m tests.stress.extreme --big --only "$(ONLY)"
 
 clean:
 	rm -rf $(VENV) build *.egg-info .pytest_cache

@@ -18,18 +18,13 @@ from nurbscomp import occ, pipeline, units
 from nurbscomp.cli import cli
 from nurbscomp.errors import EXIT_INPUT, EXIT_USAGE, InputError
 
+from .stress import extreme
+
 
 def _part(tmp: Path, name: str, offset: float = 0.0) -> Path:
-    """A filleted, drilled box beside a lofted B-spline solid, moved by
-    ``offset`` mm along (1, 1, 1), as OCCT writes it to STEP."""
-    import cadquery as cq
-
-    box = cq.Workplane().box(10, 20, 5).edges("|Z").fillet(2).faces(">Z").workplane().hole(3)
-    loft = cq.Workplane("XY").rect(20, 12).workplane(offset=15).circle(5).loft()
-    shape = box.val().fuse(loft.val().translate(cq.Vector(40, 0, 0)))
-    shape = shape.translate(cq.Vector(offset, offset, offset))
+    """The stress run's extreme part (:func:`tests.stress.extreme.part`) as STEP."""
     path = tmp / name
-    occ.write_shape(shape.wrapped, path, "STEP")
+    occ.write_shape(extreme.part(offset), path, "STEP")
     return path
 
 
@@ -68,15 +63,6 @@ def test_the_range_ends_are_coded(tmp_path: Path) -> None:
         assert json.loads(r.stdout.splitlines()[0])["tolerance_mm"] == tol
 
 
-def _with_value(src: Path, dst: Path, point: str, value: str) -> Path:
-    """``src`` with CARTESIAN_POINT ``#point``'s x set to ``value``."""
-    text = src.read_text()
-    pat = re.compile(rf"#{point} = CARTESIAN_POINT\('',\(([^,]*),")
-    assert pat.search(text), point
-    dst.write_text(pat.sub(f"#{point} = CARTESIAN_POINT('',({value},", text, count=1))
-    return dst
-
-
 @pytest.mark.parametrize("mode", [{"lossless": True, "tol": None}, {"tol": 0.01}])
 def test_non_finite_sources_are_one_input_error(tmp_path: Path, mode: dict) -> None:
     src = _part(tmp_path, "p.step")
@@ -85,7 +71,7 @@ def test_non_finite_sources_are_one_input_error(tmp_path: Path, mode: dict) -> N
     net = re.search(r"B_SPLINE_SURFACE_WITH_KNOTS\('',\d+,\d+,\(\s*\(#(\d+)", text)
     assert vertex and net
     for point, value in ((vertex.group(1), "1.E300"), (net.group(1), "1.E300")):
-        bad = _with_value(src, tmp_path / "bad.step", point, value)
+        bad = extreme.with_value(src, tmp_path / "bad.step", point, value)
         with pytest.raises(InputError, match="a value is not finite or out of range"):
             pipeline.compress_file(bad, tmp_path / "bad.nzc", force=True, **mode)
     r = CliRunner().invoke(cli, ["compress", "-q", "--tol", "0.01", str(bad)])
@@ -148,12 +134,8 @@ def test_a_wall_thinner_than_tol_is_warned_of(
     """A plate of B-spline faces 1 µm thick at 0.01 mm: its two faces may
     cross (its volume changed by 88% in a trial) with the same counts and a
     valid BRepCheck; the report says so."""
-    import cadquery as cq
-    from OCP.BRepBuilderAPI import BRepBuilderAPI_NurbsConvert
-
-    box = cq.Workplane().box(100, 100, thickness).val().wrapped
     src = tmp_path / "plate.step"
-    occ.write_shape(BRepBuilderAPI_NurbsConvert(box, True).Shape(), src, "STEP")
+    occ.write_shape(extreme.plate(thickness), src, "STEP")
     r = pipeline.compress_file(src, tmp_path / "plate.nzc", tol=0.01)
     thin = [w for w in r["warnings"] if "thin against the tolerance" in w]
     assert bool(thin) == warned, r["warnings"]
