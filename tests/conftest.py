@@ -30,7 +30,8 @@ def sample_files() -> list[Path]:
 def assert_step_keeps_floor(cad, nzc: Path, tmp_path: Path):
     """Decompress ``nzc`` to STEP, read it back, and compare with OCCT's own
     STEP round trip of the source (the floor): each topology count at least
-    as close to the source's as the floor's, valid where the floor is.
+    as close to the source's as the floor's, valid where the floor is, and
+    no more free edges (sewn at 1e-7) than the source or the floor.
     Returns the re-read shape."""
     from nurbscomp import occ, pipeline
 
@@ -43,6 +44,8 @@ def assert_step_keeps_floor(cad, nzc: Path, tmp_path: Path):
     assert not worse, f"(source, floor, ours) {worse}"
     if occ.is_valid(floor):
         assert occ.is_valid(back)
+    free = [occ.free_edges_sewn(x) for x in (cad.shape, floor, back)]
+    assert free[2] <= max(free[:2]), f"free edges (source, floor, ours) {free}"
     return back
 
 

@@ -14,7 +14,8 @@ it falls short, cheapest first.  Two checks:
 2. **The STEP reader** (``step_check``): the candidate is written to STEP as
    ``decompress`` writes it (through OCCT's XDE writer when the model has
    product data) and read back once per round, and must keep what OCCT's own round trip of the
-   source keeps (:func:`step_keeps`).  OCCT's round trip of the source (the
+   source keeps (:func:`step_keeps`), and have no more free edges (sewn at
+   1e-7) than the source or that round trip.  OCCT's round trip of the source (the
    *floor*) is only made when the candidate's re-read differs from the source
    at all.  A source face that comes back otherwise (:func:`step_losses`)
    climbs one rung of :class:`Rung` per round; a face whose rungs are all
@@ -206,6 +207,9 @@ class _Floor:
         self.limit = limit  # seconds a round trip may take (step_time_limit)
         self.product = product  # the candidates are written as decompress writes them
         self.counts = occ.counts(source)
+        #: The source's free edges (``occ.free_edges_sewn``): a re-read may
+        #: have no more than these or the floor's
+        self.free = occ.free_edges_sewn(source)
         self._children = contextlib.ExitStack()  # the floor's round trip, once made
         self._floor: occ.RoundTrip | None = None
         self._floor_used = False
@@ -252,6 +256,10 @@ class _Floor:
     def floor_valid(self) -> bool:
         return bool(self._ask_floor(occ.is_valid))
 
+    @functools.cached_property
+    def floor_free(self) -> int:
+        return int(self._ask_floor(occ.free_edges_sewn))
+
     def signatures(self, which: str) -> np.ndarray:
         """:func:`occ.face_signatures` of the ``"source"`` or the ``"floor"``, made once."""
         if which not in self._signatures:
@@ -293,14 +301,22 @@ class _Floor:
         """None if the re-read ``back`` keeps what the floor keeps; else the
         source faces to blame (possibly none)."""
         got = back.ask(occ.counts)
-        if got == self.counts and back.ask(occ.is_valid):
+        free = back.ask(occ.free_edges_sewn)
+        if got == self.counts and free <= self.free and back.ask(occ.is_valid):
             return None  # as the source: whatever the floor is, this keeps it
         try:
             floor = self.floor_counts
             faulty = back.ask(occ.faulty_faces) if self.floor_valid else set()
-            if not faulty and step_keeps(self.counts, floor, got):
+            loose = free > max(self.free, self.floor_free)
+            if not faulty and not loose and step_keeps(self.counts, floor, got):
                 return None
-            log.debug("STEP round trip %s != %s", got, floor)
+            log.debug(
+                "STEP round trip %s, %d free edges != %s, %d",
+                got,
+                free,
+                floor,
+                self.floor_free,
+            )
             floor_sig = self.signatures("floor")
         except occ.ReaderCrash as e:
             if self._floor is not None and self._floor.crashed:
@@ -308,10 +324,32 @@ class _Floor:
                 self.broken = f"{e} (the source's own round trip)"
                 return None
             raise
+        free_faces = None
+        if loose:  # the faces along new free edges are blamed too
+            free_faces = (
+                self.free_per_face("source"),
+                self.free_per_face("floor"),
+                back.ask(occ.free_edges_per_face),
+            )
         lost = step_losses(
-            self.signatures("source"), floor_sig, back.ask(occ.face_signatures), tol, faulty
+            self.signatures("source"),
+            floor_sig,
+            back.ask(occ.face_signatures),
+            tol,
+            faulty,
+            free_faces,
         )
         return {int(self.model_face[f]) for f in lost}
+
+    def free_per_face(self, which: str) -> np.ndarray:
+        """:func:`occ.free_edges_per_face` of the ``"source"`` or the ``"floor"``, made once."""
+        key = f"free {which}"
+        if key not in self._signatures:
+            if which == "source":
+                self._signatures[key] = occ.free_edges_per_face(self.source)
+            else:
+                self._signatures[key] = self._ask_floor(occ.free_edges_per_face)
+        return self._signatures[key]
 
     @functools.cached_property
     def model_face(self) -> np.ndarray:
@@ -663,6 +701,7 @@ def step_losses(
     back: np.ndarray,
     tol: float,
     faulty: set[int] = frozenset(),  # type: ignore[assignment]
+    free: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
 ) -> set[int]:
     """Source faces that come back from a candidate's STEP round trip like
     neither the source face nor OCCT's own round trip of it (``floor``).
@@ -676,8 +715,12 @@ def step_losses(
     nearest centroid.  A face of ``back`` that is no source face's version and
     is not like an extra face of the floor (a split piece, a new sliver), or
     that is in ``faulty`` (BRepCheck faults, indices of ``back``), blames its
-    source face.  Every index returned is a source face's, in signature order
-    (:meth:`_Floor.losses` maps it to the model's face).
+    source face.  With ``free`` (per face of the source, the floor and
+    ``back``: free edges, :func:`occ.free_edges_per_face`), a source face
+    whose version in ``back`` has more free edges than it and than its
+    version in the floor is lost too.  Every index returned is a source
+    face's, in signature order (:meth:`_Floor.losses` maps it to the model's
+    face).
     """
     if not len(src):
         return set()
@@ -695,6 +738,7 @@ def step_losses(
     in_back = idx if same_order else joins.nearest(back[:, 1:4], src[:, 1:4])[1]
     ok = (back[in_back, topo] == src[:, topo]).all(-1)
     floor_extra = np.zeros((0, back.shape[1]))
+    loose = free[2][in_back] > free[0] if free is not None else np.zeros(len(src), bool)
     if len(floor):
         if len(floor) == len(src) and same_order:  # the order holds there too
             in_floor = idx
@@ -702,7 +746,9 @@ def step_losses(
             in_floor = joins.nearest(floor[:, 1:4], src[:, 1:4])[1]
         ok |= (back[in_back, topo] == floor[in_floor, topo]).all(-1)
         floor_extra = floor[np.setdiff1d(np.arange(len(floor)), in_floor)]
-    lost = {int(i) for i in np.flatnonzero(~ok)}
+        if free is not None:
+            loose &= free[2][in_back] > free[1][in_floor]
+    lost = {int(i) for i in np.flatnonzero(~ok | loose)}
     source_of = {int(j): i for i, j in enumerate(in_back.tolist())}
 
     def source_face(j: int) -> int:

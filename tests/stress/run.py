@@ -26,7 +26,8 @@ OCCT's own STEP round trip of it (``occ.step_round_trip``):
     the decompressed STEP file (``pipeline.decompress_file``) read back keeps
     less than OCCT's own STEP round trip of the source keeps
     (``validity.step_keeps`` on the topology counts: each at least as close
-    to the source's), or OCCT's reader does not finish on it where it does on
+    to the source's; and no more free edges, sewn at 1e-7, than the source or
+    that round trip), or OCCT's reader does not finish on it where it does on
     the source's;
 ``free_edges``
     more free edges than the source: edges left free when the faces are
@@ -144,6 +145,8 @@ class Reference:
     notes: list[str]
     #: OCCT's own STEP round trip's counts (None: it failed or looped)
     floor_counts: dict[str, int] | None = None
+    #: ... and its free edges (sewn at 1e-7)
+    floor_free: int = 0
     #: seconds a STEP round trip may take (``validity.step_time_limit``)
     limit: float | None = None
 
@@ -154,8 +157,9 @@ def reference(path: Path) -> Reference:
     notes = []
     limit = step_time_limit(occ.shape_to_model(cad.shape)[0])
     floor_counts: dict[str, int] | None = None
+    floor_free = 0
     try:
-        floor_valid, floor_counts = step_trip(cad.shape, cad.unit, limit)
+        floor_valid, floor_counts, floor_free = step_trip(cad.shape, cad.unit, limit)
     except occ.ReaderTimeout as e:  # OCCT's reader loops on its own round trip
         floor_valid = False
         notes.append(f"no STEP round trip: {e}")
@@ -169,14 +173,23 @@ def reference(path: Path) -> Reference:
         notes.append("the source is invalid as OCCT reads it")
     counts, free = occ.counts(cad.shape), free_edges(cad.shape)
     return Reference(
-        cad.shape, cad.unit, counts, free, valid, floor_valid, notes, floor_counts, limit
+        cad.shape,
+        cad.unit,
+        counts,
+        free,
+        valid,
+        floor_valid,
+        notes,
+        floor_counts,
+        floor_free,
+        limit,
     )
 
 
 def step_trip(
     shape: Any, unit: str, limit: float | None, written: Path | None = None
-) -> tuple[bool, dict[str, int]]:
-    """BRepCheck's verdict and the topology counts of ``shape`` written to STEP
+) -> tuple[bool, dict[str, int], int]:
+    """BRepCheck's verdict, the topology counts and the free edges of ``shape`` written to STEP
     (or of the STEP file ``written``, as ``decompress`` wrote it) and read
     back by OCCT, in a child process given ``limit`` seconds
     (``occ.RoundTrip``; raises ``occ.ReaderTimeout`` past them)."""
@@ -186,7 +199,7 @@ def step_trip(
         else:
             make = lambda: occ.read_cad(written, own=True).shape  # noqa: E731
         with occ.RoundTrip(make, 0, limit) as back:
-            return bool(back.ask(occ.is_valid)), back.ask(occ.counts)
+            return bool(back.ask(occ.is_valid)), back.ask(occ.counts), back.ask(free_edges)
 
 
 def check_one(path: Path, tol: float, ref: Reference, work: Path) -> Result:
@@ -248,7 +261,7 @@ def step_check(r: Result, ref: Reference, shape: Any, written: Path | None) -> N
     """The ``invalid`` and ``step`` checks of the decoded shape's STEP re-read."""
     assert ref.floor_counts is not None
     try:
-        valid, back = step_trip(shape, ref.unit, ref.limit, written)
+        valid, back, free = step_trip(shape, ref.unit, ref.limit, written)
     except occ.ReaderTimeout as e:
         r.fail("step", f"its STEP file read back: {e}, unlike the source's")
         return
@@ -258,6 +271,12 @@ def step_check(r: Result, ref: Reference, shape: Any, written: Path | None) -> N
         ours = ", ".join(f"{k} {ref.counts[k]}->{v}" for k, v in back.items() if v != ref.counts[k])
         occts = ", ".join(f"{k} {v}" for k, v in ref.floor_counts.items() if v != ref.counts[k])
         r.fail("step", f"its STEP file read back: {ours} (OCCT's own: {occts or 'as read'})")
+    if free > max(ref.free, ref.floor_free):
+        r.fail(
+            "step",
+            f"its STEP file read back: {free} free edges"
+            f" (the source {ref.free}, OCCT's own round trip {ref.floor_free})",
+        )
 
 
 def check_file(path: Path, tols: Sequence[float], work: Path) -> list[Result]:
