@@ -80,7 +80,7 @@ def test_bearing_step_keeps_free_edges(tmp_path: Path) -> None:
     source 29: the STEP check compared topology counts only, and those were
     the floor's.  Now free edges are held to the floor's too (30)."""
     path = CORPUS / "occt__bearing.iges"
-    cad = occ.read_cad(path)
+    cad = occ.read_cad(path, product=True)
     nzc = tmp_path / "x.nzc"
     pipeline.compress_file(path, nzc, tol=0.01)
     back = assert_step_keeps_floor(cad, nzc, tmp_path)
@@ -98,6 +98,20 @@ def test_step_losses_blames_new_free_edges() -> None:
     # the re-read's faces in another order: paired by centroid
     turn = [3, 2, 1, 0]
     assert validity.step_losses(sig, sig, sig[turn], 0.01, free=(src, floor, back[turn])) == {0}
+
+
+def test_a_blame_of_spent_and_fresh_faces_climbs_the_fresh_ones() -> None:
+    """A round that blames a face whose rungs are all spent together with
+    one that has rungs left climbs the latter only (the spent one used to
+    climb past the last rung: "6 is not a valid Rung", and compress died)."""
+    cad = occ.read_cad(next(p for p in sample_files() if p.name == "bracket.step"))
+    m, _ = occ.shape_to_model(cad.shape)
+    plan = validity._Plan(m, 0.01, cad.shape)
+    plan.rung[0] = validity.Rung.PCURVES
+    plan.step({0, 1})
+    assert plan.rung[0] == validity.Rung.PCURVES and plan.rung[1] == validity.Rung.STILL
+    plan.step({0})  # spent alone: its neighbours climb
+    assert plan.rung[0] == validity.Rung.PCURVES and len(plan.rung) > 2
 
 
 @pytest.mark.slow

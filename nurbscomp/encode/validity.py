@@ -478,13 +478,18 @@ class _Plan:
             self.as_read_e |= set(self.edges_of[f])
 
     def step(self, blamed: set[int]) -> None:
-        """One rung up for each blamed source face (or its neighbours when spent)."""
+        """One rung up for each blamed source face whose rungs are not all
+        spent; when all are, for their neighbours (by edge, then by vertex).
+        (A blame of spent and unspent faces at once used to climb the spent
+        ones past the last rung: compress crashed on an assembly of blended
+        bodies, with "6 is not a valid Rung".)"""
         spent = {f for f, r in self.rung.items() if r == Rung.PCURVES}
         if blamed <= spent:
             wider = {g for f in blamed for e in self.edges_of[f] for g in self.faces_of[e]}
             if wider <= spent:
                 wider = {g for f in blamed for g in self.near_faces[f]}
-            blamed = wider - spent
+            blamed = wider
+        blamed = blamed - spent
         for f in sorted(blamed):
             r = Rung(self.rung.get(f, 0) + 1)
             self.rung[f] = r
