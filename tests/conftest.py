@@ -35,7 +35,7 @@ def assert_step_keeps_floor(cad, nzc: Path, tmp_path: Path):
     Returns the re-read shape."""
     from nurbscomp import occ, pipeline
 
-    floor = occ.step_round_trip(cad.shape, cad.unit)
+    floor = occ.step_round_trip(cad.shape, cad.unit, cad.product)  # as decompress writes
     out = tmp_path / "out.step"
     pipeline.decompress_file(nzc, out, force=True)
     back = occ.read_cad(out).shape

@@ -234,7 +234,11 @@ class _Floor:
         on what the candidates' work leaves of the cores."""
         if self._floor is None:
             nice = SPECULATIVE_NICE if speculative else 0
-            self._floor = self.trip(self.source, self._children, nice=nice)
+            # written as decompress writes the source, product data and all:
+            # the round trip the candidates are held to is OCCT's own through
+            # the path theirs take (written plainly it kept less on an
+            # assembly, and the candidates were held to that)
+            self._floor = self.trip(self.source, self._children, self.product, nice=nice)
 
     def _ask_floor(self, fn: Any) -> Any:
         self.begin()

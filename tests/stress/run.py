@@ -43,7 +43,9 @@ line per (file, tol), then a table of failures per kind and format; the exit
 status is 1 when anything failed.
 
 ``--limit N`` takes the first N files with the shapes taken round-robin over
-the categories, so a small run still covers every category.
+the categories, so a small run still covers every category.  Without it the
+assemblies and blended parts of :mod:`tests.stress.assemblies` (written by
+OCCT's XDE writer) are checked too.
 """
 
 from __future__ import annotations
@@ -67,7 +69,7 @@ from nurbscomp import occ, pipeline
 from nurbscomp.encode.validity import step_keeps, step_time_limit
 from nurbscomp.errors import NurbscompError
 
-from . import files, shapes
+from . import assemblies, files, shapes
 
 ROOT = Path(__file__).resolve().parents[2]
 KINDS = (
@@ -152,14 +154,20 @@ class Reference:
 
 
 def reference(path: Path) -> Reference:
-    """OCCT's read of ``path`` and its own STEP round trip (raises if unreadable)."""
-    cad = occ.read_cad(path)
+    """OCCT's read of ``path`` and its own STEP round trip (raises if
+    unreadable): written as ``decompress`` writes the source, through OCCT's
+    XDE writer with the source's product data (written plainly, a compound
+    part's solids each get an uncertainty of their own, and read back
+    otherwise)."""
+    cad = occ.read_cad(path, product=True)
     notes = []
     limit = step_time_limit(occ.shape_to_model(cad.shape)[0])
     floor_counts: dict[str, int] | None = None
     floor_free = 0
     try:
-        floor_valid, floor_counts, floor_free = step_trip(cad.shape, cad.unit, limit)
+        floor_valid, floor_counts, floor_free = step_trip(
+            cad.shape, cad.unit, limit, product=cad.product
+        )
     except occ.ReaderTimeout as e:  # OCCT's reader loops on its own round trip
         floor_valid = False
         notes.append(f"no STEP round trip: {e}")
@@ -187,7 +195,11 @@ def reference(path: Path) -> Reference:
 
 
 def step_trip(
-    shape: Any, unit: str, limit: float | None, written: Path | None = None
+    shape: Any,
+    unit: str,
+    limit: float | None,
+    written: Path | None = None,
+    product: Any = None,
 ) -> tuple[bool, dict[str, int], int]:
     """BRepCheck's verdict, the topology counts and the free edges of ``shape`` written to STEP
     (or of the STEP file ``written``, as ``decompress`` wrote it) and read
@@ -195,7 +207,7 @@ def step_trip(
     (``occ.RoundTrip``; raises ``occ.ReaderTimeout`` past them)."""
     with tempfile.TemporaryDirectory() as d:
         if written is None:
-            make = lambda: occ.step_round_trip(shape, unit, None, Path(d))  # noqa: E731
+            make = lambda: occ.step_round_trip(shape, unit, product, Path(d))  # noqa: E731
         else:
             make = lambda: occ.read_cad(written, own=True).shape  # noqa: E731
         with occ.RoundTrip(make, 0, limit) as back:
@@ -397,6 +409,8 @@ def main(argv: list[str] | None = None) -> int:
         paths = files.write_all(out, items, errors=errors)
         if args.limit:
             paths = paths[: args.limit]
+        elif any(args.only in name for name, _ in assemblies.CASES):
+            paths += assemblies.write_all(out, errors)  # XDE assemblies, blended parts
         print(
             f"{len(paths)} files from {len(items)} shapes in {out if args.out else 'a temp folder'}"
             f" ({time.perf_counter() - t0:.1f} s); tols {', '.join(f'{t:g}' for t in args.tols)}",
