@@ -141,6 +141,49 @@ def test_the_floor_is_written_as_decompress_writes(monkeypatch: pytest.MonkeyPat
     assert made == [(cad.shape, cad.product)]
 
 
+def _reversed_face(shape, k: int):  # type: ignore[no-untyped-def]
+    """``shape``'s faces in one solid, face ``k`` turned the wrong way round."""
+    from OCP.BRep import BRep_Builder
+    from OCP.TopoDS import TopoDS_Shell, TopoDS_Solid
+
+    b, shell, solid = BRep_Builder(), TopoDS_Shell(), TopoDS_Solid()
+    b.MakeShell(shell)
+    for i, f in enumerate(occ.faces(shape)):
+        b.Add(shell, f.Reversed() if i == k else f)
+    b.MakeSolid(solid)
+    b.Add(solid, shell)
+    return solid
+
+
+def test_an_invalid_re_read_fails_the_step_check_with_no_faulty_face() -> None:
+    """A re-read that BRepCheck rejects only as a solid (a face the wrong way
+    round in its shell: no face, edge or shell carries the fault) has the
+    source's counts, and passed the STEP check where the floor was valid;
+    it now blames the faces along the edges the turned face shares."""
+    import cadquery as cq
+
+    box = cq.Workplane().box(10, 10, 10).edges("|Z").fillet(1).val().wrapped
+    bad = _reversed_face(box, 3)
+    assert occ.counts(bad) == occ.counts(box) and not occ.is_valid(bad)
+    assert occ.failures(bad) == (set(), set())
+    assert occ.faulty_faces(bad) == {0, 1, 3, 4, 6}
+
+    class Back:
+        def __init__(self, shape) -> None:  # type: ignore[no-untyped-def]
+            self.shape = shape
+
+        def ask(self, fn):  # type: ignore[no-untyped-def]
+            return fn(self.shape)
+
+    floor = validity._Floor(box, "MM", validity.ValidityReport())
+    floor.__dict__.update(floor_counts=occ.counts(box), floor_valid=True, floor_free=0)
+    floor._signatures["floor"] = occ.face_signatures(box)
+    assert floor.losses(Back(box), 0.01) is None  # type: ignore[arg-type]
+    lost = floor.losses(Back(bad), 0.01)  # type: ignore[arg-type]
+    assert lost is not None and int(floor.model_face[3]) in lost
+    floor.close()
+
+
 @pytest.mark.slow
 def test_multibody_assembly_keeps_what_occts_round_trip_keeps(tmp_path: Path) -> None:
     """An assembly written by OCCT's XDE writer whose one part is a compound

@@ -306,11 +306,15 @@ class _Floor:
         source faces to blame (possibly none)."""
         got = back.ask(occ.counts)
         free = back.ask(occ.free_edges_sewn)
-        if got == self.counts and free <= self.free and back.ask(occ.is_valid):
+        valid = back.ask(occ.is_valid)
+        if got == self.counts and free <= self.free and valid:
             return None  # as the source: whatever the floor is, this keeps it
         try:
             floor = self.floor_counts
-            faulty = back.ask(occ.faulty_faces) if self.floor_valid else set()
+            # an invalid re-read fails where the floor is valid, also when no
+            # face or edge carries the fault (occ.faulty_faces then names the
+            # faces of the shells and solids BRepCheck rejects)
+            faulty = back.ask(occ.faulty_faces) if self.floor_valid and not valid else set()
             loose = free > max(self.free, self.floor_free)
             if not faulty and not loose and step_keeps(self.counts, floor, got):
                 return None

@@ -438,7 +438,10 @@ def face_signatures(shape: Any) -> np.ndarray:
 
 
 def faulty_faces(shape: Any) -> set[int]:
-    """Faces (0-based, face order) with a BRepCheck fault of their own or on one of their edges."""
+    """Faces (0-based, face order) with a BRepCheck fault of their own or on
+    one of their edges; if the shape is invalid with no such face (a fault
+    of a shell or a solid only: a face the wrong way round in its shell),
+    the faces of the shells BRepCheck rejects (:func:`_shell_faults`)."""
     from OCP.TopTools import TopTools_IndexedDataMapOfShapeListOfShape
 
     bad_e, bad_f = _failures(shape)
@@ -449,4 +452,49 @@ def faulty_faces(shape: Any) -> set[int]:
         for e in bad_e:
             for f in items(e2f.FindFromKey(em.FindKey(e + 1))):
                 bad_f.add(fm.FindIndex(f) - 1)
+    if not bad_f and not is_valid(shape):
+        bad_f = _shell_faults(shape)
     return bad_f
+
+
+def _shell_faults(shape: Any) -> set[int]:
+    """Faces (face order) to blame for faults BRepCheck finds on shells or
+    solids and on none of their faces and edges: in each shell it rejects or
+    that lies in a solid it rejects, the faces along an edge that two of the
+    shell's faces use the same way round (a face reversed: BRepCheck rejects
+    only the solid); else the faces of the shells, then of the solids, it
+    rejects; else every face."""
+    a = BRepCheck_Analyzer(shape)
+    fm = _map(shape, TopAbs_FACE)
+    shells, solids = _map(shape, TopAbs_SHELL), _map(shape, TopAbs_SOLID)
+    in_bad_solid = TopTools_IndexedMapOfShape()
+    bad_solids = [solids.FindKey(k) for k in range(1, solids.Extent() + 1)]
+    bad_solids = [x for x in bad_solids if not a.IsValid(x)]
+    for x in bad_solids:
+        TopExp.MapShapes_s(x, TopAbs_SHELL, in_bad_solid)
+    out: set[int] = set()
+    rejected: set[int] = set()
+    for k in range(1, shells.Extent() + 1):
+        shell = shells.FindKey(k)
+        bad = not a.IsValid(shell)
+        if not bad and not in_bad_solid.Contains(shell):
+            continue
+        em = _map(shell, TopAbs_EDGE)
+        uses: dict[int, list[tuple[int, Any]]] = {}
+        for f in faces(shell):
+            ex = TopExp_Explorer(f, TopAbs_EDGE)
+            while ex.More():
+                e = ex.Current()
+                uses.setdefault(em.FindIndex(e), []).append((fm.FindIndex(f) - 1, e.Orientation()))
+                ex.Next()
+        out |= {
+            i
+            for u in uses.values()
+            if len(u) == 2 and u[0][0] != u[1][0] and u[0][1] == u[1][1]
+            for i, _ in u
+        }
+        if bad:
+            rejected |= {fm.FindIndex(f) - 1 for f in faces(shell)}
+    if not out:
+        out = rejected or {fm.FindIndex(f) - 1 for x in bad_solids for f in faces(x)}
+    return out or set(range(fm.Extent()))
