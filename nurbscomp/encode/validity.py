@@ -704,8 +704,10 @@ def vertex_neighbours(m: BRepModel, tol: float) -> list[set[int]]:
 
 def step_keeps(source: dict[str, int], floor: dict[str, int], back: dict[str, int]) -> bool:
     """Whether a STEP re-read keeps at least what OCCT's own round trip keeps:
-    each count is at least as close to the source's as the floor's is."""
-    return all(abs(back[k] - source[k]) <= abs(floor[k] - source[k]) for k in source)
+    each count lies between the source's and the floor's (both included).
+    (As close to the source's on the other side is not kept: a blended part
+    of 81 edges whose own round trip has 79 came back with 83.)"""
+    return all(min(source[k], floor[k]) <= back[k] <= max(source[k], floor[k]) for k in source)
 
 
 def step_losses(

@@ -25,8 +25,8 @@ OCCT's own STEP round trip of it (``occ.step_round_trip``):
 ``step``
     the decompressed STEP file (``pipeline.decompress_file``) read back keeps
     less than OCCT's own STEP round trip of the source keeps
-    (``validity.step_keeps`` on the topology counts: each at least as close
-    to the source's; and no more free edges, sewn at 1e-7, than the source or
+    (``validity.step_keeps`` on the topology counts: each between the
+    source's and that round trip's; and no more free edges, sewn at 1e-7, than the source or
     that round trip), or OCCT's reader does not finish on it where it does on
     the source's;
 ``free_edges``
