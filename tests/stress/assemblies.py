@@ -16,7 +16,8 @@ check must be held to OCCT's round trip the same way (docs/method.md, 16).
 * :func:`grouped`: parts of up to three stress-corpus solids each (every
   other part a compound), placed once or twice, rotated;
 * :func:`blended`: one part with many small fillets and blends (a lofted
-  body fused with a cylinder, every edge filleted), written as one product.
+  body fused with a cylinder, every edge filleted), written as one product;
+* :func:`filleted`: parts of small and variable fillets, one product each.
 
 ``python -m tests.stress.assemblies DIR`` writes :data:`CASES` to ``DIR``.
 """
@@ -167,10 +168,52 @@ def blended(path: Path, seed: int) -> None:
     write_step(w.val().wrapped, path, path.stem)
 
 
+def filleted(path: Path, seed: int) -> None:
+    """A part of small fillets, one product (plain STEP writer), by
+    ``seed % 3``: a shelled housing with bosses and holes, its edges but the
+    bottom's filleted (0.2 to 0.5 mm); a box with a slot, every edge given a
+    variable fillet (0.3-0.8 to 0.8-1.5 mm, ``BRepFilletAPI_MakeFillet``); a
+    plate with four ribs, filleted in three passes down to 0.1 mm."""
+    from OCP.BRepFilletAPI import BRepFilletAPI_MakeFillet
+    from OCP.TopAbs import TopAbs_EDGE
+    from OCP.TopoDS import TopoDS
+
+    rng = np.random.default_rng(seed)
+
+    def r(a: float, b: float) -> float:
+        return float(rng.uniform(a, b))
+
+    kind = seed % 3
+    if kind == 0:
+        w = cq.Workplane().box(60, 40, 20).faces(">Z").shell(-2)
+        spots = [(r(-20, 20), r(-12, 12)) for _ in range(3)]
+        w = w.faces("<Z").workplane().pushPoints(spots).circle(r(2, 4)).extrude(r(4, 8))
+        w = w.faces(">Z").workplane().rect(40, 24, forConstruction=True).vertices().hole(r(1.5, 3))
+        shape = w.edges("not <Z").fillet(r(0.2, 0.5)).val().wrapped
+    elif kind == 1:
+        s = cq.Workplane().box(50, 30, 12).faces(">Z").workplane().slot2D(30, 8).cutBlind(-6)
+        solid = s.val().wrapped
+        mk = BRepFilletAPI_MakeFillet(solid)
+        ex = TopExp_Explorer(solid, TopAbs_EDGE)
+        while ex.More():
+            mk.Add(r(0.3, 0.8), r(0.8, 1.5), TopoDS.Edge_s(ex.Current()))
+            ex.Next()
+        mk.Build()
+        shape = mk.Shape()
+    else:
+        w = cq.Workplane().box(60, 40, 4)
+        for k in range(4):
+            w = w.union(cq.Workplane().box(2, 36, 8).translate((-22 + 14 * k, 0, 6)))
+        w = w.edges("|Z").fillet(r(0.5, 1.0)).faces(">Z").edges().fillet(r(0.2, 0.4))
+        shape = w.edges("not |Z").fillet(r(0.1, 0.3)).val().wrapped
+    write_step(shape, path, path.stem)
+
+
 #: (file name, writer) of the generated cases; each writer takes the path.
 CASES: list[tuple[str, Callable[[Path], None]]] = [
     *((f"asm_grouped_{g:02d}.step", lambda p, g=g: grouped(p, g)) for g in range(4)),
     *((f"asm_blended_{s:02d}.step", lambda p, s=s: blended(p, s)) for s in (2, 6, 10, 14)),
+    *((f"asm_filleted_{s:02d}.step", lambda p, s=s: filleted(p, s)) for s in (0, 1, 2, 4, 5, 7)),
     ("asm_multibody_sweep.step", lambda p: multibody(p, _sweep_solid(), boxes=20)),
 ]
 
