@@ -207,9 +207,6 @@ class _Floor:
         self.limit = limit  # seconds a round trip may take (step_time_limit)
         self.product = product  # the candidates are written as decompress writes them
         self.counts = occ.counts(source)
-        #: The source's free edges (``occ.free_edges_sewn``): a re-read may
-        #: have no more than these or the floor's
-        self.free = occ.free_edges_sewn(source)
         self._children = contextlib.ExitStack()  # the floor's round trip, once made
         self._floor: occ.RoundTrip | None = None
         self._floor_used = False
@@ -259,6 +256,12 @@ class _Floor:
     @functools.cached_property
     def floor_valid(self) -> bool:
         return bool(self._ask_floor(occ.is_valid))
+
+    @functools.cached_property
+    def free(self) -> int:
+        """The source's free edges (``occ.free_edges_sewn``): a re-read may
+        have no more than these or the floor's."""
+        return int(occ.free_edges_sewn(self.source))
 
     @functools.cached_property
     def floor_free(self) -> int:
