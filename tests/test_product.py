@@ -230,6 +230,68 @@ def test_ap203_source_comes_back_ap203(tmp_path: Path) -> None:
     assert "nurbscomp sample bracket" in header and "Open CASCADE Shape Model" not in header
 
 
+def _ap203_assembly(path: Path) -> None:
+    """An AP203 assembly written by OCCT's XDE writer: a filleted block and
+    a sub-assembly of two filleted pins, named and coloured."""
+    import cadquery as cq
+    from cadquery.occ_impl.assembly import toCAF
+    from OCP.STEPCAFControl import STEPCAFControl_Writer
+    from OCP.STEPControl import STEPControl_AsIs
+
+    box = cq.Workplane().box(10, 10, 10).edges("|Z").fillet(2)
+    pin = cq.Workplane().cylinder(8, 3).faces(">Z").edges().fillet(1)
+    sub = (
+        cq.Assembly(name="pins")
+        .add(pin, name="pin 1", color=cq.Color("red"))
+        .add(pin, name="pin 2", loc=cq.Location((0, 10, 0)), color=cq.Color("blue"))
+    )
+    top = (
+        cq.Assembly(name="rig")
+        .add(box, name="block", color=cq.Color(0.2, 0.4, 0.6))
+        .add(sub, name="pins", loc=cq.Location((20, 0, 0)))
+    )
+    made = toCAF(top)
+    doc = made[1] if isinstance(made, tuple) else made
+    with xcaf._static("write.step.schema", "AP203"):
+        w = STEPCAFControl_Writer()
+        w.SetColorMode(True)
+        w.SetNameMode(True)
+        w.Transfer(doc, STEPControl_AsIs)
+        w.Write(str(path))
+
+
+@pytest.mark.parametrize(
+    "variant",
+    [
+        "as written",
+        # OCCT counts a header without FILE_DESCRIPTION as no header at all:
+        # FILE_SCHEMA was lost with it, and the output was AP214
+        "no FILE_DESCRIPTION",
+        # AP203's second edition is written in OCCT's AP203 (was AP214)
+        "AP203e2",
+    ],
+)
+def test_ap203_assembly_comes_back_ap203(tmp_path: Path, variant: str) -> None:
+    """An AP203 assembly (OCCT's XDE writer, three parts, two levels) comes
+    back as CONFIG_CONTROL_DESIGN from a lossless and a tolerance container."""
+    src = tmp_path / "rig203.step"
+    _ap203_assembly(src)
+    head, body = src.read_text().split("ENDSEC;", 1)
+    assert "FILE_SCHEMA(('CONFIG_CONTROL_DESIGN'))" in head
+    if variant == "no FILE_DESCRIPTION":
+        head = re.sub(r"FILE_DESCRIPTION\(.*?\);", "", head, flags=re.S)
+    elif variant == "AP203e2":
+        e2 = "AP203_CONFIGURATION_CONTROLLED_3D_DESIGN_OF_MECHANICAL_PARTS_AND_ASSEMBLIES_MIM_LF"
+        head = head.replace("'CONFIG_CONTROL_DESIGN'", f"'{e2} {{ 1 0 10303 403 1 1 4 }}'")
+    src.write_text(head + "ENDSEC;" + body)
+    assert read_cad(src, product=True).product.header["schema"]
+    for mode in MODES:
+        out = tmp_path / f"out.{mode}.step"
+        pipeline.decompress_file(_compress(src, tmp_path, mode), out, force=True)
+        assert _step_text(out)["schema"] == ["CONFIG_CONTROL_DESIGN"], mode
+        assert _step_text(out)["nauo"] == 4, mode
+
+
 def test_iges_face_colours(tmp_path: Path) -> None:
     src = CORPUS / "occt__occ22470.igs"
     nzc = _compress(src, tmp_path, "lossless")

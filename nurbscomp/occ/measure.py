@@ -208,6 +208,67 @@ def free_edges_sewn(shape: Any, tolerance: float = 1e-7) -> int:
     return n
 
 
+def free_edges_per_face(shape: Any, tolerance: float = 1e-7) -> np.ndarray:
+    """Per face (:func:`faces` order), its edges that :func:`free_edges_sewn`'s
+    sewing leaves free (an edge of two faces counts for both), shape (F,).
+
+    The sewing hands back free edges of its own making (vertices merged):
+    each is traced to the edge it replaced through the sewing's history,
+    else (some edges a few 1e-7 long) to the edge whose ends and middle are
+    nearest its own.  What a STEP check blames when a re-read has more free
+    edges than it should (``encode.validity``).
+    """
+    from OCP.BRepAdaptor import BRepAdaptor_Curve
+    from OCP.TopTools import TopTools_IndexedDataMapOfShapeListOfShape
+    from scipy.spatial import cKDTree
+
+    sew = BRepBuilderAPI_Sewing(tolerance, False, False)
+    it = TopoDS_Iterator(shape)
+    while it.More():
+        sew.Add(it.Value())
+        it.Next()
+    sew.Perform()
+    e2f = TopTools_IndexedDataMapOfShapeListOfShape()
+    TopExp.MapShapesAndAncestors_s(shape, TopAbs_EDGE, TopAbs_FACE, e2f)
+    fm = _map(shape, TopAbs_FACE)
+    out = np.zeros(fm.Extent(), np.int64)
+    free = [sew.FreeEdge(i) for i in range(1, sew.NbFreeEdges() + 1)]
+    free = [e for e in free if not BRep_Tool.Degenerated_s(e)]
+    if not free:
+        return out
+
+    def ends(e: Any) -> list[float]:
+        c = BRepAdaptor_Curve(e)
+        a, b = c.FirstParameter(), c.LastParameter()
+        return [x for t in (a, (a + b) / 2, b) for x in c.Value(t).Coord()]
+
+    replaced = TopTools_IndexedMapOfShape()  # what the sewing made of each edge
+    owner: list[int] = []
+    context = sew.GetContext()
+    for k in range(1, e2f.Extent() + 1):
+        if replaced.Add(context.Apply(e2f.FindKey(k))) > len(owner):
+            owner.append(k)
+    tree: Any = None
+    for e in free:
+        j = replaced.FindIndex(e)
+        if j:
+            k = owner[j - 1]
+        else:  # not in the history: the nearest by ends and middle, either way round
+            if tree is None:
+                keys, rows = [], []
+                for i in range(1, e2f.Extent() + 1):
+                    edge = TopoDS.Edge(e2f.FindKey(i))
+                    if not BRep_Tool.Degenerated_s(edge):
+                        p = np.array(ends(edge)).reshape(3, 3)
+                        keys += [p.ravel(), p[::-1].ravel()]
+                        rows += [i, i]
+                tree = (cKDTree(np.array(keys)), rows)
+            k = tree[1][int(tree[0].query(ends(e))[1])]
+        for f in items(e2f.FindFromIndex(k)):
+            out[fm.FindIndex(f) - 1] += 1
+    return out
+
+
 def sample_face(face: Any, n: int = 7) -> tuple[np.ndarray, np.ndarray]:
     """Points inside a face: an ``n`` x ``n`` UV grid, kept where inside.
 
@@ -488,7 +549,10 @@ def face_signatures(shape: Any) -> np.ndarray:
 
 
 def faulty_faces(shape: Any) -> set[int]:
-    """Faces (0-based, face order) with a BRepCheck fault of their own or on one of their edges."""
+    """Faces (0-based, face order) with a BRepCheck fault of their own or on
+    one of their edges; if the shape is invalid with no such face (a fault
+    of a shell or a solid only: a face the wrong way round in its shell),
+    the faces of the shells BRepCheck rejects (:func:`_shell_faults`)."""
     from OCP.TopTools import TopTools_IndexedDataMapOfShapeListOfShape
 
     bad_e, bad_f = _failures(shape)
@@ -499,4 +563,49 @@ def faulty_faces(shape: Any) -> set[int]:
         for e in bad_e:
             for f in items(e2f.FindFromKey(em.FindKey(e + 1))):
                 bad_f.add(fm.FindIndex(f) - 1)
+    if not bad_f and not is_valid(shape):
+        bad_f = _shell_faults(shape)
     return bad_f
+
+
+def _shell_faults(shape: Any) -> set[int]:
+    """Faces (face order) to blame for faults BRepCheck finds on shells or
+    solids and on none of their faces and edges: in each shell it rejects or
+    that lies in a solid it rejects, the faces along an edge that two of the
+    shell's faces use the same way round (a face reversed: BRepCheck rejects
+    only the solid); else the faces of the shells, then of the solids, it
+    rejects; else every face."""
+    a = BRepCheck_Analyzer(shape)
+    fm = _map(shape, TopAbs_FACE)
+    shells, solids = _map(shape, TopAbs_SHELL), _map(shape, TopAbs_SOLID)
+    in_bad_solid = TopTools_IndexedMapOfShape()
+    bad_solids = [solids.FindKey(k) for k in range(1, solids.Extent() + 1)]
+    bad_solids = [x for x in bad_solids if not a.IsValid(x)]
+    for x in bad_solids:
+        TopExp.MapShapes_s(x, TopAbs_SHELL, in_bad_solid)
+    out: set[int] = set()
+    rejected: set[int] = set()
+    for k in range(1, shells.Extent() + 1):
+        shell = shells.FindKey(k)
+        bad = not a.IsValid(shell)
+        if not bad and not in_bad_solid.Contains(shell):
+            continue
+        em = _map(shell, TopAbs_EDGE)
+        uses: dict[int, list[tuple[int, Any]]] = {}
+        for f in faces(shell):
+            ex = TopExp_Explorer(f, TopAbs_EDGE)
+            while ex.More():
+                e = ex.Current()
+                uses.setdefault(em.FindIndex(e), []).append((fm.FindIndex(f) - 1, e.Orientation()))
+                ex.Next()
+        out |= {
+            i
+            for u in uses.values()
+            if len(u) == 2 and u[0][0] != u[1][0] and u[0][1] == u[1][1]
+            for i, _ in u
+        }
+        if bad:
+            rejected |= {fm.FindIndex(f) - 1 for f in faces(shell)}
+    if not out:
+        out = rejected or {fm.FindIndex(f) - 1 for x in bad_solids for f in faces(x)}
+    return out or set(range(fm.Extent()))

@@ -90,10 +90,14 @@ _TYPES = [XCAFDoc_ColorType(i) for i in range(3)]
 _ORIENT = [TopAbs_Orientation(i) for i in range(4)]
 _RGB = Quantity_TypeOfColor.Quantity_TOC_RGB
 
-#: ``write.step.schema`` for the first FILE_SCHEMA identifier's name.
+#: ``write.step.schema`` for the FILE_SCHEMA identifiers' names (the first
+#: row found in any of them).  AP203's second edition
+#: (``AP203_CONFIGURATION_CONTROLLED_3D_DESIGN_…_MIM_LF``) is written in the
+#: first's, the AP203 OCCT writes: the source's family.
 _SCHEMAS = (
     ("AP242", "AP242DIS"),
     ("CONFIG_CONTROL_DESIGN", "AP203"),
+    ("AP203", "AP203"),
     ("AUTOMOTIVE_DESIGN_CC", "AP214CD"),
     ("AUTOMOTIVE_DESIGN", "AP214IS"),
 )
@@ -324,10 +328,14 @@ def product_data(doc: Any, root: Any, fmt: str, plain: Any) -> ProductData:
 
 
 def step_header(reader: Any) -> dict[str, list[str]]:
-    """The STEP header's fields (``product.HEADER_FIELDS``) of a read STEP model."""
-    h = APIHeaderSection_MakeHeader(reader.StepModel())
-    if not h.IsDone():
-        return {}
+    """The STEP header's fields (``product.HEADER_FIELDS``) of a read STEP model.
+
+    Each header entity is read on its own: OCCT calls the header made only
+    when FILE_NAME, FILE_SCHEMA and FILE_DESCRIPTION are all there, and
+    taking that as "no header" lost FILE_SCHEMA with a missing
+    FILE_DESCRIPTION, so an AP203 source came back as AP214
+    (:func:`step_schema`).  A missing entity's fields are left out."""
+    h = APIHeaderSection_MakeHeader(reader.StepModel())  # null-safe accessors
 
     def text(x: Any) -> str:
         try:

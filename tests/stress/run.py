@@ -25,8 +25,9 @@ OCCT's own STEP round trip of it (``occ.step_round_trip``):
 ``step``
     the decompressed STEP file (``pipeline.decompress_file``) read back keeps
     less than OCCT's own STEP round trip of the source keeps
-    (``validity.step_keeps`` on the topology counts: each at least as close
-    to the source's), or OCCT's reader does not finish on it where it does on
+    (``validity.step_keeps`` on the topology counts: each between the
+    source's and that round trip's; and no more free edges, sewn at 1e-7, than the source or
+    that round trip), or OCCT's reader does not finish on it where it does on
     the source's;
 ``free_edges``
     more free edges than the source: edges left free when the faces are
@@ -42,7 +43,9 @@ line per (file, tol), then a table of failures per kind and format; the exit
 status is 1 when anything failed.
 
 ``--limit N`` takes the first N files with the shapes taken round-robin over
-the categories, so a small run still covers every category.
+the categories, so a small run still covers every category.  Without it the
+assemblies and blended parts of :mod:`tests.stress.assemblies` (written by
+OCCT's XDE writer) are checked too.
 """
 
 from __future__ import annotations
@@ -66,7 +69,7 @@ from nurbscomp import occ, pipeline
 from nurbscomp.encode.validity import step_keeps, step_time_limit
 from nurbscomp.errors import NurbscompError
 
-from . import files, shapes
+from . import assemblies, files, shapes
 
 ROOT = Path(__file__).resolve().parents[2]
 KINDS = (
@@ -144,18 +147,27 @@ class Reference:
     notes: list[str]
     #: OCCT's own STEP round trip's counts (None: it failed or looped)
     floor_counts: dict[str, int] | None = None
+    #: ... and its free edges (sewn at 1e-7)
+    floor_free: int = 0
     #: seconds a STEP round trip may take (``validity.step_time_limit``)
     limit: float | None = None
 
 
 def reference(path: Path) -> Reference:
-    """OCCT's read of ``path`` and its own STEP round trip (raises if unreadable)."""
-    cad = occ.read_cad(path)
+    """OCCT's read of ``path`` and its own STEP round trip (raises if
+    unreadable): written as ``decompress`` writes the source, through OCCT's
+    XDE writer with the source's product data (written plainly, a compound
+    part's solids each get an uncertainty of their own, and read back
+    otherwise)."""
+    cad = occ.read_cad(path, product=True)
     notes = []
     limit = step_time_limit(occ.shape_to_model(cad.shape)[0])
     floor_counts: dict[str, int] | None = None
+    floor_free = 0
     try:
-        floor_valid, floor_counts = step_trip(cad.shape, cad.unit, limit)
+        floor_valid, floor_counts, floor_free = step_trip(
+            cad.shape, cad.unit, limit, product=cad.product
+        )
     except occ.ReaderTimeout as e:  # OCCT's reader loops on its own round trip
         floor_valid = False
         notes.append(f"no STEP round trip: {e}")
@@ -169,24 +181,37 @@ def reference(path: Path) -> Reference:
         notes.append("the source is invalid as OCCT reads it")
     counts, free = occ.counts(cad.shape), free_edges(cad.shape)
     return Reference(
-        cad.shape, cad.unit, counts, free, valid, floor_valid, notes, floor_counts, limit
+        cad.shape,
+        cad.unit,
+        counts,
+        free,
+        valid,
+        floor_valid,
+        notes,
+        floor_counts,
+        floor_free,
+        limit,
     )
 
 
 def step_trip(
-    shape: Any, unit: str, limit: float | None, written: Path | None = None
-) -> tuple[bool, dict[str, int]]:
-    """BRepCheck's verdict and the topology counts of ``shape`` written to STEP
+    shape: Any,
+    unit: str,
+    limit: float | None,
+    written: Path | None = None,
+    product: Any = None,
+) -> tuple[bool, dict[str, int], int]:
+    """BRepCheck's verdict, the topology counts and the free edges of ``shape`` written to STEP
     (or of the STEP file ``written``, as ``decompress`` wrote it) and read
     back by OCCT, in a child process given ``limit`` seconds
     (``occ.RoundTrip``; raises ``occ.ReaderTimeout`` past them)."""
     with tempfile.TemporaryDirectory() as d:
         if written is None:
-            make = lambda: occ.step_round_trip(shape, unit, None, Path(d))  # noqa: E731
+            make = lambda: occ.step_round_trip(shape, unit, product, Path(d))  # noqa: E731
         else:
             make = lambda: occ.read_cad(written, own=True).shape  # noqa: E731
         with occ.RoundTrip(make, 0, limit) as back:
-            return bool(back.ask(occ.is_valid)), back.ask(occ.counts)
+            return bool(back.ask(occ.is_valid)), back.ask(occ.counts), back.ask(free_edges)
 
 
 def check_one(path: Path, tol: float, ref: Reference, work: Path) -> Result:
@@ -248,7 +273,7 @@ def step_check(r: Result, ref: Reference, shape: Any, written: Path | None) -> N
     """The ``invalid`` and ``step`` checks of the decoded shape's STEP re-read."""
     assert ref.floor_counts is not None
     try:
-        valid, back = step_trip(shape, ref.unit, ref.limit, written)
+        valid, back, free = step_trip(shape, ref.unit, ref.limit, written)
     except occ.ReaderTimeout as e:
         r.fail("step", f"its STEP file read back: {e}, unlike the source's")
         return
@@ -258,6 +283,12 @@ def step_check(r: Result, ref: Reference, shape: Any, written: Path | None) -> N
         ours = ", ".join(f"{k} {ref.counts[k]}->{v}" for k, v in back.items() if v != ref.counts[k])
         occts = ", ".join(f"{k} {v}" for k, v in ref.floor_counts.items() if v != ref.counts[k])
         r.fail("step", f"its STEP file read back: {ours} (OCCT's own: {occts or 'as read'})")
+    if free > max(ref.free, ref.floor_free):
+        r.fail(
+            "step",
+            f"its STEP file read back: {free} free edges"
+            f" (the source {ref.free}, OCCT's own round trip {ref.floor_free})",
+        )
 
 
 def check_file(path: Path, tols: Sequence[float], work: Path) -> list[Result]:
@@ -378,6 +409,8 @@ def main(argv: list[str] | None = None) -> int:
         paths = files.write_all(out, items, errors=errors)
         if args.limit:
             paths = paths[: args.limit]
+        elif any(args.only in name for name, _ in assemblies.CASES):
+            paths += assemblies.write_all(out, errors)  # XDE assemblies, blended parts
         print(
             f"{len(paths)} files from {len(items)} shapes in {out if args.out else 'a temp folder'}"
             f" ({time.perf_counter() - t0:.1f} s); tols {', '.join(f'{t:g}' for t in args.tols)}",
