@@ -251,8 +251,27 @@ def test_corpus_no_new_gaps(path: Path, tmp_path: Path, tol: float) -> None:
     _no_new_gaps(path, tmp_path, tol)
 
 
+#: Known to grow (issue 26's fidelity fix against issue 10's promise): the STEP
+#: check now holds bearing's free edges to OCCT's own round trip, and at a
+#: larger tol more of its vertices, snapped to a coarser grid, must stay where
+#: they are (stored as floats): 17,970 / 17,963 / 17,972 bytes at 0.001 /
+#: 0.01 / 0.1 mm.  Strict: the day it stops growing, this test says so.
+GROWS = {
+    "occt__bearing.iges": "bearing keeps its free edges: +2 bytes at 0.1 mm against 0.001 mm",
+}
+
+
+def _growth_cases() -> list[object]:
+    return [
+        pytest.param(p, marks=pytest.mark.xfail(strict=True, reason=GROWS[p.name]))
+        if p.name in GROWS
+        else p
+        for p in corpus_files()
+    ]
+
+
 @pytest.mark.slow
-@pytest.mark.parametrize("path", corpus_files(), ids=lambda p: p.name)
+@pytest.mark.parametrize("path", _growth_cases(), ids=lambda p: getattr(p, "name", str(p)))
 def test_corpus_no_growth_with_tol(path: Path, tmp_path: Path) -> None:
     """A larger tolerance never gives a larger container (issue 10)."""
     sizes = [_made(path, tol, tmp_path).stat().st_size for tol in (0.001, 0.01, 0.1)]
