@@ -3,7 +3,8 @@
 A container decompressed to ``.igs`` is written in BRep mode (solids, shells,
 shared edges) on every path, with product data and without.  Each case is held
 to OCCT's own XDE read -> BRep-mode IGES write -> read of the source: the same
-solids, shells, faces, edges, vertices and free edges (sewing at 1e-7).  In
+solids, shells, faces, edges, vertices and free edges (sewing at 1e-7); in
+tolerance mode no more free edges (coincident coded boundaries are joined).  In
 faces mode, OCCT's default, a solid came back as loose faces with every edge
 free (occ22470: 0 solids and 88 free edges where the source has 1 and 0).
 """
@@ -37,7 +38,15 @@ def _assert_iges_keeps(src: Path, tmp_path: Path, mode: str) -> dict[str, int]:
     out = tmp_path / "out.igs"
     pipeline.decompress_file(nzc, out, force=True)
     want, got = _seen(ref), _seen(out)
-    assert got == want, f"{src.name} {mode}: OCCT's round trip {want}, ours {got}"
+    said = f"{src.name} {mode}: OCCT's round trip {want}, ours {got}"
+    if mode == "lossless":
+        assert got == want, said
+    else:
+        # coded boundaries that coincide are joined (joins.twin_sides): a
+        # surface model's gaps may close (bearing at 0.01 mm: 25 free edges
+        # where the source and OCCT's round trip have 29), never open
+        assert {**got, "free_edges": 0} == {**want, "free_edges": 0}, said
+        assert got["free_edges"] <= want["free_edges"], said
     return got
 
 
