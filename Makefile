@@ -35,11 +35,13 @@ samples: install
 # of `make test`.  matplotlib (the `bench` extra) draws the plot.  It also
 # times `--help`, `--version` and `info` (goal < 0.5 s) and the corpus as one
 # batch with -j 1 and -j 2 (goal >= 1.8x on 2 cores).  The cost of product
-# data (bench-product) goes to docs/benchmarks-product.md.
+# data (bench-product) goes to docs/benchmarks-product.md, the bytes of each
+# container section (issue 28) to docs/benchmarks-sections.md.
 bench: install
 	@$(PY) -c "import matplotlib" 2>/dev/null || $(PIP) install --quiet -e '.[bench]'
 	$(PY) benchmarks/bench.py
 	$(PY) benchmarks/product_cost.py > docs/benchmarks-product.md
+	$(PY) benchmarks/sections.py > docs/benchmarks-sections.md
 
 # What product data (format 1.2's PROD: tree, names, colours, layers, header)
 # costs per file of the corpus and the assembly sample, lossless (issue 12).
