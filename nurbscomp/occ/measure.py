@@ -87,13 +87,16 @@ def thin_solids(shape: Any, tol: float, fraction: float = 0.2) -> list[tuple[int
 
     Only solids whose bounding box is under 1,000 tol across in some
     direction are measured (their volume and area cost a fraction of a
-    second on a large part): a thin solid is thin across its box.
+    second on a large part): a thin solid is thin across its box.  A part
+    placed many times is measured once (:func:`once_each`; the index is then
+    among the distinct solids).
     """
     from OCP.BRepGProp import BRepGProp
     from OCP.GProp import GProp_GProps
 
     out = []
-    solids = _map(shape, TopAbs_SOLID)
+    distinct = once_each(shape)
+    solids = _map(shape if distinct is None else distinct, TopAbs_SOLID)
     for i in range(1, solids.Extent() + 1):
         s = solids.FindKey(i)
         box = Bnd_Box()
