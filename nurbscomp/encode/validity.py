@@ -269,14 +269,20 @@ class _Floor:
     def floor_free(self) -> int:
         return int(self._ask_floor(occ.free_edges_sewn))
 
+    def _per_face(self, measure: Callable[[Any], np.ndarray], which: str) -> np.ndarray:
+        """``measure`` of the ``"source"`` (here) or the ``"floor"`` (in its
+        child), made once each."""
+        key = f"{measure.__name__} {which}"
+        if key not in self._signatures:
+            if which == "source":
+                self._signatures[key] = measure(self.source)
+            else:
+                self._signatures[key] = self._ask_floor(measure)
+        return self._signatures[key]
+
     def signatures(self, which: str) -> np.ndarray:
         """:func:`occ.face_signatures` of the ``"source"`` or the ``"floor"``, made once."""
-        if which not in self._signatures:
-            if which == "source":
-                self._signatures[which] = occ.face_signatures(self.source)
-            else:
-                self._signatures[which] = self._ask_floor(occ.face_signatures)
-        return self._signatures[which]
+        return self._per_face(occ.face_signatures, which)
 
     def candidate_losses(self, back: occ.RoundTrip, tol: float) -> set[int] | None:
         """:meth:`losses` of a candidate's round trip ``back`` (:meth:`trip`,
@@ -356,13 +362,7 @@ class _Floor:
 
     def free_per_face(self, which: str) -> np.ndarray:
         """:func:`occ.free_edges_per_face` of the ``"source"`` or the ``"floor"``, made once."""
-        key = f"free {which}"
-        if key not in self._signatures:
-            if which == "source":
-                self._signatures[key] = occ.free_edges_per_face(self.source)
-            else:
-                self._signatures[key] = self._ask_floor(occ.free_edges_per_face)
-        return self._signatures[key]
+        return self._per_face(occ.free_edges_per_face, which)
 
     @functools.cached_property
     def model_face(self) -> np.ndarray:

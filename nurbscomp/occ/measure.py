@@ -175,12 +175,7 @@ def sewn_edge_pairs(shape: Any, tolerance: float = 1e-7) -> list[tuple[int, int]
     the edges' own tolerances, which the sewing also accepts (a faces-mode
     IGES file written at 1e-5).  Sewing is only analysed, never applied.
     """
-    sew = BRepBuilderAPI_Sewing(tolerance, False, False)
-    it = TopoDS_Iterator(shape)
-    while it.More():
-        sew.Add(it.Value())
-        it.Next()
-    sew.Perform()
+    sew = _sewing(shape, tolerance)
     edges = _map(shape, TopAbs_EDGE)
     order = model_order(shape, "edge")
     out: set[tuple[int, int]] = set()
@@ -194,6 +189,18 @@ def sewn_edge_pairs(shape: Any, tolerance: float = 1e-7) -> list[tuple[int, int]
         ks = sorted(found)
         out.update((a, b) for j, a in enumerate(ks) for b in ks[j + 1 :])
     return sorted(out)
+
+
+def _sewing(shape: Any, tolerance: float) -> Any:
+    """``BRepBuilderAPI_Sewing`` at ``tolerance`` performed (analysis only: no
+    face cut, no non-manifold mode) on the top-level sub-shapes of ``shape``."""
+    sew = BRepBuilderAPI_Sewing(tolerance, False, False)
+    it = TopoDS_Iterator(shape)
+    while it.More():
+        sew.Add(it.Value())
+        it.Next()
+    sew.Perform()
+    return sew
 
 
 def free_edges_sewn(shape: Any, tolerance: float = 1e-7) -> int:
@@ -225,12 +232,7 @@ def free_edges_per_face(shape: Any, tolerance: float = 1e-7) -> np.ndarray:
     from OCP.TopTools import TopTools_IndexedDataMapOfShapeListOfShape
     from scipy.spatial import cKDTree
 
-    sew = BRepBuilderAPI_Sewing(tolerance, False, False)
-    it = TopoDS_Iterator(shape)
-    while it.More():
-        sew.Add(it.Value())
-        it.Next()
-    sew.Perform()
+    sew = _sewing(shape, tolerance)
     e2f = TopTools_IndexedDataMapOfShapeListOfShape()
     TopExp.MapShapesAndAncestors_s(shape, TopAbs_EDGE, TopAbs_FACE, e2f)
     fm = _map(shape, TopAbs_FACE)
