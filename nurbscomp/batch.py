@@ -111,9 +111,7 @@ class Task:
 
 def default_output(src: Path, opts: Options) -> Path:
     """The output beside ``src``: ``part.step.nzc``, or ``part.step`` (``.igs``,
-    ``.brep`` with ``opts.fmt``); ``src`` itself for a command that writes none."""
-    if opts.command in CHECKS:
-        return src
+    ``.brep`` with ``opts.fmt``)."""
     if opts.command == "compress":
         return pipeline.default_compressed_name(src)
     out = pipeline.default_decompressed_name(src)
@@ -201,8 +199,6 @@ def plan(
         if len(tasks) != 1:
             raise UsageError("-c/--stdout takes a single input file")
         tasks = [replace(tasks[0], dst=None, make_parent=False)]
-    if opts.command in CHECKS:
-        tasks = [replace(t, dst=None, make_parent=False) for t in tasks]
     return tasks
 
 
@@ -222,6 +218,8 @@ def largest_first(tasks: list[Task]) -> list[Task]:
 
 
 def _task(src: Path, rel: Path, opts: Options, output_dir: str | None) -> Task:
+    if opts.command in CHECKS:  # no output
+        return Task(str(src), None)
     out = default_output(src, opts)
     if output_dir is None:
         return Task(str(src), str(out))

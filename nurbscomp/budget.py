@@ -155,6 +155,8 @@ CEILING = 16
 #: source itself.  Pcurves to compute are the writer's choice, held to the
 #: default limits (``pipeline.verify_encoded``), and are not declared.
 DECLARED = ("rows", "references", "depth", "poles", "bases", "step_bytes", "iges_bytes")
+#: The most a reader admits of any declaration: what ``compress`` may write.
+ADMITTED = DEFAULT.admit(dict.fromkeys(DECLARED, CAP))
 
 
 @dataclass(frozen=True)

@@ -55,7 +55,6 @@ class _Tolerance(_Length):
 class _State:
     def __init__(self, debug: bool) -> None:
         self.debug = debug
-        self.failed = False
         self.exit_code = 0
 
 
@@ -94,7 +93,6 @@ def _run(state: _State, path: str, fn: Callable[[], dict[str, Any]]) -> dict[str
     if r.get("traceback"):
         click.echo(r["traceback"].rstrip("\n"), err=True)
     click.echo(f"error: {show(path)}: {show(r['error'])}", err=True)
-    state.failed = True
     state.exit_code = max(state.exit_code, r["exit_code"])
     return None
 
@@ -183,9 +181,10 @@ def _modes_to_command(args: list[str], commands: Any) -> list[str]:
         rest.append(a)
     if not modes:
         return args
-    if len({m for _, m in modes}) > 1:
-        raise click.UsageError(f"{modes[0][0]} and {modes[1][0]} exclude each other")
     flag, mode = modes[0]
+    other = next((f for f, m in modes if m != mode), None)
+    if other is not None:
+        raise click.UsageError(f"{flag} and {other} exclude each other")
     i = 0
     while i < len(rest) and rest[i] in _GROUP_OPTIONS:
         i += 1
@@ -507,6 +506,8 @@ def _batch(
 
 def _summary_text(s: dict[str, Any]) -> str:
     """The batch's summary line."""
+    from .batch import CHECKS  # loaded already: the batch ran
+
     counts = f"{_plural(s['files'], 'file')}: {s['ok']} ok"
     if s["passthrough"]:
         counts += f" ({s['passthrough']} stored verbatim)"
@@ -515,7 +516,7 @@ def _summary_text(s: dict[str, Any]) -> str:
         counts += f", {s['skipped']} skipped"
     if s.get("interrupted"):
         counts += ", then interrupted"
-    if s["command"] in ("test", "info") or not s["bytes_in"]:
+    if s["command"] in CHECKS or not s["bytes_in"]:
         return f"{counts}; {s['seconds']:.1f} s"
     ratio = f", {s['ratio']:.1f}x" if s["ratio"] else ""
     return f"{counts}; {_sizes(s['bytes_in'], s['bytes_out'])}{ratio}; {s['seconds']:.1f} s"
@@ -535,7 +536,6 @@ def _report(
         if state.debug and r.get("traceback"):
             bar.write(r["traceback"].rstrip("\n"), True)
         bar.write(f"error: {show(r['input'])}: {show(r['error'])}", True)
-        state.failed = True
     if as_json:
         bar.write(json.dumps({k: v for k, v in r.items() if k != "traceback"}, sort_keys=True), err)
         return

@@ -468,7 +468,7 @@ def encode_cad(
     if bad is not None:  # an invalid B-rep OCCT still reads: refused in both modes alike
         raise InputError(f"{bad}: a value is not finite or out of range")
     try:  # what no reader decodes by default, even as declared, is not written
-        budget.check_structure(m, budget.DEFAULT.admit(budget.declare(m)))
+        budget.check_structure(m, budget.ADMITTED)
     except LimitError as e:
         raise UnsupportedError(f"{e}; not compressed") from None
     m.unit, m.source_format, m.product = cad.unit, cad.source_format, cad.product

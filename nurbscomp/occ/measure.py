@@ -67,15 +67,21 @@ def is_valid(shape: Any) -> bool:
     return bool(BRepCheck_Analyzer(shape).IsValid())
 
 
-def diagonal(shape: Any) -> float:
-    """The length of the shape's bounding-box diagonal in mm (0 for an empty
-    shape): its size, to weigh a tolerance or a mesh deflection against."""
+def _extent(shape: Any) -> np.ndarray | None:
+    """The sides of the shape's bounding box (dx, dy, dz) in mm; None if empty."""
     box = Bnd_Box()
     BRepBndLib.Add_s(shape, box)
     if box.IsVoid():
-        return 0.0
+        return None
     x0, y0, z0, x1, y1, z1 = box.Get()
-    return float(np.sqrt((x1 - x0) ** 2 + (y1 - y0) ** 2 + (z1 - z0) ** 2))
+    return np.array([x1 - x0, y1 - y0, z1 - z0])
+
+
+def diagonal(shape: Any) -> float:
+    """The length of the shape's bounding-box diagonal in mm (0 for an empty
+    shape): its size, to weigh a tolerance or a mesh deflection against."""
+    sides = _extent(shape)
+    return 0.0 if sides is None else float(np.sqrt((sides**2).sum()))
 
 
 def thin_solids(shape: Any, tol: float, fraction: float = 0.2) -> list[tuple[int, float]]:
@@ -99,12 +105,8 @@ def thin_solids(shape: Any, tol: float, fraction: float = 0.2) -> list[tuple[int
     solids = _map(shape if distinct is None else distinct, TopAbs_SOLID)
     for i in range(1, solids.Extent() + 1):
         s = solids.FindKey(i)
-        box = Bnd_Box()
-        BRepBndLib.Add_s(s, box)
-        if box.IsVoid():
-            continue
-        x0, y0, z0, x1, y1, z1 = box.Get()
-        if min(x1 - x0, y1 - y0, z1 - z0) > 1000 * tol:
+        sides = _extent(s)
+        if sides is None or sides.min() > 1000 * tol:
             continue
         v, a = GProp_GProps(), GProp_GProps()
         BRepGProp.VolumeProperties_s(s, v)
@@ -353,15 +355,25 @@ def model_order(shape: Any, kind: str) -> np.ndarray:
     TShape among the shape's distinct TShapes of that kind in the order first
     met: the model's index (:func:`nurbscomp.occ.shape_to_model` keeps one row
     per TShape, so the faces of a located instance are the model's faces)."""
+    return _distinct(shape, kind)[1]
+
+
+def _distinct(shape: Any, kind: str) -> tuple[TopTools_IndexedMapOfShape, np.ndarray]:
+    """The distinct TShapes of ``kind`` (:func:`_tshape` keys, in the order
+    first met: a key's index - 1 is its model row), and :func:`model_order`."""
+    m, distinct = _map(shape, _KINDS[kind]), TopTools_IndexedMapOfShape()
+    out = np.empty(m.Extent(), np.int64)
+    for i in range(1, m.Extent() + 1):
+        out[i - 1] = distinct.Add(_tshape(m.FindKey(i))) - 1
+    return distinct, out
+
+
+def _tshape(s: Any) -> Any:
+    """``s`` unlocated and forward: the key of its TShape (a model row)."""
     from OCP.TopAbs import TopAbs_FORWARD
     from OCP.TopLoc import TopLoc_Location
 
-    m, distinct = _map(shape, _KINDS[kind]), TopTools_IndexedMapOfShape()
-    plain = TopLoc_Location()
-    out = np.empty(m.Extent(), np.int64)
-    for i in range(1, m.Extent() + 1):
-        out[i - 1] = distinct.Add(m.FindKey(i).Located(plain).Oriented(TopAbs_FORWARD)) - 1
-    return out
+    return s.Located(TopLoc_Location()).Oriented(TopAbs_FORWARD)
 
 
 def _failures(shape: Any) -> tuple[set[int], set[int]]:
@@ -493,30 +505,18 @@ def failures(shape: Any) -> tuple[set[int], set[int]]:
     bad_e, bad_f = _failures(checked)
     if not bad_e and not bad_f:
         return bad_e, bad_f
-    if part is None:
-        eo, fo = model_order(shape, "edge"), model_order(shape, "face")
-        return {int(eo[e]) for e in bad_e}, {int(fo[f]) for f in bad_f}
-    return _rows_in(shape, checked, TopAbs_EDGE, bad_e), _rows_in(
-        shape, checked, TopAbs_FACE, bad_f
-    )
+    return _rows_in(shape, checked, "edge", bad_e), _rows_in(shape, checked, "face", bad_f)
 
 
-def _rows_in(whole: Any, part: Any, kind: Any, found: set[int]) -> set[int]:
+def _rows_in(whole: Any, checked: Any, kind: str, found: set[int]) -> set[int]:
     """Model rows (:func:`model_order` of ``whole``) of the sub-shapes of
-    ``part`` at ``found`` (0-based, ``MapShapes`` order of ``part``)."""
-    from OCP.TopAbs import TopAbs_FORWARD
-    from OCP.TopLoc import TopLoc_Location
-
-    plain = TopLoc_Location()
-    distinct = TopTools_IndexedMapOfShape()
-    m = _map(whole, kind)
-    for i in range(1, m.Extent() + 1):
-        distinct.Add(m.FindKey(i).Located(plain).Oriented(TopAbs_FORWARD))
-    sub = _map(part, kind)
-    return {
-        distinct.FindIndex(sub.FindKey(i + 1).Located(plain).Oriented(TopAbs_FORWARD)) - 1
-        for i in found
-    }
+    ``checked`` (``whole``, or a part of it) at ``found`` (0-based,
+    ``MapShapes`` order of ``checked``)."""
+    if not found:
+        return set()
+    distinct = _distinct(whole, kind)[0]
+    sub = _map(checked, _KINDS[kind])
+    return {distinct.FindIndex(_tshape(sub.FindKey(i + 1))) - 1 for i in found}
 
 
 def edges_per_face(shape: Any) -> list[int]:
