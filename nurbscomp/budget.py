@@ -456,9 +456,13 @@ def check_projections(m: BRepModel) -> None:
 
 
 def declare(m: BRepModel) -> dict[str, int]:
-    """What ``m`` decodes into, for META ``decoded`` (``DECLARED``)."""
+    """What ``m`` decodes into, for META ``decoded`` (``DECLARED``): only the
+    measures past what a reader admits anyway (the default limits, the
+    output's floor), so that a container within them spends no byte on it."""
     e = expansion(m)
-    return {"rows": table_rows(m), **{k: getattr(e, k) for k in DECLARED if k != "rows"}}
+    every = {"rows": table_rows(m), **{k: getattr(e, k) for k in DECLARED if k != "rows"}}
+    allowed = {k: getattr(DEFAULT, k, DEFAULT.output_floor) for k in DECLARED}
+    return {k: v for k, v in every.items() if v > allowed[k]}
 
 
 def declared(meta: dict[str, object]) -> dict[str, int]:

@@ -484,8 +484,10 @@ def encode_cad(
     def pack(target: BRepModel, codes: dict[Any, Any]) -> bytes:
         target.product = m.product  # exact in every mode, placements included
         # what it decodes into, for a reader to admit (budget.Limits.admit)
-        declared = {"decoded": budget.declare(target)}
-        sections = model_to_sections(target, {**meta, **declared}, codes)
+        declared = budget.declare(target)
+        sections = model_to_sections(
+            target, {**meta, "decoded": declared} if declared else meta, codes
+        )
         # lossless is the fast mode: a quick entropy search (entropy.compress)
         return container.pack(sections, flags, thorough=not lossless)
 

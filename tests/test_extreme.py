@@ -139,3 +139,35 @@ def test_a_wall_thinner_than_tol_is_warned_of(
     r = pipeline.compress_file(src, tmp_path / "plate.nzc", tol=0.01)
     thin = [w for w in r["warnings"] if "thin against the tolerance" in w]
     assert bool(thin) == warned, r["warnings"]
+
+
+def test_a_container_declares_only_what_the_defaults_refuse(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A container within the default limits declares nothing (no byte
+    spent); one past them declares its measures, and the default reader then
+    decodes it where an undeclared one is refused."""
+    import dataclasses
+
+    from nurbscomp import budget, container, serialize
+    from nurbscomp.errors import LimitError
+
+    from .conftest import SAMPLES
+
+    def meta(p: Path) -> dict:
+        return serialize.read_meta(container.unpack(p.read_bytes()).get("META"))
+
+    src = SAMPLES / "bracket.step"
+    plain = tmp_path / "plain.nzc"
+    pipeline.compress_file(src, plain, tol=0.01)
+    assert "decoded" not in meta(plain)
+    e = budget.expansion(pipeline.decode(container.unpack(plain.read_bytes()))[0])
+    # half of what it holds: past the default, within 16x it (the ceiling)
+    small = dataclasses.replace(budget.DEFAULT, references=e.references // 2)
+    monkeypatch.setattr(budget, "DEFAULT", small)
+    big = tmp_path / "big.nzc"
+    pipeline.compress_file(src, big, tol=0.01)  # verified under the small defaults
+    assert meta(big)["decoded"] == {"references": e.references}
+    pipeline.decode_file(big, budget.DEFAULT)
+    with pytest.raises(LimitError, match="sub-shape references"):
+        pipeline.decode_file(plain, budget.DEFAULT)
