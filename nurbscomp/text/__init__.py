@@ -1,0 +1,61 @@
+"""Byte-exact models of STEP and IGES text (issue 29).
+
+``encode(data)`` gives a blob from which ``decode(blob, limit)`` returns
+``data`` byte for byte.  The blob's first byte says how it was made:
+
+* 0 plain: the whole file through :mod:`.coding` as one stream;
+* 1 the STEP model (:mod:`.step`);
+* 2 the IGES model (:mod:`.iges`).
+
+The encoder tries the model that fits the text, decodes its own output to make
+sure it gives the same bytes back, and keeps the smaller of the model and the
+plain stream, so a blob is never larger than the plain coding of the file
+(plus a few bytes).  Nothing here needs OpenCASCADE: this reads text.
+"""
+
+from __future__ import annotations
+
+from ..errors import CorruptError
+from . import coding
+
+PLAIN, STEP, IGES = 0, 1, 2
+
+
+def _models() -> dict[int, object]:
+    from . import iges, step  # noqa: F401  (imported here: a plain blob needs neither)
+
+    return {STEP: step, IGES: iges}
+
+
+def encode(data: bytes) -> bytes:
+    """The smallest blob that gives ``data`` back (module docstring)."""
+    best = bytes([PLAIN]) + coding.pack([data])
+    for method, model in _models().items():
+        payload = model.encode(data)  # type: ignore[attr-defined]
+        if payload is None or 1 + len(payload) >= len(best):
+            continue
+        if model.decode(payload, len(data)) != data:  # type: ignore[attr-defined]
+            continue  # never a wrong byte: the plain stream is kept
+        best = bytes([method]) + payload
+    return best
+
+
+def decode(blob: bytes, limit: int) -> bytes:
+    """The bytes ``blob`` was made from; at most ``limit`` of them.
+
+    Raises
+    ------
+    FormatError
+        A blob :func:`encode` does not write, or one that inflates past ``limit``.
+    """
+    if not blob:
+        raise CorruptError("empty text model")
+    method = blob[0]
+    if method == PLAIN:
+        return coding.unpack(blob[1:], limit, count=1)[0]
+    model = _models().get(method)
+    if model is None:
+        raise CorruptError(f"unknown text model {method}")
+    out = model.decode(blob[1:], limit)  # type: ignore[attr-defined]
+    assert isinstance(out, bytes)
+    return out

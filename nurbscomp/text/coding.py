@@ -1,0 +1,103 @@
+"""Streams of a text model, each through the entropy stage that suits it.
+
+A text model (issue 29) splits a file into byte streams (ids, references,
+digits, layout, ...).  :func:`pack` compresses each stream on its own with the
+smallest of the coders :mod:`nurbscomp.entropy` offers and joins them;
+:func:`unpack` inverts it, inflating no more than a caller's limit.
+
+Layout (little-endian, docs/format.md §1.5)::
+
+    nstreams  varint
+    per stream: coder u8 | raw_length varint | stored_length varint | payload
+"""
+
+from __future__ import annotations
+
+from ..entropy import Coder, compress, decompress
+from ..errors import CorruptError, LimitError, TruncatedError
+
+
+def varint(n: int) -> bytes:
+    """``n`` (≥ 0) as LEB128: seven bits a byte, low group first."""
+    if n < 0:
+        raise ValueError("varint of a negative number")
+    out = bytearray()
+    while True:
+        b = n & 0x7F
+        n >>= 7
+        if n:
+            out.append(b | 0x80)
+        else:
+            out.append(b)
+            return bytes(out)
+
+
+def read_varint(data: bytes | memoryview, pos: int) -> tuple[int, int]:
+    """The LEB128 integer at ``pos`` and the position after it (at most 9 bytes).
+
+    Raises
+    ------
+    TruncatedError
+        ``data`` ends inside the integer.
+    CorruptError
+        More than 9 bytes (a value past 2**63).
+    """
+    n = shift = 0
+    for k in range(9):
+        if pos + k >= len(data):
+            raise TruncatedError(f"varint at offset {pos} runs past the end")
+        b = data[pos + k]
+        n |= (b & 0x7F) << shift
+        if not b & 0x80:
+            return n, pos + k + 1
+        shift += 7
+    raise CorruptError(f"varint at offset {pos} is longer than 9 bytes")
+
+
+def pack(streams: list[bytes], coders: tuple[Coder, ...] = tuple(Coder)) -> bytes:
+    """``streams`` compressed one by one, each with the smallest of ``coders``."""
+    out = [varint(len(streams))]
+    for s in streams:
+        coder, payload = compress(s, coders) if s else (Coder.STORED, b"")
+        if len(payload) >= len(s):
+            coder, payload = Coder.STORED, s
+        out += [bytes([coder]), varint(len(s)), varint(len(payload)), payload]
+    return b"".join(out)
+
+
+def unpack(data: bytes, limit: int, count: int | None = None) -> list[bytes]:
+    """Invert :func:`pack`; the streams' raw lengths together are at most ``limit``.
+
+    ``count``, when given, is the number of streams the caller expects.
+
+    Raises
+    ------
+    LimitError
+        The declared raw lengths add up to more than ``limit``.
+    CorruptError, TruncatedError
+        Anything else that is not what :func:`pack` writes.
+    """
+    view = memoryview(data)
+    n, pos = read_varint(view, 0)
+    if count is not None and n != count:
+        raise CorruptError(f"{n} text streams, expected {count}")
+    if n > 4096:
+        raise CorruptError(f"{n} text streams")
+    out: list[bytes] = []
+    total = 0
+    for _ in range(n):
+        if pos >= len(view):
+            raise TruncatedError(f"text stream header at offset {pos} runs past the end")
+        coder = view[pos]
+        raw_len, pos = read_varint(view, pos + 1)
+        stored, pos = read_varint(view, pos)
+        total += raw_len
+        if total > limit:
+            raise LimitError(f"text streams inflate to more than {limit} bytes")
+        if pos + stored > len(view):
+            raise TruncatedError(f"text stream at offset {pos} runs past the end")
+        out.append(decompress(coder, bytes(view[pos : pos + stored]), raw_len))
+        pos += stored
+    if pos != len(view):
+        raise CorruptError(f"{len(view) - pos} bytes after the last text stream")
+    return out
