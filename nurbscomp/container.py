@@ -38,15 +38,29 @@ from .errors import (
 from .formats import CONTAINER_MAGIC
 
 MAGIC = CONTAINER_MAGIC  # b"\x89NZC", formats' (it tells a container apart from CAD)
-#: Format 1.0, frozen (docs/format.md): a reader of 1.x reads every 1.y with y ≤ x.
-MAJOR = 1
-MINOR = 2
+#: The version this writer writes (docs/format.md §0).  Format 1.x is frozen:
+#: 1.0, 1.1 and 1.2 decode forever, and no 1.3 will be written.
+MAJOR = 2
+MINOR = 0
+#: Every version this reader reads, oldest first.  A file's *revision* is its
+#: index here (:attr:`Container.revision`); the sections' readers branch on it.
+VERSIONS = ((1, 0), (1, 1), (1, 2), (2, 0))
+#: The revision this writer writes.
+REVISION = VERSIONS.index((MAJOR, MINOR))
 FLAG_LOSSLESS = 1
 #: Format 1.2: the container holds a STEP/IGES file verbatim (``passthrough``).
 FLAG_PASSTHROUGH = 2
-#: The flag bits a file of each minor version may set (a bit is reserved
-#: in the minors before the one that defines it).
-_KNOWN_FLAGS = {0: FLAG_LOSSLESS, 1: FLAG_LOSSLESS, 2: FLAG_LOSSLESS | FLAG_PASSTHROUGH}
+#: Format 2.0: the container holds a STEP/IGES file byte for byte through the
+#: text model (``nurbscomp.text``; docs/format.md §1.5).
+FLAG_EXACT = 4
+#: The flag bits a file of each revision may set (a bit is reserved in the
+#: revisions before the one that defines it).
+_KNOWN_FLAGS = (
+    FLAG_LOSSLESS,
+    FLAG_LOSSLESS,
+    FLAG_LOSSLESS | FLAG_PASSTHROUGH,
+    FLAG_LOSSLESS | FLAG_PASSTHROUGH | FLAG_EXACT,
+)
 _HEADER = struct.Struct("<4sBBHHH")
 _ENTRY = struct.Struct("<4sII")
 _BODY = struct.Struct("<B3sII")
@@ -90,6 +104,12 @@ class Container:
         return [s.tag for s in self.sections]
 
     @property
+    def revision(self) -> int:
+        """The file's version as an index into :data:`VERSIONS` (a 1.x file
+        newer than 1.2, which no writer makes, reads as 1.2)."""
+        return revision(self.major, self.minor)
+
+    @property
     def file_bytes(self) -> int:
         """Size of the container's bytes (header, directory, body)."""
         return (
@@ -100,6 +120,13 @@ class Container:
             + 4
             + self.stored_length
         )
+
+
+def revision(major: int, minor: int) -> int:
+    """The index into :data:`VERSIONS` of format ``major.minor`` (1.y past 1.2 as 1.2)."""
+    if major == 1:
+        return min(minor, 2)
+    return VERSIONS.index((major, minor))
 
 
 def pack(
@@ -152,11 +179,12 @@ def unpack(data: bytes) -> Container:
     (crc,) = _CRC.unpack_from(data, _HEADER.size)
     if crc != zlib.crc32(data[: _HEADER.size]):
         raise ChecksumError("header checksum mismatch at offset 12")
-    if major != MAJOR:
+    if major != 1 and (major, minor) not in VERSIONS:
         raise VersionError(
-            f"format version {major}.{minor} is not supported (this reads {MAJOR}.x) at offset 4"
+            f"format version {major}.{minor} is not supported (this reads 1.x and "
+            f"{MAJOR}.0 to {MAJOR}.{MINOR}) at offset 4"
         )
-    known = _KNOWN_FLAGS[min(minor, MINOR)]
+    known = _KNOWN_FLAGS[revision(major, minor)]
     if flags & ~known:
         raise ReservedBitsError(f"reserved flag bits 0x{flags & ~known:04x} set at offset 6")
     if reserved:

@@ -26,7 +26,7 @@ from typing import Any, cast
 
 import numpy as np
 
-from . import budget, codec, coons, dmap, joins, serialize
+from . import budget, codec, container, coons, dmap, joins, serialize
 from .errors import BadReferenceError, SectionError
 from .model import (
     BRepModel,
@@ -404,17 +404,18 @@ def check_location_matrices(m: BRepModel) -> None:
             raise SectionError(f"LOCS: location {k}'s matrix is not finite or out of range")
 
 
-def apply(m: BRepModel, t: Tables, tol: float, minor: int) -> None:
+def apply(m: BRepModel, t: Tables, tol: float, revision: int) -> None:
     """Run the decoder's geometric steps (module docstring) on ``m``, in place,
-    as format 1.``minor`` defines them (1.2 pins a net's corners only to a
-    vertex within its own grid step: :func:`joins.pin_radius`)."""
+    as the file's version (``container.VERSIONS[revision]``) defines them (from
+    1.2 a net's corners are pinned only to a vertex within its own grid step:
+    :func:`joins.pin_radius`)."""
     check_location_matrices(m)
     resolve_ranges(m, t.range_how)
     srows = coded_rows(m.surfaces)
     coded_surfaces = set(srows)
     _decode_nets(t.snet, m.surfaces, tol, "SNET")
     radius = None  # before 1.2: every corner within tol of a vertex of its face
-    if minor >= 2:
+    if revision >= 2:
         radius = {
             row: joins.pin_radius(tol, int(t.snet.quant[k]), int(t.snet.level[k]))
             for k, row in enumerate(srows)
@@ -435,7 +436,7 @@ def apply(m: BRepModel, t: Tables, tol: float, minor: int) -> None:
 
 def sections_to_model(
     get: Any,
-    minor: int | None = None,
+    revision: int | None = None,
     limits: budget.Limits | None = budget.DEFAULT,
 ) -> tuple[BRepModel, dict[str, Any]]:
     """Rebuild a model from a section lookup ``get(tag) -> bytes``: the tables
@@ -444,10 +445,10 @@ def sections_to_model(
     raises, and ``SectionError`` or ``BadReferenceError`` where a net, a range
     rule or a side join does not decode.
     """
-    minor = max(serialize.ADDED) if minor is None else minor
-    m, meta, t = serialize.read_sections(get, minor, limits)
+    revision = container.REVISION if revision is None else revision
+    m, meta, t = serialize.read_sections(get, revision, limits)
     with np.errstate(all="ignore"):  # overflows become non-finite values, refused by name
-        apply(m, t, serialize.tolerance(meta), minor)
+        apply(m, t, serialize.tolerance(meta), revision)
     if limits is not None:
         budget.check_projections(m)
     return m, meta

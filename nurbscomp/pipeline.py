@@ -280,13 +280,13 @@ def decode(
     if c.flags & container.FLAG_PASSTHROUGH:
         passthrough.read(c)  # a FormatError if it is not a sound passthrough container
         raise InputError("a passthrough container holds a file verbatim, not a B-rep")
-    serialize.check_layout(c.tags(), c.minor, container.MINOR)
+    serialize.check_layout(c.tags(), c.revision, newer=c.major == 1 and c.minor > 2)
     if limits is not None:
         # what the writer declared it decodes into is admitted, up to a ceiling
         declared = budget.declared(serialize.read_meta(c.get("META")))
         limits = limits.sized(c.file_bytes).admit(declared)
     try:
-        m, meta = sections_to_model(c.get, min(c.minor, container.MINOR), limits)
+        m, meta = sections_to_model(c.get, c.revision, limits)
     except NurbscompError:
         raise
     except (ValueError, IndexError, KeyError, TypeError, ArithmeticError, RecursionError) as e:

@@ -28,7 +28,7 @@ from typing import Any, cast
 
 import numpy as np
 
-from . import budget, product
+from . import budget, container, product
 from .errors import BadReferenceError, CorruptError, LimitError, SectionError
 from .model import (
     REBUILD,
@@ -773,31 +773,33 @@ def _read_sides(data: bytes, m: BRepModel, coded: set[int]) -> None:
 
 #: The sections of format 1.0, in the order they are written and must be read.
 SECTIONS = ("META", "LOCS", "SURF", "SNET", "CRV3", "CNET", "CRV2", "SHAP", "VERT", "EDGE", "FACE")
-#: What each minor version adds, after the sections of the minors before it.
+#: What each revision (``container.VERSIONS``: 1 is format 1.1, 2 is 1.2)
+#: adds, after the sections of the revisions before it.
 ADDED = {1: ("SIDE",), 2: ("PROD",)}
 
 
-def layout(minor: int) -> tuple[str, ...]:
-    """The sections a file of format 1.``minor`` holds, in order (as far as this reader knows)."""
-    return SECTIONS + tuple(t for k, tags in sorted(ADDED.items()) if k <= minor for t in tags)
+def layout(revision: int) -> tuple[str, ...]:
+    """The sections a file of ``revision`` holds, in order (as far as this reader knows)."""
+    return SECTIONS + tuple(t for k, tags in sorted(ADDED.items()) if k <= revision for t in tags)
 
 
-def check_layout(tags: list[str], minor: int, reader_minor: int) -> None:
+def check_layout(tags: list[str], revision: int, newer: bool = False) -> None:
     """Check a container's section tags: every section of ``SECTIONS``, in its order.
 
-    A section this reader does not know is refused in a file of a minor version
-    it knows (``minor <= reader_minor``), and skipped in a newer minor's file
-    (format 1.x adds sections only with a minor bump; docs/format.md, §0).
+    A section this reader does not know is refused, except in a file that is
+    ``newer`` than the versions this reader knows within format 1 (a 1.y past
+    1.2, which no writer makes: 1.x added sections only with a minor bump), where
+    it is skipped (docs/format.md, §0).
 
     Raises
     ------
     CorruptError
         A section is missing, out of order, or unknown.
     """
-    order = layout(min(minor, reader_minor))
+    order = layout(revision)
     known = [t for t in tags if t in order]
     for t in tags:
-        if t not in order and minor <= reader_minor:
+        if t not in order and not newer:
             raise CorruptError(f"unknown section {t!r} (position {tags.index(t)})")
     for t in SECTIONS:
         if t not in known:
@@ -898,15 +900,16 @@ def tolerance(meta: dict[str, Any]) -> float:
 
 def read_sections(
     get: Any,
-    minor: int | None = None,
+    revision: int | None = None,
     limits: budget.Limits | None = budget.DEFAULT,
 ) -> tuple[BRepModel, dict[str, Any], Tables]:
     """The tables of a container from a section lookup ``get(tag) -> bytes``,
     every reference checked: the model (coded poles still NaN, ranges left to
     rules still zero) and the :class:`Tables` for ``decode.apply``.
 
-    ``minor`` is the file's minor version, capped at this reader's (default:
-    the newest this reader knows, ``max(ADDED)``): it says which sections there are.
+    ``revision`` is the file's version (``container.Container.revision``;
+    default: the one this writer writes): it says which sections there are and
+    how each is laid out.
     ``limits`` is the decoding budget (``budget.check_structure``), checked on
     the tables before any net is decoded or any walk over the shapes is made;
     None skips it (a container just written).
@@ -921,11 +924,12 @@ def read_sections(
         Coded nets larger than a reader allocates, or a shape past ``limits``.
     """
     with np.errstate(all="ignore"):  # overflows become non-finite values, refused by name
-        return _read_sections(get, max(ADDED) if minor is None else minor, limits)
+        rev = container.REVISION if revision is None else revision
+        return _read_sections(get, rev, limits)
 
 
 def _optional(get: Any, tag: str) -> bytes | None:
-    """A section a later minor added, or None where the file has none
+    """A section a later version added, or None where the file has none
     (``get`` is a container's, raising ``CorruptError``, or a dict's)."""
     try:
         return cast(bytes, get(tag))
@@ -934,7 +938,7 @@ def _optional(get: Any, tag: str) -> bytes | None:
 
 
 def _read_sections(
-    get: Any, minor: int, limits: budget.Limits | None
+    get: Any, revision: int, limits: budget.Limits | None
 ) -> tuple[BRepModel, dict[str, Any], Tables]:
     meta = read_meta(get("META"))
     m = BRepModel()
@@ -954,11 +958,11 @@ def _read_sections(
         budget.check_structure(m, limits)
     coded_surfaces = coded_rows(m.surfaces)
     snet = _read_nets(get("SNET"), len(coded_surfaces), "SNET")
-    sides = _optional(get, "SIDE") if "SIDE" in layout(minor) else None
+    sides = _optional(get, "SIDE") if "SIDE" in layout(revision) else None
     if sides is not None:
         _read_sides(sides, m, set(coded_surfaces))
     cnet = _read_nets(get("CNET"), len(coded_rows(m.curves3d)), "CNET")
-    prod = _optional(get, "PROD") if "PROD" in layout(minor) else None
+    prod = _optional(get, "PROD") if "PROD" in layout(revision) else None
     if prod is not None:
         m.product = product.read(prod, len(m.shape_type))
     return m, meta, Tables(snet, cnet, range_how)

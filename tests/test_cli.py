@@ -73,7 +73,7 @@ def test_json_info_and_test(work: Path) -> None:
     assert info["passthrough"] is False and rep["passthrough"] is False
     assert set(info["section_raw_bytes"]) >= {"META", "SURF", "SHAP", "EDGE"}
     code, out, _ = run("info", str(work / "part.step.nzc"))
-    assert code == 0 and "format:      .nzc 1.2," in out
+    assert code == 0 and "format:      .nzc 2.0," in out
     code, out, _ = run("test", str(work / "part.step.nzc"))
     assert code == 0 and "OK" in out
 
@@ -206,7 +206,7 @@ def test_step_without_brep_is_stored_verbatim(
     code, out, _ = run("info", "--json", str(nzc))
     rep = json.loads(out)
     assert code == 0 and rep["passthrough"] and rep["mode"] == "passthrough"
-    assert rep["format_version"] == "1.2" and fragment in rep["reason"]
+    assert rep["format_version"] == "2.0" and fragment in rep["reason"]
     assert rep["source_bytes"] == len(content)
     code, out, _ = run("info", str(nzc))
     assert code == 0 and "passthrough" in out

@@ -86,11 +86,11 @@ def test_surface_model_keeps_its_free_edges(sample: str, tmp_path: Path) -> None
 
 def _golden_sections(name: str) -> tuple[int, dict[str, bytes]]:
     c = container.unpack((GOLDEN / f"{name}.nzc").read_bytes())
-    return c.minor, {s.tag: s.raw for s in c.sections}
+    return c.revision, {s.tag: s.raw for s in c.sections}
 
 
-def _decode(minor: int, secs: dict[str, bytes]):
-    return decode.sections_to_model(secs.__getitem__, minor)
+def _decode(revision: int, secs: dict[str, bytes]):
+    return decode.sections_to_model(secs.__getitem__, revision)
 
 
 def test_side_section_is_checked() -> None:
@@ -188,8 +188,8 @@ def test_corner_pins_follow_the_format_minor(tmp_path: Path) -> None:
     nzc = tmp_path / "b.nzc"
     pipeline.compress_file(CORPUS / "occt__bearing.iges", nzc, tol=0.1, step_safe=False)
     c = container.unpack(nzc.read_bytes())
-    assert c.minor >= 2
-    now, _ = decode.sections_to_model(c.get, c.minor)
+    assert c.revision >= 2
+    now, _ = decode.sections_to_model(c.get, c.revision)
     old, _ = decode.sections_to_model(c.get, 1)
     assert differences(now, old), "the two rules gave the same nets: the test proves nothing"
     src, _ = occ.shape_to_model(occ.read_cad(CORPUS / "occt__bearing.iges").shape)

@@ -256,7 +256,7 @@ def damaged(base: bytes) -> dict[str, tuple[bytes, str | None, str | None]]:
             "ChecksumError",
             "body",
         ),
-        "unknown_major": (edit(4, b"\x02"), "VersionError", "version 2.0 is not supported"),
+        "unknown_major": (edit(4, b"\x03"), "VersionError", "version 3.0 is not supported"),
         "reserved_flags": (edit(6, b"\x03\x00"), "ReservedBitsError", "offset 6"),
         "reserved_header": (edit(10, b"\x01\x00"), "ReservedBitsError", "offset 10"),
         "reserved_body": (edit(body + 2, b"\x01"), "ReservedBitsError", f"offset {body + 1}"),
