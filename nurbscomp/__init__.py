@@ -7,6 +7,8 @@ The Python API (docs/api.md)::
     shape = nurbscomp.decompress(data)                  # a cadquery.Shape (or Assembly)
     nurbscomp.info(data)                                # what the container holds
     nurbscomp.evaluate("part.step", data)               # a Report of the deviation
+    data = nurbscomp.compress("part.step", lossless=True)  # the same file back:
+    nurbscomp.original(data)                            # its bytes, SHA-256 checked
 
 Importing ``nurbscomp`` is fast: the functions are loaded on first use, and
 OCP (OpenCASCADE) when a function needs it.
@@ -18,7 +20,7 @@ from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     __version__: str
-    from ._api import compress, decompress, evaluate, info
+    from ._api import compress, decompress, evaluate, info, original
     from .report import Counts, FaceDeviation, Report
 
 __all__ = [
@@ -30,9 +32,10 @@ __all__ = [
     "decompress",
     "evaluate",
     "info",
+    "original",
 ]
 
-_API = {"compress", "decompress", "evaluate", "info"}
+_API = {"compress", "decompress", "evaluate", "info", "original"}
 _REPORT = {"Counts", "FaceDeviation", "Report"}
 
 

@@ -15,10 +15,10 @@ import numbers
 import os
 import tempfile
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Union
+from typing import TYPE_CHECKING, Any, Literal, Union
 
 from . import budget, container, passthrough, pipeline
-from .errors import ArgumentError, CorruptError, NoBRepError
+from .errors import ArgumentError, CorruptError, InputError, NoBRepError
 from .formats import sniff_format
 from .lazy import lazy_module
 from .report import Report
@@ -75,7 +75,7 @@ def compress(
     obj: Source,
     *,
     tol: Length = pipeline.DEFAULT_TOL_MM,
-    lossless: bool = False,
+    lossless: bool | Literal["exact", "brep"] = False,
     verify: bool = True,
     step_safe: bool = True,
 ) -> bytes:
@@ -94,8 +94,12 @@ def compress(
         length with a unit, as ``--tol`` takes it: ``"5um"``, ``"0.01mm"``,
         ``"1mil"``, ``"0.0004in"`` (a bare number in a string is in mm).
         Checked, then ignored, with ``lossless``.
-    lossless : bool, optional
-        Keep every number bit for bit.
+    lossless : bool, "exact" or "brep", optional
+        ``"exact"``: the file itself, byte for byte (``--lossless``; a path or
+        bytes only: :func:`original` gives them back, SHA-256 checked).
+        ``"brep"``: every number of the B-rep bit for bit, the same shape back
+        (``--lossless-brep``).  True is ``"exact"`` for a path or bytes and
+        ``"brep"`` for a shape in memory, which has no file to keep.
     verify : bool, optional
         Decode the container and check it against what was encoded (as
         ``nurbscomp compress`` does; ``--no-verify``).
@@ -128,11 +132,16 @@ def compress(
     b'\\x89NZC'
     """
     checked = _check_tol(tol)
+    if lossless not in (False, True, "exact", "brep"):
+        raise ArgumentError(f"lossless must be a bool, 'exact' or 'brep', not {lossless!r}")
     try:
         t = None if lossless else check_tolerance(checked)
     except ValueError as e:  # outside what the format codes (units.TOL_RANGE_MM)
         raise ArgumentError(str(e)) from None
-    opts: dict[str, Any] = {"tol": t, "lossless": lossless, "step_safe": step_safe}
+    file_like = isinstance(obj, (*_BYTES, str, os.PathLike))
+    if lossless == "exact" or (lossless is True and file_like):
+        return _compress_exact(obj, verify)
+    opts: dict[str, Any] = {"tol": t, "lossless": bool(lossless), "step_safe": step_safe}
     if isinstance(obj, _BYTES):
         data = bytes(obj)
         name = _source_name(data)
@@ -160,6 +169,60 @@ def compress(
     return enc.data
 
 
+def _compress_exact(obj: Source, verify: bool) -> bytes:
+    """The byte-exact container of a file (path or bytes)."""
+    if isinstance(obj, _BYTES):
+        data, name = bytes(obj), _source_name(bytes(obj))
+    elif isinstance(obj, (str, os.PathLike)):
+        try:
+            data, name = Path(obj).read_bytes(), Path(obj).name
+        except OSError as e:
+            raise InputError(e.strerror or str(e)) from None
+    else:
+        raise ArgumentError(
+            f"lossless='exact' keeps a file: give a path or bytes, not a {_what(obj)}"
+        )
+    return _pack_verbatim(data, name, None, verify)
+
+
+def _pack_verbatim(data: bytes, name: str, reason: str | None, verify: bool) -> bytes:
+    """``passthrough.pack_file``, read back when ``verify``."""
+    blob, _ = passthrough.pack_file(data, name, reason)
+    if verify and passthrough.read(container.unpack(blob))[1] != data:
+        raise CorruptError("the byte-exact container does not give the file back")
+    return blob
+
+
+def original(data: Data) -> bytes:
+    """The file a byte-exact container holds (``compress(..., lossless=True)``
+    of a file), byte for byte; its SHA-256 is checked.
+
+    Raises
+    ------
+    nurbscomp.errors.InputError
+        The container holds a B-rep, not a file (tolerance or ``"brep"`` mode:
+        :func:`decompress` gives its shape).
+    nurbscomp.errors.FormatError
+        The bytes are not a sound container.
+
+    Examples
+    --------
+    >>> import nurbscomp
+    >>> step = b"ISO-10303-21;\\nHEADER;\\nENDSEC;\\nDATA;\\nENDSEC;\\nEND-ISO-10303-21;\\n"
+    >>> nurbscomp.original(nurbscomp.compress(step, lossless=True)) == step
+    True
+    """
+    if isinstance(data, _BYTES):
+        c = container.unpack(bytes(data))
+    elif isinstance(data, (str, os.PathLike)):
+        c = pipeline.read_container(Path(data))
+    else:
+        raise ArgumentError(f"cannot read a {_what(data)}: give a .nzc path or its bytes")
+    if not c.flags & passthrough.VERBATIM:
+        raise InputError("the container holds a B-rep, not a file: decompress() gives its shape")
+    return passthrough.read(c)[1]
+
+
 def _compress_file(path: Path, name: str, verify: bool, opts: dict[str, Any]) -> bytes:
     """``pipeline.compress_file``'s stages on a file, to bytes; ``name`` goes to META."""
     try:
@@ -171,11 +234,7 @@ def _compress_file(path: Path, name: str, verify: bool, opts: dict[str, Any]) ->
         if verify:
             pipeline.verify_encoded(enc, enc.data)
         return enc.data
-    data = path.read_bytes()
-    blob, _ = passthrough.pack_file(data, name or path.name, reason)
-    if verify and passthrough.read(container.unpack(blob))[1] != data:
-        raise CorruptError("the passthrough container does not give the file back")
-    return blob
+    return _pack_verbatim(path.read_bytes(), name or path.name, reason, verify)
 
 
 def _decode(data: Data, limit_scale: float) -> tuple[Any, Any, dict[str, Any]]:

@@ -88,7 +88,8 @@ class Options:
     force: bool = False
     skip_existing: bool = False
     tol: float | None = pipeline.DEFAULT_TOL_MM
-    lossless: bool = False
+    lossless: bool = False  # the B-rep's numbers bit for bit (--lossless-brep)
+    exact: bool = False  # the file byte for byte (--lossless)
     verify: bool = True
     step_safe: bool = True
     fmt: str | None = None  # decompress: "STEP", "IGES" or "BREP"
@@ -292,6 +293,7 @@ def run_task(
                 dst,
                 tol=None if opts.lossless else opts.tol,
                 lossless=opts.lossless,
+                exact=opts.exact,
                 force=opts.force,
                 verify=opts.verify,
                 step_safe=opts.step_safe,

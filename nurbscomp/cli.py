@@ -223,7 +223,7 @@ def cli(ctx: click.Context, debug: bool) -> None:
     \b
     Examples:
       nurbscomp compress part.step            # -> part.step.nzc (tol 0.01 mm)
-      nurbscomp compress --lossless *.stp     # exact geometry
+      nurbscomp compress --lossless *.stp     # the same bytes back (SHA-256)
       nurbscomp decompress part.step.nzc      # -> part.step
       nurbscomp -d part.step.nzc              # the same, as gzip -d
       nurbscomp decompress a.nzc -o a.igs     # IGES (or .brep) by extension
@@ -460,7 +460,8 @@ def _batch(
     stop: KeyboardInterrupt | None = None
 
     # the default tolerance is said once, with the first file it was used on
-    untold = opts.command == "compress" and kw.get("tol") is None and not opts.lossless
+    lossless = opts.lossless or opts.exact
+    untold = opts.command == "compress" and kw.get("tol") is None and not lossless
     untold = untold and not (quiet or as_json)
 
     def report(r: dict[str, Any]) -> None:
@@ -551,7 +552,16 @@ def _report(
 
 @cli.command()
 @click.argument("files", nargs=-1, required=True, type=click.Path())
-@click.option("--lossless", is_flag=True, help="Keep every number bit for bit.")
+@click.option(
+    "--lossless",
+    is_flag=True,
+    help="Give back the same file, byte for byte (SHA-256 checked); no OpenCASCADE needed.",
+)
+@click.option(
+    "--lossless-brep",
+    is_flag=True,
+    help="Keep every number of the B-rep bit for bit: the same shape back, as a new file.",
+)
 @click.option(
     "--tol",
     type=_Tolerance(),
@@ -574,6 +584,7 @@ def compress(
     state: _State,
     files: tuple[str, ...],
     lossless: bool,
+    lossless_brep: bool,
     tol: float | None,
     no_verify: bool,
     step_safe: bool,
@@ -583,19 +594,26 @@ def compress(
     """Compress STEP/IGES FILES to FILE.nzc (the input is kept).
 
     FILES may be folders (with -r) and - (standard input, to standard output
-    unless -o).  A valid STEP/IGES file that holds no B-rep (tessellated,
-    curves only) is stored verbatim, with a warning.
+    unless -o).  Three modes: a tolerance (--tol, the default 0.01 mm: every
+    face within it, certified), --lossless (the same file back, byte for
+    byte), --lossless-brep (the same B-rep back, every number bit for bit).
+    A valid STEP/IGES file that holds no B-rep (tessellated, curves only) is
+    stored byte for byte, with a warning.
     """
     from .batch import Options
 
-    if lossless and tol is not None:
-        raise click.UsageError("--lossless and --tol exclude each other")
+    if lossless and lossless_brep:
+        raise click.UsageError("--lossless and --lossless-brep exclude each other")
+    if (lossless or lossless_brep) and tol is not None:
+        flag = "--lossless" if lossless else "--lossless-brep"
+        raise click.UsageError(f"{flag} and --tol exclude each other")
     opts = Options(
         "compress",
         force=kw["force"],
         skip_existing=kw["skip_existing"],
-        tol=None if lossless else (tol if tol is not None else DEFAULT_TOL_MM),
-        lossless=lossless,
+        tol=None if lossless or lossless_brep else (tol if tol is not None else DEFAULT_TOL_MM),
+        lossless=lossless_brep,
+        exact=lossless,
         verify=not no_verify,
         step_safe=step_safe,
         debug=state.debug,
@@ -607,13 +625,14 @@ def compress(
 def _compress_text(r: dict[str, Any], verbose: bool) -> str:
     if r.get("interrupted"):
         return f"{r['input']} -> {r['output']}: done before the interrupt"
-    if r["mode"] == "passthrough":
+    if r["mode"] in ("passthrough", "exact"):
+        how = "stored verbatim" if r["mode"] == "passthrough" else "lossless, byte-exact"
         return (
             f"{r['input']} -> {r['output']}: {r['input_bytes']} -> {r['output_bytes']} bytes "
-            f"({r['ratio']:.1f}x, stored verbatim, {r['seconds']:.2f} s"
+            f"({r['ratio']:.1f}x, {how}, {r['seconds']:.2f} s"
             f"{', verified' if r['verified'] else ''})"
         )
-    mode = "lossless" if r["mode"] == "lossless" else f"tol {r['tolerance_mm']:g} mm"
+    mode = "lossless B-rep" if r["mode"] == "lossless" else f"tol {r['tolerance_mm']:g} mm"
     line = (
         f"{r['input']} -> {r['output']}: {r['input_bytes']} -> {r['output_bytes']} bytes "
         f"({r['ratio']:.1f}x, {mode}, {r['seconds']:.2f} s"
@@ -679,8 +698,8 @@ def decompress(
     def text(r: dict[str, Any]) -> str:
         if r.get("interrupted"):
             return f"{r['input']} -> {r['output']}: done before the interrupt"
-        if r.get("passthrough"):
-            return f"{r['input']} -> {r['output']}: {r['format']} stored verbatim, exact bytes"
+        if r.get("passthrough") or r.get("exact"):
+            return f"{r['input']} -> {r['output']}: {r['format']}, the exact bytes"
         line = f"{r['input']} -> {r['output']}: {r['format']} in {r['unit']}"
         line += f", {r['seconds']:.2f} s"
         return line + (f"\n  {_fmt_counts(r['counts'])}" if verbose else "")
@@ -718,14 +737,21 @@ def _info_lines(r: dict[str, Any]) -> list[str]:
         f"file:        {r['input']} ({r['file_bytes']} bytes)",
         f"format:      .nzc {r['format_version']}, body coded with {r['coder']}",
     ]
-    if r.get("passthrough"):
+    if r["mode"] in ("passthrough", "exact"):
+        what = (
+            f"passthrough (the file stored verbatim: {r['reason']})"
+            if r.get("passthrough")
+            else "lossless, byte-exact (the file itself)"
+        )
         return [
             *head,
-            f"mode:        passthrough (the file stored verbatim: {r['reason']})",
+            f"mode:        {what}",
             f"source:      {r['source_name']} ({r['source_format']}, {r['source_bytes']} bytes)",
+            f"sha256:      {r['sha256']}",
+            f"text model:  {r['model']}",
             f"ratio:       {r['source_bytes'] / r['file_bytes']:.1f}x",
         ]
-    mode = "lossless" if r["mode"] == "lossless" else f"tolerance {r['tolerance_mm']:g} mm"
+    mode = "lossless B-rep" if r["mode"] == "lossless" else f"tolerance {r['tolerance_mm']:g} mm"
     return [
         *head,
         f"mode:        {mode}",
@@ -775,8 +801,9 @@ def test_cmd(state: _State, files: tuple[str, ...], **kw: Any) -> None:
     opts = Options("test", debug=state.debug, limit_scale=kw.pop("limit_scale"))
 
     def text(r: dict[str, Any]) -> str:
-        what = "stored verbatim" if r.get("passthrough") else _plural(r["faces"], "face")
-        return f"{r['input']}: OK ({what})"
+        if r.get("exact") or r.get("passthrough"):
+            return f"{r['input']}: OK (the exact file, sha256 {r['sha256'][:16]}...)"
+        return f"{r['input']}: OK ({_plural(r['faces'], 'face')})"
 
     _batch(state, files, opts, kw, text)
 

@@ -1,17 +1,24 @@
-"""Passthrough containers (format 1.2): a STEP or IGES file stored verbatim.
+"""Containers that hold the source file itself, byte for byte.
 
-A valid STEP or IGES file that holds no B-rep (tessellated-only AP242,
-curves or points only, a product with no shape) cannot be coded as tables,
-but an archive must still take it.  ``compress`` stores its bytes, entropy
-coded like any body, in a container whose header has ``FLAG_PASSTHROUGH``
-set, with two sections: ``META`` (JSON: ``mode`` ``"passthrough"``, the
-source's format, name and size, the writer, and why it holds no B-rep) and
-``FILE`` (the bytes).  ``decompress`` gives back the exact bytes.  Nothing
-here imports OCP.  Layout: docs/format.md, §1.5.
+Two kinds (docs/format.md §1.4, §1.5), both read here:
+
+* **byte-exact** (format 2.0, header flag ``FLAG_EXACT``): what ``compress
+  --lossless`` writes, and what a valid STEP/IGES file that holds no B-rep
+  becomes in any mode.  Sections ``META`` (JSON: ``mode`` ``"exact"``, the
+  source's format, name, size and SHA-256, the writer, the text model used,
+  and, for a file with no B-rep, why) and ``TEXT`` (the file through the text
+  model, :mod:`nurbscomp.text`).  Writing one needs no OpenCASCADE: the file is
+  read as text.
+* **passthrough** (format 1.2, ``FLAG_PASSTHROUGH``): the file's bytes in a
+  ``FILE`` section, entropy coded with the body.  Read, no longer written.
+
+``decompress`` gives back the exact bytes; the SHA-256 is checked on every
+read.  Nothing here imports OCP.
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import time
@@ -19,12 +26,19 @@ import zlib
 from pathlib import Path
 from typing import Any
 
-from . import __version__, container
-from .errors import CorruptError, InputError, LimitError, SectionError
+from . import __version__, container, text
+from .entropy import Coder
+from .errors import ChecksumError, CorruptError, InputError, LimitError, SectionError
 from .formats import BREP_SUFFIXES, IGES_SUFFIXES, STEP_SUFFIXES, output_format
 
-#: The sections of a passthrough container, in order.
+#: The sections of a passthrough container (1.2), in order.
 SECTIONS = ("META", "FILE")
+#: The sections of a byte-exact container (2.0), in order.
+EXACT_SECTIONS = ("META", "TEXT")
+#: Header flags of a container that holds its source file.
+VERBATIM = container.FLAG_PASSTHROUGH | container.FLAG_EXACT
+#: ``META["model"]``: the text model's name by its id (the TEXT blob's first byte).
+MODELS = {text.PLAIN: "plain", text.STEP: "step", text.IGES: "iges"}
 #: ``source_format`` values a passthrough container may hold.
 SOURCE_FORMATS = ("STEP", "IGES")
 #: Largest META section a reader parses, in bytes (a writer's is ~300).
@@ -33,8 +47,9 @@ MAX_META_BYTES = 1 << 16
 MAX_META_TEXT = 1024
 
 
-def is_passthrough(path: Path) -> bool:
-    """Whether ``path`` starts like a container whose header flags a passthrough.
+def is_verbatim(path: Path) -> bool:
+    """Whether ``path`` starts like a container that holds its source file
+    (header flag passthrough or byte-exact).
 
     Only the 16 header bytes are looked at (and their checksum); the whole
     container is checked by :func:`read`.  A file that cannot be read is not
@@ -50,7 +65,7 @@ def is_passthrough(path: Path) -> bool:
     if zlib.crc32(head[:12]) != int.from_bytes(head[12:16], "little"):
         return False
     flags = int.from_bytes(head[6:8], "little")
-    return bool(flags & container.FLAG_PASSTHROUGH)
+    return bool(flags & VERBATIM)
 
 
 def well_formed(data: bytes, fmt: str) -> bool:
@@ -71,8 +86,11 @@ def well_formed(data: bytes, fmt: str) -> bool:
     )
 
 
-def pack(data: bytes, source_format: str, source_name: str, reason: str) -> bytes:
-    """Container bytes holding ``data`` verbatim.
+def pack(data: bytes, source_format: str, source_name: str, reason: str | None = None) -> bytes:
+    """The byte-exact container of ``data``; ``reason`` says why a file that
+    holds no B-rep is stored this way in a tolerance mode (None: asked for).
+
+    The body is stored (coder 0): ``TEXT`` is already entropy coded.
 
     Raises
     ------
@@ -83,40 +101,29 @@ def pack(data: bytes, source_format: str, source_name: str, reason: str) -> byte
 
     if len(data) > container.MAX_RAW - MAX_META_BYTES:
         raise InputError(
-            f"holds no B-rep, and at {len(data)} bytes is too large to store verbatim "
-            f"(at most {container.MAX_RAW - MAX_META_BYTES})"
+            f"at {len(data)} bytes, too large to store (at most "
+            f"{container.MAX_RAW - MAX_META_BYTES})"
         )
-    meta = {
-        "mode": "passthrough",
+    blob = text.encode(data)
+    meta: dict[str, Any] = {
+        "mode": "exact",
         "source_format": source_format,
         "source_name": meta_text(source_name),
         "source_bytes": len(data),
+        "sha256": hashlib.sha256(data).hexdigest(),
+        "model": MODELS[blob[0]],
         "writer": f"nurbscomp {__version__}",
-        "reason": meta_text(reason),
     }
+    if reason is not None:
+        meta["reason"] = meta_text(reason)
     raw_meta = json.dumps(meta, sort_keys=True, separators=(",", ":")).encode()
-    return container.pack([("META", raw_meta), ("FILE", data)], container.FLAG_PASSTHROUGH)
+    return container.pack(
+        [("META", raw_meta), ("TEXT", blob)], container.FLAG_EXACT, coders=(Coder.STORED,)
+    )
 
 
-def read(c: container.Container) -> tuple[dict[str, Any], bytes]:
-    """The META fields and the stored file of a checked passthrough container.
-
-    Raises
-    ------
-    CorruptError
-        Other sections than ``META`` and ``FILE``, the lossless flag set too,
-        or a stored file whose length is not META's ``source_bytes``.
-    SectionError
-        META is not a JSON object with the fields a writer writes.
-    LimitError
-        META is larger than ``MAX_META_BYTES``.
-    """
-    if not c.flags & container.FLAG_PASSTHROUGH:
-        raise CorruptError("not a passthrough container (flag bit 1 at offset 6 is clear)")
-    if c.flags & container.FLAG_LOSSLESS:
-        raise CorruptError("a passthrough container has the lossless flag set (offset 6)")
-    if tuple(c.tags()) != SECTIONS:
-        raise CorruptError(f"a passthrough container holds sections {c.tags()}, not META, FILE")
+def _meta(c: container.Container, mode: str) -> dict[str, Any]:
+    """META of a verbatim container, its fields checked (:func:`read`)."""
     raw = c.get("META")
     if len(raw) > MAX_META_BYTES:
         raise LimitError(f"META: {len(raw)} bytes, more than the {MAX_META_BYTES} a reader parses")
@@ -124,51 +131,100 @@ def read(c: container.Container) -> tuple[dict[str, Any], bytes]:
         meta = json.loads(raw.decode("utf-8"))
     except (UnicodeDecodeError, ValueError, RecursionError):
         raise SectionError("META section is not valid JSON") from None
-    if not isinstance(meta, dict) or meta.get("mode") != "passthrough":
-        raise SectionError("META: a passthrough container's mode is not 'passthrough'")
-    for key in ("source_format", "source_name", "writer", "reason"):
+    if not isinstance(meta, dict) or meta.get("mode") != mode:
+        raise SectionError(f"META: a {mode} container's mode is not {mode!r}")
+    for key in ("source_format", "source_name", "writer", "reason", "model", "sha256"):
         v = meta.get(key, "")
         if not isinstance(v, str) or len(v) > MAX_META_TEXT or not v.isprintable():
             raise SectionError(f"META: {key} is not a short printable string")
     if meta.get("source_format") not in SOURCE_FORMATS:
         raise SectionError("META: source_format is not STEP or IGES")
-    data = c.get("FILE")
     size = meta.get("source_bytes")
-    if isinstance(size, bool) or not isinstance(size, int) or size != len(data):
-        raise CorruptError(f"FILE holds {len(data)} bytes, META's source_bytes says {size!r}")
+    if isinstance(size, bool) or not isinstance(size, int) or not 0 <= size <= container.MAX_RAW:
+        raise SectionError(f"META: source_bytes is not a length a reader inflates: {size!r}")
+    return meta
+
+
+def read(c: container.Container) -> tuple[dict[str, Any], bytes]:
+    """The META fields and the source file of a checked verbatim container.
+
+    Raises
+    ------
+    CorruptError
+        Neither flag is set, or both, or the lossless flag is; other sections
+        than the kind's; a file whose length is not META's ``source_bytes``.
+    ChecksumError
+        A byte-exact container's file whose SHA-256 is not META's.
+    SectionError
+        META is not a JSON object with the fields a writer writes.
+    LimitError
+        META is larger than ``MAX_META_BYTES``.
+    FormatError
+        A ``TEXT`` section the text model does not decode (``text.decode``).
+    """
+    kind = c.flags & VERBATIM
+    if kind not in (container.FLAG_PASSTHROUGH, container.FLAG_EXACT):
+        raise CorruptError(
+            f"not a container that holds its file (flag bits 1 and 2 at offset 6: {kind >> 1:02b})"
+        )
+    exact = kind == container.FLAG_EXACT
+    what = "byte-exact" if exact else "passthrough"
+    if c.flags & container.FLAG_LOSSLESS:
+        raise CorruptError(f"a {what} container has the lossless flag set (offset 6)")
+    want = EXACT_SECTIONS if exact else SECTIONS
+    if tuple(c.tags()) != want:
+        raise CorruptError(f"a {what} container holds sections {c.tags()}, not {', '.join(want)}")
+    meta = _meta(c, "exact" if exact else "passthrough")
+    size = meta["source_bytes"]
+    if exact:
+        if meta.get("model") not in MODELS.values():
+            raise SectionError(f"META: unknown text model {meta.get('model')!r}")
+        data = text.decode(c.get("TEXT"), size)
+    else:
+        data = c.get("FILE")
+    if size != len(data):
+        raise CorruptError(
+            f"the stored file holds {len(data)} bytes, META's source_bytes says {size!r}"
+        )
+    if exact and hashlib.sha256(data).hexdigest() != meta.get("sha256"):
+        raise ChecksumError("the decoded file's SHA-256 is not META's sha256")
     return meta, data
 
 
-def pack_file(data: bytes, name: str, reason: str) -> tuple[bytes, str]:
-    """The passthrough container of a STEP/IGES file's bytes, and its format.
+def pack_file(data: bytes, name: str, reason: str | None = None) -> tuple[bytes, str]:
+    """The byte-exact container of a STEP/IGES file's bytes, and its format.
+
+    ``reason`` (why the file holds no B-rep, when that is why it is stored so)
+    asks for a well-formed file; asked for (``--lossless``), any file whose
+    content or name says STEP or IGES is taken, even one OCCT cannot read.
 
     Raises
     ------
     InputError
-        ``data`` is not laid out as STEP or IGES (:func:`well_formed`), or is
-        too large to store.
+        Not STEP or IGES; with ``reason``, not laid out as one
+        (:func:`well_formed`); too large to store.
     """
     from .formats import sniff_format
 
     fmt = sniff_format(Path(name), data[: 1 << 16])
-    if not well_formed(data, fmt):
+    if reason is not None and not well_formed(data, fmt):
         raise InputError(f"not a well-formed {fmt} file ({reason})")
     return pack(data, fmt, name, reason), fmt
 
 
 def compress_file(
-    src: Path, dst: Path, reason: str, *, force: bool, t0: float, verify: bool = True
+    src: Path, dst: Path, reason: str | None, *, force: bool, t0: float, verify: bool = True
 ) -> dict[str, Any]:
-    """Store ``src`` verbatim in ``dst``; the report of ``pipeline.compress_file``'s shape.
+    """Store ``src`` byte for byte in ``dst``; the report of ``pipeline.compress_file``'s shape.
 
-    ``reason`` says why the file holds no B-rep (the ``NoBRepError``'s message);
-    it is the report's warning.  With ``verify``, the written container is read
-    back and must give the same bytes.
+    ``reason`` says why the file holds no B-rep (the ``NoBRepError``'s message;
+    the report's warning), or is None where byte-exact mode was asked for.  With
+    ``verify``, the written container is read back and must give the same bytes.
 
     Raises
     ------
     InputError
-        ``src`` cannot be read, or is too large to store.
+        ``src`` cannot be read, is not STEP/IGES, or is too large to store.
     OutputError
         ``dst`` cannot be written (see ``pipeline.atomic_output``).
     """
@@ -182,8 +238,11 @@ def compress_file(
     with atomic_output(dst, force, (src,)) as tmp:
         tmp.write_bytes(blob)
         if verify and read(read_container(tmp))[1] != data:
-            raise CorruptError("the passthrough container does not give the file back")
-    warning = f"stored verbatim (passthrough container, no geometry coding): {reason}"
+            raise CorruptError("the byte-exact container does not give the file back")
+    warnings = []
+    if reason is not None:
+        warnings.append(f"stored verbatim, byte for byte (no geometry coding): {reason}")
+    c = container.unpack(blob)
     return {
         "command": "compress",
         "input": str(src),
@@ -191,19 +250,31 @@ def compress_file(
         "input_bytes": len(data),
         "output_bytes": len(blob),
         "ratio": len(data) / len(blob),
-        "mode": "passthrough",
-        "passthrough": True,
+        "mode": "exact" if reason is None else "passthrough",
+        "passthrough": reason is not None,
         "reason": reason,
         "tolerance_mm": None,
         "source_format": fmt,
+        "sha256": hashlib.sha256(data).hexdigest(),
+        "model": MODELS[c.get("TEXT")[0]],
         "verified": verify,
         "seconds": time.perf_counter() - t0,
-        "warnings": [warning],
+        "warnings": warnings,
     }
 
 
-def decompress_file(src: Path, dst: Path, *, force: bool, fmt: str | None = None) -> dict[str, Any]:
-    """Write back the file a passthrough container holds, byte for byte.
+def decompress_file(
+    src: Path,
+    dst: Path,
+    *,
+    force: bool,
+    fmt: str | None = None,
+    convert: Any = None,
+) -> dict[str, Any]:
+    """Write back the file a verbatim container holds, byte for byte, or,
+    where another format is asked for, the file through ``convert(data,
+    source_format, tmp_path, fmt, meta)`` (``pipeline``'s: OCCT reads the text
+    and writes the other format; it returns the report's ``unit`` and ``counts``).
 
     ``fmt`` is the output format asked for (default: by ``dst``'s extension,
     where an unknown one means the stored file's own format).
@@ -211,8 +282,8 @@ def decompress_file(src: Path, dst: Path, *, force: bool, fmt: str | None = None
     Raises
     ------
     InputError
-        The stored file is STEP (IGES) and IGES or BREP (STEP) was asked for:
-        there is no B-rep to convert.
+        Another format is asked for and the file holds no B-rep (or there is
+        no ``convert``).
     FormatError
         The container is damaged (see :func:`read`).
     OutputError
@@ -226,41 +297,51 @@ def decompress_file(src: Path, dst: Path, *, force: bool, fmt: str | None = None
     have = meta["source_format"]
     known = os.path.splitext(dst)[1].lower() in (*STEP_SUFFIXES, *IGES_SUFFIXES, *BREP_SUFFIXES)
     want = fmt or (output_format(dst) if known else have)
-    if want != have:
+    if want != have and ("reason" in meta or convert is None):
         raise InputError(
             f"holds a {have} file stored verbatim (no B-rep): it cannot be written as {want}"
         )
+    extra: dict[str, Any] = {}
     with atomic_output(dst, force, (src,)) as tmp:
-        tmp.write_bytes(data)
+        if want == have:
+            tmp.write_bytes(data)
+        else:
+            extra = convert(data, have, tmp, want, meta)
+        size = tmp.stat().st_size
     return {
+        **extra,
         "command": "decompress",
         "input": str(src),
         "output": str(dst),
-        "format": have,
-        "passthrough": True,
-        "output_bytes": len(data),
+        "format": want,
+        "passthrough": "reason" in meta,
+        "exact": want == have,
+        "output_bytes": size,
         "seconds": time.perf_counter() - t0,
     }
 
 
 def info(src: Path) -> dict[str, Any]:
-    """What a passthrough container holds (the fields of ``pipeline.info`` that apply)."""
+    """What a verbatim container holds (the fields of ``pipeline.info`` that apply)."""
     from .pipeline import read_container
 
     c = read_container(src)
     meta, data = read(c)
+    exact = bool(c.flags & container.FLAG_EXACT)
     return {
         "command": "info",
         "input": str(src),
         "format_version": f"{c.major}.{c.minor}",
         "lossless": False,
-        "passthrough": True,
-        "mode": "passthrough",
+        "passthrough": "reason" in meta,
+        "mode": "exact" if exact and "reason" not in meta else "passthrough",
         "reason": meta.get("reason", ""),
         "tolerance_mm": None,
         "source_format": meta["source_format"],
         "source_name": meta.get("source_name"),
         "source_bytes": len(data),
+        "sha256": hashlib.sha256(data).hexdigest(),
+        "model": meta.get("model", "verbatim"),
         "writer": meta.get("writer"),
         "file_bytes": src.stat().st_size,
         "coder": container.entropy.Coder(c.coder).name.lower(),

@@ -12,6 +12,7 @@ import collections
 import contextlib
 import dataclasses
 import functools
+import hashlib
 import logging
 import os
 import signal
@@ -244,7 +245,7 @@ def source_format(path: Path) -> str:
         As :func:`read_container`; a META that does not read.
     """
     c = read_container(path)
-    if c.flags & container.FLAG_PASSTHROUGH:
+    if c.flags & passthrough.VERBATIM:
         return str(passthrough.read(c)[0]["source_format"])
     fmt = str(serialize.read_meta(c.get("META")).get("source_format", "STEP"))
     return fmt if fmt in FORMAT_SUFFIX else "STEP"
@@ -277,9 +278,9 @@ def decode(
         specific check caught.  The checks in ``serialize`` are meant to make
         this unreachable; the fuzzer counts it as a failure.
     """
-    if c.flags & container.FLAG_PASSTHROUGH:
-        passthrough.read(c)  # a FormatError if it is not a sound passthrough container
-        raise InputError("a passthrough container holds a file verbatim, not a B-rep")
+    if c.flags & passthrough.VERBATIM:
+        cad, meta = _verbatim_cad(c)
+        return _cad_model(cad), meta
     serialize.check_layout(c.tags(), c.revision, newer=c.major == 1 and c.minor > 2)
     if limits is not None:
         # what the writer declared it decodes into is admitted, up to a ceiling
@@ -355,8 +356,7 @@ def decode_file(
 ) -> tuple[Any, BRepModel, dict[str, Any]]:
     """Decode a ``.nzc`` file into an in-memory shape (millimetres), within
     ``limits`` (and the output size of ``fmt``, if given)."""
-    m, meta = decode(read_container(Path(path)), limits, fmt)
-    return build(m), m, meta
+    return _decode_shape(read_container(Path(path)), limits, fmt)
 
 
 def decode_data(
@@ -365,8 +365,59 @@ def decode_data(
     fmt: str | None = None,
 ) -> tuple[Any, BRepModel, dict[str, Any]]:
     """:func:`decode_file` for a container's bytes in memory."""
-    m, meta = decode(container.unpack(data), limits, fmt)
+    return _decode_shape(container.unpack(data), limits, fmt)
+
+
+def _decode_shape(
+    c: container.Container, limits: budget.Limits, fmt: str | None
+) -> tuple[Any, BRepModel, dict[str, Any]]:
+    """The shape, model and META of a container: built from its tables, or, for a
+    byte-exact one, read by OCCT from the file it holds."""
+    if c.flags & passthrough.VERBATIM:
+        cad, meta = _verbatim_cad(c)
+        return cad.shape, _cad_model(cad), meta
+    m, meta = decode(c, limits, fmt)
     return build(m), m, meta
+
+
+def _verbatim_cad(c: container.Container) -> tuple[Any, dict[str, Any]]:
+    """The ``occ.CadFile`` OCCT reads from the file a verbatim container holds.
+
+    Raises
+    ------
+    InputError
+        The file holds no B-rep (it was stored byte for byte for that reason).
+    FormatError
+        The container is damaged (``passthrough.read``).
+    """
+    meta, data = passthrough.read(c)
+    if "reason" in meta:
+        raise InputError("a passthrough container holds a file verbatim, not a B-rep")
+    return read_text(data, str(meta["source_format"])), meta
+
+
+def read_text(data: bytes, fmt: str) -> Any:
+    """:func:`read_source` of a STEP or IGES file's bytes (through a temporary file:
+    OCCT's readers take a path)."""
+    with tempfile.TemporaryDirectory(prefix="nurbscomp.") as d:
+        p = Path(d) / ("source.igs" if fmt == "IGES" else "source.step")
+        p.write_bytes(data)
+        return read_source(p)
+
+
+def _cad_model(cad: Any) -> BRepModel:
+    """The model of a read file, exact, with its unit, format and product data."""
+    m, _ = occ.shape_to_model(cad.shape)
+    m.unit, m.source_format, m.product = cad.unit, cad.source_format, cad.product
+    return m
+
+
+def _convert(data: bytes, have: str, dst: Path, want: str, meta: dict[str, Any]) -> dict[str, Any]:
+    """Write the file ``data`` (of format ``have``) as ``want``: OCCT reads it,
+    and it is written as a decoded shape is (``write``).  The unit and counts."""
+    cad = read_text(data, have)
+    write(cad.shape, dst, want, cad.unit, meta, cad.product)
+    return {"unit": cad.unit, "counts": occ.counts(cad.shape)}
 
 
 # ---------------------------------------------------------------- compress
@@ -632,6 +683,7 @@ def compress_file(
     *,
     tol: float | None = DEFAULT_TOL_MM,
     lossless: bool = False,
+    exact: bool = False,
     force: bool = False,
     verify: bool = True,
     step_safe: bool = True,
@@ -652,7 +704,12 @@ def compress_file(
         (their curves and net corners with them); pcurves, the other
         vertices and analytic geometry are exact.
     lossless : bool
-        Store every number bit for bit (the container says so).
+        Store every number of the B-rep bit for bit (the container says so):
+        the same shape back, not the same file.
+    exact : bool
+        Store the file itself, byte for byte, through the text model
+        (``passthrough.compress_file``; OCCT does not read it).  ``tol`` and
+        ``lossless`` do not apply.
     verify : bool
         Decode what was written and check it against what was encoded before
         renaming the output into place.
@@ -671,6 +728,8 @@ def compress_file(
     dst_p = Path(dst) if dst is not None else default_compressed_name(src_p)
     check_output(dst_p, force, (src_p,))
     stage("read")
+    if exact:
+        return passthrough.compress_file(src_p, dst_p, None, force=force, t0=t0, verify=verify)
     try:
         cad = read_source(src_p)
     except NoBRepError as e:  # a valid file all the same: stored verbatim
@@ -736,8 +795,8 @@ def decompress_file(
     stage = stage or _no_stage
     src_p = Path(src)
     dst_p = Path(dst) if dst is not None else default_decompressed_name(src_p)
-    if passthrough.is_passthrough(src_p):
-        return passthrough.decompress_file(src_p, dst_p, force=force)
+    if passthrough.is_verbatim(src_p):
+        return passthrough.decompress_file(src_p, dst_p, force=force, convert=_convert)
     check_output(dst_p, force, (src_p,))
     fmt = occ.output_format(dst_p)
     stage("decode")
@@ -761,7 +820,7 @@ def decompress_file(
 def info(src: str | os.PathLike[str], limits: budget.Limits = budget.DEFAULT) -> dict[str, Any]:
     """What a container holds: version, mode, unit, counts, bytes per section."""
     p = Path(src)
-    if passthrough.is_passthrough(p):
+    if passthrough.is_verbatim(p):
         return passthrough.info(p)
     c = read_container(p)
     m, meta = decode(c, limits)
@@ -802,9 +861,17 @@ def test_file(
     """Integrity check, like ``xz -t``: every checksum, every reference, the
     decoding budget, a full rebuild."""
     p = Path(src)
-    if passthrough.is_passthrough(p):
-        passthrough.read(read_container(p))
-        return {"command": "test", "input": str(p), "ok": True, "passthrough": True, "faces": 0}
+    if passthrough.is_verbatim(p):
+        meta, data = passthrough.read(read_container(p))  # SHA-256 checked
+        return {
+            "command": "test",
+            "input": str(p),
+            "ok": True,
+            "passthrough": "reason" in meta,
+            "exact": meta["mode"] == "exact",
+            "sha256": hashlib.sha256(data).hexdigest(),
+            "faces": 0,
+        }
     shape, m, _ = decode_file(p, limits)
     return {
         "command": "test",
@@ -821,7 +888,8 @@ def load_shape(path: str | os.PathLike[str]) -> tuple[Any, float | None]:
     container)."""
     if str(path).endswith(SUFFIX):
         shape, _, meta = decode_file(path)
-        return shape, 0.0 if meta.get("mode") == "lossless" else meta.get("tolerance_mm")
+        exact = meta.get("mode") in ("lossless", "exact")
+        return shape, 0.0 if exact else meta.get("tolerance_mm")
     return occ.read_cad(path).shape, None
 
 

@@ -57,7 +57,7 @@ def test_existing_output_needs_force(work: Path) -> None:
 
 
 def test_json_info_and_test(work: Path) -> None:
-    code, out, err = run("compress", "--lossless", "--json", str(work / "part.step"))
+    code, out, err = run("compress", "--lossless-brep", "--json", str(work / "part.step"))
     assert code == 0, err
     line, total = out.splitlines()  # one line per file, then the summary
     rep = json.loads(line)
@@ -433,11 +433,12 @@ def test_info_and_test_take_many_files(work: Path) -> None:
     code, out, _ = run("info", str(a), str(b), "--json")
     assert code == 0
     recs = [json.loads(line) for line in out.splitlines()]
-    assert [r["mode"] for r in recs] == ["lossless", "tolerance"]
+    assert [r["mode"] for r in recs] == ["exact", "tolerance"]
     code, out, _ = run("info", "-r", str(work / "arc"))
     assert code == 0 and out.count("file:        ") == 2
     code, out, err = run("test", "-r", str(work / "arc"), "-j", "2")
-    assert code == 0 and out.count(": OK (3 faces)") == 2, err
+    assert code == 0 and out.count(": OK (3 faces)") == 1, err
+    assert out.count(": OK (the exact file, sha256 ") == 1, out
     assert "2 files: 2 ok, 0 failed" in out
     (work / "arc" / "bad.nzc").write_bytes(b"\x89NZC junk")
     (work / "arc" / "gone.nzc").symlink_to(work / "nowhere.nzc")

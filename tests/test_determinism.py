@@ -25,7 +25,11 @@ def _cli(*args: str, seed: str) -> None:
     assert r.returncode == 0, r.stderr
 
 
-@pytest.mark.parametrize("opts", [["--lossless"], ["--tol", "0.01"]], ids=["lossless", "tol"])
+@pytest.mark.parametrize(
+    "opts",
+    [["--lossless"], ["--lossless-brep"], ["--tol", "0.01"]],
+    ids=["exact", "lossless", "tol"],
+)
 def test_compress_is_byte_identical_across_processes(tmp_path: Path, opts: list[str]) -> None:
     src = SAMPLES / "loft.step"
     outs = []
@@ -35,6 +39,8 @@ def test_compress_is_byte_identical_across_processes(tmp_path: Path, opts: list[
         outs.append(out.read_bytes())
     here = tmp_path / "here.nzc"
     if opts == ["--lossless"]:
+        pipeline.compress_file(src, here, exact=True)
+    elif opts == ["--lossless-brep"]:
         pipeline.compress_file(src, here, lossless=True)
     else:
         pipeline.compress_file(src, here, tol=0.01)

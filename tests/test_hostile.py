@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
+import nurbscomp
 from nurbscomp import budget, container, entropy, joins, model, occ, pipeline, serialize
 from nurbscomp.cli import cli, show
 from nurbscomp.encode import pcurves
@@ -553,7 +554,7 @@ def test_deeply_nested_step_is_screened(tmp_path: Path) -> None:
     prefix = "#999999=CARTESIAN_POINT('',"  # its "(" is level 1
     with pytest.raises(InputError, match="nested more than 1000 deep"):
         files.screen_step(p)
-    r = CliRunner().invoke(cli, ["compress", "--lossless", str(p)])
+    r = CliRunner().invoke(cli, ["compress", "--lossless-brep", str(p)])
     assert r.exit_code == 1
     assert r.stderr.strip().splitlines() == [
         f"error: {p}: STEP parentheses nested more than 1000 deep (at byte "
@@ -561,6 +562,10 @@ def test_deeply_nested_step_is_screened(tmp_path: Path) -> None:
         "OCCT's parser cannot read it"
     ]
     assert sorted(x.name for x in tmp_path.iterdir()) == [p.name]
+    # byte-exact mode reads no geometry: it keeps the file, byte for byte
+    r = CliRunner().invoke(cli, ["compress", "--lossless", str(p), "-o", str(tmp_path / "x.nzc")])
+    assert r.exit_code == 0, r.output
+    assert nurbscomp.original(tmp_path / "x.nzc") == p.read_bytes()
 
 
 def test_screening_reads_strings_and_chunks(tmp_path: Path, monkeypatch) -> None:

@@ -22,8 +22,8 @@ HERE = Path(__file__).resolve().parent / "golden" / "passthrough"
 
 def test_golden_passthrough_gives_the_exact_bytes(tmp_path: Path) -> None:
     src, nzc = HERE / "tessellated.step", HERE / "tessellated.step.nzc"
-    assert passthrough.is_passthrough(nzc)
-    assert not passthrough.is_passthrough(HERE.parent / "loft.tol0.01.nzc")
+    assert passthrough.is_verbatim(nzc)
+    assert not passthrough.is_verbatim(HERE.parent / "loft.tol0.01.nzc")
     c = container.unpack(nzc.read_bytes())
     assert (c.major, c.minor, c.flags) == (1, 2, container.FLAG_PASSTHROUGH)
     meta, data = passthrough.read(c)

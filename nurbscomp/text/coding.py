@@ -56,9 +56,18 @@ def read_varint(data: bytes | memoryview, pos: int) -> tuple[int, int]:
 
 def pack(streams: list[bytes], coders: tuple[Coder, ...] = tuple(Coder)) -> bytes:
     """``streams`` compressed one by one, each with the smallest of ``coders``."""
-    out = [varint(len(streams))]
+    coded = []
     for s in streams:
         coder, payload = compress(s, coders) if s else (Coder.STORED, b"")
+        coded.append((coder, s, payload))
+    return pack_coded(coded)
+
+
+def pack_coded(coded: list[tuple[Coder, bytes, bytes]]) -> bytes:
+    """The layout of :func:`pack` for streams already coded: (coder, raw,
+    payload) each; a payload no shorter than its raw bytes is stored instead."""
+    out = [varint(len(coded))]
+    for coder, s, payload in coded:
         if len(payload) >= len(s):
             coder, payload = Coder.STORED, s
         out += [bytes([coder]), varint(len(s)), varint(len(payload)), payload]

@@ -213,7 +213,7 @@ def make_sources(names: list[str], work: Path, big: bool) -> None:
 def run_case(c: Case, work: Path) -> list[Outcome]:
     """Every mode of one case, in ``work`` (its source written there)."""
     src = work / f"{c.name}.step"
-    modes = [("--tol", t) for t in c.tols] + ([("--lossless", "")] if c.lossless else [])
+    modes = [("--tol", t) for t in c.tols] + ([("--lossless-brep", "")] if c.lossless else [])
     out = []
     for flag, tol in modes:
         o = Outcome(c.name, tol or "lossless")
