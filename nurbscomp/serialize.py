@@ -467,7 +467,8 @@ def _read_shapes(
         raise LimitError(f"SHAP declares {n + c:,} shapes and references, more than {top:,}")
     if n == 0:
         raise BadReferenceError("SHAP: bad root reference")
-    t = topocode.decode(data[topocode.HEAD.size :], n, c)
+    depth = None if limits is None else limits.depth
+    t = topocode.decode(data[topocode.HEAD.size :], n, c, depth)
     m.shape_type = np.array(t["types"], np.uint8)
     m.shape_flags = np.array(t["flags"], np.uint8)
     m.child_start = np.array(t["start"], np.int64)

@@ -25,6 +25,7 @@ from __future__ import annotations
 import struct
 from typing import Any
 
+from . import budget
 from .errors import BadReferenceError, SectionError
 
 #: Mode byte of a 2.0 SHAP section.
@@ -242,7 +243,9 @@ def _ends(o: int, kids: list[int], orients: list[int]) -> tuple[int | None, int 
     return start, end
 
 
-def _run(c: _Models, m: Any | None, n_shapes: int, n_refs: int) -> dict[str, Any]:
+def _run(
+    c: _Models, m: Any | None, n_shapes: int, n_refs: int, depth: int | None = None
+) -> dict[str, Any]:
     """The walk of §2.5: encodes ``m`` (m given) or decodes (m None)."""
     enc = m is not None
     w = _Walk(c)
@@ -411,6 +414,8 @@ def _run(c: _Models, m: Any | None, n_shapes: int, n_refs: int) -> dict[str, Any
         w.last_new_orient[(t, ct)] = o
         if count + len(stack) >= n_shapes:
             raise SectionError("SHAP: more shapes than the section declares")
+        if depth is not None and len(stack) >= depth:
+            raise budget._refuse(len(stack) + 1, "levels of nested sub-shapes", depth)
         fr[7] = (o, loc)
         stack.append(new_shape(ct, true_s))
     if count != n_shapes or refs != n_refs:
@@ -444,9 +449,11 @@ def encode(m: Any) -> bytes | None:
     return rc.finish()
 
 
-def decode(data: bytes, n_shapes: int, n_refs: int) -> dict[str, Any]:
-    """The tables of a coded stream of ``n_shapes`` shapes and ``n_refs`` references."""
+def decode(data: bytes, n_shapes: int, n_refs: int, depth: int | None = None) -> dict[str, Any]:
+    """The tables of a coded stream of ``n_shapes`` shapes and ``n_refs``
+    references; a walk deeper than ``depth`` (the budget's, when given: the
+    nesting it would refuse later anyway) is a LimitError as soon as it is."""
     rc = _Decoder(data)
-    out = _run(_Models(rc), None, n_shapes, n_refs)
+    out = _run(_Models(rc), None, n_shapes, n_refs, depth)
     rc.finish()
     return out
