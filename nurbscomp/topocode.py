@@ -173,6 +173,11 @@ def _reverse(o: int) -> int:
     return o ^ 1 if o < 2 else o
 
 
+def _flip(o: int, flip: int) -> int:
+    """``o`` reversed if ``flip`` (INTERNAL and EXTERNAL stay)."""
+    return _reverse(o) if flip else o
+
+
 def _model_fits(m: Any) -> bool:
     """Whether a depth-first walk from the root numbers ``m``'s shapes as they
     are numbered (every shape reached, each new one completed at its index)."""
@@ -265,7 +270,8 @@ def _run(
     def new_shape(t: int, src: int) -> list[Any]:
         """Begin a new shape of type t: its flags and child count; its frame:
         [type, flags, children, model index, next child, references so far,
-        wire state [end vertex, first vertex, last edge], child being walked]."""
+        wire state [end vertex, first vertex, last edge], child being walked,
+        flip: 1 if the references down to it reverse it an odd number of times]."""
         nonlocal refs
         f = m_flags[src] if enc else 0
         if c.bit(("fs", t), int(f == w.last_flags[t])):
@@ -277,7 +283,7 @@ def _run(
         if refs + nk > n_refs:
             raise SectionError("SHAP: more references than the section declares")
         refs += nk
-        return [t, f, nk, src, 0, [], [None, None, None], None]
+        return [t, f, nk, src, 0, [], [None, None, None], None, 0]
 
     def finish_ref(fr: list[Any], s: int, o: int, loc: int) -> None:
         """A reference of frame ``fr`` to shape ``s`` is known: the state moves."""
@@ -285,7 +291,7 @@ def _run(
         fr[5].append((s, o, loc))
         fr[4] += 1
         w.uses[s] += 1
-        w.last_orient[s] = o
+        w.last_orient[s] = _flip(o, fr[8])
         if ct == _EDGE:  # the open-edge count of the edge's vertices
             step = 1 if w.uses[s] & 1 else -1
             for v in set(kid_shape[start[s] : start[s + 1]]):
@@ -307,6 +313,7 @@ def _run(
     t0 = c.tree(("t", 8), 3, m_type[m.root_shape] if m is not None else 0)
     stack = [new_shape(t0, m.root_shape if m is not None else 0)]
     root_orient = c.tree(("ro",), 2, m.root_orient if m is not None else 0)
+    stack[0][8] = int(root_orient == _R)
     root_loc = c.uint(("rl",), m.root_loc if m is not None else 0)
     true_s = true_o = true_loc = 0
     while stack:
@@ -396,9 +403,9 @@ def _run(
             if t == _EDGE and ct == _VERTEX:
                 pred = _F if j == 0 else _R
             elif ct == _EDGE:
-                pred = _reverse(w.last_orient[s])
+                pred = _flip(_reverse(w.last_orient[s]), fr[8])
             else:
-                pred = w.last_orient[s]
+                pred = _flip(w.last_orient[s], fr[8])
             o = c.tree(("o", t, ct, 1, pred), 2, true_o)
             loc = _location(c, t, ct, true_loc)
             finish_ref(fr, s, o, loc)
@@ -406,7 +413,7 @@ def _run(
         if t == _EDGE and ct == _VERTEX:
             pred = _F if j == 0 else _R
         elif t == _WIRE and ct == _EDGE:
-            pred = 4 if ws[2] is None else w.last_orient[ws[2]]
+            pred = 4 if ws[2] is None else _flip(w.last_orient[ws[2]], fr[8])
         else:
             pred = w.last_new_orient.get((t, ct), _F)
         o = c.tree(("o", t, ct, 0, pred), 2, true_o)
@@ -418,6 +425,7 @@ def _run(
             raise budget._refuse(len(stack) + 1, "levels of nested sub-shapes", depth)
         fr[7] = (o, loc)
         stack.append(new_shape(ct, true_s))
+        stack[-1][8] = fr[8] ^ int(o == _R)
     if count != n_shapes or refs != n_refs:
         raise SectionError("SHAP: fewer shapes or references than the section declares")
     return {
