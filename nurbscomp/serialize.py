@@ -28,7 +28,7 @@ from typing import Any, cast
 
 import numpy as np
 
-from . import budget, container, product
+from . import budget, container, product, topocode
 from .errors import BadReferenceError, CorruptError, LimitError, SectionError
 from .model import (
     REBUILD,
@@ -421,6 +421,18 @@ _MAX_POWER = 2**31 - 1
 
 
 def _write_shapes(m: BRepModel) -> bytes:
+    """SHAP as format 2.0 lays it out (docs/format.md §2.5): a mode byte, then
+    the walk's coded stream, or the 1.x arrays for a model the walk does not
+    number as it is numbered."""
+    coded = topocode.encode(m)
+    if coded is None:
+        return bytes([topocode.MODE_ARRAYS]) + _write_shape_arrays(m)
+    head = topocode.HEAD.pack(topocode.MODE_WALK, len(m.shape_type), len(m.child_shape))
+    return head + coded
+
+
+def _write_shape_arrays(m: BRepModel) -> bytes:
+    """SHAP as format 1.x lays it out (and 2.0 in mode 0)."""
     w = BlockWriter()
     w.ints(m.shape_type)
     w.ints(m.shape_flags)
@@ -434,7 +446,39 @@ def _write_shapes(m: BRepModel) -> bytes:
     return bytes(w)
 
 
-def _read_shapes(data: bytes, m: BRepModel) -> None:
+def _read_shapes(
+    data: bytes, m: BRepModel, revision: int = 0, limits: budget.Limits | None = None
+) -> None:
+    """Read SHAP as the file's ``revision`` lays it out (2.0: a mode byte, then
+    the walk's coded stream or the 1.x arrays), checking every reference."""
+    if revision < 3:
+        _read_shape_arrays(data, m)
+        return
+    if not data:
+        raise SectionError("SHAP: empty section")
+    if data[0] == topocode.MODE_ARRAYS:
+        _read_shape_arrays(data[1:], m)
+        return
+    if data[0] != topocode.MODE_WALK or len(data) < topocode.HEAD.size:
+        raise SectionError("SHAP: unknown mode or truncated header at offset 0")
+    _, n, c = topocode.HEAD.unpack_from(data)
+    top = topocode.MAX_ROWS if limits is None else min(topocode.MAX_ROWS, limits.rows)
+    if n + c > top:
+        raise LimitError(f"SHAP declares {n + c:,} shapes and references, more than {top:,}")
+    if n == 0:
+        raise BadReferenceError("SHAP: bad root reference")
+    depth = None if limits is None else limits.depth
+    t = topocode.decode(data[topocode.HEAD.size :], n, c, depth)
+    m.shape_type = np.array(t["types"], np.uint8)
+    m.shape_flags = np.array(t["flags"], np.uint8)
+    m.child_start = np.array(t["start"], np.int64)
+    m.child_shape = np.array(t["shape"], np.int64)
+    m.child_orient = np.array(t["orient"], np.uint8)
+    m.child_loc = np.array(t["loc"], np.int64)
+    m.root_shape, m.root_orient, m.root_loc = n - 1, t["root_orient"], t["root_loc"]
+
+
+def _read_shape_arrays(data: bytes, m: BRepModel) -> None:
     r = BlockReader(data, "SHAP")
     types = r.ints()
     if len(types) and (types.min() < 0 or types.max() > 7):
@@ -949,7 +993,7 @@ def _read_sections(
     m.surfaces = _read_geometry(get("SURF"), "SURF", 3)
     m.curves3d = _read_geometry(get("CRV3"), "CRV3", 3)
     m.curves2d = _read_geometry(get("CRV2"), "CRV2", 2)
-    _read_shapes(get("SHAP"), m)
+    _read_shapes(get("SHAP"), m, revision, limits)
     _read_vertices(get("VERT"), m, tol)
     range_how = _read_edges(get("EDGE"), m)
     _read_faces(get("FACE"), m)

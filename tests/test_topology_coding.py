@@ -1,0 +1,246 @@
+"""SHAP from format 2.0: the topology coded by prediction (docs/format.md §2.5.1).
+
+Every table of the shapes must come back equal, on golden and corpus models
+and on generated shapes with the topologies the walk predicts worst (located
+instances, several solids, open shells, holes, seams, non-manifold edges,
+free shapes, INTERNAL/EXTERNAL orientations); a model the walk does not number
+falls back to the arrays; hostile bytes fail with a FormatError.
+"""
+
+from __future__ import annotations
+
+import random
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from nurbscomp import container, occ, serialize, topocode
+from nurbscomp.errors import FormatError, LimitError
+from nurbscomp.model import BRepModel
+
+from . import fuzz
+
+GOLDEN = Path(__file__).parent / "golden"
+CORPUS = Path(__file__).resolve().parents[2] / "shared" / "corpus"
+TABLES = ("shape_type", "shape_flags", "child_start", "child_shape", "child_orient", "child_loc")
+
+
+def _round_trip(m: BRepModel, mode: int | None = topocode.MODE_WALK) -> bytes:
+    raw = serialize._write_shapes(m)
+    if mode is not None:
+        assert raw[0] == mode
+    back = BRepModel()
+    serialize._read_shapes(raw, back, container.REVISION, None)
+    for name in TABLES:
+        a, b = getattr(m, name), getattr(back, name)
+        assert np.array_equal(a, b), name
+        assert len(a) == len(b)
+    assert (back.root_shape, back.root_orient, back.root_loc) == (
+        m.root_shape,
+        m.root_orient,
+        m.root_loc,
+    )
+    return raw
+
+
+def _shapes_of(shape: object) -> BRepModel:
+    m, _ = occ.shape_to_model(shape)
+    return m
+
+
+GOLDENS = sorted(p.name for p in GOLDEN.glob("*.nzc"))
+
+
+@pytest.mark.parametrize("name", GOLDENS)
+def test_golden_models_round_trip(name: str) -> None:
+    m, _ = fuzz.decoded((GOLDEN / name).read_bytes())
+    _round_trip(m)
+
+
+def test_coded_is_smaller_than_the_arrays() -> None:
+    m, _ = fuzz.decoded((GOLDEN / "bracket.lossless.nzc").read_bytes())
+    coded = serialize._write_shapes(m)
+    assert coded[0] == topocode.MODE_WALK
+    assert len(coded) < len(serialize._write_shape_arrays(m)) / 2
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    "name", ["occt__bearing.iges", "axom_data__boxed_sphere.step", "trimesh__featuretype.STEP"]
+)
+def test_corpus_models_round_trip(name: str) -> None:
+    path = CORPUS / name
+    if not path.exists():
+        pytest.skip("no corpus")
+    shape = occ.read_cad(path).shape
+    _round_trip(_shapes_of(shape))
+
+
+def _cq():  # type: ignore[no-untyped-def]
+    return pytest.importorskip("cadquery")
+
+
+def test_assembly_with_instances() -> None:
+    cq = _cq()
+    box = cq.Workplane().box(2, 3, 4).val()
+    cyl = cq.Workplane().cylinder(5, 1).val()
+    assy = cq.Assembly(name="top")
+    for k in range(3):
+        assy.add(box, name=f"b{k}", loc=cq.Location((10 * k, 0, 0)))
+    assy.add(cyl, name="c", loc=cq.Location((0, 10, 0), (1, 0, 0), 30))
+    m = _shapes_of(assy.toCompound().wrapped)
+    assert (m.child_loc > 0).sum() >= 3
+    _round_trip(m)
+
+
+def test_compound_of_solids_holes_seams_and_free_shapes() -> None:
+    cq = _cq()
+    plate = cq.Workplane().box(10, 10, 1).faces(">Z").workplane().hole(3).val()
+    sphere = cq.Workplane().sphere(2).translate((20, 0, 0)).val()
+    torus = cq.Solid.makeTorus(5, 1).translate((0, 20, 0))
+    cone = cq.Solid.makeCone(2, 0, 3).translate((0, -20, 0))
+    edge = cq.Edge.makeLine(cq.Vector(0, 0, 0), cq.Vector(1, 1, 1))
+    wire = cq.Wire.makeCircle(2, cq.Vector(5, 5, 5), cq.Vector(0, 0, 1))
+    vertex = cq.Vertex.makeVertex(3, 3, 3)
+    face = cq.Face.makeFromWires(cq.Wire.makePolygon([(0, 0, 9), (1, 0, 9), (0, 1, 9)], close=True))
+    comp = cq.Compound.makeCompound([plate, sphere, torus, cone, edge, wire, vertex, face])
+    _round_trip(_shapes_of(comp.wrapped))
+
+
+def test_open_shell_and_shared_faces() -> None:
+    cq = _cq()
+    box = cq.Workplane().box(1, 2, 3).val()
+    faces = box.Faces()[:4]
+    shell = cq.Shell.makeShell(faces)
+    # the same faces once more in a second shell: faces shared by two shells
+    comp = cq.Compound.makeCompound([shell, cq.Shell.makeShell(faces[:2])])
+    _round_trip(_shapes_of(comp.wrapped))
+
+
+def test_non_manifold_edges() -> None:
+    cq = _cq()
+    from OCP.BOPAlgo import BOPAlgo_MakerVolume
+    from OCP.TopTools import TopTools_ListOfShape
+
+    a = cq.Workplane().box(2, 2, 2).val()
+    b = cq.Workplane().box(2, 2, 2).translate((2, 0, 0)).val()
+    c = cq.Workplane().box(2, 2, 2).translate((0, 2, 0)).val()
+    args = TopTools_ListOfShape()
+    for s in (a, b, c):
+        args.Append(s.wrapped)
+    mv = BOPAlgo_MakerVolume()
+    mv.SetArguments(args)
+    mv.Perform()
+    m = _shapes_of(mv.Shape())
+    wires = np.flatnonzero(m.shape_type == 5)
+    used = np.concatenate([m.child_shape[m.child_start[w] : m.child_start[w + 1]] for w in wires])
+    assert np.bincount(used).max() >= 3  # an edge of three or more faces
+    _round_trip(m)
+
+
+def test_internal_and_external_orientations() -> None:
+    m, _ = fuzz.decoded((GOLDEN / "bracket.lossless.nzc").read_bytes())
+    rng = np.random.default_rng(7)
+    m.child_orient = rng.integers(0, 4, len(m.child_orient)).astype(np.uint8)
+    m.root_orient = 3
+    _round_trip(m)
+
+
+def test_random_trees_round_trip() -> None:
+    """Random DAGs numbered in depth-first post-order from the root."""
+    rng = random.Random(5)
+    for _ in range(30):
+        m = _random_model(rng)
+        _round_trip(m)
+
+
+def _random_model(rng: random.Random) -> BRepModel:
+    types: list[int] = []
+    kids: list[list[tuple[int, int, int]]] = []
+
+    def make(t: int, depth: int) -> int:
+        own = []
+        for _ in range(rng.randrange(0, 5) if t < 7 and depth < 6 else 0):
+            if types and rng.random() < 0.4:
+                c = rng.randrange(len(types))
+            else:
+                c = make(min(7, t + rng.choice((1, 1, 1, 2))), depth + 1)
+            own.append((c, rng.randrange(4), rng.choice((0, 0, 0, 1, 2))))
+        types.append(t)
+        kids.append(own)
+        return len(types) - 1
+
+    root = make(rng.randrange(8), 0)
+    m = BRepModel()
+    m.shape_type = np.array(types, np.uint8)
+    m.shape_flags = np.array([rng.randrange(256) for _ in types], np.uint8)
+    m.child_start = np.concatenate([[0], np.cumsum([len(k) for k in kids])]).astype(np.int64)
+    m.child_shape = np.array([c for k in kids for c, _, _ in k], np.int64)
+    m.child_orient = np.array([o for k in kids for _, o, _ in k], np.uint8)
+    m.child_loc = np.array([loc for k in kids for _, _, loc in k], np.int64)
+    m.root_shape, m.root_orient, m.root_loc = root, rng.randrange(4), rng.randrange(3)
+    return m
+
+
+def test_unreached_shapes_fall_back_to_the_arrays() -> None:
+    m, _ = fuzz.decoded((GOLDEN / "bracket.lossless.nzc").read_bytes())
+    # a vertex nothing refers to, numbered before the root
+    n = len(m.shape_type)
+    m.shape_type = np.insert(m.shape_type, n - 1, 7)
+    m.shape_flags = np.insert(m.shape_flags, n - 1, 0)
+    m.child_start = np.insert(m.child_start, n - 1, m.child_start[n - 1])
+    m.root_shape = n
+    m.child_shape = np.where(m.child_shape >= n - 1, m.child_shape + 1, m.child_shape)
+    _round_trip(m, topocode.MODE_ARRAYS)
+    # out of depth-first order: two children of the root swapped
+    m2, _ = fuzz.decoded((GOLDEN / "bracket.lossless.nzc").read_bytes())
+    r = m2.root_shape
+    a, b = int(m2.child_start[r]), int(m2.child_start[r + 1])
+    if b - a >= 2:
+        m2.child_shape[[a, a + 1]] = m2.child_shape[[a + 1, a]]
+        _round_trip(m2, topocode.MODE_ARRAYS)
+
+
+def test_old_revisions_read_the_arrays() -> None:
+    m, _ = fuzz.decoded((GOLDEN / "bracket.lossless.nzc").read_bytes())
+    raw = serialize._write_shape_arrays(m)
+    for rev in range(3):
+        back = BRepModel()
+        serialize._read_shapes(raw, back, rev, None)
+        assert np.array_equal(back.child_shape, m.child_shape)
+    with pytest.raises(FormatError):
+        serialize._read_shapes(raw, BRepModel(), 3, None)
+
+
+def test_hostile_bytes_fail_with_format_errors() -> None:
+    m, _ = fuzz.decoded((GOLDEN / "bracket.lossless.nzc").read_bytes())
+    good = serialize._write_shapes(m)
+    rng = random.Random(11)
+    cases = [b"", b"\x07", good[:5], good[:-1], good + b"\0", bytes([1]) + good[1:9]]
+    for _ in range(300):
+        b = bytearray(good)
+        for _ in range(rng.randrange(1, 4)):
+            k = rng.randrange(len(b))
+            b[k] = rng.randrange(256)
+        cases.append(bytes(b))
+    ok = 0
+    for data in cases:
+        try:
+            serialize._read_shapes(data, BRepModel(), container.REVISION, None)
+            ok += 1
+        except FormatError:
+            pass
+    assert ok < len(cases)
+
+
+def test_declared_counts_are_bounded() -> None:
+    head = topocode.HEAD.pack(topocode.MODE_WALK, 2_000_000, 0)
+    with pytest.raises(LimitError):
+        from nurbscomp import budget
+
+        serialize._read_shapes(head + bytes(5), BRepModel(), 3, budget.DEFAULT)
+    # a huge count with few bytes ends in an error, not a long loop
+    head = topocode.HEAD.pack(topocode.MODE_WALK, 900_000, 90_000)
+    with pytest.raises(FormatError):
+        serialize._read_shapes(head + bytes(64), BRepModel(), 3, None)
