@@ -1,17 +1,624 @@
-"""The IGES text model (issue 29): placeholder until the model lands.
+"""The IGES text model (issue 29): fixed 80-column records, byte for byte.
 
 ``encode(data)`` returns the model's payload, or None where the text is not
-IGES it can model; ``decode(payload, limit)`` inverts it.
+IGES it can model; ``decode(payload, limit)`` inverts it.  docs/text-model-iges.md
+describes the model and its figures.
+
+The file is cut at ``\\n`` into pieces.  A piece that is an 80-column record
+(81 with the ``\\r`` of a CRLF file) with a section letter S, G, D, P or T in
+column 73 is a *record*; any other piece (a short line, garbage, the
+compressed or binary forms) is stored as it is in the raw stream, so every
+byte comes back whatever the file holds.  Of a record:
+
+* columns 73-80 (letter and sequence number) are recomputed: the letters as
+  runs, the numbers as 1, 2, ... within each run, written zero-padded or
+  right-aligned as the file does; a field that differs is an exception;
+* S, G and T columns 1-72 are kept as text (trailing blanks dropped);
+* D entries (line pairs, nine 8-column fields a line): the entity type is
+  predicted from its parameter record's first parameter, the parameter
+  pointer and line count from the P section, the second type field from the
+  first, and every other field from the previous entry of the same type; a
+  mask says which fields differ from their prediction and those are stored;
+* P lines are grouped into parameter records by their columns 65-72 (the
+  pointer back to the D entry, predicted as the previous record's + 2).  A
+  record's text is its lines' columns 1-64 without trailing blanks, joined;
+  the line breaks are predicted by the writer's policy (fill to 64 columns
+  breaking after a delimiter, or one parameter a line) with exceptions;
+* the parameter text of all records is split into a skeleton and a digit
+  stream: the digits of every number of :data:`MIN_DIGITS` or more digits are
+  replaced by a placeholder byte in the skeleton and stored, in order, in the
+  digit stream, so a number comes back exactly as written (``1.0D0``,
+  ``-4.492467E-003``, ``0.5000000000000009992``), never through a float.
+
+Decoding is whole-array work (numpy masks and joins), no loop per character.
 """
 
 from __future__ import annotations
 
+import re
+from bisect import bisect_right
+
+import numpy as np
+
+from ..errors import CorruptError, FormatError, LimitError, TruncatedError
+from . import coding
+
+VERSION = 1
+#: Numbers with fewer digits than this stay in the skeleton (flags, counts,
+#: ``0.``, ``1.``): they repeat, and LZMA codes them better there.
+MIN_DIGITS = 3
+#: Columns of parameter data on a P line.
+P_WIDTH = 64
+#: D fields predicted from elsewhere: type, parameter pointer, type again, line count.
+_COMPUTED = (0, 1, 9, 12)
+_DEFAULT_FIELD = b"       0"
+_LETTERS = b"SGDPT"
+_N_STREAMS = 8
+
 
 def encode(data: bytes) -> bytes | None:
-    """None: no model yet, the plain stream is kept."""
-    return None
+    """The model's payload for ``data``, or None when it is not IGES this models."""
+    try:
+        return _encode(data)
+    except (ValueError, IndexError, KeyError, OverflowError, RecursionError, MemoryError):
+        return None  # never a crash: the plain stream is kept
 
 
 def decode(payload: bytes, limit: int) -> bytes:
-    """Never called while :func:`encode` returns None."""
-    raise NotImplementedError
+    """The bytes :func:`encode` made ``payload`` from, at most ``limit`` of them.
+
+    Raises
+    ------
+    FormatError
+        CorruptError, TruncatedError or LimitError for a payload that is
+        damaged or inflates past ``limit``.
+    """
+    try:
+        return _decode(payload, limit)
+    except FormatError:
+        raise
+    except (ValueError, IndexError, KeyError, OverflowError, TypeError) as e:
+        raise CorruptError(f"IGES text model does not decode ({type(e).__name__})") from None
+
+
+# ---------------------------------------------------------------- helpers
+
+
+def _fmt(zero: bool, width: int, values: list[int]) -> bytes:
+    """``values`` as fixed-width fields, zero-padded or right-aligned, joined.
+    A value too wide for the field is cut to its last ``width`` characters
+    (it is then an exception)."""
+    f = b"%0*d" if zero else b"%*d"
+    return b"".join([(f % (width, v))[-width:] for v in values])
+
+
+def _delims(gtext: bytes) -> tuple[int, int]:
+    """The parameter and record delimiters the global section declares
+    (``,`` and ``;`` by default, or ``1Hx`` for another)."""
+    pd, rd = ord(","), ord(";")
+    g = gtext
+    if g[:2] == b"1H" and len(g) > 3:
+        pd = g[2]
+        g = g[3:]
+    else:
+        g = g[1:] if g[:1] == b"," else b""
+    if g[:1] == bytes([pd]):
+        g = g[1:]
+        if g[:2] == b"1H" and len(g) > 2:
+            rd = g[2]
+    if pd in b"0123456789 \n" or rd in b"0123456789 \n" or pd == rd:
+        return ord(","), ord(";")
+    return pd, rd
+
+
+def _number_re(pd: int, rd: int) -> re.Pattern[bytes]:
+    cls = re.escape(bytes([pd, rd])) + rb" \n"
+    return re.compile(
+        rb"(?:(?<=[" + cls + rb"])|^)[-+]?(?:\d+\.?\d*|\.\d+)(?:[EeDd][-+]?\d+)?(?=[" + cls + rb"]|$)"
+    )
+
+
+def _rows(blob: bytes, width: int, n: int) -> np.ndarray:
+    if len(blob) != width * n:
+        raise CorruptError("IGES model: a fixed-width table has the wrong size")
+    return np.frombuffer(blob, np.uint8).reshape(n, width)
+
+
+def _layout(mode: int, bounds: list[int], s: int, e: int) -> int:
+    """The predicted length of a P line starting at ``s`` in a record ending at ``e``."""
+    if mode == 0:  # fill to P_WIDTH, breaking after a delimiter
+        if e - s <= P_WIDTH:
+            return e - s
+        i = bisect_right(bounds, s + P_WIDTH) - 1
+        b = bounds[i] if i >= 0 else -1
+        return b - s if b > s else P_WIDTH
+    i = bisect_right(bounds, s)  # one parameter a line
+    b = bounds[i] if i < len(bounds) else e
+    return min(b, e, s + P_WIDTH) - s
+
+
+class _Varints:
+    """Reads LEB128 integers one after another from one stream."""
+
+    def __init__(self, data: bytes) -> None:
+        self.data, self.pos = data, 0
+
+    def __call__(self) -> int:
+        v, self.pos = coding.read_varint(self.data, self.pos)
+        return v
+
+    def many(self, n: int) -> list[int]:
+        if n > len(self.data) - self.pos:
+            raise TruncatedError("IGES model: fewer integers than declared")
+        return [self() for _ in range(n)]
+
+    def gaps(self, n: int) -> list[int]:
+        """``n`` increasing indices stored as gaps."""
+        out, at = [], -1
+        for g in self.many(n):
+            at += g + 1
+            out.append(at)
+        return out
+
+
+def _gaps(idx: list[int]) -> list[int]:
+    out, prev = [], -1
+    for i in idx:
+        out.append(i - prev - 1)
+        prev = i
+    return out
+
+
+# ---------------------------------------------------------------- encode
+
+
+def _encode(data: bytes) -> bytes | None:
+    pieces = data.split(b"\n")
+    crlf = 2 * sum(1 for p in pieces if p[-1:] == b"\r") > len(pieces)
+    reclen = 81 if crlf else 80
+    letters_ok = set(_LETTERS)
+    is_rec = [
+        len(p) == reclen and p[72] in letters_ok and (not crlf or p[80] == 13) for p in pieces
+    ]
+    raw_idx = [i for i, r in enumerate(is_rec) if not r]
+    recs = [p[:80] for p, r in zip(pieces, is_rec) if r]
+    m = len(recs)
+    if m == 0:
+        return None
+    M = np.frombuffer(b"".join(recs), np.uint8).reshape(m, 80)
+    letters = M[:, 72]
+    if not ((letters == ord("D")).any() or (letters == ord("P")).any()):
+        return None
+
+    # letter runs and sequence numbers
+    change = np.flatnonzero(letters[1:] != letters[:-1]) + 1
+    starts = np.concatenate(([0], change))
+    counts = np.diff(np.concatenate((starts, [m])))
+    run_id = np.repeat(np.arange(len(starts)), counts)
+    seqno = (np.arange(m) - starts[run_id] + 1).tolist()
+    seq_actual = M[:, 73:80]
+    best: tuple[int, bool, np.ndarray] | None = None
+    for zero in (True, False):
+        pred = np.frombuffer(_fmt(zero, 7, seqno), np.uint8).reshape(m, 7)
+        bad = np.flatnonzero((pred != seq_actual).any(axis=1))
+        if best is None or len(bad) < best[0]:
+            best = (len(bad), zero, bad)
+    assert best is not None
+    _, seq_zero, seq_bad = best
+
+    # S, G, T text; D pairs; P lines
+    is_d = letters == ord("D")
+    is_p = letters == ord("P")
+    d_idx = np.flatnonzero(is_d)
+    nd = len(d_idx) // 2
+    text_mask = ~(is_d | is_p)
+    if len(d_idx) % 2:
+        text_mask[d_idx[-1]] = True
+        d_idx = d_idx[:-1]
+    text_rows = [bytes(r).rstrip(b" ") for r in M[text_mask, :72]]
+    gtext = b"".join(bytes(r) for r in M[letters == ord("G"), :72])
+    pd, rd = _delims(gtext)
+
+    # P records
+    P = M[is_p]
+    npl = len(P)
+    tails = P[:, 64:72]
+    if npl:
+        rstart = np.concatenate(([0], np.flatnonzero((tails[1:] != tails[:-1]).any(axis=1)) + 1))
+    else:
+        rstart = np.zeros(0, np.int64)
+    rcount = np.diff(np.concatenate((rstart, [npl]))).tolist()
+    rstart_l = rstart.tolist()
+    rtails = [bytes(tails[s]) for s in rstart_l]
+    content = P[:, :64].tobytes()
+    lines = [content[64 * i : 64 * i + 64].rstrip(b" ") for i in range(npl)]
+    lens = [len(x) for x in lines]
+    # record DE numbers: predicted as the previous + 2
+    best_tail: tuple[int, bool, list[int], list[int]] | None = None
+    for zero in (True, False):
+        cur, exc, des = 1, [], []
+        for r, t in enumerate(rtails):
+            if t != b" " + _fmt(zero, 7, [cur]):
+                exc.append(r)
+            s = t.strip()
+            val = int(s) if s.isdigit() and len(s) < 12 else cur
+            des.append(val)
+            cur = val + 2
+        if best_tail is None or len(exc) < best_tail[0]:
+            best_tail = (len(exc), zero, exc, des)
+    assert best_tail is not None
+    _, tail_zero, tail_exc, rdes = best_tail
+    rtexts = []
+    k = 0
+    for c in rcount:
+        rtexts.append(b"".join(lines[k : k + c]))
+        k += c
+    ptext = b"\n".join(rtexts)
+
+    # layout of P lines: the policy with fewest exceptions
+    delim = np.frombuffer(ptext, np.uint8)
+    bounds = (np.flatnonzero((delim == pd) | (delim == rd)) + 1).tolist()
+    best_lay: tuple[int, int, list[int], list[int]] | None = None
+    for mode in (0, 1):
+        exc_i: list[int] = []
+        exc_l: list[int] = []
+        li, pos = 0, 0
+        for r, c in enumerate(rcount):
+            e = pos + len(rtexts[r])
+            for _ in range(c):
+                pred_l = _layout(mode, bounds, pos, e) if pos < e else -1
+                if pred_l != lens[li]:
+                    exc_i.append(li)
+                    exc_l.append(lens[li])
+                pos += lens[li]
+                li += 1
+            pos = e + 1
+        if best_lay is None or len(exc_i) < len(best_lay[2]):
+            best_lay = (mode, 0, exc_i, exc_l)
+        if not exc_i:
+            break
+    assert best_lay is not None
+    lay_mode, _, lay_i, lay_l = best_lay
+
+    # D entries
+    D = M[d_idx, :72].reshape(nd, 18, 8)
+    rec_of = {}
+    for r, de in enumerate(rdes):
+        rec_of.setdefault(de, r)
+    types = _record_types(rtexts, pd)
+    pred_c = _d_predicted(nd, rec_of, rstart_l, rcount, types)
+    dmask, dvals = _d_encode(D, pred_c)
+
+    # skeleton and digits
+    ph = _placeholder(ptext)
+    if ph is None:
+        return None
+    skel, digits = _split_digits(ptext, pd, rd, ph)
+
+    header = [
+        VERSION,
+        crlf | seq_zero << 1 | tail_zero << 2 | lay_mode << 3,
+        ph,
+        pd,
+        rd,
+        len(pieces),
+        len(raw_idx),
+        len(starts),
+        *[v for s, c in zip(starts.tolist(), counts.tolist()) for v in (int(letters[s]), c)],
+        len(seq_bad),
+        len(text_rows),
+        len(rcount),
+        len(tail_exc),
+        len(lay_i),
+        nd,
+    ]
+    ints = (
+        _gaps(raw_idx)
+        + _gaps(seq_bad.tolist())
+        + _gaps(tail_exc)
+        + _gaps(lay_i)
+        + lay_l
+        + rcount
+    )
+    exc_bytes = b"".join(bytes(seq_actual[i]) for i in seq_bad) + b"".join(
+        rtails[r] for r in tail_exc
+    )
+    streams = [
+        b"".join(coding.varint(v) for v in header),
+        b"\n".join(pieces[i] for i in raw_idx),
+        b"".join(coding.varint(v) for v in ints) + exc_bytes,
+        b"\n".join(text_rows),
+        dmask,
+        dvals,
+        skel,
+        digits,
+    ]
+    return coding.pack(streams)
+
+
+def _record_types(rtexts: list[bytes], pd: int) -> list[bytes]:
+    """Each record's first parameter as a D field (8 columns, right-aligned)."""
+    sep = bytes([pd])
+    out = []
+    for t in rtexts:
+        head = t.split(sep, 1)[0].strip()
+        out.append(b"%8s" % head if len(head) <= 8 else b"")
+    return out
+
+
+def _d_predicted(
+    nd: int, rec_of: dict[int, int], rstart: list[int], rcount: list[int], types: list[bytes]
+) -> np.ndarray:
+    """The computed D fields (type, pointer, type, line count) of each entry,
+    predicted from its parameter record (the one whose back pointer is its
+    DE number); blanks where there is none."""
+    rows = []
+    blank = b" " * 32
+    for k in range(nd):
+        r = rec_of.get(2 * k + 1)
+        if r is None:
+            rows.append(blank)
+            continue
+        t = types[r] or b"        "
+        rows.append(t + (b"%8d" % (rstart[r] + 1))[-8:] + t + (b"%8d" % rcount[r])[-8:])
+    return np.frombuffer(b"".join(rows), np.uint8).reshape(nd, 4, 8)
+
+
+def _d_prev_same_type(key: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Order stable by type, and whether each position in it starts a type."""
+    order = np.argsort(key, kind="stable")
+    ks = key[order]
+    first = np.ones(len(key), bool)
+    first[1:] = ks[1:] != ks[:-1]
+    return order, first
+
+
+def _d_encode(D: np.ndarray, pred_c: np.ndarray) -> tuple[bytes, bytes]:
+    nd = len(D)
+    pred = np.empty_like(D)
+    pred[:, list(_COMPUTED)] = pred_c
+    pred[:, 9] = D[:, 0]  # the second type field repeats the first
+    key = np.ascontiguousarray(D[:, 0]).view(np.uint64).ravel()
+    order, first = _d_prev_same_type(key)
+    other = [j for j in range(18) if j not in _COMPUTED]
+    Ds = D[order]
+    ps = np.empty((nd, len(other), 8), np.uint8)
+    if nd:
+        ps[1:] = Ds[:-1][:, other]
+        ps[first] = np.frombuffer(_DEFAULT_FIELD, np.uint8)
+    pred[order[:, None], np.array(other)[None, :]] = ps
+    mask = (pred != D).any(axis=2)  # (nd, 18)
+    vals = b"".join(D[mask[:, j], j].tobytes() for j in range(18))
+    return np.packbits(mask, axis=None).tobytes(), vals
+
+
+def _placeholder(ptext: bytes) -> int | None:
+    used = np.bincount(np.frombuffer(ptext, np.uint8), minlength=256)
+    for c in b"#~!`|@$%^&*_?<>{}[]\\":
+        if not used[c]:
+            return c
+    free = np.flatnonzero(used == 0)
+    return int(free[0]) if len(free) else None
+
+
+def _split_digits(ptext: bytes, pd: int, rd: int, ph: int) -> tuple[bytes, bytes]:
+    """The parameter text with the digits of its numbers (those with
+    :data:`MIN_DIGITS` or more) replaced by ``ph``, and those digits."""
+    arr = np.frombuffer(ptext, np.uint8)
+    isdig = (arr >= 48) & (arr <= 57)
+    spans = np.array([m.span() for m in _number_re(pd, rd).finditer(ptext)], np.int64)
+    if not len(spans):
+        return ptext, b""
+    cum = np.concatenate(([0], np.cumsum(isdig)))
+    keep = (cum[spans[:, 1]] - cum[spans[:, 0]]) >= MIN_DIGITS
+    spans = spans[keep]
+    edge = np.zeros(len(arr) + 1, np.int64)
+    np.add.at(edge, spans[:, 0], 1)
+    np.add.at(edge, spans[:, 1], -1)
+    inside = np.cumsum(edge[:-1]) > 0
+    mask = inside & isdig
+    digits = arr[mask].tobytes()
+    skel = arr.copy()
+    skel[mask] = ph
+    return skel.tobytes(), digits
+
+
+# ---------------------------------------------------------------- decode
+
+
+def _decode(payload: bytes, limit: int) -> bytes:
+    streams = coding.unpack(payload, 2 * limit + 4096, count=_N_STREAMS)
+    hdr_s, raw_s, ints_s, text_s, dmask_s, dvals_s, skel_s, digits_s = streams
+    h = _Varints(hdr_s)
+    if h() != VERSION:
+        raise CorruptError("IGES model: unknown version")
+    flags = h()
+    if flags >> 4:
+        raise CorruptError("IGES model: reserved flags set")
+    crlf, seq_zero, tail_zero, lay_mode = (bool(flags >> i & 1) for i in range(4))
+    ph, pd, rd = h(), h(), h()
+    if max(ph, pd, rd) > 255:
+        raise CorruptError("IGES model: a delimiter is not a byte")
+    npieces, nraw, nruns = h(), h(), h()
+    if npieces > limit + 1 or nraw > npieces or nruns > npieces:
+        raise LimitError("IGES model: more lines than the limit allows")
+    runs = [(h(), h()) for _ in range(nruns)]
+    m = sum(c for _, c in runs)
+    if m + nraw != npieces or any(c < 1 or x not in _LETTERS for x, c in runs):
+        raise CorruptError("IGES model: line counts do not add up")
+    nseq, ntext, nrec, ntail, nlay, nd = (h() for _ in range(6))
+    if h.pos != len(hdr_s):
+        raise CorruptError("IGES model: bytes after the header")
+    if (
+        m * (81 if crlf else 80) + len(raw_s) + npieces - 1 > limit
+        or max(nseq, ntext) > m
+        or max(ntail, nrec, nlay) > m
+        or 2 * nd > m
+    ):
+        raise LimitError("IGES model: output past the limit")
+
+    iv = _Varints(ints_s)
+    raw_idx = iv.gaps(nraw)
+    seq_bad = iv.gaps(nseq)
+    tail_exc = iv.gaps(ntail)
+    lay_i = iv.gaps(nlay)
+    lay_l = iv.many(nlay)
+    rcount = iv.many(nrec)
+    eb = ints_s[iv.pos :]
+    if len(eb) != 7 * nseq + 8 * ntail:
+        raise CorruptError("IGES model: exception bytes do not add up")
+    if (raw_idx and raw_idx[-1] >= npieces) or (seq_bad and seq_bad[-1] >= m):
+        raise CorruptError("IGES model: an exception past the last line")
+
+    letters = np.repeat(
+        np.frombuffer(bytes(x for x, _ in runs), np.uint8), np.array([c for _, c in runs])
+    )
+    M = np.empty((m, 80), np.uint8)
+    M[:, 72] = letters
+    counts = [c for _, c in runs]
+    seqno = [i + 1 for c in counts for i in range(c)]
+    M[:, 73:80] = _rows(_fmt(seq_zero, 7, seqno), 7, m)
+    if nseq:
+        M[seq_bad, 73:80] = _rows(eb[: 7 * nseq], 7, nseq)
+    is_d = letters == ord("D")
+    is_p = letters == ord("P")
+    d_idx = np.flatnonzero(is_d)
+    text_mask = ~(is_d | is_p)
+    if len(d_idx) % 2:
+        text_mask[d_idx[-1]] = True
+        d_idx = d_idx[:-1]
+    if len(d_idx) != 2 * nd:
+        raise CorruptError("IGES model: D entry count does not match")
+
+    # text rows
+    rows = text_s.split(b"\n") if ntext else []
+    if len(rows) != ntext or ntext != int(text_mask.sum()) or any(len(r) > 72 for r in rows):
+        raise CorruptError("IGES model: text rows do not match")
+    if ntext:
+        M[text_mask, :72] = _rows(b"".join(r.ljust(72) for r in rows), 72, ntext)
+
+    # parameter text
+    skel = np.frombuffer(skel_s, np.uint8).copy()
+    holes = skel == ph
+    if int(holes.sum()) != len(digits_s):
+        raise CorruptError("IGES model: digit count does not match the skeleton")
+    skel[holes] = np.frombuffer(digits_s, np.uint8)
+    ptext = skel.tobytes()
+    rtexts = ptext.split(b"\n") if nrec else []
+    npl = int(is_p.sum())
+    if len(rtexts) != nrec or sum(rcount) != npl or any(c < 1 for c in rcount):
+        raise CorruptError("IGES model: parameter records do not match")
+    if lay_i and lay_i[-1] >= npl:
+        raise CorruptError("IGES model: a layout exception past the last P line")
+
+    # record tails (back pointers)
+    tex = dict(zip(tail_exc, (eb[7 * nseq + 8 * i : 7 * nseq + 8 * i + 8] for i in range(ntail))))
+    if tail_exc and tail_exc[-1] >= nrec:
+        raise CorruptError("IGES model: a back pointer exception past the last record")
+    cur, rtails, rdes = 1, [], []
+    for r in range(nrec):
+        t = tex.get(r)
+        if t is None:
+            t = b" " + _fmt(tail_zero, 7, [cur])
+        s = t.strip()
+        val = int(s) if s.isdigit() and len(s) < 12 else cur
+        rtails.append(t)
+        rdes.append(val)
+        cur = val + 2
+
+    # P lines
+    bounds_a = np.frombuffer(ptext, np.uint8)
+    bounds = (np.flatnonzero((bounds_a == pd) | (bounds_a == rd)) + 1).tolist()
+    lex = dict(zip(lay_i, lay_l))
+    out_lines: list[bytes] = []
+    li = pos = 0
+    for r in range(nrec):
+        e = pos + len(rtexts[r])
+        tail = rtails[r]
+        for _ in range(rcount[r]):
+            got = lex.get(li)
+            n = got if got is not None else (_layout(lay_mode, bounds, pos, e) if pos < e else -1)
+            if n < 0 or n > P_WIDTH or pos + n > e:
+                raise CorruptError("IGES model: P line layout does not fit its record")
+            out_lines.append(ptext[pos : pos + n].ljust(P_WIDTH) + tail)
+            pos += n
+            li += 1
+        if pos != e:
+            raise CorruptError("IGES model: P lines do not cover their record")
+        pos = e + 1
+    if npl:
+        M[is_p, :72] = _rows(b"".join(out_lines), 72, npl)
+
+    # D entries
+    if nd:
+        rec_of: dict[int, int] = {}
+        for r, de in enumerate(rdes):
+            rec_of.setdefault(de, r)
+        rstart = np.concatenate(([0], np.cumsum(rcount)[:-1])).tolist() if nrec else []
+        types = _record_types(rtexts, pd)
+        pred_c = _d_predicted(nd, rec_of, rstart, rcount, types)
+        D = _d_decode(nd, pred_c, dmask_s, dvals_s)
+        M[d_idx, :72] = D.reshape(2 * nd, 72)
+    elif dmask_s or dvals_s:
+        raise CorruptError("IGES model: D data without D entries")
+
+    # assemble
+    nl = b"\r" if crlf else b""
+    blob = M.tobytes()
+    recs = [blob[80 * i : 80 * i + 80] + nl for i in range(m)]
+    raws = raw_s.split(b"\n") if nraw else []
+    if len(raws) != nraw:
+        raise CorruptError("IGES model: raw line count does not match")
+    if nraw:
+        pieces: list[bytes] = []
+        k = 0
+        prev = 0
+        for i, r in zip(raw_idx, raws):
+            take = i - prev
+            pieces += recs[k : k + take]
+            pieces.append(r)
+            k += take
+            prev = i + 1
+        pieces += recs[k:]
+    else:
+        pieces = recs
+    out = b"\n".join(pieces)
+    if len(out) > limit:
+        raise LimitError(f"IGES model inflates past {limit} bytes")
+    return out
+
+
+def _d_decode(nd: int, pred_c: np.ndarray, dmask_s: bytes, dvals_s: bytes) -> np.ndarray:
+    nbits = nd * 18
+    if len(dmask_s) != (nbits + 7) // 8:
+        raise CorruptError("IGES model: D mask has the wrong size")
+    mask = np.unpackbits(np.frombuffer(dmask_s, np.uint8))[:nbits].reshape(nd, 18).astype(bool)
+    per = mask.sum(axis=0)
+    if 8 * int(per.sum()) != len(dvals_s):
+        raise CorruptError("IGES model: D values do not match the mask")
+    D = np.empty((nd, 18, 8), np.uint8)
+    vals = np.frombuffer(dvals_s, np.uint8)
+    offs = np.concatenate(([0], np.cumsum(per) * 8))
+    explicit = [vals[offs[j] : offs[j + 1]].reshape(-1, 8) for j in range(18)]
+    # the type first: computed or explicit
+    D[:, 0] = pred_c[:, 0]
+    D[mask[:, 0], 0] = explicit[0]
+    for j, col in ((1, 1), (12, 3)):
+        D[:, j] = pred_c[:, col]
+        D[mask[:, j], j] = explicit[j]
+    D[:, 9] = D[:, 0]
+    D[mask[:, 9], 9] = explicit[9]
+    key = np.ascontiguousarray(D[:, 0]).view(np.uint64).ravel()
+    order, first = _d_prev_same_type(key)
+    idx = np.arange(nd)
+    default = np.frombuffer(_DEFAULT_FIELD, np.uint8)
+    for j in range(18):
+        if j in _COMPUTED:
+            continue
+        full = np.empty((nd, 8), np.uint8)
+        full[:] = default
+        full[mask[:, j]] = explicit[j]
+        full = full[order]  # in type order: explicit, or the previous of the type
+        src = np.maximum.accumulate(np.where(mask[order, j] | first, idx, 0))
+        D[order, j] = full[src]
+    return D
