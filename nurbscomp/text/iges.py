@@ -44,16 +44,13 @@ from ..errors import CorruptError, FormatError, LimitError, TruncatedError
 from . import coding
 
 VERSION = 1
-#: Numbers with fewer digits than this stay in the skeleton (flags, counts,
-#: ``0.``, ``1.``): they repeat, and LZMA codes them better there.
-MIN_DIGITS = 3
 #: Columns of parameter data on a P line.
 P_WIDTH = 64
 #: D fields predicted from elsewhere: type, parameter pointer, type again, line count.
 _COMPUTED = (0, 1, 9, 12)
 _DEFAULT_FIELD = b"       0"
 _LETTERS = b"SGDPT"
-_N_STREAMS = 8
+_N_STREAMS = 12
 
 
 def encode(data: bytes) -> bytes | None:
@@ -109,13 +106,6 @@ def _delims(gtext: bytes) -> tuple[int, int]:
     if pd in b"0123456789 \n" or rd in b"0123456789 \n" or pd == rd:
         return ord(","), ord(";")
     return pd, rd
-
-
-def _number_re(pd: int, rd: int) -> re.Pattern[bytes]:
-    cls = re.escape(bytes([pd, rd])) + rb" \n"
-    return re.compile(
-        rb"(?:(?<=[" + cls + rb"])|^)[-+]?(?:\d+\.?\d*|\.\d+)(?:[EeDd][-+]?\d+)?(?=[" + cls + rb"]|$)"
-    )
 
 
 def _rows(blob: bytes, width: int, n: int) -> np.ndarray:
@@ -282,7 +272,7 @@ def _encode(data: bytes) -> bytes | None:
 
     # D entries
     D = M[d_idx, :72].reshape(nd, 18, 8)
-    rec_of = {}
+    rec_of: dict[int, int] = {}
     for r, de in enumerate(rdes):
         rec_of.setdefault(de, r)
     types = _record_types(rtexts, pd)
@@ -293,7 +283,7 @@ def _encode(data: bytes) -> bytes | None:
     ph = _placeholder(ptext)
     if ph is None:
         return None
-    skel, digits = _split_digits(ptext, pd, rd, ph)
+    numbers = _numbers_encode(ptext, pd, rd, ph)
 
     header = [
         VERSION,
@@ -313,12 +303,7 @@ def _encode(data: bytes) -> bytes | None:
         nd,
     ]
     ints = (
-        _gaps(raw_idx)
-        + _gaps(seq_bad.tolist())
-        + _gaps(tail_exc)
-        + _gaps(lay_i)
-        + lay_l
-        + rcount
+        _gaps(raw_idx) + _gaps(seq_bad.tolist()) + _gaps(tail_exc) + _gaps(lay_i) + lay_l + rcount
     )
     exc_bytes = b"".join(bytes(seq_actual[i]) for i in seq_bad) + b"".join(
         rtails[r] for r in tail_exc
@@ -330,8 +315,7 @@ def _encode(data: bytes) -> bytes | None:
         b"\n".join(text_rows),
         dmask,
         dvals,
-        skel,
-        digits,
+        *numbers,
     ]
     return coding.pack(streams)
 
@@ -401,26 +385,241 @@ def _placeholder(ptext: bytes) -> int | None:
     return int(free[0]) if len(free) else None
 
 
-def _split_digits(ptext: bytes, pd: int, rd: int, ph: int) -> tuple[bytes, bytes]:
-    """The parameter text with the digits of its numbers (those with
-    :data:`MIN_DIGITS` or more) replaced by ``ph``, and those digits."""
-    arr = np.frombuffer(ptext, np.uint8)
-    isdig = (arr >= 48) & (arr <= 57)
-    spans = np.array([m.span() for m in _number_re(pd, rd).finditer(ptext)], np.int64)
-    if not len(spans):
-        return ptext, b""
-    cum = np.concatenate(([0], np.cumsum(isdig)))
-    keep = (cum[spans[:, 1]] - cum[spans[:, 0]]) >= MIN_DIGITS
-    spans = spans[keep]
-    edge = np.zeros(len(arr) + 1, np.int64)
-    np.add.at(edge, spans[:, 0], 1)
-    np.add.at(edge, spans[:, 1], -1)
-    inside = np.cumsum(edge[:-1]) > 0
-    mask = inside & isdig
-    digits = arr[mask].tobytes()
-    skel = arr.copy()
-    skel[mask] = ph
-    return skel.tobytes(), digits
+#: Reals with fewer digits than this (``0.``, ``1.``) are kept whole in their format.
+SHORT = 2
+#: Longest mantissa (in digits) a pole lane predicts: differences stay in int64.
+LANE_DIGITS = 17
+_SLOT = ord("#")  # a digit's place in a number format
+
+
+def _number_pattern(pd: int, rd: int) -> re.Pattern[bytes]:
+    cls = re.escape(bytes([pd, rd])) + rb" \n"
+    return re.compile(
+        rb"(?:(?<=[" + cls + rb"])|^)([-+]?)(\d+\.?\d*|\.\d+)"
+        rb"(?:([EeDd])([-+]?\d+))?(?=[" + cls + rb"]|$)"
+    )
+
+
+def _template_info(fmts: list[bytes]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per format: digit slots, quantum exponent (``None`` -> a large sentinel) and sign."""
+    nd, q, neg = [], [], []
+    for f in fmts:
+        n = f.count(b"#")
+        body, _, ex = f.partition(b"E") if b"E" in f else f.partition(b"D")
+        if not ex:
+            body, _, ex = f.partition(b"e") if b"e" in f else f.partition(b"d")
+        frac = body.partition(b".")[2]
+        if not ex:
+            e = 0
+        elif ex.lstrip(b"+-").isdigit() and len(ex) < 12:
+            e = int(ex)
+        else:
+            e = 10**9
+        nd.append(n)
+        q.append(e - len(frac) if n else 10**9)
+        neg.append(f[:1] == b"-")
+    return np.array(nd, np.int64), np.array(q, np.int64), np.array(neg, bool)
+
+
+def _pole_lanes(recs: list[bytes], pd: int, ph: int) -> list[tuple[int, int, int]]:
+    """B-spline poles in the skeleton: (first real, rows, columns) of each
+    curve (126: rows 1) or surface (128), when its poles are all reals; the
+    decoder finds the same from the skeleton alone."""
+    out = []
+    base = 0
+    sep = bytes([pd])
+    hole = bytes([ph])
+    for r in recs:
+        nreal = r.count(hole)
+        head = r[:4]
+        if nreal and head == b"128" + sep:
+            p = r.split(sep)
+            try:
+                if head[:3] == b"126":
+                    k, m_ = int(p[1]), int(p[2])
+                    rows, cols = 1, k + 1
+                    off = 7 + (k + m_ + 2) + (k + 1)
+                else:
+                    k1, k2, m1, m2 = (int(x) for x in p[1:5])
+                    rows, cols = k2 + 1, k1 + 1
+                    off = 10 + (k1 + m1 + 2) + (k2 + m2 + 2) + rows * cols
+                n = 3 * rows * cols
+                if (
+                    min(rows, cols) >= 1
+                    and off + n < len(p)
+                    and all(x == hole for x in p[off : off + n])
+                ):
+                    out.append((base + sep.join(p[:off]).count(hole), rows, cols))
+            except ValueError:
+                pass
+        base += nreal
+    return out
+
+
+def _lane_sel(lanes: list[tuple[int, int, int]], nd: np.ndarray, q: np.ndarray) -> list[np.ndarray]:
+    """The real indices of each pole lane (entity and coordinate) that is
+    predicted: all its reals have digit slots, and at the lane's finest
+    quantum none has more than LANE_DIGITS digits."""
+    ok = nd >= SHORT
+    sel = []
+    for first, rows, cols in lanes:
+        idx = first + np.arange(3 * rows * cols).reshape(rows, cols, 3)
+        for c in range(3):
+            ix = idx[:, :, c]
+            if ok[ix].all():
+                shift = q[ix] - q[ix].min()
+                if (nd[ix] + shift).max() <= LANE_DIGITS:
+                    sel.append(ix)
+    return sel
+
+
+def _diff(a: np.ndarray) -> np.ndarray:
+    """Differences along both axes (zeros before the first): the poles of a
+    surface less their parallelogram prediction; a curve's, second differences."""
+    if a.shape[0] == 1:
+        a = a[0]
+        return np.diff(np.diff(a, prepend=0), prepend=0)[None, :]
+    return np.diff(np.diff(a, axis=0, prepend=0), axis=1, prepend=0)
+
+
+def _undiff(d: np.ndarray) -> np.ndarray:
+    if d.shape[0] == 1:
+        return np.cumsum(np.cumsum(d[0]))[None, :]
+    return np.cumsum(np.cumsum(d, axis=0), axis=1)
+
+
+def _numbers_encode(ptext: bytes, pd: int, rd: int, ph: int) -> list[bytes]:
+    """Skeleton, format dictionary, format ids, digits and pole residuals of
+    the parameter text (module docstring)."""
+    spans, fmts_of, digs = [], [], []
+    fmt_id: dict[bytes, int] = {}
+    for mt in _number_pattern(pd, rd).finditer(ptext):
+        sign, body, el, ex = mt.groups()
+        if el is None and b"." not in body:
+            continue  # an integer: stays in the skeleton
+        d = body.replace(b".", b"")
+        if len(d) < SHORT:
+            f = mt.group()
+            d = b""
+        else:
+            f = sign + re.sub(rb"\d", b"#", body) + (el or b"") + (ex or b"")
+        spans.append(mt.span())
+        fmts_of.append(fmt_id.setdefault(f, len(fmt_id)))
+        digs.append(d)
+    if len(fmt_id) > 0xFFFF:
+        raise ValueError("too many number formats")
+    parts, at = [], 0
+    hole = bytes([ph])
+    for a, b in spans:
+        parts.append(ptext[at:a])
+        parts.append(hole)
+        at = b
+    parts.append(ptext[at:])
+    skel = b"".join(parts)
+    fmts = list(fmt_id)
+    ids = np.array(fmts_of, np.uint16)
+    nd_f, q_f, _ = _template_info(fmts)
+    nd, q = nd_f[ids], q_f[ids]
+    sel = _lane_sel(_pole_lanes(skel.split(b"\n"), pd, ph), nd, q)
+    predicted = np.zeros(len(digs), bool)
+    res = []
+    flags = bytearray()
+    for ix in sel:
+        m = np.array([int(digs[i]) for i in ix.flat], np.int64).reshape(ix.shape)
+        m = np.where(np.array([fmts[i][:1] == b"-" for i in ids[ix.flat]]).reshape(ix.shape), -m, m)
+        m = m * np.int64(10) ** (q[ix] - q[ix].min())  # at the lane's finest quantum
+        d = _diff(m).ravel()
+        bits = np.log2(2.0 * np.abs(d.astype(np.float64)) + 2.0).sum() + 2.0 * d.size
+        use = bool(bits < 3.3 * float(nd[ix].sum()))
+        flags.append(use)
+        if use:
+            predicted[ix] = True
+            res.append(d)
+    r = np.concatenate(res) if res else np.zeros(0, np.int64)
+    z = ((r << 1) ^ (r >> 63)).astype(np.uint64)  # zigzag
+    digits = b"".join(d for d, p in zip(digs, predicted.tolist()) if not p)
+    return [
+        bytes(flags),
+        skel,
+        b"\n".join(fmts),
+        ids.view(np.uint8).reshape(-1, 2).T.tobytes(),
+        digits,
+        z.view(np.uint8).reshape(-1, 8).T.tobytes(),
+    ]
+
+
+def _numbers_decode(streams: list[bytes], pd: int, ph: int) -> bytes:
+    flags, skel, fdict, fids, digits, zres = streams
+    if len(fids) % 2 or len(zres) % 8:
+        raise CorruptError("IGES model: number streams have the wrong size")
+    n = len(fids) // 2
+    hole = bytes([ph])
+    parts = skel.split(hole)
+    if len(parts) != n + 1:
+        raise CorruptError("IGES model: number count does not match the skeleton")
+    if not n:
+        return skel
+    fmts = fdict.split(b"\n")
+    ids = np.frombuffer(fids, np.uint8).reshape(2, n).T.copy().view(np.uint16).ravel()
+    if int(ids.max()) >= len(fmts):
+        raise CorruptError("IGES model: a number format past the dictionary")
+    nd_f, q_f, neg_f = _template_info(fmts)
+    nd, q = nd_f[ids], q_f[ids]
+    sel = _lane_sel(_pole_lanes(skel.split(b"\n"), pd, ph), nd, q)
+    if len(flags) != len(sel) or flags.strip(b"\x00\x01"):
+        raise CorruptError("IGES model: pole lane flags do not match")
+    sel = [ix for ix, f in zip(sel, flags) if f]
+    z = np.frombuffer(zres, np.uint8).reshape(8, -1).T.copy().view(np.uint64).ravel()
+    r = ((z >> np.uint64(1)).astype(np.int64)) ^ -((z & np.uint64(1)).astype(np.int64))
+    slots = int(nd.sum())
+    predicted = np.zeros(n, bool)
+    at = 0
+    pidx, pm = [], []
+    for ix in sel:
+        k = ix.size
+        if at + k > len(r):
+            raise CorruptError("IGES model: fewer pole residuals than poles")
+        pidx.append(ix.ravel())
+        scale = np.int64(10) ** (q[ix] - q[ix].min())
+        big = _undiff(r[at : at + k].reshape(ix.shape))
+        if (big % scale).any():
+            raise CorruptError("IGES model: a pole is finer than its format")
+        pm.append((big // scale).ravel())
+        at += k
+        predicted[ix] = True
+    if at != len(r):
+        raise CorruptError("IGES model: more pole residuals than poles")
+    out = np.empty(slots, np.uint8)
+    pslot = np.repeat(predicted, nd)
+    if int((~pslot).sum()) != len(digits):
+        raise CorruptError("IGES model: digit count does not match the formats")
+    out[~pslot] = np.frombuffer(digits, np.uint8)
+    if pidx:
+        pi = np.concatenate(pidx)
+        m = np.concatenate(pm)
+        order = np.argsort(pi)
+        pi, m = pi[order], m[order]
+        neg = neg_f[ids[pi]]
+        if ((m > 0) & neg).any() or ((m < 0) & ~neg).any():
+            raise CorruptError("IGES model: a pole's sign does not match its format")
+        a = np.abs(m).astype(np.uint64)
+        w = nd[pi]
+        p10 = np.uint64(10) ** np.arange(LANE_DIGITS - 1, -1, -1, dtype=np.uint64)
+        if (a >= np.uint64(10) ** w.astype(np.uint64)).any():
+            raise CorruptError("IGES model: a pole has more digits than its format")
+        mat = (a[:, None] // p10[None, :]) % np.uint64(10)
+        take = np.arange(LANE_DIGITS)[None, :] >= (LANE_DIGITS - w)[:, None]
+        out[pslot] = (mat[take] + np.uint64(48)).astype(np.uint8)
+    texts = np.frombuffer(b"\x00".join([fmts[i] for i in ids.tolist()]), np.uint8).copy()
+    holes = texts == _SLOT
+    if int(holes.sum()) != slots:
+        raise CorruptError("IGES model: digit slots do not match")
+    texts[holes] = out
+    words = texts.tobytes().split(b"\x00")
+    joined: list[bytes] = [b""] * (2 * n + 1)
+    joined[0::2] = parts
+    joined[1::2] = words
+    return b"".join(joined)
 
 
 # ---------------------------------------------------------------- decode
@@ -428,7 +627,7 @@ def _split_digits(ptext: bytes, pd: int, rd: int, ph: int) -> tuple[bytes, bytes
 
 def _decode(payload: bytes, limit: int) -> bytes:
     streams = coding.unpack(payload, 2 * limit + 4096, count=_N_STREAMS)
-    hdr_s, raw_s, ints_s, text_s, dmask_s, dvals_s, skel_s, digits_s = streams
+    hdr_s, raw_s, ints_s, text_s, dmask_s, dvals_s = streams[:6]
     h = _Varints(hdr_s)
     if h() != VERSION:
         raise CorruptError("IGES model: unknown version")
@@ -498,12 +697,7 @@ def _decode(payload: bytes, limit: int) -> bytes:
         M[text_mask, :72] = _rows(b"".join(r.ljust(72) for r in rows), 72, ntext)
 
     # parameter text
-    skel = np.frombuffer(skel_s, np.uint8).copy()
-    holes = skel == ph
-    if int(holes.sum()) != len(digits_s):
-        raise CorruptError("IGES model: digit count does not match the skeleton")
-    skel[holes] = np.frombuffer(digits_s, np.uint8)
-    ptext = skel.tobytes()
+    ptext = _numbers_decode(streams[6:], pd, ph)
     rtexts = ptext.split(b"\n") if nrec else []
     npl = int(is_p.sum())
     if len(rtexts) != nrec or sum(rcount) != npl or any(c < 1 for c in rcount):
@@ -573,10 +767,10 @@ def _decode(payload: bytes, limit: int) -> bytes:
         pieces: list[bytes] = []
         k = 0
         prev = 0
-        for i, r in zip(raw_idx, raws):
+        for i, raw in zip(raw_idx, raws):
             take = i - prev
             pieces += recs[k : k + take]
-            pieces.append(r)
+            pieces.append(raw)
             k += take
             prev = i + 1
         pieces += recs[k:]
