@@ -317,7 +317,7 @@ def _encode(data: bytes) -> bytes | None:
         dvals,
         *numbers,
     ]
-    return coding.pack(streams)
+    return coding.pack(streams, quick=True)
 
 
 def _record_types(rtexts: list[bytes], pd: int) -> list[bytes]:
@@ -390,12 +390,13 @@ SHORT = 2
 #: Longest mantissa (in digits) a pole lane predicts: differences stay in int64.
 LANE_DIGITS = 17
 _SLOT = ord("#")  # a digit's place in a number format
+_TO_SLOT = bytes.maketrans(b"0123456789", b"##########")
 
 
 def _number_pattern(pd: int, rd: int) -> re.Pattern[bytes]:
     cls = re.escape(bytes([pd, rd])) + rb" \n"
     return re.compile(
-        rb"(?:(?<=[" + cls + rb"])|^)([-+]?)(\d+\.?\d*|\.\d+)"
+        rb"(?<![^" + cls + rb"])([-+]?)(\d+\.?\d*|\.\d+)"
         rb"(?:([EeDd])([-+]?\d+))?(?=[" + cls + rb"]|$)"
     )
 
@@ -502,7 +503,7 @@ def _numbers_encode(ptext: bytes, pd: int, rd: int, ph: int) -> list[bytes]:
             f = mt.group()
             d = b""
         else:
-            f = sign + re.sub(rb"\d", b"#", body) + (el or b"") + (ex or b"")
+            f = sign + body.translate(_TO_SLOT) + (el or b"") + (ex or b"")
         spans.append(mt.span())
         fmts_of.append(fmt_id.setdefault(f, len(fmt_id)))
         digs.append(d)
@@ -521,12 +522,14 @@ def _numbers_encode(ptext: bytes, pd: int, rd: int, ph: int) -> list[bytes]:
     nd_f, q_f, _ = _template_info(fmts)
     nd, q = nd_f[ids], q_f[ids]
     sel = _lane_sel(_pole_lanes(skel.split(b"\n"), pd, ph), nd, q)
+    _, _, neg_f = _template_info(fmts)
+    neg = neg_f[ids]
     predicted = np.zeros(len(digs), bool)
     res = []
     flags = bytearray()
     for ix in sel:
-        m = np.array([int(digs[i]) for i in ix.flat], np.int64).reshape(ix.shape)
-        m = np.where(np.array([fmts[i][:1] == b"-" for i in ids[ix.flat]]).reshape(ix.shape), -m, m)
+        m = np.array([int(digs[i]) for i in ix.flat.__array__().tolist()], np.int64)
+        m = np.where(neg[ix], -m.reshape(ix.shape), m.reshape(ix.shape))
         m = m * np.int64(10) ** (q[ix] - q[ix].min())  # at the lane's finest quantum
         d = _diff(m).ravel()
         bits = np.log2(2.0 * np.abs(d.astype(np.float64)) + 2.0).sum() + 2.0 * d.size
@@ -649,7 +652,7 @@ def _decode(payload: bytes, limit: int) -> bytes:
     if h.pos != len(hdr_s):
         raise CorruptError("IGES model: bytes after the header")
     if (
-        m * (81 if crlf else 80) + len(raw_s) + npieces - 1 > limit
+        m * (81 if crlf else 80) + len(raw_s) - max(nraw - 1, 0) + npieces - 1 > limit
         or max(nseq, ntext) > m
         or max(ntail, nrec, nlay) > m
         or 2 * nd > m
@@ -713,35 +716,46 @@ def _decode(payload: bytes, limit: int) -> bytes:
     for r in range(nrec):
         t = tex.get(r)
         if t is None:
-            t = b" " + _fmt(tail_zero, 7, [cur])
+            t = (b" %07d" if tail_zero else b" %7d") % cur
+            if len(t) > 8:
+                t = b" " + t[-7:]
         s = t.strip()
         val = int(s) if s.isdigit() and len(s) < 12 else cur
         rtails.append(t)
         rdes.append(val)
         cur = val + 2
 
-    # P lines
+    # P lines: their lengths by the layout policy, then one scatter
     bounds_a = np.frombuffer(ptext, np.uint8)
     bounds = (np.flatnonzero((bounds_a == pd) | (bounds_a == rd)) + 1).tolist()
     lex = dict(zip(lay_i, lay_l))
-    out_lines: list[bytes] = []
+    starts: list[int] = []
+    lens: list[int] = []
     li = pos = 0
     for r in range(nrec):
         e = pos + len(rtexts[r])
-        tail = rtails[r]
         for _ in range(rcount[r]):
             got = lex.get(li)
             n = got if got is not None else (_layout(lay_mode, bounds, pos, e) if pos < e else -1)
             if n < 0 or n > P_WIDTH or pos + n > e:
                 raise CorruptError("IGES model: P line layout does not fit its record")
-            out_lines.append(ptext[pos : pos + n].ljust(P_WIDTH) + tail)
+            starts.append(pos)
+            lens.append(n)
             pos += n
             li += 1
         if pos != e:
             raise CorruptError("IGES model: P lines do not cover their record")
         pos = e + 1
     if npl:
-        M[is_p, :72] = _rows(b"".join(out_lines), 72, npl)
+        Pc = np.full((npl, 72), 32, np.uint8)
+        ln = np.array(lens, np.int64)
+        total = int(ln.sum())
+        rows = np.repeat(np.arange(npl), ln)
+        first = np.repeat(np.cumsum(ln) - ln, ln)
+        cols = np.arange(total) - first
+        Pc[rows, cols] = bounds_a[np.repeat(np.array(starts, np.int64), ln) + cols]
+        Pc[:, 64:72] = np.repeat(_rows(b"".join(rtails), 8, nrec), rcount, axis=0)
+        M[is_p, :72] = Pc
 
     # D entries
     if nd:
@@ -756,27 +770,25 @@ def _decode(payload: bytes, limit: int) -> bytes:
     elif dmask_s or dvals_s:
         raise CorruptError("IGES model: D data without D entries")
 
-    # assemble
-    nl = b"\r" if crlf else b""
-    blob = M.tobytes()
-    recs = [blob[80 * i : 80 * i + 80] + nl for i in range(m)]
+    # assemble: every piece followed by a newline, the last one's dropped
+    eol = b"\r\n" if crlf else b"\n"
+    W = np.empty((m, 80 + len(eol)), np.uint8)
+    W[:, :80] = M
+    W[:, 80:] = np.frombuffer(eol, np.uint8)
+    blob = W.tobytes()
+    w = W.shape[1]
     raws = raw_s.split(b"\n") if nraw else []
     if len(raws) != nraw:
         raise CorruptError("IGES model: raw line count does not match")
-    if nraw:
-        pieces: list[bytes] = []
-        k = 0
-        prev = 0
-        for i, raw in zip(raw_idx, raws):
-            take = i - prev
-            pieces += recs[k : k + take]
-            pieces.append(raw)
-            k += take
-            prev = i + 1
-        pieces += recs[k:]
-    else:
-        pieces = recs
-    out = b"\n".join(pieces)
+    chunks: list[bytes] = []
+    k = prev = 0
+    for i, raw in zip(raw_idx, raws):
+        take = i - prev
+        chunks += [blob[w * k : w * (k + take)], raw, b"\n"]
+        k += take
+        prev = i + 1
+    chunks.append(blob[w * k :])
+    out = b"".join(chunks)[:-1]
     if len(out) > limit:
         raise LimitError(f"IGES model inflates past {limit} bytes")
     return out
