@@ -68,7 +68,7 @@ def quick_lzma(raw: bytes) -> bytes:
     as any ``Coder.LZMA`` stream: LZMA2 carries its settings in its chunks."""
     dict_size = max(1 << 12, 1 << (len(raw) - 1).bit_length())
     best = b""
-    tunings = QUICK_TUNINGS
+    tunings: tuple[tuple[int, int, int], ...] = QUICK_TUNINGS
     if len(raw) > 1 << 15:
         head = raw[:4096]
         text = sum(head.count(bytes([c])) for c in range(32, 127)) > 0.9 * len(head)

@@ -750,10 +750,10 @@ def _decode(payload: bytes, limit: int) -> bytes:
         Pc = np.full((npl, 72), 32, np.uint8)
         ln = np.array(lens, np.int64)
         total = int(ln.sum())
-        rows = np.repeat(np.arange(npl), ln)
+        prow = np.repeat(np.arange(npl), ln)
         first = np.repeat(np.cumsum(ln) - ln, ln)
         cols = np.arange(total) - first
-        Pc[rows, cols] = bounds_a[np.repeat(np.array(starts, np.int64), ln) + cols]
+        Pc[prow, cols] = bounds_a[np.repeat(np.array(starts, np.int64), ln) + cols]
         Pc[:, 64:72] = np.repeat(_rows(b"".join(rtails), 8, nrec), rcount, axis=0)
         M[is_p, :72] = Pc
 
