@@ -24,13 +24,16 @@ byte comes back whatever the file holds.  Of a record:
   record's text is its lines' columns 1-64 without trailing blanks, joined;
   the line breaks are predicted by the writer's policy (fill to 64 columns
   breaking after a delimiter, or one parameter a line) with exceptions;
-* the parameter text of all records is split into a skeleton and a digit
-  stream: the digits of every number of :data:`MIN_DIGITS` or more digits are
-  replaced by a placeholder byte in the skeleton and stored, in order, in the
-  digit stream, so a number comes back exactly as written (``1.0D0``,
-  ``-4.492467E-003``, ``0.5000000000000009992``), never through a float.
+* the parameter text of all records becomes a skeleton (integers as written,
+  each real a placeholder byte), a dictionary of number formats (sign, digit
+  places, point, exponent: ``-#.######E-003``), the formats' ids and the
+  digits, so a number comes back exactly as written (``1.0D0``,
+  ``0.5000000000000009992``), never through a float; the poles of B-spline
+  surfaces (128) are coded as integer differences from a parallelogram
+  prediction where that pays.
 
-Decoding is whole-array work (numpy masks and joins), no loop per character.
+Decoding is whole-array work (numpy masks, scatters and joins), no loop per
+character; the P layout takes one Python step a line.
 """
 
 from __future__ import annotations
