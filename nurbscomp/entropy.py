@@ -176,12 +176,6 @@ def _compress(
     return brotli.compress(raw, quality=11)
 
 
-def compress_one(coder: Coder, raw: bytes) -> bytes:
-    """``raw`` through one coder at its full setting (LZMA: preset 9e, default
-    literal settings, what ``xz -9e`` codes), with no search."""
-    return _compress(coder, raw)
-
-
 def compress(
     raw: bytes, coders: tuple[Coder, ...] = tuple(Coder), thorough: bool = True
 ) -> tuple[Coder, bytes]:

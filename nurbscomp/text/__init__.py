@@ -20,7 +20,7 @@ from __future__ import annotations
 
 from concurrent.futures import ThreadPoolExecutor
 
-from ..entropy import Coder, compress_one
+from ..entropy import Coder
 from ..errors import CorruptError
 from . import coding
 
@@ -34,7 +34,8 @@ def _models() -> dict[int, object]:
 
 
 def _plain(data: bytes) -> bytes:
-    return bytes([PLAIN]) + coding.pack_coded([(Coder.LZMA, data, compress_one(Coder.LZMA, data))])
+    """Method 0: one raw LZMA2 stream at preset 9e (``coding.quick_lzma``)."""
+    return bytes([PLAIN]) + coding.pack_coded([(Coder.LZMA, data, coding.quick_lzma(data))])
 
 
 def encode(data: bytes) -> bytes:
