@@ -10,15 +10,19 @@
 The encoder tries the model that fits the text, decodes its own output to make
 sure it gives the same bytes back, and keeps the smaller of the model and the
 plain stream: raw LZMA2 at preset 9e, what ``xz -9e`` codes less its framing,
-so a blob is never larger than ``xz -9e`` of the file.  The plain stream is
-made in a thread beside the model (LZMA releases the GIL), so on two cores
-encoding takes about as long as ``xz -9e`` does, or the model, whichever is
-longer.  Nothing here needs OpenCASCADE: this reads text.
+so a blob is never larger than ``xz -9e`` of the file.
+
+Coding the plain stream costs what ``xz -9e`` costs, several times the model
+on large files.  So it is first estimated from :data:`SAMPLE_PIECES` evenly
+spaced pieces of the file (the whole file when it is no larger), and made in
+full only if the model is not below :data:`SKIP_BELOW` of that estimate.
+Pieces lose the history the whole file has, so the estimate is high: on the
+corpus the whole file codes to 0.72–1.0 of it, and a model kept without the
+full plain stream is at most 0.5 of it (the corpus's models are at 0.35–0.6).
+Nothing here needs OpenCASCADE: this reads text.
 """
 
 from __future__ import annotations
-
-from concurrent.futures import ThreadPoolExecutor
 
 from ..entropy import Coder
 from ..errors import CorruptError
@@ -38,16 +42,35 @@ def _plain(data: bytes) -> bytes:
     return bytes([PLAIN]) + coding.pack_coded([(Coder.LZMA, data, coding.quick_lzma(data))])
 
 
+#: The plain stream is estimated on this many pieces of a file ...
+SAMPLE_PIECES = 8
+#: ... of this many bytes each (a file no larger than both is coded whole).
+SAMPLE_PIECE = 32 * 1024
+#: A model below this fraction of the plain stream's estimate is kept without
+#: coding the plain stream in full (module docstring).
+SKIP_BELOW = 0.5
+
+
+def _plain_estimate(data: bytes) -> tuple[float, bytes | None]:
+    """The plain stream's size, estimated, and the plain blob itself where the
+    file is small enough to be coded whole."""
+    n, k = len(data), SAMPLE_PIECES * SAMPLE_PIECE
+    if n <= k:
+        blob = _plain(data)
+        return len(blob), blob
+    last = SAMPLE_PIECES - 1
+    starts = [i * (n - SAMPLE_PIECE) // last for i in range(SAMPLE_PIECES)]
+    sample = b"".join(data[a : a + SAMPLE_PIECE] for a in starts)
+    return len(coding.quick_lzma(sample)) * n / len(sample), None
+
+
 def encode(data: bytes) -> bytes:
     """The smallest blob that gives ``data`` back (module docstring)."""
-    with ThreadPoolExecutor(1) as pool:
-        plain = pool.submit(_plain, data)
-        blobs = _model_blobs(data)
-        best = plain.result()
-    for blob in blobs:
-        if len(blob) < len(best):
-            best = blob
-    return best
+    estimate, plain = _plain_estimate(data)
+    blobs = sorted(_model_blobs(data), key=len)
+    if plain is None and not (blobs and len(blobs[0]) <= SKIP_BELOW * estimate):
+        plain = _plain(data)
+    return min([*blobs, *([plain] if plain is not None else [])], key=len)
 
 
 def _model_blobs(data: bytes) -> list[bytes]:
