@@ -42,6 +42,7 @@ from .model import (
     Location,
     Rec,
     RepKind,
+    ShapeType,
     Table,
     first_row,
 )
@@ -528,8 +529,60 @@ def _read_vertices(data: bytes, m: BRepModel, tol: float = 0.0) -> None:
     m.vertex_reps = np.stack(cols, axis=1).astype(np.int64).reshape(-1, 5)
 
 
+def edge_candidates(m: BRepModel, cap: float = np.inf) -> list[list[int]]:
+    """Format 2.0: per edge row, the surface rows of the faces it bounds (faces
+    in ``FACE`` order, each surface row at its first appearance): the
+    candidates an ``EDGE`` surface pick names (docs/format.md §2.7).
+
+    Raises
+    ------
+    LimitError
+        The faces' walks visit more than ``cap`` sub-shape references (a
+        reader's ``budget.Limits.references``: a shared DAG makes the walks
+        quadratic).
+    """
+    tidx = m.type_index().tolist()
+    types = m.shape_type.tolist()
+    start, kids = m.child_start.tolist(), m.child_shape.tolist()
+    edge, vertex = int(ShapeType.EDGE), int(ShapeType.VERTEX)
+    out: list[list[int]] = [[] for _ in range(types.count(edge))]
+    work = 0
+    faces = [i for i, t in enumerate(types) if t == int(ShapeType.FACE)]
+    for f, s in enumerate(faces):
+        r = int(m.face_surface[f])
+        seen, stack = {s}, [s]
+        while stack:
+            x = stack.pop()
+            work += start[x + 1] - start[x]
+            if work > cap:
+                raise LimitError(
+                    f"EDGE: the faces' walks to their edges pass more than {cap:g} references"
+                )
+            for c in kids[start[x] : start[x + 1]]:
+                if c in seen:
+                    continue
+                seen.add(c)
+                if types[c] == edge:
+                    cands = out[tidx[c]]
+                    if r not in cands:
+                        cands.append(r)
+                elif types[c] < edge and types[c] != vertex:
+                    stack.append(c)
+    return out
+
+
+def _picks(values: np.ndarray, edges: np.ndarray, cands: list[list[int]]) -> np.ndarray:
+    """Per value, its index among its edge's candidates, −1 where it is none."""
+    out = np.full(len(values), -1, np.int64)
+    for k, (v, e) in enumerate(zip(values.tolist(), edges.tolist())):
+        c = cands[e]
+        if v in c:
+            out[k] = c.index(v)
+    return out
+
+
 def _write_edges(m: BRepModel, how: np.ndarray) -> bytes:
-    """EDGE; ``how`` is each representation's range kind (``decode.range_kinds``)."""
+    """EDGE (format 2.0); ``how`` is each representation's range kind (``decode.range_kinds``)."""
     w = BlockWriter()
     w.floats(m.edge_tol)
     w.ints(m.edge_flags)
@@ -541,8 +594,14 @@ def _write_edges(m: BRepModel, how: np.ndarray) -> bytes:
     w.deltas(reps[kind == RepKind.CURVE3D, 2])  # 3-D curve
     w.deltas(reps[(kind == RepKind.ON_SURFACE) | (kind == RepKind.ON_CLOSED_SURFACE), 2])  # pcurve
     w.ints(reps[kind == RepKind.ON_CLOSED_SURFACE, 3])  # second pcurve
-    w.deltas(reps[kind != RepKind.CURVE3D, 4])  # surface
-    w.deltas(reps[kind == RepKind.ON_TWO_SURFACES, 5])  # second surface
+    # surfaces (2.0): picked among the surfaces of the edge's faces, or escaped
+    cands = edge_candidates(m)
+    s1, e1 = reps[kind != RepKind.CURVE3D, 4], reps[kind != RepKind.CURVE3D, 0]
+    s2, e2 = reps[kind == RepKind.ON_TWO_SURFACES, 5], reps[kind == RepKind.ON_TWO_SURFACES, 0]
+    p1, p2 = _picks(s1, e1, cands), _picks(s2, e2, cands)
+    w.ints(p1)
+    w.ints(p2)
+    w.deltas(np.concatenate([s1[p1 < 0], s2[p2 < 0]]))
     w.ints(reps[:, 6])  # location
     w.ints(reps[kind == RepKind.ON_TWO_SURFACES, 7])  # second location
     cont = (kind == RepKind.ON_CLOSED_SURFACE) | (kind == RepKind.ON_TWO_SURFACES)
@@ -556,9 +615,20 @@ def _write_edges(m: BRepModel, how: np.ndarray) -> bytes:
     return bytes(w)
 
 
-def _read_edges(data: bytes, m: BRepModel) -> np.ndarray:
+@dataclass
+class _Picks:
+    """Format 2.0: EDGE's surface picks, resolved once FACE is read."""
+
+    first: np.ndarray
+    second: np.ndarray
+    escaped: np.ndarray
+
+
+def _read_edges(data: bytes, m: BRepModel, revision: int = 3) -> tuple[np.ndarray, _Picks | None]:
     """Fill ``m``'s edge tables; return the range kinds (``decode.range_kinds``:
-    ranges of any kind but ``RANGE_STORED`` are left for ``decode.resolve_ranges``)."""
+    ranges of any kind but ``RANGE_STORED`` are left for ``decode.resolve_ranges``)
+    and, from revision 3, the surface picks (:func:`_resolve_picks`; the
+    surfaces are 0 until then)."""
     r = BlockReader(data, "EDGE")
     m.edge_tol = r.floats()
     _tolerances(m.edge_tol, "EDGE tolerances")
@@ -584,8 +654,18 @@ def _read_edges(data: bytes, m: BRepModel) -> np.ndarray:
     reps[c3, 2] = r.deltas(int(c3.sum()))
     reps[pc, 2] = r.deltas(int(pc.sum()))
     reps[closed, 3] = r.ints(int(closed.sum()))
-    reps[~c3, 4] = r.deltas(int((~c3).sum()))
-    reps[two, 5] = r.deltas(int(two.sum()))
+    picks = None
+    if revision >= 3:
+        first, second = r.ints(int((~c3).sum())), r.ints(int(two.sum()))
+        if (first < -1).any() or (second < -1).any():
+            raise SectionError("EDGE: a surface pick below -1")
+        n_esc = int((first == -1).sum() + (second == -1).sum())
+        picks = _Picks(first, second, r.deltas(n_esc))
+        reps[~c3, 4] = 0
+        reps[two, 5] = 0
+    else:
+        reps[~c3, 4] = r.deltas(int((~c3).sum()))
+        reps[two, 5] = r.deltas(int(two.sum()))
     reps[:, 6] = r.ints(q)
     reps[:, 7] = 0
     reps[two, 7] = r.ints(int(two.sum()))
@@ -612,7 +692,30 @@ def _read_edges(data: bytes, m: BRepModel) -> np.ndarray:
     finite(m.edge_rep_range, "EDGE ranges")
     finite(m.edge_rep_range[~curveless], "EDGE ranges", MAX_COORD)
     finite(m.edge_rep_uv, "EDGE uv points", MAX_COORD)
-    return how
+    return how, picks
+
+
+def _resolve_picks(m: BRepModel, p: _Picks, cap: float) -> None:
+    """Set EDGE's surfaces from their picks (format 2.0, docs/format.md §2.7)."""
+    cands = edge_candidates(m, cap)
+    reps = m.edge_reps
+    esc = iter(p.escaped.tolist())
+    kind = reps[:, 1]
+    for col, sel, pick in (
+        (4, kind != RepKind.CURVE3D, p.first),
+        (5, kind == RepKind.ON_TWO_SURFACES, p.second),
+    ):
+        rows = np.flatnonzero(sel).tolist()
+        for q, k in zip(rows, pick.tolist()):
+            if k == -1:
+                reps[q, col] = next(esc)  # as many as the picks of -1: read so
+                continue
+            c = cands[int(reps[q, 0])]
+            if k >= len(c):
+                raise BadReferenceError(
+                    f"EDGE: representation {q} picks surface {k} of an edge on {len(c)}"
+                )
+            reps[q, col] = c[k]
 
 
 #: How an edge representation's range is stored (EDGE, format 0.3; VERTICES 0.4).
@@ -951,8 +1054,13 @@ def _read_sections(
     m.curves2d = _read_geometry(get("CRV2"), "CRV2", 2)
     _read_shapes(get("SHAP"), m)
     _read_vertices(get("VERT"), m, tol)
-    range_how = _read_edges(get("EDGE"), m)
+    range_how, picks = _read_edges(get("EDGE"), m, revision)
     _read_faces(get("FACE"), m)
+    if picks is not None:
+        counts = m.counts()
+        if len(m.face_surface) != counts["face"] or len(m.edge_tol) != counts["edge"]:
+            raise BadReferenceError("edge or face table does not match the shapes table")
+        _resolve_picks(m, picks, np.inf if limits is None else limits.references)
     check_references(m)
     if limits is not None:
         budget.check_structure(m, limits)
