@@ -467,6 +467,45 @@ def _read_shapes(data: bytes, m: BRepModel) -> None:
         raise BadReferenceError("SHAP: bad root reference")
 
 
+#: Format 2.0: the mantissas of 2^(c/4), c mod 4 = 0..3 (:func:`quarter_power`).
+QUARTERS = tuple(
+    float.fromhex(x)
+    for x in ("0x1p+0", "0x1.306fe0a31b715p+0", "0x1.6a09e667f3bcdp+0", "0x1.ae89f995ad3adp+0")
+)
+#: Largest |c| of a tolerance code.
+MAX_QUARTER = 4000
+
+
+def quarter_power(c: np.ndarray) -> np.ndarray:
+    """2^(c/4) as format 2.0 computes it: ``ldexp(QUARTERS[c mod 4], floor(c/4))``."""
+    c = np.asarray(c, np.int64)
+    return np.ldexp(np.array(QUARTERS)[c % 4], c // 4)
+
+
+def _write_tolerances(w: BlockWriter, tol: np.ndarray) -> None:
+    """Format 2.0: tolerances that are 2^(c/4) bit for bit (0 < |c| <= MAX_QUARTER)
+    as their codes c, the others (code 0) as floats."""
+    codes = np.zeros(len(tol), np.int64)
+    pos = tol > 0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        guess = np.where(pos, np.rint(4 * np.log2(np.where(pos, tol, 1.0))), 0).astype(np.int64)
+    guess = np.clip(guess, -MAX_QUARTER, MAX_QUARTER)
+    exact = pos & (guess != 0) & (quarter_power(guess).view(np.int64) == tol.view(np.int64))
+    codes[exact] = guess[exact]
+    w.ints(codes)
+    w.floats(tol[~exact])
+
+
+def _read_tolerances(r: BlockReader, n: int | None, where: str) -> np.ndarray:
+    codes = r.ints() if n is None else r.ints(n)
+    if len(codes) and np.abs(codes).max() > MAX_QUARTER:
+        raise SectionError(f"{where}: a tolerance code is out of range")
+    out = quarter_power(codes)
+    plain = codes == 0
+    out[plain] = r.floats(int(plain.sum()))
+    return out
+
+
 def vertex_grid(tol: float) -> float:
     """Step of the grid lossy vertices are snapped to: every coordinate moves by
     at most h/2, so a vertex by at most tol/2 (``h = tol/√3``)."""
@@ -489,7 +528,7 @@ def _write_vertices(m: BRepModel, tol: float = 0.0) -> bytes:
     w.floats(pts[~on_grid].reshape(-1))
     for axis in range(3):
         w.deltas(q[on_grid, axis])
-    w.floats(m.vertex_tol)
+    _write_tolerances(w, m.vertex_tol)
     reps = m.vertex_reps
     w.ints(np.bincount(reps[:, 0], minlength=len(m.vertex_tol)) if len(reps) else [])
     for col in range(1, 5):
@@ -498,7 +537,7 @@ def _write_vertices(m: BRepModel, tol: float = 0.0) -> bytes:
     return bytes(w)
 
 
-def _read_vertices(data: bytes, m: BRepModel, tol: float = 0.0) -> None:
+def _read_vertices(data: bytes, m: BRepModel, tol: float = 0.0, revision: int = 3) -> None:
     r = BlockReader(data, "VERT")
     kind = r.ints()
     if len(kind) and (kind.min() < 0 or kind.max() > 1):
@@ -515,7 +554,7 @@ def _read_vertices(data: bytes, m: BRepModel, tol: float = 0.0) -> None:
             pts[on_grid] = q * vertex_grid(tol)
     finite(pts, "VERT points", MAX_COORD)
     m.vertex_point = pts
-    m.vertex_tol = r.floats(nv)
+    m.vertex_tol = _read_tolerances(r, nv, "VERT") if revision >= 3 else r.floats(nv)
     _tolerances(m.vertex_tol, "VERT tolerances")
     per = r.ints()
     if len(per) not in (0, nv):
@@ -584,7 +623,7 @@ def _picks(values: np.ndarray, edges: np.ndarray, cands: list[list[int]]) -> np.
 def _write_edges(m: BRepModel, how: np.ndarray) -> bytes:
     """EDGE (format 2.0); ``how`` is each representation's range kind (``decode.range_kinds``)."""
     w = BlockWriter()
-    w.floats(m.edge_tol)
+    _write_tolerances(w, m.edge_tol)
     w.ints(m.edge_flags)
     reps = m.edge_reps
     w.ints(np.bincount(reps[:, 0], minlength=len(m.edge_tol)) if len(reps) else [])
@@ -630,7 +669,7 @@ def _read_edges(data: bytes, m: BRepModel, revision: int = 3) -> tuple[np.ndarra
     and, from revision 3, the surface picks (:func:`_resolve_picks`; the
     surfaces are 0 until then)."""
     r = BlockReader(data, "EDGE")
-    m.edge_tol = r.floats()
+    m.edge_tol = _read_tolerances(r, None, "EDGE") if revision >= 3 else r.floats()
     _tolerances(m.edge_tol, "EDGE tolerances")
     ne = len(m.edge_tol)
     flags = r.ints(ne)
@@ -1053,7 +1092,7 @@ def _read_sections(
     m.curves3d = _read_geometry(get("CRV3"), "CRV3", 3)
     m.curves2d = _read_geometry(get("CRV2"), "CRV2", 2)
     _read_shapes(get("SHAP"), m)
-    _read_vertices(get("VERT"), m, tol)
+    _read_vertices(get("VERT"), m, tol, revision)
     range_how, picks = _read_edges(get("EDGE"), m, revision)
     _read_faces(get("FACE"), m)
     if picks is not None:

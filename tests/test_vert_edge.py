@@ -82,3 +82,34 @@ def test_candidate_walks_are_bounded() -> None:
     serialize.edge_candidates(m)
     with pytest.raises(LimitError):
         serialize.edge_candidates(m, cap=3)
+
+
+def test_tolerance_codes_are_exact() -> None:
+    """Quarter powers (what the lossy writer widens to) are coded as integers
+    and read back bit for bit; other values, 0 and 1.0 stay floats."""
+    k = np.arange(-200, 40)
+    tols = np.concatenate([np.exp2(k / 4), [1e-7, 0.0, 1.0, 3.3e-3, 5e-324]])
+    w = serialize.BlockWriter()
+    serialize._write_tolerances(w, tols)
+    r = serialize.BlockReader(bytes(w), "VERT")
+    back = serialize._read_tolerances(r, len(tols), "VERT")
+    r.done()
+    assert back.view(np.int64).tolist() == tols.view(np.int64).tolist()
+    codes = serialize.BlockReader(bytes(w), "VERT").ints()
+    assert (codes[: len(k)] == np.where(k == 0, 0, k)).all()
+
+
+def test_tolerance_code_out_of_range_is_refused() -> None:
+    w = serialize.BlockWriter()
+    w.ints([5000])
+    w.floats(np.zeros(0))
+    with pytest.raises(SectionError, match="tolerance code"):
+        serialize._read_tolerances(serialize.BlockReader(bytes(w), "EDGE"), None, "EDGE")
+
+
+@pytest.mark.parametrize("name", ["loft.tol0.01.nzc", "teapot.tol0.01.nzc"])
+def test_lossy_tolerances_round_trip(name: str) -> None:
+    m, data = _repacked(name)
+    back = _decode(data)
+    assert back.vertex_tol.view(np.int64).tolist() == m.vertex_tol.view(np.int64).tolist()
+    assert back.edge_tol.view(np.int64).tolist() == m.edge_tol.view(np.int64).tolist()
