@@ -42,6 +42,7 @@ from .model import (
     Location,
     Rec,
     RepKind,
+    ShapeType,
     Table,
     first_row,
 )
@@ -510,6 +511,45 @@ def _read_shape_arrays(data: bytes, m: BRepModel) -> None:
         raise BadReferenceError("SHAP: bad root reference")
 
 
+#: Format 2.0: the mantissas of 2^(c/4), c mod 4 = 0..3 (:func:`quarter_power`).
+QUARTERS = tuple(
+    float.fromhex(x)
+    for x in ("0x1p+0", "0x1.306fe0a31b715p+0", "0x1.6a09e667f3bcdp+0", "0x1.ae89f995ad3adp+0")
+)
+#: Largest |c| of a tolerance code.
+MAX_QUARTER = 4000
+
+
+def quarter_power(c: np.ndarray) -> np.ndarray:
+    """2^(c/4) as format 2.0 computes it: ``ldexp(QUARTERS[c mod 4], floor(c/4))``."""
+    c = np.asarray(c, np.int64)
+    return np.ldexp(np.array(QUARTERS)[c % 4], c // 4)
+
+
+def _write_tolerances(w: BlockWriter, tol: np.ndarray) -> None:
+    """Format 2.0: tolerances that are 2^(c/4) bit for bit (0 < |c| <= MAX_QUARTER)
+    as their codes c, the others (code 0) as floats."""
+    codes = np.zeros(len(tol), np.int64)
+    pos = tol > 0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        guess = np.where(pos, np.rint(4 * np.log2(np.where(pos, tol, 1.0))), 0).astype(np.int64)
+    guess = np.clip(guess, -MAX_QUARTER, MAX_QUARTER)
+    exact = pos & (guess != 0) & (quarter_power(guess).view(np.int64) == tol.view(np.int64))
+    codes[exact] = guess[exact]
+    w.ints(codes)
+    w.floats(tol[~exact])
+
+
+def _read_tolerances(r: BlockReader, n: int | None, where: str) -> np.ndarray:
+    codes = r.ints() if n is None else r.ints(n)
+    if len(codes) and np.abs(codes).max() > MAX_QUARTER:
+        raise SectionError(f"{where}: a tolerance code is out of range")
+    out = quarter_power(codes)
+    plain = codes == 0
+    out[plain] = r.floats(int(plain.sum()))
+    return out
+
+
 def vertex_grid(tol: float) -> float:
     """Step of the grid lossy vertices are snapped to: every coordinate moves by
     at most h/2, so a vertex by at most tol/2 (``h = tol/√3``)."""
@@ -532,7 +572,7 @@ def _write_vertices(m: BRepModel, tol: float = 0.0) -> bytes:
     w.floats(pts[~on_grid].reshape(-1))
     for axis in range(3):
         w.deltas(q[on_grid, axis])
-    w.floats(m.vertex_tol)
+    _write_tolerances(w, m.vertex_tol)
     reps = m.vertex_reps
     w.ints(np.bincount(reps[:, 0], minlength=len(m.vertex_tol)) if len(reps) else [])
     for col in range(1, 5):
@@ -541,7 +581,7 @@ def _write_vertices(m: BRepModel, tol: float = 0.0) -> bytes:
     return bytes(w)
 
 
-def _read_vertices(data: bytes, m: BRepModel, tol: float = 0.0) -> None:
+def _read_vertices(data: bytes, m: BRepModel, tol: float = 0.0, revision: int = 3) -> None:
     r = BlockReader(data, "VERT")
     kind = r.ints()
     if len(kind) and (kind.min() < 0 or kind.max() > 1):
@@ -558,7 +598,7 @@ def _read_vertices(data: bytes, m: BRepModel, tol: float = 0.0) -> None:
             pts[on_grid] = q * vertex_grid(tol)
     finite(pts, "VERT points", MAX_COORD)
     m.vertex_point = pts
-    m.vertex_tol = r.floats(nv)
+    m.vertex_tol = _read_tolerances(r, nv, "VERT") if revision >= 3 else r.floats(nv)
     _tolerances(m.vertex_tol, "VERT tolerances")
     per = r.ints()
     if len(per) not in (0, nv):
@@ -572,10 +612,62 @@ def _read_vertices(data: bytes, m: BRepModel, tol: float = 0.0) -> None:
     m.vertex_reps = np.stack(cols, axis=1).astype(np.int64).reshape(-1, 5)
 
 
+def edge_candidates(m: BRepModel, cap: float = np.inf) -> list[list[int]]:
+    """Format 2.0: per edge row, the surface rows of the faces it bounds (faces
+    in ``FACE`` order, each surface row at its first appearance): the
+    candidates an ``EDGE`` surface pick names (docs/format.md §2.7).
+
+    Raises
+    ------
+    LimitError
+        The faces' walks visit more than ``cap`` sub-shape references (a
+        reader's ``budget.Limits.references``: a shared DAG makes the walks
+        quadratic).
+    """
+    tidx = m.type_index().tolist()
+    types = m.shape_type.tolist()
+    start, kids = m.child_start.tolist(), m.child_shape.tolist()
+    edge, vertex = int(ShapeType.EDGE), int(ShapeType.VERTEX)
+    out: list[list[int]] = [[] for _ in range(types.count(edge))]
+    work = 0
+    faces = [i for i, t in enumerate(types) if t == int(ShapeType.FACE)]
+    for f, s in enumerate(faces):
+        r = int(m.face_surface[f])
+        seen, stack = {s}, [s]
+        while stack:
+            x = stack.pop()
+            work += start[x + 1] - start[x]
+            if work > cap:
+                raise LimitError(
+                    f"EDGE: the faces' walks to their edges pass more than {cap:g} references"
+                )
+            for c in kids[start[x] : start[x + 1]]:
+                if c in seen:
+                    continue
+                seen.add(c)
+                if types[c] == edge:
+                    cands = out[tidx[c]]
+                    if r not in cands:
+                        cands.append(r)
+                elif types[c] < edge and types[c] != vertex:
+                    stack.append(c)
+    return out
+
+
+def _picks(values: np.ndarray, edges: np.ndarray, cands: list[list[int]]) -> np.ndarray:
+    """Per value, its index among its edge's candidates, −1 where it is none."""
+    out = np.full(len(values), -1, np.int64)
+    for k, (v, e) in enumerate(zip(values.tolist(), edges.tolist())):
+        c = cands[e]
+        if v in c:
+            out[k] = c.index(v)
+    return out
+
+
 def _write_edges(m: BRepModel, how: np.ndarray) -> bytes:
-    """EDGE; ``how`` is each representation's range kind (``decode.range_kinds``)."""
+    """EDGE (format 2.0); ``how`` is each representation's range kind (``decode.range_kinds``)."""
     w = BlockWriter()
-    w.floats(m.edge_tol)
+    _write_tolerances(w, m.edge_tol)
     w.ints(m.edge_flags)
     reps = m.edge_reps
     w.ints(np.bincount(reps[:, 0], minlength=len(m.edge_tol)) if len(reps) else [])
@@ -585,8 +677,14 @@ def _write_edges(m: BRepModel, how: np.ndarray) -> bytes:
     w.deltas(reps[kind == RepKind.CURVE3D, 2])  # 3-D curve
     w.deltas(reps[(kind == RepKind.ON_SURFACE) | (kind == RepKind.ON_CLOSED_SURFACE), 2])  # pcurve
     w.ints(reps[kind == RepKind.ON_CLOSED_SURFACE, 3])  # second pcurve
-    w.deltas(reps[kind != RepKind.CURVE3D, 4])  # surface
-    w.deltas(reps[kind == RepKind.ON_TWO_SURFACES, 5])  # second surface
+    # surfaces (2.0): picked among the surfaces of the edge's faces, or escaped
+    cands = edge_candidates(m)
+    s1, e1 = reps[kind != RepKind.CURVE3D, 4], reps[kind != RepKind.CURVE3D, 0]
+    s2, e2 = reps[kind == RepKind.ON_TWO_SURFACES, 5], reps[kind == RepKind.ON_TWO_SURFACES, 0]
+    p1, p2 = _picks(s1, e1, cands), _picks(s2, e2, cands)
+    w.ints(p1)
+    w.ints(p2)
+    w.deltas(np.concatenate([s1[p1 < 0], s2[p2 < 0]]))
     w.ints(reps[:, 6])  # location
     w.ints(reps[kind == RepKind.ON_TWO_SURFACES, 7])  # second location
     cont = (kind == RepKind.ON_CLOSED_SURFACE) | (kind == RepKind.ON_TWO_SURFACES)
@@ -600,11 +698,22 @@ def _write_edges(m: BRepModel, how: np.ndarray) -> bytes:
     return bytes(w)
 
 
-def _read_edges(data: bytes, m: BRepModel) -> np.ndarray:
+@dataclass
+class _Picks:
+    """Format 2.0: EDGE's surface picks, resolved once FACE is read."""
+
+    first: np.ndarray
+    second: np.ndarray
+    escaped: np.ndarray
+
+
+def _read_edges(data: bytes, m: BRepModel, revision: int = 3) -> tuple[np.ndarray, _Picks | None]:
     """Fill ``m``'s edge tables; return the range kinds (``decode.range_kinds``:
-    ranges of any kind but ``RANGE_STORED`` are left for ``decode.resolve_ranges``)."""
+    ranges of any kind but ``RANGE_STORED`` are left for ``decode.resolve_ranges``)
+    and, from revision 3, the surface picks (:func:`_resolve_picks`; the
+    surfaces are 0 until then)."""
     r = BlockReader(data, "EDGE")
-    m.edge_tol = r.floats()
+    m.edge_tol = _read_tolerances(r, None, "EDGE") if revision >= 3 else r.floats()
     _tolerances(m.edge_tol, "EDGE tolerances")
     ne = len(m.edge_tol)
     flags = r.ints(ne)
@@ -628,8 +737,18 @@ def _read_edges(data: bytes, m: BRepModel) -> np.ndarray:
     reps[c3, 2] = r.deltas(int(c3.sum()))
     reps[pc, 2] = r.deltas(int(pc.sum()))
     reps[closed, 3] = r.ints(int(closed.sum()))
-    reps[~c3, 4] = r.deltas(int((~c3).sum()))
-    reps[two, 5] = r.deltas(int(two.sum()))
+    picks = None
+    if revision >= 3:
+        first, second = r.ints(int((~c3).sum())), r.ints(int(two.sum()))
+        if (first < -1).any() or (second < -1).any():
+            raise SectionError("EDGE: a surface pick below -1")
+        n_esc = int((first == -1).sum() + (second == -1).sum())
+        picks = _Picks(first, second, r.deltas(n_esc))
+        reps[~c3, 4] = 0
+        reps[two, 5] = 0
+    else:
+        reps[~c3, 4] = r.deltas(int((~c3).sum()))
+        reps[two, 5] = r.deltas(int(two.sum()))
     reps[:, 6] = r.ints(q)
     reps[:, 7] = 0
     reps[two, 7] = r.ints(int(two.sum()))
@@ -656,7 +775,30 @@ def _read_edges(data: bytes, m: BRepModel) -> np.ndarray:
     finite(m.edge_rep_range, "EDGE ranges")
     finite(m.edge_rep_range[~curveless], "EDGE ranges", MAX_COORD)
     finite(m.edge_rep_uv, "EDGE uv points", MAX_COORD)
-    return how
+    return how, picks
+
+
+def _resolve_picks(m: BRepModel, p: _Picks, cap: float) -> None:
+    """Set EDGE's surfaces from their picks (format 2.0, docs/format.md §2.7)."""
+    cands = edge_candidates(m, cap)
+    reps = m.edge_reps
+    esc = iter(p.escaped.tolist())
+    kind = reps[:, 1]
+    for col, sel, pick in (
+        (4, kind != RepKind.CURVE3D, p.first),
+        (5, kind == RepKind.ON_TWO_SURFACES, p.second),
+    ):
+        rows = np.flatnonzero(sel).tolist()
+        for q, k in zip(rows, pick.tolist()):
+            if k == -1:
+                reps[q, col] = next(esc)  # as many as the picks of -1: read so
+                continue
+            c = cands[int(reps[q, 0])]
+            if k >= len(c):
+                raise BadReferenceError(
+                    f"EDGE: representation {q} picks surface {k} of an edge on {len(c)}"
+                )
+            reps[q, col] = c[k]
 
 
 #: How an edge representation's range is stored (EDGE, format 0.3; VERTICES 0.4).
@@ -994,9 +1136,14 @@ def _read_sections(
     m.curves3d = _read_geometry(get("CRV3"), "CRV3", 3)
     m.curves2d = _read_geometry(get("CRV2"), "CRV2", 2)
     _read_shapes(get("SHAP"), m, revision, limits)
-    _read_vertices(get("VERT"), m, tol)
-    range_how = _read_edges(get("EDGE"), m)
+    _read_vertices(get("VERT"), m, tol, revision)
+    range_how, picks = _read_edges(get("EDGE"), m, revision)
     _read_faces(get("FACE"), m)
+    if picks is not None:
+        counts = m.counts()
+        if len(m.face_surface) != counts["face"] or len(m.edge_tol) != counts["edge"]:
+            raise BadReferenceError("edge or face table does not match the shapes table")
+        _resolve_picks(m, picks, np.inf if limits is None else limits.references)
     check_references(m)
     if limits is not None:
         budget.check_structure(m, limits)
