@@ -134,14 +134,16 @@ def pack(
     flags: int = 0,
     coders: tuple[entropy.Coder, ...] = tuple(entropy.Coder),
     thorough: bool = True,
+    version: tuple[int, int] = (MAJOR, MINOR),
 ) -> bytes:
     """Build container bytes from ``(tag, raw payload)`` pairs.
 
     The body is compressed with each of ``coders`` and the smallest kept (tests
     pass one coder to pack fast); ``thorough=False`` searches less on a large
-    body (``entropy.compress``).
+    body (``entropy.compress``).  ``version`` is what the header says: a
+    writer says its own; tests re-pack older files' sections with theirs.
     """
-    head = _HEADER.pack(MAGIC, MAJOR, MINOR, flags, len(sections), 0)
+    head = _HEADER.pack(MAGIC, *version, flags, len(sections), 0)
     if len({tag for tag, _ in sections}) != len(sections):
         raise ValueError("section tags must be distinct")
     directory = []

@@ -269,14 +269,14 @@ def mutate_sections(data: bytes, rng: random.Random, others: list[bytes]) -> byt
                 pass
     flags = c.flags if rng.random() < 0.9 else c.flags ^ container.FLAG_LOSSLESS
     if dup:
-        out = pack_raw(secs, flags)
+        out = pack_raw(secs, flags, c.minor, c.major)
     else:
         # one coder, mostly the fast ones: packing with all four is slow
         coder = rng.choice([*[entropy.Coder.STORED] * 3, *entropy.Coder])
-        out = container.pack(secs, flags, (coder,))
-    if rng.random() < 0.05:  # a newer minor version of this major
-        b = bytearray(out)
-        b[5] = rng.randint(container.MINOR + 1, 255)
+        out = container.pack(secs, flags, (coder,), version=(c.major, c.minor))
+    if rng.random() < 0.05:  # a 1.y past 1.2: read as 1.2, unknown sections skipped
+        b = bytearray(out)  # (a 2.y past the reader's is refused: tests/test_container.py)
+        b[4], b[5] = 1, rng.randint(3, 255)
         out = fix_crcs(bytes(b))
     return out
 

@@ -75,6 +75,24 @@ def test_unknown_major_version() -> None:
         container.unpack(bytes(data))
 
 
+def test_versions_read_and_refused() -> None:
+    """A reader reads every 1.y (past 1.2 as 1.2) and 2.0; a newer 2.y and major 0
+    (the drafts) are refused."""
+    good = bytearray(container.pack(SECTIONS))
+
+    def at(major: int, minor: int) -> bytes:
+        data = bytearray(good)
+        data[4], data[5] = major, minor
+        data[12:16] = struct.pack("<I", zlib.crc32(bytes(data[:12])))
+        return bytes(data)
+
+    assert [container.unpack(at(1, m)).revision for m in (0, 1, 2, 9)] == [0, 1, 2, 2]
+    assert container.unpack(at(2, 0)).revision == container.REVISION == 3
+    for major, minor in ((2, container.MINOR + 1), (0, 3)):
+        with pytest.raises(VersionError, match=f"{major}.{minor} is not supported"):
+            container.unpack(at(major, minor))
+
+
 def test_checksum_error_names_offset() -> None:
     data = bytearray(container.pack(SECTIONS))
     data[-1] ^= 0xFF

@@ -201,14 +201,19 @@ def fix_crcs(data: bytes) -> bytes:
     return bytes(b)
 
 
-def pack_raw(sections: list[tuple[str, bytes]], flags: int, minor: int = container.MINOR) -> bytes:
-    """``container.pack`` without its checks (duplicate tags allowed), any minor."""
+def pack_raw(
+    sections: list[tuple[str, bytes]],
+    flags: int,
+    minor: int = container.MINOR,
+    major: int = container.MAJOR,
+) -> bytes:
+    """``container.pack`` without its checks (duplicate tags allowed), any version."""
     d = b"".join(
         struct.pack("<4sII", t.encode("latin-1"), len(r), zlib.crc32(r)) for t, r in sections
     )
     body = b"".join(r for _, r in sections)
     stored = entropy._compress(entropy.Coder.STORED, body)
-    head = struct.pack("<4sBBHHH", container.MAGIC, container.MAJOR, minor, flags, len(sections), 0)
+    head = struct.pack("<4sBBHHH", container.MAGIC, major, minor, flags, len(sections), 0)
     bh = struct.pack("<B3sII", 0, b"\0\0\0", len(body), len(stored))
     return fix_crcs(head + b"\0" * 4 + d + bh + b"\0" * 4 + stored)
 
@@ -286,7 +291,7 @@ def damaged(base: bytes) -> dict[str, tuple[bytes, str | None, str | None]]:
             "unknown section",
         ),
         "newer_minor_extra_section": (
-            pack_raw([*secs, ("ZZZZ", b"new")], c.flags, minor=9),
+            pack_raw([*secs, ("ZZZZ", b"new")], c.flags, minor=9, major=1),
             None,
             None,
         ),
