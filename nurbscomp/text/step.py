@@ -65,12 +65,14 @@ MIN_STREAM = 48
 #: The tokenizer: one group per kind of value, in :data:`ID` ... :data:`RAW` order.
 #: Ids and references are at most 18 digits without a leading zero (they fit an
 #: int64 and print back the same); anything else stays literal.
+#: (The leading look-ahead only skips, fast, the positions where no value starts.)
 TOKEN = re.compile(
-    rb"(#(?:0|[1-9][0-9]{0,17})(?![0-9])(?=[ \t\r\n]*+=))"
+    rb"(?=[#0-9+\-'\x00-\x05])"
+    rb"(?:(#(?:0|[1-9][0-9]{0,17})(?![0-9])(?=[ \t\r\n]*+=))"
     rb"|(#(?:0|[1-9][0-9]{0,17})(?![0-9]))"
     rb"|((?<![A-Za-z0-9_.#])[+-]?[0-9]++(?:\.[0-9]*+)?(?:[eE][+-]?[0-9]++)?)"
     rb"|('(?:[^']++|'')*+')"
-    rb"|([\x00-\x05])"
+    rb"|([\x00-\x05]))"
 )
 _GROUPS = 5
 #: An entity name in the skeleton: a word followed by ``(``.
@@ -79,26 +81,32 @@ _PLACE = re.compile(rb"[\x01-\x05]")
 _PH = [b"", b"\x01", b"\x02", b"\x03", b"\x04", b"\x05"]
 
 
-def contexts(skel: bytes, kind: int) -> np.ndarray:
-    """The context of each placeholder ``kind`` of ``skel``, in order.
-
-    A context is ``name * SLOTS + slot``: ``name`` numbers the distinct entity
-    names of the skeleton in order of first appearance (0 before any name,
-    ``k + 1`` for the k-th), ``slot`` is the value's rank among the values of
-    ``kind`` since the last name, capped at ``SLOTS - 1``.
-    """
-    arr = np.frombuffer(skel, dtype=np.uint8)
-    pos = np.flatnonzero(arr == kind)
-    if not len(pos):
-        return np.zeros(0, dtype=np.int64)
+def names(skel: bytes) -> tuple[np.ndarray, np.ndarray]:
+    """Where each entity name of ``skel`` starts, and its number: distinct names
+    numbered 1, 2, ... in order of first appearance."""
     starts: list[int] = []
     codes: list[int] = []
     seen: dict[bytes, int] = {}
     for m in NAME.finditer(skel):
         starts.append(m.start())
         codes.append(seen.setdefault(m.group(), len(seen) + 1))
-    st = np.asarray(starts, dtype=np.int64)
-    cd = np.asarray([0, *codes], dtype=np.int64)
+    return np.asarray(starts, dtype=np.int64), np.asarray([0, *codes], dtype=np.int64)
+
+
+def contexts(skel: bytes, kind: int, named: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+    """The context of each placeholder ``kind`` of ``skel``, in order.
+
+    A context is ``name * SLOTS + slot``: ``name`` numbers the distinct entity
+    names of the skeleton in order of first appearance (0 before any name,
+    ``k + 1`` for the k-th), ``slot`` is the value's rank among the values of
+    ``kind`` since the last name, capped at ``SLOTS - 1``.  ``named`` is
+    :func:`names` of ``skel``.
+    """
+    arr = np.frombuffer(skel, dtype=np.uint8)
+    pos = np.flatnonzero(arr == kind)
+    if not len(pos):
+        return np.zeros(0, dtype=np.int64)
+    st, cd = named
     seg = np.searchsorted(st, pos, side="right")  # 0: before any name
     name = cd[seg]
     k = np.arange(len(pos), dtype=np.int64)
@@ -168,9 +176,13 @@ def _split_texts(raw: bytes, n: int, what: str) -> list[bytes]:
     return parts
 
 
+_ENTITY = re.compile(rb"#[0-9]++[ \t\r\n]*+=")
+
+
 def _looks_like_step(data: bytes) -> bool:
-    head = data[:4096].lstrip()
-    return head.startswith(b"ISO-10303-21") or b"DATA;" in data[:65536]
+    """The ISO 10303-21 magic in the first 4 kB, or an entity instance ``#12=``
+    in the first 64 kB (a piece of a file, a damaged head)."""
+    return b"ISO-10303-21" in data[:4096] or _ENTITY.search(data, 0, 65536) is not None
 
 
 def encode(data: bytes) -> bytes | None:
@@ -183,8 +195,15 @@ def encode(data: bytes) -> bytes | None:
     groups = [parts[k::step] for k in range(1, step)]
     n = len(lits) - 1
     kinds = [
-        ID if a is not None else REF if b is not None else NUM if c is not None
-        else STR if d is not None else RAW
+        ID
+        if a is not None
+        else REF
+        if b is not None
+        else NUM
+        if c is not None
+        else STR
+        if d is not None
+        else RAW
         for a, b, c, d in zip(*groups[:4])
     ]
     skel_parts: list[bytes] = [b""] * (2 * n + 1)
@@ -201,8 +220,9 @@ def encode(data: bytes) -> bytes | None:
     id_deltas = np.diff(np.r_[np.int64(0), ids]) - 1
 
     # references, by context, each stream in the smaller of its two modes
+    named = names(skel)
     refs = np.asarray([int(t[1:]) for t in refs_t], dtype=np.int64)
-    r_stream, r_map = _streams_of(contexts(skel, REF))
+    r_stream, r_map = _streams_of(contexts(skel, REF, named))
     owner = _owners(skel, REF, ids)
     ref_streams: list[bytes] = []
     modes: list[int] = []
@@ -219,7 +239,7 @@ def encode(data: bytes) -> bytes | None:
             ref_streams.append(a)
 
     # numbers, by context
-    n_stream, n_map = _streams_of(contexts(skel, NUM))
+    n_stream, n_map = _streams_of(contexts(skel, NUM, named))
     num_streams: list[list[bytes]] = [[] for _ in range(len(n_map) + 1)]
     for s, t in zip(n_stream.tolist(), nums_t):
         num_streams[s].append(t)
@@ -312,7 +332,8 @@ def _decode(payload: bytes, limit: int) -> bytes:
     id_t = [b"#%d" % v for v in ids.tolist()]
 
     # references
-    r_ctx = contexts(skel, REF)
+    named = names(skel)
+    r_ctx = contexts(skel, REF, named)
     r_stream = _apply_map(r_ctx, r_map)
     owner = _owners(skel, REF, ids)
     refs = np.zeros(len(r_ctx), dtype=np.int64)
@@ -323,7 +344,7 @@ def _decode(payload: bytes, limit: int) -> bytes:
     ref_t = [b"#%d" % v for v in refs.tolist()]
 
     # numbers
-    n_stream = _apply_map(contexts(skel, NUM), n_map)
+    n_stream = _apply_map(contexts(skel, NUM, named), n_map)
     per = np.bincount(n_stream, minlength=nn + 1) if len(n_stream) else np.zeros(nn + 1, int)
     pieces: list[bytes] = []
     for s in range(nn + 1):
