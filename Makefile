@@ -3,7 +3,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 PIP    := $(VENV)/bin/pip
 
-.PHONY: install test test-fast lint samples bench bench-product fuzz stress stress-big clean
+.PHONY: install test test-fast lint samples bench bench-product fuzz fuzz-text stress stress-big clean
 
 install: $(VENV)/bin/nurbscomp
 
@@ -22,8 +22,8 @@ test-fast: install
 	$(PY) -m pytest -q -m "not slow"
 
 lint: install
-	$(VENV)/bin/ruff check nurbscomp tests samples
-	$(VENV)/bin/ruff format --check nurbscomp tests samples
+	$(VENV)/bin/ruff check nurbscomp tests samples benchmarks
+	$(VENV)/bin/ruff format --check nurbscomp tests samples benchmarks
 	$(VENV)/bin/mypy nurbscomp
 
 samples: install
@@ -61,6 +61,15 @@ FUZZ_SEED  ?= 1
 fuzz: install
 	$(PY) -m tests.fuzz --cases $(FUZZ_CASES) --seed $(FUZZ_SEED)
 	$(PY) -m tests.fuzz --structure --cases $(FUZZ_CASES) --seed $(FUZZ_SEED)
+
+# The byte-exact text models (issue 29): mutated STEP and IGES sources (byte
+# flips, truncations, unbalanced parentheses, binary garbage, 10^5 nested
+# lists, huge numbers, non-ASCII, deleted ';', odd line breaks) must each come
+# back byte-exact through nurbscomp.text, and damaged payloads fail with a
+# FormatError; each case in a worker process with a time limit.  Minutes; not
+# part of `make test` (tests/test_text_step.py runs 200 cases).
+fuzz-text: install
+	$(PY) -m tests.fuzz_text --cases $(FUZZ_CASES) --seed $(FUZZ_SEED)
 
 # The stress corpus (issue 10): ~230 generated shapes (fillets, shells, lofts,
 # sweeps, periodic, rational and degenerate B-spline faces, trimmed faces with

@@ -5,6 +5,16 @@ digits, layout, ...).  :func:`pack` compresses each stream on its own with the
 smallest of the coders :mod:`nurbscomp.entropy` offers and joins them;
 :func:`unpack` inverts it, inflating no more than a caller's limit.
 
+Each stream is coded on its own (:func:`_smallest`): raw LZMA2 at preset 9e
+with a dictionary no larger than the stream (so a 200-byte stream does not pay
+for clearing 64 MiB of match finder), with no literal context bits
+(``lc=lp=pb=0``: best on the digit and integer streams of the STEP model) and,
+for streams up to :data:`DEFAULT_MAX`, also with the default settings; brotli
+11 only for streams up to :data:`BROTLI_MAX`.  The streams are coded in a pool
+of threads (the coders release the GIL).  On the corpus STEP files this made
+the model's coding 3.6x faster than ``entropy.compress`` on every stream
+(which tries nine LZMA settings, zstd and brotli) for 0.4% more bytes.
+
 Layout (little-endian, docs/format.md §1.5)::
 
     nstreams  varint
@@ -14,8 +24,12 @@ Layout (little-endian, docs/format.md §1.5)::
 from __future__ import annotations
 
 import lzma
+import os
+from concurrent.futures import ThreadPoolExecutor
 
-from ..entropy import Coder, compress, decompress
+import brotli
+
+from ..entropy import Coder, decompress
 from ..errors import CorruptError, LimitError, TruncatedError
 
 
@@ -58,45 +72,71 @@ def read_varint(data: bytes | memoryview, pos: int) -> tuple[int, int]:
 
 #: LZMA literal settings (lc, lp, pb) a quick :func:`pack` tries: text, then bytes.
 QUICK_TUNINGS = ((3, 0, 2), (0, 0, 0))
+#: Streams up to this size are also tried with LZMA's default literal settings.
+DEFAULT_MAX = 64 * 1024
+#: Streams up to this size are also tried with brotli 11 (slow: ~3 µs a byte).
+BROTLI_MAX = 8 * 1024
+
+
+def _lzma(raw: bytes, lc: int, lp: int, pb: int) -> bytes:
+    """Raw LZMA2 at preset 9e with a dictionary no larger than ``raw`` needs
+    (a 64 MiB one costs more to set up than a small stream takes to code);
+    :func:`entropy.decompress` reads it as any ``Coder.LZMA`` stream: LZMA2
+    carries its settings in its chunks."""
+    size = min(1 << 26, max(1 << 12, 1 << max(len(raw) - 1, 1).bit_length()))
+    f = {"id": lzma.FILTER_LZMA2, "preset": 9 | lzma.PRESET_EXTREME, "dict_size": size}
+    f.update(lc=lc, lp=lp, pb=pb)
+    return lzma.compress(raw, format=lzma.FORMAT_RAW, filters=[f])
 
 
 def quick_lzma(raw: bytes) -> bytes:
-    """Raw LZMA2 at preset 9e with a dictionary no larger than ``raw`` needs
-    (a 64 MiB one costs more to set up than a small stream takes to code),
-    the smaller of :data:`QUICK_TUNINGS` (on a stream over 32 kB, the one its
-    first 4 kB suggest: text or bytes).  :func:`entropy.decompress` reads it
-    as any ``Coder.LZMA`` stream: LZMA2 carries its settings in its chunks."""
-    dict_size = max(1 << 12, 1 << (len(raw) - 1).bit_length())
-    best = b""
+    """:func:`_lzma`, the smaller of :data:`QUICK_TUNINGS` (on a stream over
+    32 kB, the one its first 4 kB suggest: text or bytes)."""
     tunings: tuple[tuple[int, int, int], ...] = QUICK_TUNINGS
     if len(raw) > 1 << 15:
         head = raw[:4096]
         text = sum(head.count(bytes([c])) for c in range(32, 127)) > 0.9 * len(head)
         tunings = tunings[:1] if text else tunings[1:]
-    for lc, lp, pb in tunings:
-        f = {"id": lzma.FILTER_LZMA2, "preset": 9 | lzma.PRESET_EXTREME, "dict_size": dict_size}
-        f.update(lc=lc, lp=lp, pb=pb)
-        out = lzma.compress(raw, format=lzma.FORMAT_RAW, filters=[f])
-        if not best or len(out) < len(best):
-            best = out
+    return min((_lzma(raw, *t) for t in tunings), key=len)
+
+
+def _smallest(raw: bytes, coders: tuple[Coder, ...]) -> tuple[Coder, bytes]:
+    """The smallest coding of ``raw`` among the candidates of the module
+    docstring that ``coders`` allows (stored when nothing is smaller)."""
+    best: tuple[Coder, bytes] = (Coder.STORED, raw)
+    cands: list[tuple[Coder, bytes]] = []
+    if raw and Coder.LZMA in coders:
+        cands.append((Coder.LZMA, _lzma(raw, 0, 0, 0)))
+        if len(raw) <= DEFAULT_MAX:
+            cands.append((Coder.LZMA, _lzma(raw, 3, 0, 2)))
+    if raw and Coder.BROTLI in coders and len(raw) <= BROTLI_MAX:
+        cands.append((Coder.BROTLI, brotli.compress(raw, quality=11)))
+    for c in cands:
+        if len(c[1]) < len(best[1]):
+            best = c
     return best
 
 
 def pack(
     streams: list[bytes], coders: tuple[Coder, ...] = tuple(Coder), quick: bool = False
 ) -> bytes:
-    """``streams`` compressed one by one, each with the smallest of ``coders``;
-    ``quick``: each with :func:`quick_lzma` only (a text model's many small
-    streams, where trying every coder at full strength costs more than xz -9e
-    of the whole file)."""
-    coded = []
-    for s in streams:
-        if quick and s:
-            coder, payload = Coder.LZMA, quick_lzma(s)
-        else:
-            coder, payload = compress(s, coders) if s else (Coder.STORED, b"")
-        coded.append((coder, s, payload))
-    return pack_coded(coded)
+    """``streams`` compressed one by one, each with the smallest of ``coders``
+    (of the candidates the module docstring names); ``quick``: each with
+    :func:`quick_lzma` only (a model's many small streams)."""
+
+    def one(s: bytes) -> tuple[Coder, bytes]:
+        return (Coder.LZMA, quick_lzma(s)) if quick and s else _smallest(s, coders)
+
+    workers = min(os.cpu_count() or 1, 2)
+    big = sum(len(s) for s in streams) > 64 * 1024 and len(streams) > 1 and workers > 1
+    if big:
+        with ThreadPoolExecutor(workers) as pool:  # the largest first
+            order = sorted(range(len(streams)), key=lambda i: -len(streams[i]))
+            done = dict(zip(order, pool.map(lambda i: one(streams[i]), order)))
+        coded = [done[i] for i in range(len(streams))]
+    else:
+        coded = [one(s) for s in streams]
+    return pack_coded([(c, s, p) for s, (c, p) in zip(streams, coded)])
 
 
 def pack_coded(coded: list[tuple[Coder, bytes, bytes]]) -> bytes:

@@ -1,7 +1,7 @@
 """The IGES text model (issue 29): fixed 80-column records, byte for byte.
 
 ``encode(data)`` returns the model's payload, or None where the text is not
-IGES it can model; ``decode(payload, limit)`` inverts it.  docs/text-model-iges.md
+IGES it can model; ``decode(payload, limit)`` inverts it.  docs/text-model.md (IGES)
 describes the model and its figures.
 
 The file is cut at ``\\n`` into pieces.  A piece that is an 80-column record

@@ -1,0 +1,163 @@
+"""The STEP text model (issue 29): byte-exact round trips, streams, damage, a short fuzz."""
+
+from __future__ import annotations
+
+import hashlib
+import lzma
+import random
+
+import pytest
+
+from nurbscomp import text
+from nurbscomp.errors import CorruptError, FormatError, LimitError
+from nurbscomp.text import coding, step
+
+from .conftest import corpus_files
+from .fuzz_text import SNIPPETS, case, check, seeds
+
+
+def _round(data: bytes) -> bytes:
+    payload = step.encode(data)
+    assert payload is not None
+    return step.decode(payload, len(data))
+
+
+@pytest.mark.parametrize("k", range(len(SNIPPETS)))
+def test_snippets_byte_exact(k):
+    data = SNIPPETS[k]
+    assert _round(data) == data
+    assert text.decode(text.encode(data), len(data)) == data
+
+
+@pytest.mark.parametrize(
+    "data",
+    [
+        b"ISO-10303-21;",
+        b"ISO-10303-21;\nDATA;\n#1=A();",  # no trailing line break
+        b"ISO-10303-21;\nDATA;\n#1=A('unterminated);\n#2=B(#1);\n",
+        b"ISO-10303-21;\nDATA;\n#5=(A()B()C());\n#3=X(LENGTH_MEASURE(1.),.T.,$,*);\n",
+        b"ISO-10303-21;\nDATA;\n#9=A(#007,#0,#99999999999999999999,#-1,1.2.3,.5,1E,e5);\n",
+        b"ISO-10303-21;\nDATA;\n#1=A('a\x00b\x01''c',\x02\x03\x04\x05,\xff\xfe);\n",
+        b"ISO-10303-21;\nDATA;\n#1=A(" + b"(" * 100000 + b")" * 100000 + b");\n",
+        b"ISO-10303-21;\nDATA;\n#1=A(" + b"9" * 5000 + b".E+999999);\n",
+        b"ISO-10303-21;\r\nDATA;\r\n#1=A(1.0,\r\n  2.0);\r\n#3=B(12\n34,'x\r\ny');\r\n",
+    ],
+)
+def test_edge_cases_byte_exact(data):
+    assert _round(data) == data
+
+
+def test_numbers_keep_their_text():
+    """``1.50000000000000E+01`` and ``15.`` both come back as written, and 19
+    significant digits are kept (a double would lose them)."""
+    nums = [b"1.50000000000000E+01", b"15.", b"0.5000000000000009992", b"-0.", b"+1.e-3", b"007"]
+    data = b"ISO-10303-21;\nDATA;\n" + b"".join(
+        b"#%d=CARTESIAN_POINT('',(%s,%s,%s));\n" % (i + 1, n, n, n) for i, n in enumerate(nums * 20)
+    )
+    assert _round(data) == data
+
+
+def test_context_streams():
+    """Coordinates of CARTESIAN_POINT go to three streams of their own (x, y, z)
+    once each context has step.MIN_STREAM values, so the streams hold the
+    numbers' texts in file order."""
+    n = step.MIN_STREAM + 100
+    rows = [(i * 0.5, -i * 1.25, 7.0) for i in range(n)]
+    data = b"ISO-10303-21;\nDATA;\n" + b"".join(
+        b"#%d=CARTESIAN_POINT('',(" % (i + 10) + b",".join(repr(v).encode() for v in r) + b"));\n"
+        for i, r in enumerate(rows)
+    )
+    streams = coding.unpack(step.encode(data), 10 * len(data))
+    xs = b",".join(repr(r[0]).encode() for r in rows)
+    zs = b",".join(repr(r[2]).encode() for r in rows)
+    assert xs in streams and zs in streams
+    assert streams[2] == b",".join([b"9"] + [b"0"] * (n - 1))  # ids: #10, then +1 each
+
+
+def test_damaged_payload_raises():
+    data = SNIPPETS[0] * 3
+    payload = step.encode(data)
+    assert payload is not None
+    rng = random.Random(3)
+    for _ in range(200):
+        b = bytearray(payload)
+        b[rng.randrange(len(b))] ^= 1 << rng.randrange(8)
+        try:
+            out = step.decode(bytes(b), len(data))
+        except FormatError:
+            continue
+        assert out == data
+    for cut in range(0, len(payload), max(1, len(payload) // 50)):
+        with pytest.raises(FormatError):
+            step.decode(payload[:cut], len(data))
+
+
+def test_limit():
+    data = SNIPPETS[1]
+    payload = step.encode(data)
+    with pytest.raises(LimitError):
+        step.decode(payload, len(data) - 1)
+
+
+def test_crc_is_checked():
+    """A payload whose streams decode but give other text fails on its CRC."""
+    data = SNIPPETS[2]
+    streams = coding.unpack(step.encode(data), 10 * len(data))
+    skel = streams[1].replace(b"PRODUCT_CONTEXT", b"PRODUCT_CONTEXX")
+    with pytest.raises(CorruptError):
+        step.decode(coding.pack([streams[0], skel, *streams[2:]]), len(data))
+
+
+def test_not_step():
+    assert step.encode(b"hello world") is None
+
+
+def test_cadquery_exports(tmp_path):
+    """STEP written by OCCT through cadquery: a part, and an assembly with colours."""
+    cq = pytest.importorskip("cadquery")
+    part = cq.Workplane().box(10, 20, 5).faces(">Z").hole(3).edges("|Z").fillet(1)
+    cq.exporters.export(part, str(tmp_path / "part.step"))
+    asm = cq.Assembly()
+    asm.add(part, name="a", color=cq.Color("red"))
+    asm.add(
+        cq.Workplane().sphere(4),
+        name="b",
+        color=cq.Color(0, 0, 1, 0.5),
+        loc=cq.Location((20, 0, 0)),
+    )
+    asm.save(str(tmp_path / "asm.step"))
+    for p in (tmp_path / "part.step", tmp_path / "asm.step"):
+        data = p.read_bytes()
+        payload = step.encode(data)
+        assert payload is not None
+        assert step.decode(payload, len(data)) == data
+        assert len(payload) < len(lzma.compress(data, preset=9 | lzma.PRESET_EXTREME))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    "path",
+    [p for p in corpus_files() if p.suffix.lower() in (".step", ".stp")],
+    ids=lambda p: p.name,
+)
+def test_corpus_byte_exact_and_smaller(path):
+    """Each corpus STEP file: SHA-256 equal, and at least 1.2x smaller than xz -9e."""
+    data = path.read_bytes()
+    payload = step.encode(data)
+    assert payload is not None
+    back = step.decode(payload, len(data))
+    assert hashlib.sha256(back).digest() == hashlib.sha256(data).digest()
+    xz = len(lzma.compress(data, preset=9 | lzma.PRESET_EXTREME))
+    assert len(payload) * 1.2 <= xz, (len(payload), xz)
+
+
+def test_short_fuzz():
+    """A few hundred mutated sources (tests/fuzz_text.py), in this process."""
+    pool = seeds()
+    fails = []
+    for k in range(200):
+        src, rng = case(7, k, pool)
+        result = check(src, rng, seconds=30.0)
+        if result.startswith("FAIL"):
+            fails.append((k, result))
+    assert not fails
