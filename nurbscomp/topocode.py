@@ -1,19 +1,20 @@
 """The topology (``SHAP``, format 2.0) coded by prediction.
 
-docs/format.md §2.5 specifies the layout; this module is its reference.  The
-shapes table is walked from the root depth first, each sub-shape reference in
-its parent's order: a reference to a shape not met before (a *new* one) walks
-that shape, which is numbered when its walk ends (post-order, the model's own
-numbering), and a reference to a shape met before (a *shared* one) is coded
-as a rank among predicted candidates (the vertex where the wire's last edge
-ended, the still-open edges at that vertex, the wire's first vertex) and the
-shapes of its type referenced most recently, or, past them, as a distance back
-among the shapes of its type.  Every decision is one or more binary symbols
-coded by an adaptive binary range coder (the one LZMA uses: 11-bit
-probabilities, adaptation shift 5) with a probability per context.
+docs/format.md §2.5.1 specifies the layout; this module is its reference.  The
+shapes table is walked from the root depth first, each shape numbered when its
+walk ends (post-order, the model's own numbering).  Each child reference is a
+"more" flag, a type, and either a shared shape (ranked among predicted
+candidates and the recent shapes of its type, or past them a distance back
+among the open edges or the shapes of its type) or a new one, walked.  A wire
+is coded in two phases: its edges first (a shared edge chained through the
+open edges at the known end of the previous one; a later use of one of the
+wire's own new edges named by position), then its new edges walked, each
+vertex predicted from the neighbouring edge uses.  Every decision is a binary
+symbol coded by LZMA's range coder with a 15-bit probability from the
+context's adaptive counts.
 
-A model that this walk does not number as it is numbered (shapes that the
-root does not reach, or that a depth-first walk would number otherwise) is
+A model that this walk cannot write as it is numbered (shapes that the root
+does not reach, other orders, a wire's child numbered by a sibling's walk) is
 written in the 1.x layout behind a mode byte: every model is written, none is
 renumbered.
 
