@@ -23,6 +23,7 @@ PROD  (1.2, optional) product data: tree, names, colours, layers, header
 from __future__ import annotations
 
 import json
+import lzma
 from dataclasses import dataclass
 from typing import Any, cast
 
@@ -422,14 +423,25 @@ _MAX_POWER = 2**31 - 1
 
 
 def _write_shapes(m: BRepModel) -> bytes:
-    """SHAP as format 2.0 lays it out (docs/format.md §2.5): a mode byte, then
+    """SHAP as format 2.0 lays it out (docs/format.md §2.5.1): a mode byte, then
     the walk's coded stream, or the 1.x arrays for a model the walk does not
-    number as it is numbered."""
+    number as it is numbered or, under 512 coded bytes, whose arrays compress
+    smaller."""
+    arrays = bytes([topocode.MODE_ARRAYS]) + _write_shape_arrays(m)
     coded = topocode.encode(m)
     if coded is None:
-        return bytes([topocode.MODE_ARRAYS]) + _write_shape_arrays(m)
-    head = topocode.HEAD.pack(topocode.MODE_WALK, len(m.shape_type), len(m.child_shape))
-    return head + coded
+        return arrays
+    coded = topocode.HEAD.pack(topocode.MODE_WALK, len(m.shape_type), len(m.child_shape)) + coded
+    # a tiny model whose adaptive contexts never warm up can be smaller in the
+    # arrays, once compressed: the smaller of the two is written
+    if len(coded) < 512 and _xz(arrays) < _xz(coded):
+        return arrays
+    return coded
+
+
+def _xz(raw: bytes) -> int:
+    """Bytes of ``raw`` compressed alone (xz -9e)."""
+    return len(lzma.compress(raw, preset=9 | lzma.PRESET_EXTREME))
 
 
 def _write_shape_arrays(m: BRepModel) -> bytes:

@@ -1,19 +1,20 @@
 """The topology (``SHAP``, format 2.0) coded by prediction.
 
-docs/format.md §2.5 specifies the layout; this module is its reference.  The
-shapes table is walked from the root depth first, each sub-shape reference in
-its parent's order: a reference to a shape not met before (a *new* one) walks
-that shape, which is numbered when its walk ends (post-order, the model's own
-numbering), and a reference to a shape met before (a *shared* one) is coded
-as a rank among predicted candidates (the vertex where the wire's last edge
-ended, the still-open edges at that vertex, the wire's first vertex) and the
-shapes of its type referenced most recently, or, past them, as a distance back
-among the shapes of its type.  Every decision is one or more binary symbols
-coded by an adaptive binary range coder (the one LZMA uses: 11-bit
-probabilities, adaptation shift 5) with a probability per context.
+docs/format.md §2.5.1 specifies the layout; this module is its reference.  The
+shapes table is walked from the root depth first, each shape numbered when its
+walk ends (post-order, the model's own numbering).  Each child reference is a
+"more" flag, a type, and either a shared shape (ranked among predicted
+candidates and the recent shapes of its type, or past them a distance back
+among the open edges or the shapes of its type) or a new one, walked.  A wire
+is coded in two phases: its edges first (a shared edge chained through the
+open edges at the known end of the previous one; a later use of one of the
+wire's own new edges named by position), then its new edges walked, each
+vertex predicted from the neighbouring edge uses.  Every decision is a binary
+symbol coded by LZMA's range coder with a 15-bit probability from the
+context's adaptive counts.
 
-A model that this walk does not number as it is numbered (shapes that the
-root does not reach, or that a depth-first walk would number otherwise) is
+A model that this walk cannot write as it is numbered (shapes that the root
+does not reach, other orders, a wire's child numbered by a sibling's walk) is
 written in the 1.x layout behind a mode byte: every model is written, none is
 renumbered.
 
@@ -34,6 +35,10 @@ MODE_ARRAYS, MODE_WALK = 0, 1
 WINDOW = 64
 #: Edges per vertex kept for the open-edge candidates.
 INCIDENT = 16
+#: A context's counts are halved when their sum passes this.
+LIMIT = 255
+#: A wire's latest new children that a later use in the wire may name.
+PENDING = 4
 #: Most shapes plus references a section may declare whatever the limits.
 MAX_ROWS = 1 << 28
 #: Largest integer the uint code carries (bit length of v + 1 at most 40).
@@ -45,9 +50,8 @@ _EDGE, _WIRE, _VERTEX = 6, 5, 7
 _F, _R = 0, 1
 
 _TOP = 1 << 24
-_PROB_BITS = 11
-_ONE = 1 << _PROB_BITS
-_MOVE = 5
+#: Precision of a probability given to the range coder.
+_PROB_BITS = 15
 
 
 class _Encoder:
@@ -71,16 +75,13 @@ class _Encoder:
         self.cache_size += 1
         self.low = (self.low & 0x00FFFFFF) << 8
 
-    def bit(self, probs: list[int], i: int, b: int) -> int:
-        p = probs[i]
+    def bit(self, p: int, b: int) -> int:
         bound = (self.range >> _PROB_BITS) * p
         if b:
             self.low += bound
             self.range -= bound
-            probs[i] = p - (p >> _MOVE)
         else:
             self.range = bound
-            probs[i] = p + ((_ONE - p) >> _MOVE)
         while self.range < _TOP:
             self.range <<= 8
             self._shift_low()
@@ -102,17 +103,14 @@ class _Decoder:
         self.code = int.from_bytes(data[1:5], "big")
         self.range = 0xFFFFFFFF
 
-    def bit(self, probs: list[int], i: int, b: int) -> int:
-        p = probs[i]
+    def bit(self, p: int, b: int = 0) -> int:
         bound = (self.range >> _PROB_BITS) * p
         if self.code < bound:
             self.range = bound
-            probs[i] = p + ((_ONE - p) >> _MOVE)
             out = 0
         else:
             self.code -= bound
             self.range -= bound
-            probs[i] = p - (p >> _MOVE)
             out = 1
         while self.range < _TOP:
             if self.pos >= len(self.data):
@@ -128,33 +126,35 @@ class _Decoder:
 
 
 class _Models:
-    """Adaptive probabilities by context, and the binarizations of §2.5."""
+    """Adaptive binary models by context (counts, halved past LIMIT) and the
+    binarizations of §2.5.1."""
 
     def __init__(self, rc: Any) -> None:
         self.rc = rc
         self.p: dict[Any, list[int]] = {}
 
-    def probs(self, ctx: Any, n: int) -> list[int]:
-        p = self.p.get(ctx)
-        if p is None:
-            p = self.p[ctx] = [_ONE // 2] * n
-        return p
-
     def bit(self, ctx: Any, b: int = 0) -> int:
-        return int(self.rc.bit(self.probs(ctx, 1), 0, b))
+        n = self.p.get(ctx)
+        if n is None:
+            n = self.p[ctx] = [0, 0]
+        p0 = ((2 * n[0] + 1) << _PROB_BITS) // (2 * (n[0] + n[1]) + 2)
+        b = self.rc.bit(p0, b)
+        n[b] += 1
+        if n[0] + n[1] > LIMIT:
+            n[0], n[1] = (n[0] + 1) >> 1, (n[1] + 1) >> 1
+        return b
 
     def tree(self, ctx: Any, nbits: int, v: int = 0) -> int:
         """``nbits`` bits, most significant first, each under its prefix."""
-        p = self.probs(ctx, 1 << nbits)
         m = 1
         for i in range(nbits - 1, -1, -1):
-            m = (m << 1) | self.rc.bit(p, m, (v >> i) & 1)
+            m = (m << 1) | self.bit((ctx, m), (v >> i) & 1)
         return m - (1 << nbits)
 
     def uint(self, ctx: Any, v: int = 0) -> int:
         """Elias gamma of v + 1: n = bit length − 1 in unary (bit k under
         (ctx, "n", min(k, 15))), then its n low bits, most significant first
-        (bit k under (ctx, "m", min(n, 15), min(k, 15)))."""
+        (bit i under (ctx, "m", min(n, 15), min(i, 15)))."""
         x = v + 1
         n = x.bit_length() - 1
         k = 0
@@ -212,28 +212,9 @@ def _model_fits(m: Any) -> bool:
     return nxt == n
 
 
-class _Walk:
-    """The state both sides keep (docs/format.md §2.5, "state")."""
-
-    def __init__(self, coder: _Models) -> None:
-        self.c = coder
-        self.window: list[list[int]] = [[] for _ in range(8)]
-        self.of_type: list[list[int]] = [[] for _ in range(8)]
-        self.uses: list[int] = []
-        self.last_orient: list[int] = []
-        self.incident: dict[int, list[int]] = {}
-        self.open: dict[int, int] = {}
-        self.rank_in_type: list[int] = []
-        self.last_flags = [0] * 8
-        self.last_new_orient: dict[Any, int] = {}
-
-    def touch(self, t: int, s: int) -> None:
-        w = self.window[t]
-        if s in w:
-            w.remove(s)
-        w.insert(0, s)
-        if len(w) > WINDOW:
-            w.pop()
+class _Unfit(Exception):
+    """The model cannot be written by the walk (a wire's child that a sibling's
+    walk numbers): it goes in the arrays."""
 
 
 def _ends(o: int, kids: list[int], orients: list[int]) -> tuple[int | None, int | None]:
@@ -248,185 +229,359 @@ def _ends(o: int, kids: list[int], orients: list[int]) -> tuple[int | None, int 
     return start, end
 
 
+class _Marks:
+    """Marked positions 0, 1, ... (a Fenwick tree that grows): how many marks
+    lie after a position, and the position with d marks after it, in
+    O(log n)."""
+
+    def __init__(self) -> None:
+        self.tree = [0] * 2
+        self.bits: list[int] = []
+        self.total = 0
+
+    def append(self) -> None:
+        self.bits.append(0)
+        if len(self.bits) >= len(self.tree):
+            self.tree = [0] * (2 * len(self.tree))
+            for i, b in enumerate(self.bits):
+                if b:
+                    self._add(i, 1)
+
+    def _add(self, i: int, d: int) -> None:
+        i += 1
+        while i < len(self.tree):
+            self.tree[i] += d
+            i += i & -i
+
+    def set(self, i: int, b: int) -> None:
+        if self.bits[i] != b:
+            self.bits[i] = b
+            self._add(i, 1 if b else -1)
+            self.total += 1 if b else -1
+
+    def after(self, i: int) -> int:
+        """Marks at positions > i."""
+        k, n = i + 1, 0
+        while k > 0:
+            n += self.tree[k]
+            k -= k & -k
+        return self.total - n
+
+    def back(self, d: int) -> int:
+        """The marked position with d marks after it (0 <= d < total)."""
+        k = self.total - d  # the k-th mark from the start
+        pos, step = 0, 1 << (len(self.tree).bit_length())
+        while step:
+            if pos + step < len(self.tree) and self.tree[pos + step] < k:
+                pos += step
+                k -= self.tree[pos]
+            step >>= 1
+        return pos
+
+
+class _Frame:
+    """A shape being walked: type, flags, model index (encoder), flip, parent
+    frame and position in it, children so far (slots [shape, o, loc, kind]:
+    kind 0 known, 1 new not yet walked, 2 a later use of slot ``shape``),
+    and for a wire in its second phase the next slot to walk."""
+
+    __slots__ = ("t", "f", "src", "flip", "parent", "pos", "slots", "phase", "nxt", "hi", "news")
+
+    def __init__(self, t: int, f: int, src: int, flip: int, parent: Any, pos: int) -> None:
+        self.t, self.f, self.src, self.flip, self.parent, self.pos = t, f, src, flip, parent, pos
+        self.slots: list[list[Any]] = []
+        self.phase, self.nxt, self.hi = 1, 0, -1
+        self.news: list[int] = []
+
+
 def _run(
     c: _Models, m: Any | None, n_shapes: int, n_refs: int, depth: int | None = None
 ) -> dict[str, Any]:
-    """The walk of §2.5: encodes ``m`` (m given) or decodes (m None)."""
+    """The walk of §2.5.1: encodes ``m`` (m given) or decodes (m None)."""
     enc = m is not None
-    w = _Walk(c)
-    types = [0] * n_shapes
-    flags = [0] * n_shapes
-    start = [0] * (n_shapes + 1)
+    types: list[int] = []
+    flags: list[int] = []
+    start = [0]
     kid_shape: list[int] = []
     kid_orient: list[int] = []
     kid_loc: list[int] = []
+    window: list[list[int]] = [[] for _ in range(8)]
+    of_type: list[list[int]] = [[] for _ in range(8)]
+    rank_in_type: list[int] = []
+    uses: list[int] = []
+    last_orient: list[int] = []
+    incident: dict[int, list[int]] = {}
+    opens: dict[int, int] = {}
+    opened = _Marks()  # the edges used an odd number of times, by rank_in_type
+    last_flags = [0] * 8
+    last_new: dict[Any, int] = {}
     if m is not None:
         m_start, m_kids = m.child_start.tolist(), m.child_shape.tolist()
         m_or, m_loc = m.child_orient.tolist(), m.child_loc.tolist()
         m_type, m_flags = m.shape_type.tolist(), m.shape_flags.tolist()
-    count = 0  # shapes numbered
-    refs = 0  # references declared by the child counts read so far
+    refs = 0
+    reserved = 1  # frames on the stack and new children not yet walked
 
-    def new_shape(t: int, src: int) -> list[Any]:
-        """Begin a new shape of type t: its flags and child count; its frame:
-        [type, flags, children, model index, next child, references so far,
-        wire state [end vertex, first vertex, last edge], child being walked,
-        flip: 1 if the references down to it reverse it an odd number of times]."""
-        nonlocal refs
+    def touch(t: int, s: int) -> None:
+        wl = window[t]
+        if s in wl:
+            wl.remove(s)
+        wl.insert(0, s)
+        if len(wl) > WINDOW:
+            wl.pop()
+
+    def ends(s: int, o: int) -> tuple[int | None, int | None]:
+        if types[s] != _EDGE:
+            return None, None
+        return _ends(o, kid_shape[start[s] : start[s + 1]], kid_orient[start[s] : start[s + 1]])
+
+    def slot_shape(fr: _Frame, i: int) -> int | None:
+        sl = fr.slots[i]
+        if sl[3] == 2:
+            sl = fr.slots[sl[0]]
+        return None if sl[3] else sl[0]
+
+    def open_frame(t: int, src: int, flip: int, parent: Any, pos: int) -> _Frame:
         f = m_flags[src] if enc else 0
-        if c.bit(("fs", t), int(f == w.last_flags[t])):
-            f = w.last_flags[t]
+        if c.bit(("fs", t), int(f == last_flags[t])):
+            f = last_flags[t]
         else:
             f = c.tree(("f", t), 8, f)
-        w.last_flags[t] = f
-        nk = c.uint(("k", t), m_start[src + 1] - m_start[src] if enc else 0)
-        if refs + nk > n_refs:
-            raise SectionError("SHAP: more references than the section declares")
-        refs += nk
-        return [t, f, nk, src, 0, [], [None, None, None], None, 0]
+        last_flags[t] = f
+        if depth is not None and parent is not None and len(stack) >= depth:
+            raise budget._refuse(len(stack) + 1, "levels of nested sub-shapes", depth)
+        return _Frame(t, f, src, flip, parent, pos)
 
-    def finish_ref(fr: list[Any], s: int, o: int, loc: int) -> None:
-        """A reference of frame ``fr`` to shape ``s`` is known: the state moves."""
+    def more(fr: _Frame, ctx: Any) -> bool:
+        nonlocal refs
+        j = len(fr.slots)
+        b = c.bit(ctx, int(enc and j < m_start[fr.src + 1] - m_start[fr.src]))
+        if b:
+            refs += 1
+            if refs > n_refs:
+                raise SectionError("SHAP: more references than the section declares")
+        return bool(b)
+
+    def reserve() -> None:
+        nonlocal reserved
+        if len(types) + reserved >= n_shapes:
+            raise SectionError("SHAP: more shapes than the section declares")
+        reserved += 1
+
+    def used(fr: _Frame, s: int, o: int) -> None:
+        """A reference of ``fr`` to ``s`` is complete: the state moves."""
         ct = types[s]
-        fr[5].append((s, o, loc))
-        fr[4] += 1
-        w.uses[s] += 1
-        w.last_orient[s] = _flip(o, fr[8])
-        if ct == _EDGE:  # the open-edge count of the edge's vertices
-            step = 1 if w.uses[s] & 1 else -1
+        uses[s] += 1
+        last_orient[s] = _flip(o, fr.flip)
+        if ct == _EDGE:
+            opened.set(rank_in_type[s], uses[s] & 1)
+            step = 1 if uses[s] & 1 else -1
             for v in set(kid_shape[start[s] : start[s + 1]]):
-                w.open[v] = w.open.get(v, 0) + step
-        w.touch(ct, s)
-        if fr[0] == _WIRE and ct == _EDGE:
-            ws = fr[6]
-            st, en = _ends(
-                o, kid_shape[start[s] : start[s + 1]], kid_orient[start[s] : start[s + 1]]
-            )
-            if ws[2] is None:
-                ws[1] = st
-            ws[0], ws[2] = en, s
-            if st is not None:
-                w.touch(_VERTEX, st)
-            if en is not None:
-                w.touch(_VERTEX, en)
+                opens[v] = opens.get(v, 0) + step
+        touch(ct, s)
+        if fr.t == _WIRE and ct == _EDGE:
+            for e in ends(s, o):
+                if e is not None:
+                    touch(_VERTEX, e)
+
+    def choose(ctx: Any, ct: int, rank: list[int], true: int, news: list[int] | None) -> int:
+        """A shared reference: its rank among ``rank`` or, past them, its
+        distance back among the wire's new children (``news``: ~position) or
+        among the shapes of type ``ct``."""
+        r = len(rank)
+        if enc and true in rank:
+            r = rank.index(true)
+        r = c.uint(("r",) + ctx, r)
+        if r < len(rank):
+            return rank[r]
+        if r > len(rank):
+            raise SectionError("SHAP: a shared reference's rank is out of range")
+        if news is not None and c.bit(("xw", ct), int(enc and true < 0)):
+            d = c.uint(("xn", ct), len(news) - 1 - news.index(~true) if enc else 0)
+            if d >= len(news):
+                raise BadReferenceError("SHAP: a later use of a missing new child")
+            return ~news[len(news) - 1 - d]
+        lst = of_type[ct]
+        if ct == _EDGE and c.bit(("xo",), int(enc and uses[true] & 1)):
+            d = c.uint(("xd",), opened.after(rank_in_type[true]) if enc else 0)
+            if d >= opened.total:
+                raise BadReferenceError("SHAP: a shared reference to a missing open edge")
+            return lst[opened.back(d)]
+        d = c.uint(("x", ct), len(lst) - 1 - rank_in_type[true] if enc else 0)
+        if d >= len(lst):
+            raise BadReferenceError("SHAP: a shared reference to a missing shape")
+        return lst[len(lst) - 1 - d]
+
+    def ranked(ct: int, cand: list[int]) -> list[int]:
+        rest = [x for x in window[ct] if x not in cand]
+        if ct == _VERTEX:
+            return cand + [x for x in rest if opens.get(x)] + [x for x in rest if not opens.get(x)]
+        return cand + [x for x in rest if uses[x] & 1] + [x for x in rest if not uses[x] & 1]
+
+    def _wire_child(
+        fr: _Frame, ct: int, true_s: int, true_o: int, true_loc: int, chain: Any, prev: Any
+    ) -> None:
+        """Phase 1 of a wire: child ``len(fr.slots)`` is shared (a shape
+        numbered before the wire, or a later use of one of the wire's new
+        children) or new (walked in phase 2)."""
+        count, j = len(types), len(fr.slots)
+        cand: list[int] = []
+        if ct == _EDGE and chain is not None:
+            cand = [e for e in reversed(incident.get(chain, ())) if uses[e] & 1 and e != prev]
+        pend = [~k for k in reversed(fr.news[-PENDING:]) if fr.slots[k][4] == ct]
+        kind = 0
+        if enc:
+            if true_s >= count:
+                kind = 1
+                if true_s <= fr.hi:
+                    hit = [k for k in fr.news if fr.slots[k][0] == true_s]
+                    if not hit:
+                        raise _Unfit
+                    kind, true_s = 2, ~hit[0]
+        ctx = (_WIRE, ct, int(chain is not None), min(len(cand), 2), int(bool(pend)))
+        if c.bit(("s",) + ctx, int(enc and kind != 1)):
+            rank = ranked(ct, cand)
+            rank[len(cand) : len(cand)] = pend
+            s = choose(ctx, ct, rank, true_s, fr.news)
+            if s < 0:
+                k = ~s
+                o = c.tree(("o", _WIRE, ct, 2, fr.slots[k][1]), 2, true_o)
+                loc = _location(c, _WIRE, ct, true_loc)
+                fr.slots.append([k, o, loc, 2, ct])
+                return
+            last = last_orient[s]
+            pred = _flip(_reverse(last) if ct == _EDGE else last, fr.flip)
+            o = c.tree(("o", _WIRE, ct, 1, pred), 2, true_o)
+            loc = _location(c, _WIRE, ct, true_loc)
+            fr.slots.append([s, o, loc, 0, ct])
+            used(fr, s, o)
+            return
+        pred = fr.slots[j - 1][1] if j else 4
+        o = c.tree(("o", _WIRE, ct, 0, pred), 2, true_o)
+        loc = _location(c, _WIRE, ct, true_loc)
+        reserve()
+        fr.news.append(j)
+        fr.hi = max(fr.hi, true_s)
+        fr.slots.append([true_s, o, loc, 1, ct])
 
     t0 = c.tree(("t", 8), 3, m_type[m.root_shape] if m is not None else 0)
-    stack = [new_shape(t0, m.root_shape if m is not None else 0)]
     root_orient = c.tree(("ro",), 2, m.root_orient if m is not None else 0)
-    stack[0][8] = int(root_orient == _R)
     root_loc = c.uint(("rl",), m.root_loc if m is not None else 0)
-    true_s = true_o = true_loc = 0
+    stack: list[_Frame] = []
+    root = m.root_shape if m is not None else 0
+    stack.append(open_frame(t0, root, int(root_orient == _R), None, 0))
     while stack:
         fr = stack[-1]
-        t, nk, src, j = fr[0], fr[2], fr[3], fr[4]
-        if j == nk:  # the shape is complete: number it
-            stack.pop()
-            if count >= n_shapes:
-                raise SectionError("SHAP: more shapes than the section declares")
-            s = count
-            count += 1
-            if enc and src != s:
-                raise AssertionError("the walk numbers a shape otherwise")
-            types[s], flags[s] = t, fr[1]
-            start[s] = len(kid_shape)
-            for k, o, loc in fr[5]:
-                kid_shape.append(k)
-                kid_orient.append(o)
-                kid_loc.append(loc)
-            start[s + 1] = len(kid_shape)
-            w.rank_in_type.append(len(w.of_type[t]))
-            w.of_type[t].append(s)
-            w.uses.append(0)
-            w.last_orient.append(_F)
-            if t == _EDGE:
-                for v in kid_shape[start[s] :]:
-                    inc = w.incident.setdefault(v, [])
-                    if s not in inc:
-                        inc.append(s)
-                        if len(inc) > INCIDENT:
-                            del inc[0]
-            if stack:
-                o, loc = stack[-1][7]
-                stack[-1][7] = None
-                finish_ref(stack[-1], s, o, loc)
-            continue
-        # child j of this shape
-        if enc:
-            mk = m_start[src] + j
-            true_s, true_o, true_loc = m_kids[mk], m_or[mk], m_loc[mk]
-        ct = c.tree(("t", t), 3, m_type[true_s] if enc else 0)
-        ws = fr[6]
-        cand: list[int] = []
-        role = 0
-        if t == _EDGE and ct == _VERTEX and j < 2 and len(stack) > 1 and stack[-2][0] == _WIRE:
-            par = stack[-2]
-            uo = par[7][0]
-            if (j == 0) != (uo == _R):  # the vertex the edge starts from
-                role = 1
-                if par[6][0] is not None:
-                    cand = [par[6][0]]
-            elif par[4] == par[2] - 1 and par[6][1] is not None:  # ends the wire
-                role = 3
-                cand = [par[6][1]]
+        t, j = fr.t, len(fr.slots)
+        if fr.phase == 2:  # a wire's second phase: walk its new children in order
+            while fr.nxt < j and fr.slots[fr.nxt][3] != 1:
+                fr.nxt += 1
+            if fr.nxt < j:
+                sl = fr.slots[fr.nxt]
+                ct = sl[4]
+                stack.append(open_frame(ct, sl[0], fr.flip ^ int(sl[1] == _R), fr, fr.nxt))
+                fr.nxt += 1
+                continue
+            for sl in fr.slots:
+                if sl[3] == 2:
+                    sl[0], sl[3] = fr.slots[sl[0]][0], 0
+                    used(fr, sl[0], sl[1])
+            fr.phase = 3
+        elif fr.phase == 1:
+            if t == _WIRE:
+                prev = slot_shape(fr, j - 1) if j else None
+                chain = ends(prev, fr.slots[j - 1][1])[1] if prev is not None else None
+                first = slot_shape(fr, 0) if j else None
+                head = ends(first, fr.slots[0][1])[0] if first is not None else None
+                closed = 2 if chain is None else int(chain == head)
+                go = more(fr, ("m", t, min(j, 7), closed))
             else:
-                role = 2
-        elif t == _WIRE and ct == _EDGE and ws[0] is not None:
-            role = 4
-            for e in reversed(w.incident.get(ws[0], ())):
-                if w.uses[e] & 1 and e != ws[2]:
-                    cand.append(e)
-        ctx = (t, ct, role, min(len(cand), 2))
-        if c.bit(("s",) + ctx, int(enc and true_s < count)):
-            win = [x for x in w.window[ct] if x not in cand]
-            if ct == _VERTEX:
-                rank = (
-                    cand + [x for x in win if w.open.get(x)] + [x for x in win if not w.open.get(x)]
-                )
+                go = more(fr, ("m", t, min(j, 3)))
+            if not go:
+                fr.phase = 2 if t == _WIRE else 3
+                continue
+            if enc:
+                mk = m_start[fr.src] + j
+                true_s, true_o, true_loc = m_kids[mk], m_or[mk], m_loc[mk]
             else:
-                rank = (
-                    cand + [x for x in win if w.uses[x] & 1] + [x for x in win if not w.uses[x] & 1]
-                )
-            r = len(rank)
-            if enc and true_s in rank:
-                r = rank.index(true_s)
-            r = c.uint(("r",) + ctx, r)
-            if r < len(rank):
-                s = rank[r]
-            elif r == len(rank):
-                lst = w.of_type[ct]
-                d = c.uint(("x", ct), len(lst) - 1 - w.rank_in_type[true_s] if enc else 0)
-                if d >= len(lst):
-                    raise BadReferenceError("SHAP: a shared reference to a missing shape")
-                s = lst[len(lst) - 1 - d]
-            else:
-                raise SectionError("SHAP: a shared reference's rank is out of range")
-            if t == _EDGE and ct == _VERTEX:
-                pred = _F if j == 0 else _R
-            elif ct == _EDGE:
-                pred = _flip(_reverse(w.last_orient[s]), fr[8])
-            else:
-                pred = _flip(w.last_orient[s], fr[8])
-            o = c.tree(("o", t, ct, 1, pred), 2, true_o)
+                true_s = true_o = true_loc = 0
+            ct = c.tree(("t", t), 3, m_type[true_s] if enc else 0)
+            if t == _WIRE:
+                _wire_child(fr, ct, true_s, true_o, true_loc, chain, prev)
+                continue
+            count = len(types)
+            cand: list[int] = []
+            role = 0
+            if t == _EDGE and ct == _VERTEX:  # orientation first: it tells the end
+                o = c.tree(("o", t, ct, min(j, 2)), 2, true_o)
+                par = fr.parent
+                if par is not None and par.t == _WIRE:
+                    x = _flip(o, int(par.slots[fr.pos][1] == _R))
+                    n = len(par.slots)
+                    if x == _F:
+                        role = 1
+                        s2 = slot_shape(par, (fr.pos - 1) % n)
+                        v = ends(s2, par.slots[(fr.pos - 1) % n][1])[1] if s2 is not None else None
+                    elif x == _R:
+                        role = 2
+                        s2 = slot_shape(par, (fr.pos + 1) % n)
+                        v = ends(s2, par.slots[(fr.pos + 1) % n][1])[0] if s2 is not None else None
+                    else:
+                        v = None
+                    if v is not None:
+                        cand = [v]
+            ctx = (t, ct, role, len(cand))
+            if c.bit(("s",) + ctx, int(enc and true_s < count)):
+                s = choose(ctx, ct, ranked(ct, cand), true_s, None)
+                if not (t == _EDGE and ct == _VERTEX):
+                    pred = _flip(last_orient[s], fr.flip)
+                    o = c.tree(("o", t, ct, 1, pred), 2, true_o)
+                loc = _location(c, t, ct, true_loc)
+                fr.slots.append([s, o, loc, 0, ct])
+                used(fr, s, o)
+                continue
+            if not (t == _EDGE and ct == _VERTEX):
+                pred = last_new.get((t, ct), _F)
+                o = c.tree(("o", t, ct, 0, pred), 2, true_o)
+                last_new[(t, ct)] = o
             loc = _location(c, t, ct, true_loc)
-            finish_ref(fr, s, o, loc)
+            reserve()
+            fr.slots.append([true_s, o, loc, 1, ct])
+            stack.append(open_frame(ct, true_s, fr.flip ^ int(o == _R), fr, j))
             continue
-        if t == _EDGE and ct == _VERTEX:
-            pred = _F if j == 0 else _R
-        elif t == _WIRE and ct == _EDGE:
-            pred = 4 if ws[2] is None else _flip(w.last_orient[ws[2]], fr[8])
-        else:
-            pred = w.last_new_orient.get((t, ct), _F)
-        o = c.tree(("o", t, ct, 0, pred), 2, true_o)
-        loc = _location(c, t, ct, true_loc)
-        w.last_new_orient[(t, ct)] = o
-        if count + len(stack) >= n_shapes:
+        # complete: number it
+        stack.pop()
+        s = len(types)
+        if s >= n_shapes:
             raise SectionError("SHAP: more shapes than the section declares")
-        if depth is not None and len(stack) >= depth:
-            raise budget._refuse(len(stack) + 1, "levels of nested sub-shapes", depth)
-        fr[7] = (o, loc)
-        stack.append(new_shape(ct, true_s))
-        stack[-1][8] = fr[8] ^ int(o == _R)
-    if count != n_shapes or refs != n_refs:
+        if enc and fr.src != s:
+            raise AssertionError("the walk numbers a shape otherwise")
+        reserved -= 1
+        types.append(t)
+        flags.append(fr.f)
+        for k, o, loc, _, _ in fr.slots:
+            kid_shape.append(k)
+            kid_orient.append(o)
+            kid_loc.append(loc)
+        start.append(len(kid_shape))
+        rank_in_type.append(len(of_type[t]))
+        of_type[t].append(s)
+        uses.append(0)
+        last_orient.append(_F)
+        if t == _EDGE:
+            opened.append()
+            for v in kid_shape[start[s] :]:
+                inc = incident.setdefault(v, [])
+                if s not in inc:
+                    inc.append(s)
+                    if len(inc) > INCIDENT:
+                        del inc[0]
+        par = fr.parent
+        if par is not None:
+            sl = par.slots[fr.pos]
+            sl[0], sl[3] = s, 0
+            used(par, s, sl[1])
+    if len(types) != n_shapes or refs != n_refs:
         raise SectionError("SHAP: fewer shapes or references than the section declares")
     return {
         "types": types,
@@ -453,7 +608,10 @@ def encode(m: Any) -> bytes | None:
     if not _model_fits(m):
         return None
     rc = _Encoder()
-    _run(_Models(rc), m, len(m.shape_type), len(m.child_shape))
+    try:
+        _run(_Models(rc), m, len(m.shape_type), len(m.child_shape))
+    except _Unfit:
+        return None
     return rc.finish()
 
 

@@ -147,12 +147,74 @@ def test_internal_and_external_orientations() -> None:
     _round_trip(m)
 
 
+def _walk_round_trip(m: BRepModel) -> bool:
+    """The walk's stream alone decodes to ``m``'s tables (False: the walk
+    does not write ``m``)."""
+    coded = topocode.encode(m)
+    if coded is None:
+        return False
+    t = topocode.decode(coded, len(m.shape_type), len(m.child_shape))
+    assert t["types"] == m.shape_type.tolist()
+    assert t["flags"] == m.shape_flags.tolist()
+    assert t["start"] == m.child_start.tolist()
+    assert t["shape"] == m.child_shape.tolist()
+    assert t["orient"] == m.child_orient.tolist()
+    assert t["loc"] == m.child_loc.tolist()
+    assert (t["root_orient"], t["root_loc"]) == (m.root_orient, m.root_loc)
+    return True
+
+
 def test_random_trees_round_trip() -> None:
-    """Random DAGs numbered in depth-first post-order from the root."""
+    """Random DAGs numbered in depth-first post-order from the root: whatever
+    mode the writer picks, the tables come back; most go through the walk
+    (a wire's child that an earlier sibling's walk numbers does not)."""
     rng = random.Random(5)
-    for _ in range(30):
+    walked = 0
+    for _ in range(60):
         m = _random_model(rng)
-        _round_trip(m)
+        _round_trip(m, None)
+        walked += _walk_round_trip(m)
+    assert walked >= 30
+
+
+def test_wire_reuses_its_new_edge_far_back() -> None:
+    """A wire naming again a new edge of its own more than PENDING edges
+    back (a seam-like loop, as in bug32596) goes through the walk."""
+    m = BRepModel()
+    n = topocode.PENDING + 3
+    # vertices 3k, edges 3k+2 over vertices 3k and 3k+1... numbered post-order
+    types: list[int] = []
+    kids: list[list[int]] = []
+    for _ in range(n):
+        types += [7, 7, 6]
+        b = len(types) - 3
+        kids += [[], [], [b, b + 1]]
+    edges = [3 * k + 2 for k in range(n)]
+    types.append(5)
+    kids.append(edges + [edges[0]])
+    m.shape_type = np.array(types, np.uint8)
+    m.shape_flags = np.zeros(len(types), np.uint8)
+    m.child_start = np.concatenate([[0], np.cumsum([len(k) for k in kids])]).astype(np.int64)
+    m.child_shape = np.array([c for k in kids for c in k], np.int64)
+    orient = [[0, 1] if len(k) == 2 else [0] * (len(k) - 1) + [1] for k in kids if k]
+    m.child_orient = np.array([o for k in orient for o in k], np.uint8)
+    m.child_loc = np.zeros(len(m.child_shape), np.int64)
+    m.root_shape, m.root_orient, m.root_loc = len(types) - 1, 0, 0
+    assert _walk_round_trip(m)
+
+
+def test_tiny_model_written_the_smaller_way() -> None:
+    """Under 512 coded bytes the writer keeps the arrays when they compress
+    smaller: no tiny model is larger than in the 1.x layout."""
+    import lzma
+
+    rng = random.Random(8)
+    for _ in range(20):
+        m = _random_model(rng)
+        raw = serialize._write_shapes(m)
+        arrays = bytes([topocode.MODE_ARRAYS]) + serialize._write_shape_arrays(m)
+        x = lzma.compress(raw, preset=9 | lzma.PRESET_EXTREME)
+        assert len(x) <= len(lzma.compress(arrays, preset=9 | lzma.PRESET_EXTREME))
 
 
 def _random_model(rng: random.Random) -> BRepModel:
