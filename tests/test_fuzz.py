@@ -122,9 +122,9 @@ def test_shape_the_step_writer_refuses(tmp_path: Path, monkeypatch) -> None:
         pipeline.compress_file(SAMPLES / "bracket.step", src, lossless=True, verify=False)
     c = container.unpack(src.read_bytes())
     edge = _arrays(c.get("EDGE"), "EDGE")
-    uv = edge[-2][1].copy()  # the pcurves' end points (the last array holds the seams')
-    uv[55] = -0.0
-    edge[-2] = ("f", uv)
+    ranges = edge[-3][1].copy()  # the stored ranges: the last three arrays (range, uv, uv2)
+    ranges[55] = -0.0
+    edge[-3] = ("f", ranges)
     secs = _replace([(s.tag, s.raw) for s in c.sections], "EDGE", _write_arrays(edge))
     bad = tmp_path / "bad.nzc"
     bad.write_bytes(container.pack(secs, c.flags, (entropy.Coder.STORED,)))
