@@ -74,6 +74,31 @@ def test_context_streams():
     assert streams[2] == b",".join([b"9"] + [b"0"] * (n - 1))  # ids: #10, then +1 each
 
 
+def test_group_copies():
+    """A CARTESIAN_POINT whose numbers repeat an earlier point's is a copy
+    (stream 6: how many points back), with its numbers out of the number
+    streams; a DIRECTION with the same numbers is of another kind and new; a
+    copy that reaches too far back or forward is refused."""
+    pts = [b"(1.5,2.,3.)", b"(4.,5.,6.)", b"(1.5,2.,3.)", b"(4.,5.,6.)", b"(4.,5.,6.)"]
+    data = b"ISO-10303-21;\nDATA;\n" + b"".join(
+        b"#%d=CARTESIAN_POINT('',%s);\n" % (i + 1, p) for i, p in enumerate(pts)
+    )
+    data += b"#9=DIRECTION('',(1.5,2.,3.));\n#10=A('x',7);\n#11=A('y',7);\n"
+    assert _round(data) == data
+    streams = coding.unpack(step.encode(data), 10 * len(data))
+    assert streams[6] == b"0,0,0,2,2,1,0,0,1"  # the first: 10303 and -21 of the magic
+    assert b"4.,4." not in b"".join(streams[7:])
+    bad_copies = (
+        b"0,0,0,3,2,1,0,0,1",
+        b"0,0,0,2,2,1,0,0,-1",
+        b"0,0,0,2,2,1,0,0",
+        b"0,0,0,2,2,1,x,1",
+    )
+    for bad in bad_copies:
+        with pytest.raises(CorruptError):
+            step.decode(coding.pack([*streams[:6], bad, *streams[7:]]), len(data))
+
+
 def test_damaged_payload_raises():
     data = SNIPPETS[0] * 3
     payload = step.encode(data)

@@ -31,6 +31,15 @@ contexts off the skeleton, so they are not stored.
 * the id stream holds each id minus the previous id minus 1 (``0`` for
   ``#1, #2, #3``).
 
+Before the numbers go to their streams, repeats are taken out by *group*: the
+numbers that follow one entity id (:func:`_groups`), of a *kind* made of the
+entity name of the group's first number and the group's count.  A group whose
+number texts equal those of an earlier group of its kind is a copy, coded as
+how many groups of its kind back the nearest such group stands (a vertex's
+``CARTESIAN_POINT`` that repeats a pole: one small integer instead of three
+long matches); only new groups' numbers reach the number streams.  On the
+corpus this took 2.6% off the STEP payloads.
+
 Every stream goes through :func:`nurbscomp.text.coding.pack`.  The payload
 ends with nothing: the first stream (the header) holds the output's length
 and CRC-32, checked on decode, so a damaged payload raises a ``FormatError``
@@ -54,7 +63,7 @@ from ..errors import CorruptError, FormatError, LimitError
 from . import coding
 
 #: Payload version (the header's first varint).
-VERSION = 1
+VERSION = 2
 #: Placeholder bytes of the skeleton.
 ID, REF, NUM, STR, RAW = 1, 2, 3, 4, 5
 #: Ranks per entity name that get a context of their own (the last collects the rest).
@@ -148,6 +157,72 @@ def _owners(skel: bytes, kind: int, ids: np.ndarray) -> np.ndarray:
     return np.r_[np.int64(0), ids][j]
 
 
+def _groups(skel: bytes) -> tuple[np.ndarray, np.ndarray]:
+    """The numbers of ``skel`` cut into *groups*, the runs of numbers with the
+    same last entity id before them: each group's first number and its count."""
+    arr = np.frombuffer(skel, dtype=np.uint8)
+    idpos = np.flatnonzero(arr == ID)
+    pos = np.flatnonzero(arr == NUM)
+    if not len(pos):
+        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+    owner = np.searchsorted(idpos, pos, side="right")
+    start = np.r_[0, np.flatnonzero(np.diff(owner)) + 1].astype(np.int64)
+    return start, np.diff(np.r_[start, len(pos)]).astype(np.int64)
+
+
+def _kinds(
+    ctx: np.ndarray, start: np.ndarray, count: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each group's *kind* (its first number's entity name and its count,
+    as one integer), the groups sorted by kind (stable), and each group's
+    rank among the groups of its kind."""
+    kind = (ctx[start] // SLOTS) * (1 << 32) + np.minimum(count, (1 << 32) - 1)
+    order = np.argsort(kind, kind="stable")
+    sk = kind[order]
+    first = np.r_[0, np.flatnonzero(np.diff(sk)) + 1]
+    rank = np.empty(len(kind), dtype=np.int64)
+    rank[order] = np.arange(len(kind)) - np.repeat(first, np.diff(np.r_[first, len(kind)]))
+    return kind, order, rank
+
+
+def _copies(nums: list[bytes], start: np.ndarray, kind: np.ndarray, rank: np.ndarray) -> list[int]:
+    """For each group, 0 when its numbers are new, else how many groups of its
+    kind back the nearest earlier group of its kind with the same number texts
+    stands."""
+    last: dict[tuple[object, ...], int] = {}
+    out: list[int] = []
+    ends = np.r_[start[1:], len(nums)].tolist() if len(start) else []
+    for a, e, k, r in zip(start.tolist(), ends, kind.tolist(), rank.tolist()):
+        key = (k, *nums[a:e])
+        prev = last.get(key)
+        out.append(0 if prev is None else r - prev)
+        last[key] = r
+    return out
+
+
+def _sources(copy: np.ndarray, order: np.ndarray, rank: np.ndarray) -> np.ndarray:
+    """Each group's source group: itself when new, else (transitively) the
+    new group it copies.
+
+    Raises
+    ------
+    CorruptError
+        A negative copy, or one that reaches before the first group of its kind.
+    """
+    g = np.arange(len(copy), dtype=np.int64)
+    if len(g) and (copy.min() < 0 or np.any(copy > rank)):
+        raise CorruptError("STEP model: bad number group copy")
+    pos = np.empty(len(g), dtype=np.int64)
+    pos[order] = g
+    src = order[pos - copy] if len(g) else g
+    for _ in range(64):  # pointer jumping: chains halve each round
+        nxt = src[src]
+        if np.array_equal(nxt, src):
+            return src
+        src = nxt
+    raise CorruptError("STEP model: number group copies do not resolve")
+
+
 def _ints(values: list[int]) -> bytes:
     return b",".join(b"%d" % v for v in values)
 
@@ -239,10 +314,16 @@ def encode(data: bytes) -> bytes | None:
             modes.append(0)
             ref_streams.append(a)
 
-    # numbers, by context
-    n_stream, n_map = _streams_of(contexts(skel, NUM, named))
+    # numbers: groups that repeat an earlier group are copies of it; the
+    # others' numbers by context
+    g_start, g_count = _groups(skel)
+    n_ctx = contexts(skel, NUM, named)
+    kind, _, rank = _kinds(n_ctx, g_start, g_count)
+    copy = _copies(nums_t, g_start, kind, rank)
+    fresh = np.repeat(np.asarray(copy, dtype=np.int64) == 0, g_count)
+    n_stream, n_map = _streams_of(n_ctx[fresh])
     num_streams: list[list[bytes]] = [[] for _ in range(len(n_map) + 1)]
-    for s, t in zip(n_stream.tolist(), nums_t):
+    for s, t in zip(n_stream.tolist(), (t for t, f in zip(nums_t, fresh.tolist()) if f)):
         num_streams[s].append(t)
 
     head = [VERSION, len(data), zlib.crc32(data), len(r_map), len(n_map)]
@@ -258,6 +339,7 @@ def encode(data: bytes) -> bytes | None:
         _ints([len(t) for t in strs_t]),
         b"".join(strs_t),
         b"".join(raws_t),
+        _ints(copy),
         *ref_streams,
         *(b",".join(x) for x in num_streams),
     ]
@@ -289,7 +371,7 @@ def _decode(payload: bytes, limit: int) -> bytes:
     # every stream is at most twice the text (a number's separator, a
     # placeholder): the streams' total is held to that
     streams = coding.unpack(payload, 2 * limit + 4096)
-    if len(streams) < 8:
+    if len(streams) < 9:
         raise CorruptError(f"STEP model: {len(streams)} streams")
     header = streams[0]
     pos = 0
@@ -304,8 +386,8 @@ def _decode(payload: bytes, limit: int) -> bytes:
     size, crc, nr, nn = next_int(), next_int(), next_int(), next_int()
     if size > limit:
         raise LimitError(f"STEP model decodes to {size} bytes, more than {limit}")
-    if len(streams) != 8 + nr + nn:
-        raise CorruptError(f"STEP model: {len(streams)} streams, header says {8 + nr + nn}")
+    if len(streams) != 9 + nr + nn:
+        raise CorruptError(f"STEP model: {len(streams)} streams, header says {9 + nr + nn}")
     modes = [next_int() for _ in range(nr + 1)]
     if any(m > 1 for m in modes):
         raise CorruptError("STEP model: unknown reference mode")
@@ -316,9 +398,9 @@ def _decode(payload: bytes, limit: int) -> bytes:
     for cmap, count in ((r_map, nr), (n_map, nn)):
         if sorted(s for _, s in cmap) != list(range(1, count + 1)):
             raise CorruptError("STEP model: bad context map")
-    skel, id_raw, slen_raw, str_raw, raw_raw = streams[1:6]
-    ref_raw = streams[6 : 7 + nr]
-    num_raw = streams[7 + nr :]
+    skel, id_raw, slen_raw, str_raw, raw_raw, copy_raw = streams[1:7]
+    ref_raw = streams[7 : 8 + nr]
+    num_raw = streams[8 + nr :]
 
     arr = np.frombuffer(skel, dtype=np.uint8)
     ph_mask = (arr >= ID) & (arr <= RAW)
@@ -344,8 +426,14 @@ def _decode(payload: bytes, limit: int) -> bytes:
         refs[sel] = (owner[sel] + d) if modes[s] == 0 else np.cumsum(d)
     ref_t = [b"#%d" % v for v in refs.tolist()]
 
-    # numbers
-    n_stream = _apply_map(contexts(skel, NUM, named), n_map)
+    # numbers: the new groups' from the streams, the copies' from their source
+    g_start, g_count = _groups(skel)
+    n_ctx = contexts(skel, NUM, named)
+    _, g_order, g_rank = _kinds(n_ctx, g_start, g_count)
+    copy = _read_ints(copy_raw, len(g_start), "number groups")
+    src = _sources(copy, g_order, g_rank)
+    fresh = np.repeat(copy == 0, g_count)
+    n_stream = _apply_map(n_ctx[fresh], n_map)
     per = np.bincount(n_stream, minlength=nn + 1) if len(n_stream) else np.zeros(nn + 1, int)
     pieces: list[bytes] = []
     for s in range(nn + 1):
@@ -353,7 +441,12 @@ def _decode(payload: bytes, limit: int) -> bytes:
     order = np.argsort(n_stream, kind="stable")
     inv = np.empty_like(order)
     inv[order] = np.arange(len(order))
-    num_t = _pick(pieces, inv)
+    # number k of group g is number k of group src[g]; fresh numbers are
+    # numbered in text order among the fresh ones
+    fresh_rank = np.cumsum(fresh) - 1
+    within = np.arange(len(fresh), dtype=np.int64) - np.repeat(g_start, g_count)
+    source = np.repeat(g_start[src], g_count) + within
+    num_t = _pick(pieces, inv[fresh_rank[source]]) if len(source) else []
 
     # strings and raw bytes
     slen = _read_ints(slen_raw, int(counts[STR]), "string lengths")
