@@ -14,39 +14,16 @@ from __future__ import annotations
 
 import argparse
 import hashlib
-import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 CORPUS = ROOT.parent / "shared" / "corpus"
 
+from benchmarks.exact import best_of, xz  # noqa: E402
 from nurbscomp.text import step  # noqa: E402
-
-
-def best_of(f, n: int = 3) -> float:
-    """The shortest of ``n`` timings of ``f()`` (seconds, wall)."""
-    ts = []
-    for _ in range(n):
-        t = time.perf_counter()
-        f()
-        ts.append(time.perf_counter() - t)
-    return min(ts)
-
-
-def xz(path: Path) -> tuple[int, float]:
-    """Bytes and time of ``xz -9e -c path``."""
-    out: list[int] = []
-
-    def run() -> None:
-        r = subprocess.run(["xz", "-9e", "-c", str(path)], capture_output=True, check=True)
-        out.append(len(r.stdout))
-
-    t = best_of(run)
-    return out[-1], t
 
 
 def occt_read(path: Path) -> float:

@@ -33,10 +33,8 @@ import random
 import resource
 import signal
 import struct
-import subprocess
 import sys
 import tempfile
-import time
 import traceback
 import zlib
 from pathlib import Path
@@ -59,6 +57,7 @@ from nurbscomp.model import (
 )
 
 from .golden.make_golden import pack_raw
+from .supervisor import supervise
 
 ROOT = Path(__file__).resolve().parent.parent
 SAMPLES = ROOT / "samples"
@@ -698,78 +697,17 @@ def run(
     mb: int = 1024,
 ) -> int:
     """Fuzz ``cases`` cases in ``jobs`` worker processes; print a summary; 1 if any failed."""
-    t0 = time.time()
-    results: dict[int, str] = {}
     with tempfile.TemporaryDirectory() as d:
         folder = Path(d)
         if mode != "structure":
             make_seeds(folder)
-        todo = [(a, min(chunk, cases - a)) for a in range(0, cases, chunk)]
-        running: list[tuple[subprocess.Popen[str], int, int]] = []
-        while todo or running:
-            while todo and len(running) < jobs:
-                first, n = todo.pop(0)
-                cmd = [sys.executable, "-m", "tests.fuzz", "--worker"]
-                cmd += [str(seed), str(first), str(n), str(folder), mode, str(mb)]
-                p = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, text=True)
-                running.append((p, first, n))
-            p, first, n = running.pop(0)
-            last = _collect(p, results, timeout)
-            end = first + n
-            if last is not None and last + 1 < end:  # died or hung in case `last`
-                todo.insert(0, (last + 1, end - last - 1))
-            done = len(results)
-            print(f"{done} cases, {time.time() - t0:.0f} s", file=sys.stderr, flush=True)
-    fails = {k: v for k, v in sorted(results.items()) if v.startswith("FAIL")}
-    kinds: dict[str, int] = {}
-    for v in results.values():
-        kinds[v.split(" ")[0] if not v.startswith("FAIL") else "FAIL"] = (
-            kinds.get(v.split(" ")[0] if not v.startswith("FAIL") else "FAIL", 0) + 1
-        )
-    print(f"fuzz ({mode}): {len(results)} cases, seed {seed}, {time.time() - t0:.0f} s")
-    print("outcomes: " + ", ".join(f"{k} {v}" for k, v in sorted(kinds.items())))
-    print(f"failures: {len(fails)}")
-    for k, v in fails.items():
-        print(f"  case {k}: {v}")
-    return 1 if fails else 0
 
+        def command(first: int, n: int) -> list[str]:
+            return [sys.executable, "-m", "tests.fuzz", "--worker"] + [
+                str(x) for x in (seed, first, n, folder, mode, mb)
+            ]
 
-def _collect(p: subprocess.Popen[str], results: dict[int, str], timeout: float) -> int | None:
-    """Read a worker's lines; on a hang or crash, record its case as failed and
-    return it (the caller resumes after it)."""
-    assert p.stdout is not None
-    current = None
-    deadline = [time.time() + timeout]
-
-    def on_alarm(signum: int, frame: object) -> None:
-        raise Hang
-
-    old = signal.signal(signal.SIGALRM, on_alarm)
-    try:
-        signal.setitimer(signal.ITIMER_REAL, timeout)
-        for line in p.stdout:
-            word, case, *rest = line.rstrip("\n").split(" ", 2)
-            if word == "start":
-                current = int(case)
-                deadline[0] = time.time() + timeout
-                signal.setitimer(signal.ITIMER_REAL, timeout)
-            elif word == "done":
-                results[int(case)] = rest[0] if rest else ""
-                current = None
-        p.wait()
-    except Hang:
-        p.kill()
-        p.wait()
-        if current is not None:
-            results[current] = f"FAIL timeout after {timeout:g} s"
-        return current
-    finally:
-        signal.setitimer(signal.ITIMER_REAL, 0)
-        signal.signal(signal.SIGALRM, old)
-    if current is not None:  # the worker died inside a case
-        results[current] = f"FAIL worker died (exit {p.returncode})"
-        return current
-    return None
+        return supervise(cases, jobs, timeout, chunk, command, f"fuzz ({mode})", seed)
 
 
 def main() -> None:

@@ -31,11 +31,11 @@ import argparse
 import random
 import resource
 import signal
-import subprocess
 import sys
-import time
 import traceback
 from pathlib import Path
+
+from .supervisor import supervise
 
 ROOT = Path(__file__).resolve().parent.parent
 CORPUS = ROOT.parent / "shared" / "corpus"
@@ -311,72 +311,15 @@ def _worker(seed: int, first: int, count: int, mb: int) -> None:
         print(f"done {k} {check(src, rng)}", flush=True)
 
 
-def _collect(p: subprocess.Popen[str], results: dict[int, str], timeout: float) -> int | None:
-    """Read a worker's lines; on a hang or a crash record its case as failed
-    and return it (the caller resumes after it)."""
-    assert p.stdout is not None
-    current = None
-
-    def on_alarm(signum: int, frame: object) -> None:
-        raise Hang
-
-    old = signal.signal(signal.SIGALRM, on_alarm)
-    try:
-        signal.setitimer(signal.ITIMER_REAL, timeout)
-        for line in p.stdout:
-            word, k, *rest = line.rstrip("\n").split(" ", 2)
-            if word == "start":
-                current = int(k)
-                signal.setitimer(signal.ITIMER_REAL, timeout)
-            elif word == "done":
-                results[int(k)] = rest[0] if rest else ""
-                current = None
-        p.wait()
-    except Hang:
-        p.kill()
-        p.wait()
-        if current is not None:
-            results[current] = f"FAIL timeout after {timeout:g} s"
-        return current
-    finally:
-        signal.setitimer(signal.ITIMER_REAL, 0)
-        signal.signal(signal.SIGALRM, old)
-    if current is not None:
-        results[current] = f"FAIL worker died (exit {p.returncode})"
-        return current
-    return None
-
-
 def run(cases: int, seed: int, jobs: int, timeout: float, mb: int, chunk: int = 250) -> int:
     """Fuzz ``cases`` cases in ``jobs`` workers; print a summary; 1 if any failed."""
-    t0 = time.time()
-    results: dict[int, str] = {}
-    todo = [(a, min(chunk, cases - a)) for a in range(0, cases, chunk)]
-    running: list[tuple[subprocess.Popen[str], int, int]] = []
-    while todo or running:
-        while todo and len(running) < jobs:
-            first, n = todo.pop(0)
-            cmd = [sys.executable, "-m", "tests.fuzz_text", "--worker"]
-            cmd += [str(seed), str(first), str(n), str(mb)]
-            running.append(
-                (subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, text=True), first, n)
-            )
-        p, first, n = running.pop(0)
-        last = _collect(p, results, timeout)
-        if last is not None and last + 1 < first + n:
-            todo.insert(0, (last + 1, first + n - last - 1))
-        print(f"{len(results)} cases, {time.time() - t0:.0f} s", file=sys.stderr, flush=True)
-    fails = {k: v for k, v in sorted(results.items()) if v.startswith("FAIL")}
-    kinds: dict[str, int] = {}
-    for v in results.values():
-        key = "FAIL" if v.startswith("FAIL") else v
-        kinds[key] = kinds.get(key, 0) + 1
-    print(f"fuzz (text): {len(results)} cases, seed {seed}, {time.time() - t0:.0f} s")
-    print("outcomes: " + ", ".join(f"{k} {v}" for k, v in sorted(kinds.items())))
-    print(f"failures: {len(fails)}")
-    for k, v in fails.items():
-        print(f"  case {k}: {v}")
-    return 1 if fails else 0
+
+    def command(first: int, n: int) -> list[str]:
+        return [sys.executable, "-m", "tests.fuzz_text", "--worker"] + [
+            str(x) for x in (seed, first, n, mb)
+        ]
+
+    return supervise(cases, jobs, timeout, chunk, command, "fuzz (text)", seed, whole=True)
 
 
 def main() -> None:
