@@ -44,7 +44,7 @@ def measure(src: Path, tol: float | None, dst: Path) -> dict[str, tuple[int, int
     c = container.unpack(data)
     out = {s.tag: (len(s.raw), xz(s.raw)) for s in c.sections}
     out["file"] = (len(data), len(data))
-    m, _, _ = serialize.read_sections(c.get, c.minor, None)
+    m, _, _ = serialize.read_sections(c.get, c.revision, None)
     surf = sum(m.surfaces[i].poles[..., 0].size for i in serialize.coded_rows(m.surfaces))
     crv = sum(len(m.curves3d[i].poles) for i in serialize.coded_rows(m.curves3d))
     out["poles"] = (surf, crv)
