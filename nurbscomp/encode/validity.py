@@ -482,7 +482,7 @@ class _Plan:
         to 1e-3 tol, past a 1e-7 tolerance: a surface of revolution in a
         faces-mode IGES file)."""
         faces = set(new_f) | {f for e in new_e for f in self.faces_of[e]}
-        if self.ungrid(faces, "brepcheck"):
+        if self.ungrid(faces, "grid-brepcheck"):
             return
         fresh = faces - self.tight_f
         if fresh:
@@ -532,7 +532,7 @@ class _Plan:
         (A blame of spent and unspent faces at once used to climb the spent
         ones past the last rung: compress crashed on an assembly of blended
         bodies, with "6 is not a valid Rung".)"""
-        if self.ungrid(blamed, "step"):
+        if self.ungrid(blamed, "grid-step"):
             return
         spent = {f for f, r in self.rung.items() if r == Rung.PCURVES}
         if blamed <= spent:
