@@ -27,7 +27,7 @@ ROOT = Path(__file__).resolve().parent.parent
 CORPUS = ROOT.parent / "shared" / "corpus"
 CAD = (".step", ".stp", ".igs", ".iges")
 MODES = (0.001, 0.01, 0.1, None)  # None: lossless
-ORDER = serialize.layout(container.MINOR)
+ORDER = serialize.layout(container.REVISION)
 
 
 def xz(raw: bytes) -> int:
