@@ -274,11 +274,13 @@ def mutate_sections(data: bytes, rng: random.Random, others: list[bytes]) -> byt
         # one coder, mostly the fast ones: packing with all four is slow
         coder = rng.choice([*[entropy.Coder.STORED] * 3, *entropy.Coder])
         out = container.pack(secs, flags, (coder,))
-    if rng.random() < 0.05:  # a newer minor version of this major
-        b = bytearray(out)
-        b[5] = rng.randint(container.MINOR + 1, 255)
-        out = fix_crcs(bytes(b))
-    return out
+    # the seed's version: its sections are laid out as that version says
+    # (2.0 changes layouts; ``container.pack`` writes this writer's version)
+    b = bytearray(out)
+    b[4], b[5] = c.major, c.minor
+    if c.major == 1 and rng.random() < 0.05:  # a newer minor version of major 1
+        b[5] = rng.randint(3, 255)
+    return fix_crcs(bytes(b))
 
 
 def mutate(seeds: list[bytes], rng: random.Random) -> bytes:
