@@ -129,11 +129,20 @@ class Analytic:
         ``gp_Ax22d``: X, Y; ``gp_Ax1``/``gp_Ax2d``: direction).
     params : ndarray, shape (m,)
         Radii, semi-angle, focal length, in OCCT's constructor order.
+    grid : int
+        0, or (tolerance mode, format 2.0) g in 1 ... 127: the origin's
+        coordinates in ``mask`` and the lengths among ``params`` (every one
+        but a cone's semi-angle) are integers times 2^(g - 64), and are
+        written as those integers.
+    mask : int
+        Bit j set: the origin's coordinate j is on the grid (7 when all are).
     """
 
     kind: Kind
     frame: np.ndarray
     params: np.ndarray
+    grid: int = 0
+    mask: int = 0
 
 
 @dataclass(frozen=True, eq=False)

@@ -654,7 +654,11 @@ def compress_report(enc: Encoded, verified: bool) -> dict[str, Any]:
         "geometry": "exact"
         if enc.lossless
         else "B-spline surfaces and 3-D curves coded, vertices on them snapped; "
-        "pcurves and analytic geometry exact",
+        + (
+            "analytic geometry on grids where that is smaller; pcurves exact"
+            if lossy_report and "analytic" in lossy_report.face_method
+            else "pcurves and analytic geometry exact"
+        ),
         "faces_by_method": lossy_report.method_counts() if lossy_report else {},
         "face_method_list": lossy_report.face_method if lossy_report else [],
         "max_bound_mm": float(lossy_report.face_bound.max(initial=0.0)) if lossy_report else 0.0,

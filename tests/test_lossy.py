@@ -135,11 +135,30 @@ def test_a_blame_of_spent_and_fresh_faces_climbs_the_fresh_ones() -> None:
     cad = occ.read_cad(next(p for p in sample_files() if p.name == "bracket.step"))
     m, _ = occ.shape_to_model(cad.shape)
     plan = validity._Plan(m, 0.01, cad.shape)
+    plan.gridded = frozenset()  # no analytic record on a grid: the rungs themselves
     plan.rung[0] = validity.Rung.PCURVES
     plan.step({0, 1})
     assert plan.rung[0] == validity.Rung.PCURVES and plan.rung[1] == validity.Rung.STILL
     plan.step({0})  # spent alone: its neighbours climb
     assert plan.rung[0] == validity.Rung.PCURVES and len(plan.rung) > 2
+
+
+def test_a_fault_first_leaves_its_gridded_records_exact() -> None:
+    """The first rung for a blamed face is to take the analytic records of
+    the face and its edges off their grids; the rungs come after."""
+    cad = occ.read_cad(next(p for p in sample_files() if p.name == "bracket.step"))
+    m, _ = occ.shape_to_model(cad.shape)
+    plan = validity._Plan(m, 0.01, cad.shape)
+    plan.grid = True
+    plan.candidate()
+    f = next(f for f, r in enumerate(plan.faces_rec) if r in plan.gridded)
+    plan.step({f})
+    assert plan.faces_rec[f] in plan.exact and plan.reason[plan.faces_rec[f]] == "grid-step"
+    assert f not in plan.rung
+    _, _, report = plan.candidate()
+    assert plan.faces_rec[f] not in report.gridded
+    plan.step({f})  # nothing left on a grid there: the first rung
+    assert plan.rung[f] == validity.Rung.STILL
 
 
 def test_the_floor_is_written_as_decompress_writes(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -604,6 +623,10 @@ def test_fault_with_everything_exact_keeps_its_ranges(tmp_path: Path) -> None:
     write_iges(BRepBuilderAPI_Transform(entry.build(), move, True).Shape(), src, 0)
     report = pipeline.compress_file(src, tmp_path / "moved.nzc", tol=0.01)
     assert report["validity"]["fallback"] == ""
-    assert report["validity"]["exact_faces"] == {"brepcheck": 2}
+    exact = report["validity"]["exact_faces"]
+    # the two faulty faces end exact: taken off their grids (their basis
+    # circles: the first rung since format 2.0), or by the ladder
+    assert exact.get("brepcheck", 0) + exact.get("grid-brepcheck", 0) == 2
+    assert set(exact) <= {"brepcheck", "grid-brepcheck", "grid-step"}
     back = pipeline.decode_file(tmp_path / "moved.nzc")[0]
     assert occ.is_valid(back)

@@ -31,6 +31,7 @@ from ..model import (
     records,
 )
 from ..serialize import SWEPT
+from . import analytic
 from .nets import TRIM_C, TRIM_S, Coded, feature_limit, first_rows, poles_of, resolve_row
 
 
@@ -62,6 +63,8 @@ class LossyReport:
     surface_poles: int
     curve_bits: float
     curve_poles: int
+    #: the analytic records put on their grids (:func:`_snap_analytic`)
+    gridded: frozenset[Rec] = frozenset()
 
     def method_counts(self) -> dict[str, int]:
         return dict(collections.Counter(self.face_method))
@@ -72,9 +75,11 @@ def assemble(
     coded: Coded,
     exact: set[Rec | None] = frozenset(),  # type: ignore[assignment]
     still: set[int] = frozenset(),  # type: ignore[assignment]
+    grid: bool = True,
 ) -> tuple[BRepModel, dict[Rec, codec.NetCode], LossyReport]:
     """The model the decoder will rebuild when every coded record but ``exact`` is used,
-    and every vertex that may move (:func:`_snap_vertices`) but the rows in ``still``.
+    and every vertex that may move (:func:`_snap_vertices`) but the rows in ``still``;
+    with ``grid``, analytic records on their grids (:func:`_snap_analytic`).
 
     Returns
     -------
@@ -113,6 +118,11 @@ def assemble(
         exact = exact | more
     surfaces = swap(m.surfaces, srec, coded.surfaces)
     curves = swap(m.curves3d, crec, coded.curves)
+    snapped: dict[Rec, float] = {}
+    if grid:
+        at_vertex = frozenset(m.vertex_point.reshape(-1).tolist())
+        snapped = _snap_analytic(surfaces, srec, exact, coded.tol, at_vertex)
+        snapped.update(_snap_analytic(curves, crec, exact, coded.tol, at_vertex))
     m, moved_v = _snap_vertices(m, coded, surfaces, curves, codes, exact, still)
     _pin_surfaces(m, surfaces, codes, coded.tol)
     side_joins = _join_sides(m, coded, surfaces, codes)
@@ -120,6 +130,7 @@ def assemble(
     _pin_curves(m, curves, codes, coded.tol)
     _copy_twins(m, coded, curves, codes, exact)
     bound_of = {k: c.bound for k, c in codes.items()}
+    bound_of.update(snapped)
 
     def curve_bound(i: int) -> float:
         return 0.0 if i < 0 else bound_of.get(crec[resolve_row(curves, i, TRIM_C)], 0.0)
@@ -132,6 +143,9 @@ def assemble(
         if srec[r] in codes:
             face_bound[f] = codes[srec[r]].bound
             face_method.append(codes[srec[r]].method.name.lower())
+        elif srec[r] in snapped:
+            face_bound[f] = snapped[srec[r]]
+            face_method.append("analytic")
         elif isinstance(b, Derived) and b.kind in SWEPT:
             # sweeping is an isometry of each curve point: the surface moves as the curve
             face_bound[f] = curve_bound(b.basis)
@@ -155,8 +169,37 @@ def assemble(
         sum(int(np.prod(poles_of(g).shape[:-1])) for k, g in zip(srec, surfaces) if k in codes),
         sum(c.bits for c in cc),
         sum(len(poles_of(g)) for k, g in zip(crec, curves) if k in codes),
+        frozenset(snapped),
     )
     return out, codes, report
+
+
+def _snap_analytic(
+    table: list[Geometry],
+    recs: list[Rec],
+    exact: set[Rec | None],
+    tol: float,
+    at_vertex: frozenset[float],
+) -> dict[Rec, float]:
+    """Put every analytic record of ``table`` but ``exact`` on its grid
+    (:func:`.analytic.quantize`), in place at every row of it; per record
+    moved, its bound.  An origin coordinate that is a vertex's coordinate,
+    bit for bit, stays as it is: the container holds that value anyway
+    (VERT), and its entropy coder finds the repeat (on featuretype at
+    0.01 mm, 413 of the 438 coordinates of line origins are; snapping them
+    cost 270 bytes)."""
+    out: dict[Rec, float] = {}
+    if tol <= 0:
+        return out
+    rows = _Rows(table)
+    for i, k in enumerate(recs):
+        if k.row != i or k in exact:
+            continue
+        hit = analytic.quantize(table[i], tol, at_vertex)
+        if hit is not None:
+            rows.replace(i, hit[0])
+            out[k] = hit[1]
+    return out
 
 
 def _snap_vertices(

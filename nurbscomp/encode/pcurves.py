@@ -28,6 +28,7 @@ from ..model import (
     first_row,
 )
 from ..serialize import SWEPT
+from . import analytic
 
 
 def drop_pcurves(m: BRepModel, keep_edges: set[int], keep_faces: set[int]) -> BRepModel:
@@ -289,7 +290,10 @@ def vertex_ranges(m: BRepModel, tol: float, keep: Set[int] = frozenset()) -> BRe
         g = m.curves3d[int(m.edge_reps[q, 2])]
         speed = float(g.params[0]) if g.kind == Kind.CIRCLE else 1.0  # type: ignore[union-attr]
         d = np.abs(np.array(t) - rng[q])
-        if (d > 0).any() and d.max() * speed <= RANGE_SLACK * tol:
+        # a curve on its grid moved by up to its grid's bound: its vertices'
+        # projections move along it by as much
+        slack = RANGE_SLACK * tol + analytic.grid_bound(g)  # type: ignore[arg-type]
+        if (d > 0).any() and d.max() * speed <= slack:
             same = (m.edge_reps[:, 0] == m.edge_reps[q, 0]) & (rng == rng[q]).all(-1)
             out_rng[same] = t
     if np.array_equal(out_rng, rng):
