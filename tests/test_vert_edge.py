@@ -113,3 +113,101 @@ def test_lossy_tolerances_round_trip(name: str) -> None:
     back = _decode(data)
     assert back.vertex_tol.view(np.int64).tolist() == m.vertex_tol.view(np.int64).tolist()
     assert back.edge_tol.view(np.int64).tolist() == m.edge_tol.view(np.int64).tolist()
+
+
+# ------------------------------------------------- round 2: vertices beside exact curves
+
+
+def test_short_coordinates_are_cheap() -> None:
+    """Vertices beside exact curves whose coordinates are short floats stay floats."""
+    from nurbscomp.encode import assembly
+
+    p = np.array(
+        [
+            [25.0, 31.75, -8.0],  # short
+            [0.1, 0.25, 0.5],  # 0.1 is not
+            [0.0, -1024.5, 3.0],
+            [np.pi, 1.0, 2.0],
+        ]
+    )
+    assert assembly._short(p).tolist() == [True, False, True, False]
+
+
+def test_a_brepcheck_fault_at_loose_vertices_keeps_them_first() -> None:
+    """A face that faults around vertices snapped beside an exact curve gets
+    those vertices back (and nothing else: no tighter code, no pcurves);
+    another face climbs the usual ladder."""
+    from types import SimpleNamespace
+
+    from nurbscomp.encode import validity
+
+    plan = SimpleNamespace(
+        verts_of=[[0, 1], [2, 3]],
+        faces_of=[[0], [1]],
+        loose_v=frozenset({1, 3}),
+        still_v=set(),
+        tight_f=set(),
+        keep_e=set(),
+        keep_f=set(),
+        tightened_calls=[],
+    )
+    plan.with_leaders = lambda recs: recs
+    plan.faces_rec = ["s0", "s1"]
+    plan.edges_rec = ["c0", "c1"]
+    plan.edges_of = [[0], [1]]
+    plan.edge_recs = lambda f: [plan.edges_rec[e] for e in plan.edges_of[f]]
+    plan.coded, plan.m = None, None
+    calls: list[list[str]] = []
+    orig = validity.nets.tighten
+    validity.nets.tighten = lambda coded, m, recs, level: calls.append(sorted(recs))
+    try:
+        validity._Plan.brepcheck(plan, set(), {0})  # type: ignore[arg-type]
+        assert plan.still_v == {1} and not calls and not plan.keep_f
+        plan.loose_v = frozenset()  # the next candidate: vertex 1 stays, face 0 faults again
+        validity._Plan.brepcheck(plan, set(), {0})  # type: ignore[arg-type]
+        assert calls == [["c0", "s0"]]
+    finally:
+        validity.nets.tighten = orig
+
+
+def test_vertices_beside_exact_lines_and_circles_snap(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A filleted box (planes, cylinders, lines, circles: every curve exact)
+    turned and moved to coordinates that are neither short floats nor
+    repeats: its vertices go to the grid, their tolerances cover the move,
+    the ranges of their lines and circles still follow them, and the part
+    stays valid and within tol."""
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_Transform
+    from OCP.gp import gp_Ax1, gp_Dir, gp_Pnt, gp_Trsf, gp_Vec
+
+    from nurbscomp import occ
+    from nurbscomp.encode import assembly
+    from tests.stress.files import write_step
+    from tests.stress.shapes import entries
+
+    monkeypatch.setattr(assembly, "MIN_LOOSE", 0)
+    entry = {e.name: e for e in entries(0)}["fillet_box_02"]
+    move, turn = gp_Trsf(), gp_Trsf()
+    move.SetTranslation(gp_Vec(0.123456789, 0.2718281828, 0.31415926))
+    turn.SetRotation(gp_Ax1(gp_Pnt(0, 0, 0), gp_Dir(1, 2, 3)), 0.3)  # no coordinate repeats
+    move.Multiply(turn)
+    src = tmp_path / "moved.step"
+    write_step(BRepBuilderAPI_Transform(entry.build(), move, True).Shape(), src, "moved")
+    tol = 0.01
+    report = pipeline.compress_file(src, tmp_path / "moved.nzc", tol=tol)
+    assert report["verified"] and report["validity"]["fallback"] == ""
+    c = container.unpack((tmp_path / "moved.nzc").read_bytes())
+    kind = serialize.BlockReader(c.get("VERT"), "VERT").ints()
+    assert (kind == 1).mean() > 0.5
+    m = pipeline.decode(c)[0]
+    src_m, _ = occ.shape_to_model(occ.read_cad(src).shape)
+    moved = np.sqrt(((m.vertex_point - src_m.vertex_point) ** 2).sum(-1))
+    assert moved.max() <= tol / 2
+    assert (m.vertex_tol[moved > 0] >= moved[moved > 0]).all()
+    from nurbscomp import decode
+
+    assert (decode.range_kinds(m) == serialize.RANGE_VERTICES).any()
+    shape = pipeline.decode_file(tmp_path / "moved.nzc")[0]
+    assert occ.is_valid(shape)
+    assert occ.deviation(occ.read_cad(src).shape, shape, n=5, tol=tol).max() <= tol
