@@ -242,3 +242,24 @@ def test_lossy_vertices_round_trip_bit_for_bit(name: str) -> None:
     assert kind.all()
     back = _decode(data)
     assert back.vertex_point.view(np.int64).tolist() == m.vertex_point.view(np.int64).tolist()
+
+
+def test_hostile_grid_residuals_wrap_harmlessly(monkeypatch) -> None:
+    """Residuals that add up past int64 wrap (docs/format.md §2.6): the reader
+    neither raises nor warns, and every point is a finite grid point."""
+    import warnings
+
+    from nurbscomp import decode
+
+    m, meta = fuzz.decoded((GOLDEN / "loft.tol0.01.nzc").read_bytes())
+    h = serialize.vertex_grid(float(meta["tolerance_mm"]))
+    m.vertex_point = np.rint(m.vertex_point / h).astype(np.int64) * h
+    m.side_joins = np.zeros((0, 5), np.int64)
+    big = np.full((len(m.vertex_point), 3), 2**62, np.int64)
+    monkeypatch.setattr(serialize, "_grid_predictions", lambda nbr, rows, q: q - big[: len(q)])
+    data = fuzz.pack_fast(decode.model_to_sections(m, meta), 0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        back = _decode(data)
+    assert np.isfinite(back.vertex_point).all()
+    assert not np.array_equal(back.vertex_point, m.vertex_point)
