@@ -214,7 +214,10 @@ def _snap_vertices(
                 and srec[coded.iso[crec[c]][0]] in codes
             )
         )
-        moving = follows or (c >= 0 and SNAP_ON_EXACT)
+        # a copy of a coincident curve (faces-mode IGES: bearing) keeps its
+        # vertices as before: snapped at 0.001 mm but not at 0.01 (its faces
+        # are finer than tol there), they made bearing grow with tol
+        moving = follows or (c >= 0 and SNAP_ON_EXACT and crec[c] not in coded.twins)
         if c >= 0 and not follows:
             for v in below(m, s, ShapeType.VERTEX):
                 loose[tidx[v]] = True
