@@ -840,6 +840,55 @@ def vertex_grid(tol: float) -> float:
     return tol / np.sqrt(3.0)
 
 
+def vertex_neighbours(m: BRepModel) -> list[list[int]]:
+    """Format 2.0: per vertex row, the vertex rows that are direct children of
+    an ``EDGE`` shape it is a direct child of (docs/format.md §2.6)."""
+    nv = int((m.shape_type == ShapeType.VERTEX).sum())
+    out: list[set[int]] = [set() for _ in range(nv)]
+    tidx = m.type_index()
+    types, children, start = m.shape_type, m.child_shape, m.child_start
+    vertex = int(ShapeType.VERTEX)
+    for s in np.flatnonzero(types == ShapeType.EDGE).tolist():
+        kids = children[start[s] : start[s + 1]]
+        vs = sorted({int(tidx[c]) for c in kids[types[kids] == vertex].tolist()})
+        for a in vs:
+            out[a].update(b for b in vs if b != a)
+    return [sorted(x) for x in out]
+
+
+def _grid_predictions(nbr: list[list[int]], rows: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Per grid vertex (``rows``, ascending, with grid integers ``q``), its
+    prediction: the grid integers of its highest-row grid neighbour before it,
+    else of the grid vertex before it (zeros for the first)."""
+    pred = np.zeros_like(q)
+    done: dict[int, int] = {}  # row -> k
+    for k, v in enumerate(rows.tolist()):
+        before = [done[u] for u in (nbr[v] if v < len(nbr) else ()) if u in done]
+        if before:
+            pred[k] = q[max(before)]
+        elif k:
+            pred[k] = q[k - 1]
+        done[v] = k
+    return pred
+
+
+def _grid_from_residuals(nbr: list[list[int]], rows: np.ndarray, res: np.ndarray) -> np.ndarray:
+    """The inverse of :func:`_grid_predictions`: grid integers from residuals."""
+    q = np.zeros_like(res)
+    done: dict[int, int] = {}
+    with np.errstate(over="ignore"):
+        for k, v in enumerate(rows.tolist()):
+            before = [done[u] for u in (nbr[v] if v < len(nbr) else ()) if u in done]
+            if before:
+                q[k] = q[max(before)] + res[k]
+            elif k:
+                q[k] = q[k - 1] + res[k]
+            else:
+                q[k] = res[k]
+            done[v] = k
+    return q
+
+
 def _write_vertices(m: BRepModel, tol: float = 0.0) -> bytes:
     """Vertices whose point is a grid point (``vertex_grid``) bit for bit are
     stored as grid integers; the others as floats."""
@@ -854,8 +903,10 @@ def _write_vertices(m: BRepModel, tol: float = 0.0) -> bytes:
         on_grid = small & ((q * h).view(np.int64) == pts.view(np.int64)).all(-1)  # bit for bit
     w.ints(on_grid.astype(np.int64))
     w.floats(pts[~on_grid].reshape(-1))
+    rows = np.flatnonzero(on_grid)
+    pred = _grid_predictions(vertex_neighbours(m), rows, q[rows]) if len(rows) else q[rows]
     for axis in range(3):
-        w.deltas(q[on_grid, axis])
+        w.ints(q[rows, axis] - pred[:, axis])
     _write_tolerances(w, m.vertex_tol)
     reps = m.vertex_reps
     w.ints(np.bincount(reps[:, 0], minlength=len(m.vertex_tol)) if len(reps) else [])
@@ -874,7 +925,11 @@ def _read_vertices(data: bytes, m: BRepModel, tol: float = 0.0, revision: int = 
     nv, ng = len(on_grid), int(on_grid.sum())
     pts = np.zeros((nv, 3))
     pts[~on_grid] = r.floats(3 * (nv - ng)).reshape(-1, 3)
-    q = np.stack([r.deltas(ng) for _ in range(3)], axis=1)
+    if revision >= 3:
+        res = np.stack([r.ints(ng) for _ in range(3)], axis=1)
+        q = _grid_from_residuals(vertex_neighbours(m), np.flatnonzero(on_grid), res) if ng else res
+    else:
+        q = np.stack([r.deltas(ng) for _ in range(3)], axis=1)
     if ng and not tol > 0:
         raise SectionError("VERT: grid vertices need a positive tolerance")
     if ng:

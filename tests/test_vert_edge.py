@@ -113,3 +113,153 @@ def test_lossy_tolerances_round_trip(name: str) -> None:
     back = _decode(data)
     assert back.vertex_tol.view(np.int64).tolist() == m.vertex_tol.view(np.int64).tolist()
     assert back.edge_tol.view(np.int64).tolist() == m.edge_tol.view(np.int64).tolist()
+
+
+# ------------------------------------------------- round 2: vertices beside exact curves
+
+
+def test_short_coordinates_are_cheap() -> None:
+    """Vertices beside exact curves whose coordinates are short floats stay floats."""
+    from nurbscomp.encode import assembly
+
+    p = np.array(
+        [
+            [25.0, 31.75, -8.0],  # short
+            [0.1, 0.25, 0.5],  # 0.1 is not
+            [0.0, -1024.5, 3.0],
+            [np.pi, 1.0, 2.0],
+        ]
+    )
+    assert assembly._short(p).tolist() == [True, False, True, False]
+
+
+def test_a_brepcheck_fault_at_loose_vertices_keeps_them_first() -> None:
+    """A face that faults around vertices snapped beside an exact curve gets
+    those vertices back (and nothing else: no tighter code, no pcurves);
+    another face climbs the usual ladder."""
+    from types import SimpleNamespace
+
+    from nurbscomp.encode import validity
+
+    plan = SimpleNamespace(
+        verts_of=[[0, 1], [2, 3]],
+        faces_of=[[0], [1]],
+        loose_v=frozenset({1, 3}),
+        still_v=set(),
+        tight_f=set(),
+        keep_e=set(),
+        keep_f=set(),
+        tightened_calls=[],
+    )
+    plan.with_leaders = lambda recs: recs
+    plan.faces_rec = ["s0", "s1"]
+    plan.edges_rec = ["c0", "c1"]
+    plan.edges_of = [[0], [1]]
+    plan.edge_recs = lambda f: [plan.edges_rec[e] for e in plan.edges_of[f]]
+    plan.coded, plan.m = None, None
+    calls: list[list[str]] = []
+    orig = validity.nets.tighten
+    validity.nets.tighten = lambda coded, m, recs, level: calls.append(sorted(recs))
+    try:
+        validity._Plan.brepcheck(plan, set(), {0})  # type: ignore[arg-type]
+        assert plan.still_v == {1} and not calls and not plan.keep_f
+        plan.loose_v = frozenset()  # the next candidate: vertex 1 stays, face 0 faults again
+        validity._Plan.brepcheck(plan, set(), {0})  # type: ignore[arg-type]
+        assert calls == [["c0", "s0"]]
+    finally:
+        validity.nets.tighten = orig
+
+
+def test_vertices_beside_exact_lines_and_circles_snap(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A filleted box (planes, cylinders, lines, circles: every curve exact)
+    turned and moved to coordinates that are neither short floats nor
+    repeats: its vertices go to the grid, their tolerances cover the move,
+    the ranges of their lines and circles still follow them, and the part
+    stays valid and within tol."""
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_Transform
+    from OCP.gp import gp_Ax1, gp_Dir, gp_Pnt, gp_Trsf, gp_Vec
+
+    from nurbscomp import occ
+    from nurbscomp.encode import assembly
+    from tests.stress.files import write_step
+    from tests.stress.shapes import entries
+
+    monkeypatch.setattr(assembly, "MIN_LOOSE", 0)
+    entry = {e.name: e for e in entries(0)}["fillet_box_02"]
+    move, turn = gp_Trsf(), gp_Trsf()
+    move.SetTranslation(gp_Vec(0.123456789, 0.2718281828, 0.31415926))
+    turn.SetRotation(gp_Ax1(gp_Pnt(0, 0, 0), gp_Dir(1, 2, 3)), 0.3)  # no coordinate repeats
+    move.Multiply(turn)
+    src = tmp_path / "moved.step"
+    write_step(BRepBuilderAPI_Transform(entry.build(), move, True).Shape(), src, "moved")
+    tol = 0.01
+    report = pipeline.compress_file(src, tmp_path / "moved.nzc", tol=tol)
+    assert report["verified"] and report["validity"]["fallback"] == ""
+    c = container.unpack((tmp_path / "moved.nzc").read_bytes())
+    kind = serialize.BlockReader(c.get("VERT"), "VERT").ints()
+    assert (kind == 1).mean() > 0.5
+    m = pipeline.decode(c)[0]
+    src_m, _ = occ.shape_to_model(occ.read_cad(src).shape)
+    moved = np.sqrt(((m.vertex_point - src_m.vertex_point) ** 2).sum(-1))
+    assert moved.max() <= tol / 2
+    assert (m.vertex_tol[moved > 0] >= moved[moved > 0]).all()
+    from nurbscomp import decode
+
+    assert (decode.range_kinds(m) == serialize.RANGE_VERTICES).any()
+    shape = pipeline.decode_file(tmp_path / "moved.nzc")[0]
+    assert occ.is_valid(shape)
+    assert occ.deviation(occ.read_cad(src).shape, shape, n=5, tol=tol).max() <= tol
+
+
+def test_grid_vertices_by_prediction_round_trip() -> None:
+    """Grid integers from their neighbours' (docs/format.md §2.6): residuals
+    back to the same integers, and smaller than plain deltas on a model whose
+    neighbours sit near each other."""
+    nbr = [[1, 3], [0, 2], [1], [0], []]
+    rows = np.array([0, 1, 2, 3, 4])
+    q = np.array([[1000, 5, 7], [1003, 5, 9], [1003, 8, 9], [999, 4, 7], [-50, 0, 0]])
+    pred = serialize._grid_predictions(nbr, rows, q)
+    assert pred.tolist() == [[0, 0, 0], q[0].tolist(), q[1].tolist(), q[0].tolist(), q[3].tolist()]
+    back = serialize._grid_from_residuals(nbr, rows, q - pred)
+    assert back.tolist() == q.tolist()
+
+
+@pytest.mark.parametrize("name", ["loft.tol0.01.nzc", "teapot.tol0.01.nzc"])
+def test_lossy_vertices_round_trip_bit_for_bit(name: str) -> None:
+    """A 1.x lossy golden file, its vertices snapped to the 2.0 grid and packed as
+    2.0: the same points back, bit for bit, the grid ones as residuals."""
+    from nurbscomp import decode
+
+    m, meta = fuzz.decoded((GOLDEN / name).read_bytes())
+    h = serialize.vertex_grid(float(meta["tolerance_mm"]))
+    m.vertex_point = np.rint(m.vertex_point / h).astype(np.int64) * h
+    m.side_joins = np.zeros((0, 5), np.int64)
+    data = fuzz.pack_fast(decode.model_to_sections(m, meta), 0)
+    c = container.unpack(data)
+    kind = serialize.BlockReader(c.get("VERT"), "VERT").ints()
+    assert kind.all()
+    back = _decode(data)
+    assert back.vertex_point.view(np.int64).tolist() == m.vertex_point.view(np.int64).tolist()
+
+
+def test_hostile_grid_residuals_wrap_harmlessly(monkeypatch) -> None:
+    """Residuals that add up past int64 wrap (docs/format.md §2.6): the reader
+    neither raises nor warns, and every point is a finite grid point."""
+    import warnings
+
+    from nurbscomp import decode
+
+    m, meta = fuzz.decoded((GOLDEN / "loft.tol0.01.nzc").read_bytes())
+    h = serialize.vertex_grid(float(meta["tolerance_mm"]))
+    m.vertex_point = np.rint(m.vertex_point / h).astype(np.int64) * h
+    m.side_joins = np.zeros((0, 5), np.int64)
+    big = np.full((len(m.vertex_point), 3), 2**62, np.int64)
+    monkeypatch.setattr(serialize, "_grid_predictions", lambda nbr, rows, q: q - big[: len(q)])
+    data = fuzz.pack_fast(decode.model_to_sections(m, meta), 0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        back = _decode(data)
+    assert np.isfinite(back.vertex_point).all()
+    assert not np.array_equal(back.vertex_point, m.vertex_point)

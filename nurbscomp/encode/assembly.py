@@ -65,6 +65,9 @@ class LossyReport:
     curve_poles: int
     #: the analytic records put on their grids (:func:`_snap_analytic`)
     gridded: frozenset[Rec] = frozenset()
+    #: vertices snapped beside a curve kept exact (``SNAP_ON_EXACT``): the
+    #: first to stay where they were when a face around them faults
+    loose_v: frozenset[int] = frozenset()
 
     def method_counts(self) -> dict[str, int]:
         return dict(collections.Counter(self.face_method))
@@ -123,7 +126,7 @@ def assemble(
         at_vertex = frozenset(m.vertex_point.reshape(-1).tolist())
         snapped = _snap_analytic(surfaces, srec, exact, coded.tol, at_vertex)
         snapped.update(_snap_analytic(curves, crec, exact, coded.tol, at_vertex))
-    m, moved_v = _snap_vertices(m, coded, surfaces, curves, codes, exact, still)
+    m, moved_v, loose_v = _snap_vertices(m, coded, surfaces, curves, codes, exact, still)
     _pin_surfaces(m, surfaces, codes, coded.tol)
     side_joins = _join_sides(m, coded, surfaces, codes)
     _copy_iso(m, coded, surfaces, curves, codes, exact)
@@ -156,7 +159,10 @@ def assemble(
     edge_bound = np.zeros(len(m.edge_tol))
     for q in np.flatnonzero(reps[:, 1] == RepKind.CURVE3D).tolist():
         edge_bound[reps[q, 0]] = max(edge_bound[reps[q, 0]], curve_bound(int(reps[q, 2])))
-    out = _widen_tolerances(m, face_bound, edge_bound, moved_v)
+    # a snapped vertex's tolerance covers the grid's bound, not its own move:
+    # one value for all (their codes repeat), and the same at every vertex
+    cover = np.where(moved_v > 0, np.maximum(moved_v, coded.tol / 2), 0.0)
+    out = _widen_tolerances(m, face_bound, edge_bound, cover)
     out.surfaces, out.curves3d = surfaces, curves
     out.side_joins = side_joins
     sc = [codes[k] for k in dict.fromkeys(srec) if k in codes]
@@ -170,6 +176,7 @@ def assemble(
         sum(c.bits for c in cc),
         sum(len(poles_of(g)) for k, g in zip(crec, curves) if k in codes),
         frozenset(snapped),
+        frozenset(np.flatnonzero(loose_v & (moved_v > 0)).tolist()),
     )
     return out, codes, report
 
@@ -202,6 +209,12 @@ def _snap_analytic(
     return out
 
 
+#: Vertices on exact curves (lines, circles, B-splines kept exact) snap too:
+#: such a curve does not follow its vertex, and the vertex's tolerance is
+#: widened by how far it moved (:func:`_widen_tolerances`).
+SNAP_ON_EXACT = True
+
+
 def _snap_vertices(
     m: BRepModel,
     coded: Coded,
@@ -210,18 +223,23 @@ def _snap_vertices(
     codes: dict[Rec, codec.NetCode],
     exact: set[Rec | None],
     still: set[int],
-) -> tuple[BRepModel, np.ndarray]:
+) -> tuple[BRepModel, np.ndarray, np.ndarray]:
     """``m`` with its vertices on the vertex grid where every edge at the vertex
-    has a coded (or iso-copied) 3-D curve, and how far each vertex moved.
+    has an unlocated 3-D curve, and how far each vertex moved.
 
-    Those curves are then pinned to the snapped vertex, and so are the corners
-    of the nets around it, so everything that meets there still meets.  A
-    vertex on an exact curve (a line, a circle, a degenerated edge), on a
+    The coded (or iso-copied) curves are then pinned to the snapped vertex,
+    and so are the corners of the nets around it, so everything that meets
+    there still meets; a curve kept exact (a line, a circle, an exact
+    B-spline; with ``SNAP_ON_EXACT``) stays, and the vertex's tolerance
+    covers the gap, unless its point is short (:func:`_short`).  A vertex
+    on a degenerated edge or a located curve, on a
     feature smaller than tol (``coded.fine``), or that would land where
-    another vertex lands (:func:`_merging`) stays.
+    another vertex lands (:func:`_merging`) stays.  Last, per vertex,
+    whether a curve at it stays exact.
     """
+    loose = np.zeros(len(m.vertex_tol), bool)
     if not len(coded.vgrid):
-        return m, np.zeros(len(m.vertex_tol))
+        return m, np.zeros(len(m.vertex_tol)), loose
     tidx = m.type_index()
     curve_of: dict[int, int] = {}
     reps = m.edge_reps
@@ -231,7 +249,7 @@ def _snap_vertices(
     ok = np.ones(len(m.vertex_tol), bool)
     for e, s in enumerate(np.flatnonzero(m.shape_type == ShapeType.EDGE).tolist()):
         c = curve_of.get(e, -1)
-        moving = c >= 0 and (
+        follows = c >= 0 and (
             crec[c] in codes
             or (
                 crec[c] in coded.iso
@@ -239,6 +257,13 @@ def _snap_vertices(
                 and srec[coded.iso[crec[c]][0]] in codes
             )
         )
+        # a copy of a coincident curve (faces-mode IGES: bearing) keeps its
+        # vertices as before: snapped at 0.001 mm but not at 0.01 (its faces
+        # are finer than tol there), they made bearing grow with tol
+        moving = follows or (c >= 0 and SNAP_ON_EXACT and crec[c] not in coded.twins)
+        if c >= 0 and not follows:
+            for v in below(m, s, ShapeType.VERTEX):
+                loose[tidx[v]] = True
         if not moving or crec[c] in coded.fine:
             for v in below(m, s, ShapeType.VERTEX):
                 ok[tidx[v]] = False
@@ -247,13 +272,36 @@ def _snap_vertices(
             for v in below(m, s, ShapeType.VERTEX):
                 ok[tidx[v]] = False
     ok[sorted(still)] = False
+    ok &= ~(loose & _short(m.vertex_point))
+    if (ok & loose).sum() < MIN_LOOSE:  # too few to pay for their grid integers
+        ok &= ~loose
     lead = coded.vlead if len(coded.vlead) == len(ok) else np.arange(len(ok))
     ok &= ~_merging(m.vertex_point[lead], coded.vgrid)
     ok &= ~np.isin(lead, lead[~ok])  # a cluster moves as one or stays
     out: Any = replace(m)
     out.vertex_point = np.where(ok[:, None], coded.vgrid, m.vertex_point)
     moved = np.sqrt(((out.vertex_point - m.vertex_point) ** 2).sum(-1))
-    return out, moved
+    return out, moved, loose
+
+
+#: Fewer vertices than this snapped beside exact curves stay where they are
+#: all: their grid integers cost more than the floats they replace (trj5 at
+#: 0.01 mm, 6 of them: +27 bytes).
+MIN_LOOSE = 32
+
+#: A coordinate with at least this many trailing zero bits (of 52) is short:
+#: a float that costs less than its grid integer once compressed.
+SHORT_BITS = 24
+
+
+def _short(p: np.ndarray) -> np.ndarray:
+    """Per point (rows of ``p``), whether every coordinate is a short float
+    (``SHORT_BITS`` trailing zero bits or more: 25.0, 31.75; not 0.1), which
+    costs less than its grid integer.  A vertex at such a point beside a
+    curve kept exact stays where it is (on bracket.step every vertex is;
+    snapped, the file grew by 8%)."""
+    bits = p.view(np.int64) & ((1 << SHORT_BITS) - 1)
+    return (bits == 0).all(-1)
 
 
 def _merging(exact: np.ndarray, snapped: np.ndarray) -> np.ndarray:

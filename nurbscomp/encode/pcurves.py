@@ -25,6 +25,8 @@ from ..model import (
     Geometry,
     Kind,
     RepKind,
+    ShapeType,
+    below,
     first_row,
 )
 from ..serialize import SWEPT
@@ -271,7 +273,9 @@ def unit_curves(m: BRepModel, memo: dict[tuple[Any, ...], bool] | None = None) -
 RANGE_SLACK = 1e-3
 
 
-def vertex_ranges(m: BRepModel, tol: float, keep: Set[int] = frozenset()) -> BRepModel:
+def vertex_ranges(
+    m: BRepModel, tol: float, keep: Set[int] = frozenset(), source: np.ndarray | None = None
+) -> BRepModel:
     """``m`` with the ranges of edges on lines and circles set to what their
     vertices give, but for the edges in ``keep``.
 
@@ -279,21 +283,36 @@ def vertex_ranges(m: BRepModel, tol: float, keep: Set[int] = frozenset()) -> BRe
     (:func:`joins.vertex_ranges`, ``serialize.RANGE_VERTICES``).  The ends
     move along the curve by at most ``RANGE_SLACK``·tol (in the corpus, by
     the 1e-7 mm a CAD system leaves between a vertex and its curve), each to
-    the point of the curve nearest its vertex.  The edge's pcurve ranges that
-    were the same follow (same range).
+    the point of the curve nearest its vertex, plus how far the edge's
+    vertices moved from ``source`` (the vertex points before snapping: an end
+    follows its snapped vertex, and the nearest point moves by no more than
+    the vertex).  The edge's pcurve ranges that were the same follow (same
+    range).
     """
     rng = m.edge_rep_range
     out_rng = rng.copy()
+    moved = np.zeros(len(m.edge_tol))
+    if source is not None and len(source):
+        by_vertex = np.sqrt(((m.vertex_point - source) ** 2).sum(-1))
+        if by_vertex.any():
+            tidx = m.type_index()
+            edges = np.flatnonzero(m.shape_type == ShapeType.EDGE).tolist()
+            for e, s in enumerate(edges):
+                vs = [tidx[v] for v in below(m, s, ShapeType.VERTEX)]
+                moved[e] = by_vertex[vs].max() if vs else 0.0
     for q, t in joins.vertex_ranges(m).items():
-        if int(m.edge_reps[q, 0]) in keep:
+        e = int(m.edge_reps[q, 0])
+        if e in keep:
             continue
         g = m.curves3d[int(m.edge_reps[q, 2])]
         speed = float(g.params[0]) if g.kind == Kind.CIRCLE else 1.0  # type: ignore[union-attr]
         d = np.abs(np.array(t) - rng[q])
-        # a curve on its grid moved by up to its grid's bound: its vertices'
-        # projections move along it by as much
+        # a curve on its grid moved by up to its grid's bound, and its vertices'
+        # projections along it by as much; a point moved by δ, at ρ ≥ r/2 from a
+        # circle's axis, turns by at most 2δ/r
         slack = RANGE_SLACK * tol + analytic.grid_bound(g)  # type: ignore[arg-type]
-        if (d > 0).any() and d.max() * speed <= slack:
+        reach = moved[e] * (2.0 if g.kind == Kind.CIRCLE and moved[e] <= speed / 2 else 1.0)
+        if (d > 0).any() and d.max() * speed <= slack + reach:
             same = (m.edge_reps[:, 0] == m.edge_reps[q, 0]) & (rng == rng[q]).all(-1)
             out_rng[same] = t
     if np.array_equal(out_rng, rng):

@@ -403,6 +403,7 @@ class _Plan:
         self.rung: dict[int, Rung] = {}  # source face -> highest rung taken
         self.tight_f: set[int] = set()  # faces tightened for a BRepCheck fault
         self.reason: dict[Rec | None, str] = {}  # record -> why it is exact
+        self.loose_v: frozenset[int] = frozenset()  # the last candidate's (LossyReport)
         self.make_exact(set(self.coded.uncodable), "precision")
         self.grid = True  # analytic records on their grids (encode.analytic)
         self.gridded: frozenset[Rec] = frozenset()  # those of the last candidate
@@ -441,9 +442,10 @@ class _Plan:
             self.m, self.coded, self.exact, self.still_v, self.grid
         )
         self.gridded = report.gridded
+        self.loose_v = report.loose_v
         cand = pcurves.drop_pcurves(target, self.keep_e, self.keep_f)
         ranged = pcurves.vertex_ranges(
-            pcurves.unit_curves(cand, self.knot_memo), self.tol, self.as_read_e
+            pcurves.unit_curves(cand, self.knot_memo), self.tol, self.as_read_e, self.m.vertex_point
         )
         return ranged, codes, report
 
@@ -472,7 +474,10 @@ class _Plan:
         self.exact |= recs
 
     def brepcheck(self, new_e: set[int], new_f: set[int]) -> None:
-        """A fault's faces are coded ``TIGHTER``² times tighter first (a code
+        """A fault's faces whose vertices were snapped beside a curve kept
+        exact (``LossyReport.loose_v``) get those vertices back where they
+        were first, and nothing else this round.  Other faults' faces are
+        coded ``TIGHTER``² times tighter first (a code
         that is valid at a smaller tolerance is valid at this one, and costs
         far less than stored pcurves: ec_turbine at 0.1 mm grew by 2 KB
         otherwise); then stored pcurves; where they are stored already, exact
@@ -484,6 +489,12 @@ class _Plan:
         faces = set(new_f) | {f for e in new_e for f in self.faces_of[e]}
         if self.ungrid(faces, "grid-brepcheck"):
             return
+        loose = {f for f in faces if set(self.verts_of[f]) & self.loose_v}
+        if loose:  # first, vertices snapped beside a curve kept exact stay
+            self.still_v |= {v for f in loose for v in self.verts_of[f]} & self.loose_v
+            faces -= loose
+            new_e = {e for e in new_e if not set(self.faces_of[e]) & loose}
+            new_f = new_f - loose
         fresh = faces - self.tight_f
         if fresh:
             self.tight_f |= fresh
