@@ -487,14 +487,14 @@ class _Plan:
         to 1e-3 tol, past a 1e-7 tolerance: a surface of revolution in a
         faces-mode IGES file)."""
         faces = set(new_f) | {f for e in new_e for f in self.faces_of[e]}
-        if self.ungrid(faces, "grid-brepcheck"):
-            return
         loose = {f for f in faces if set(self.verts_of[f]) & self.loose_v}
         if loose:  # first, vertices snapped beside a curve kept exact stay
             self.still_v |= {v for f in loose for v in self.verts_of[f]} & self.loose_v
             faces -= loose
             new_e = {e for e in new_e if not set(self.faces_of[e]) & loose}
             new_f = new_f - loose
+        if self.ungrid(faces, "grid-brepcheck"):  # then analytic records leave their grids
+            return
         fresh = faces - self.tight_f
         if fresh:
             self.tight_f |= fresh
