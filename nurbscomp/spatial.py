@@ -11,6 +11,8 @@ so every pole moves by at most h·√3/2: an L∞ bound by construction.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 
@@ -128,28 +130,17 @@ def rd_extrapolate(p: np.ndarray, h: np.ndarray, bound: float, qo: np.ndarray) -
     """
     nu, nv, c = p.shape
     nr = len(h)
-    t_all = p[None] / h[:, None, None, None]
+    t_all = (p[None] / h[:, None, None, None]).reshape(nr, nu * nv, c)
     rho2 = ((bound / h) ** 2 * (1 - _MARGIN))[:, None]
     rho = np.sqrt(rho2)
-    d_pad = np.zeros((nr, nu + 2, nv + 2, c), np.int64)  # decoded grid points, padded by 2
-    r = np.zeros((nr, nu, nv, c), np.int64)
-    corner = np.zeros((nu, nv), bool)
-    corner[[0, 0, -1, -1], [0, -1, 0, -1]] = True
+    flat = np.zeros((nr, (nu + 2) * (nv + 2), c), np.int64)  # decoded grid points, padded by 2
+    r = np.zeros((nr, nu * nv, c), np.int64)
     offsets = _OFFSETS if c == 3 else np.zeros((1, c), np.int64)
-    for d in range(nu + nv - 1):
-        i = np.arange(max(0, d - nv + 1), min(nu, d + 1))
-        j = d - i
-        k = len(i)
-        wu, wv = _axis_weights(i), _axis_weights(j)
-        pred = np.zeros((nr, k, c), np.int64)
-        for a in range(3):
-            for b in range(3):
-                w = wu[:, a] * wv[:, b]
-                if (a or b) and w.any():
-                    pred -= w[None, :, None] * d_pad[:, i + 2 - a, j + 2 - b]
+    for d, (at, pad, nbr, w, corner) in enumerate(_diagonals(nu, nv)):
+        pred = -np.einsum("rkmc,km->rkc", flat[:, nbr], w)
         if d == 0:
             pred += qo[:, None, :]
-        t = t_all[:, i, j] - pred  # the residual that would land on the pole (R, k, c)
+        t = t_all[:, at] - pred  # the residual that would land on the pole (R, k, c)
         norm = np.sqrt((t * t).sum(-1))
         with np.errstate(divide="ignore", invalid="ignore"):
             shrink = np.nan_to_num(np.clip(1 - rho / norm, 0, 1))
@@ -160,9 +151,35 @@ def rd_extrapolate(p: np.ndarray, h: np.ndarray, bound: float, qo: np.ndarray) -
         pick = cost.argmin(-1)
         best = np.take_along_axis(cand, pick[..., None, None], axis=2)[:, :, 0]
         nearest = ~np.isfinite(np.take_along_axis(cost, pick[..., None], axis=2)[..., 0])
-        nearest |= corner[i, j][None]
+        nearest |= corner[None]
         best = np.where(nearest[..., None], np.rint(t), best)
         rr = best.astype(np.int64)
-        r[:, i, j] = rr
-        d_pad[:, i + 2, j + 2] = pred + rr
-    return r
+        r[:, at] = rr
+        flat[:, pad] = pred + rr
+    return r.reshape(nr, nu, nv, c)
+
+
+@functools.lru_cache(maxsize=256)
+def _diagonals(
+    nu: int, nv: int
+) -> tuple[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray], ...]:
+    """Per anti-diagonal of a (nu, nv) net, in order: its poles' flat indices,
+    their flat indices in the net padded by 2 rows and columns before,
+    their 8 predictors' padded indices and weights (A_u∘A_v without the
+    pole itself, int64) and which are corners."""
+    out = []
+    wide = nv + 2
+    for d in range(nu + nv - 1):
+        i = np.arange(max(0, d - nv + 1), min(nu, d + 1))
+        j = d - i
+        wu, wv = _axis_weights(i), _axis_weights(j)
+        lags = [(a, b) for a in range(3) for b in range(3) if a or b]
+        nbr = np.stack([(i + 2 - a) * wide + (j + 2 - b) for a, b in lags], 1)
+        w = np.stack([wu[:, a] * wv[:, b] for a, b in lags], 1)
+        corner = (
+            (i == 0) | (i == nu - 1) | (j == 0) | (j == nv - 1)
+            if EDGE_NEAREST
+            else ((i == 0) | (i == nu - 1)) & ((j == 0) | (j == nv - 1))
+        )
+        out.append((i * nv + j, (i + 2) * wide + j + 2, nbr, w, corner))
+    return tuple(out)
