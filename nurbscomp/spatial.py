@@ -176,10 +176,6 @@ def _diagonals(
         lags = [(a, b) for a in range(3) for b in range(3) if a or b]
         nbr = np.stack([(i + 2 - a) * wide + (j + 2 - b) for a, b in lags], 1)
         w = np.stack([wu[:, a] * wv[:, b] for a, b in lags], 1)
-        corner = (
-            (i == 0) | (i == nu - 1) | (j == 0) | (j == nv - 1)
-            if EDGE_NEAREST
-            else ((i == 0) | (i == nu - 1)) & ((j == 0) | (j == nv - 1))
-        )
+        corner = ((i == 0) | (i == nu - 1)) & ((j == 0) | (j == nv - 1))
         out.append((i * nv + j, (i + 2) * wide + j + 2, nbr, w, corner))
     return tuple(out)
