@@ -88,6 +88,10 @@ SURFACE_METHODS = (
 #: and 2 nets, 62 bits in all, for 15% of the search time (the D-map's least
 #: squares are the dearest trials).  The decoder reads every method.
 SURFACE_SEARCH = (Method.SPATIAL, Method.BOUNDARY, Method.DDMAP, Method.DDMAP3, Method.SPATIAL2)
+#: The surface methods of a net coded again for a fault of the rebuilt B-rep
+#: (``encode.nets.plain``, ``encode.nets.tighten``): ``SPATIAL2`` leaves its
+#: poles anywhere within their bound, and is what ``plain`` takes away.
+TIGHT_SEARCH = tuple(m for m in SURFACE_SEARCH if m != Method.SPATIAL2)
 #: The surface methods a ``SNET`` of format 2.0 (revision 3) may hold.
 SURFACE_METHODS_2 = (*SURFACE_METHODS, Method.SPATIAL2)
 #: Methods that predict the interior with the bicubically blended Coons net.

@@ -401,6 +401,7 @@ class _Plan:
         self.as_read_e: set[int] = set()  # edges whose ranges stay as read
         self.rung: dict[int, Rung] = {}  # source face -> highest rung taken
         self.tight_f: set[int] = set()  # faces tightened for a BRepCheck fault
+        self.plain_f: set[int] = set()  # faces whose nets around lost SPATIAL2 (nets.plain)
         self.reason: dict[Rec | None, str] = {}  # record -> why it is exact
         self.make_exact(set(self.coded.uncodable), "precision")
 
@@ -413,6 +414,7 @@ class _Plan:
             len(self.as_read_e),
             sum(self.rung.values()),
             len(self.tight_f),
+            len(self.plain_f),
         )
 
     def candidate(self) -> tuple[BRepModel, dict[Rec, Any], assembly.LossyReport]:
@@ -458,6 +460,10 @@ class _Plan:
         to 1e-3 tol, past a 1e-7 tolerance: a surface of revolution in a
         faces-mode IGES file)."""
         faces = set(new_f) | {f for e in new_e for f in self.faces_of[e]}
+        eased = self.ease(faces)
+        new_e = {e for e in new_e if not set(self.faces_of[e]) & eased}
+        new_f = new_f - eased
+        faces -= eased
         fresh = faces - self.tight_f
         if fresh:
             self.tight_f |= fresh
@@ -484,6 +490,20 @@ class _Plan:
         self.keep_e |= new_e
         self.keep_f |= new_f
 
+    def ease(self, faces: Iterable[int]) -> set[int]:
+        """The first remedy for a fault on ``faces`` (not taken before): the
+        ``SPATIAL2`` nets of each face and of the faces across its edges are
+        coded without it (:func:`nets.plain`); the faces where some net was
+        are returned, their fault left for the next round to judge."""
+        out = set()
+        for f in sorted(set(faces) - self.plain_f):
+            self.plain_f.add(f)
+            around = {f} | {g for e in self.edges_of[f] for g in self.faces_of[e]}
+            recs = self.with_leaders({self.faces_rec[g] for g in around})
+            if nets.plain(self.coded, self.m, [i for i in recs if i is not None]):
+                out.add(f)
+        return out
+
     def as_read(self, faces: Iterable[int]) -> None:
         """The vertices of ``faces`` stay where they are, and their edges keep
         the ranges they were read with (the BRepCheck ladder's last rung)."""
@@ -504,6 +524,7 @@ class _Plan:
                 wider = {g for f in blamed for g in self.near_faces[f]}
             blamed = wider
         blamed = blamed - spent
+        blamed -= self.ease(blamed)
         for f in sorted(blamed):
             r = Rung(self.rung.get(f, 0) + 1)
             self.rung[f] = r
