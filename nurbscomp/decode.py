@@ -279,8 +279,9 @@ def twin_copy(
     return (poles[::-1] if rev else poles).copy()
 
 
-def _check_headers(t: NetTable, tag: str, tol: float) -> None:
-    """The quantizer settings and methods of a net table (docs/format.md §2.4)."""
+def _check_headers(t: NetTable, tag: str, tol: float, revision: int = container.REVISION) -> None:
+    """The quantizer settings and methods of a net table (docs/format.md §2.4):
+    surface method 10 (``SPATIAL2``) from revision 3 (format 2.0) only."""
     n = len(t.method)
     if n and not 0 < tol < MAX_COORD:
         raise SectionError(f"{tag}: coded nets need a positive, finite tolerance")
@@ -290,7 +291,8 @@ def _check_headers(t: NetTable, tag: str, tol: float) -> None:
         raise SectionError(f"{tag}: bad quantizer slope")
     if n and np.abs(t.level).max() > MAX_LEVEL:
         raise SectionError(f"{tag}: quantizer level out of range")
-    allowed = codec.SURFACE_METHODS if tag == "SNET" else codec.CURVE_COPIES
+    surface = codec.SURFACE_METHODS_2 if revision >= 3 else codec.SURFACE_METHODS
+    allowed = surface if tag == "SNET" else codec.CURVE_COPIES
     if n and not np.isin(t.method, [int(x) for x in allowed]).all():
         raise SectionError(f"{tag}: a coding method that does not apply to this table")
 
@@ -302,6 +304,7 @@ def _decode_nets(
     tag: str,
     anchors: dict[int, np.ndarray] | None = None,
     surfaces: list[Geometry] | None = None,
+    revision: int = container.REVISION,
 ) -> list[tuple[int, int, codec.NetCode]]:
     """Decode a net table into the poles of the coded rows, in row order.
 
@@ -311,7 +314,7 @@ def _decode_nets(
     Each net's first pole is coded against the previous net's decoded first
     pole (the origin chain of :func:`codec.encode_net`).
     """
-    _check_headers(t, tag, tol)
+    _check_headers(t, tag, tol, revision)
     rows = coded_rows(records)
     origin = None
     dpos = 0
@@ -413,7 +416,7 @@ def apply(m: BRepModel, t: Tables, tol: float, revision: int) -> None:
     resolve_ranges(m, t.range_how)
     srows = coded_rows(m.surfaces)
     coded_surfaces = set(srows)
-    _decode_nets(t.snet, m.surfaces, tol, "SNET")
+    _decode_nets(t.snet, m.surfaces, tol, "SNET", revision=revision)
     radius = None  # before 1.2: every corner within tol of a vertex of its face
     if revision >= 2:
         radius = {

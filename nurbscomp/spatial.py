@@ -11,6 +11,8 @@ so every pole moves by at most h·√3/2: an L∞ bound by construction.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 
@@ -45,3 +47,135 @@ def encode(poles: np.ndarray, h: float) -> np.ndarray:
 def decode(r: np.ndarray, h: float) -> np.ndarray:
     """Decoded net from the residuals of :func:`encode`."""
     return integrate(r) * h
+
+
+# ---------------------------------------------------------------- extrapolating spatial (2.0)
+#
+# Method 10 (docs/format.md §2.4): each pole predicted by linear extrapolation
+# from the two before it along u and along v, the separable operator A_u∘A_v
+# with A: y_0 = x_0, y_1 = x_1 - x_0, y_k = x_k - 2·x_{k-1} + x_{k-2}.  On
+# smooth nets the second differences of the poles are much smaller than the
+# first (a B-spline's control polygon follows its curve), so the residuals are.
+
+
+def _extrapolate_axis(x: np.ndarray, axis: int) -> np.ndarray:
+    """A along ``axis`` (integers: exact)."""
+    x = np.moveaxis(x, axis, 0)
+    y = x.copy()
+    y[1:] -= x[:-1]
+    y[2:] -= x[1:-1] - x[:-2]
+    return np.moveaxis(y, 0, axis)
+
+
+def _unextrapolate_axis(y: np.ndarray, axis: int) -> np.ndarray:
+    """Inverse of :func:`_extrapolate_axis`: w_0 = y_0, w_1 = y_1, w_k = y_k +
+    w_{k-1} (k ≥ 2), x = running sum of w (int64; wraps, never raises)."""
+    y = np.moveaxis(y, axis, 0)
+    w = y.copy()
+    if len(w) > 2:
+        w[1:] = np.cumsum(y[1:], axis=0)
+    return np.moveaxis(np.cumsum(w, axis=0), 0, axis)
+
+
+def extrapolate(q: np.ndarray) -> np.ndarray:
+    """Residuals A_u∘A_v of an integer net (nu, nv, c), first pole absolute."""
+    return _extrapolate_axis(_extrapolate_axis(q, 1), 0)
+
+
+def unextrapolate(r: np.ndarray) -> np.ndarray:
+    """Inverse of :func:`extrapolate` (along v, then along u)."""
+    with np.errstate(over="ignore"):
+        return _unextrapolate_axis(_unextrapolate_axis(r, 1), 0)
+
+
+def _axis_weights(idx: np.ndarray) -> np.ndarray:
+    """A's weights on lags 0, 1, 2 at positions ``idx`` along an axis (k, 3)."""
+    w = np.zeros((len(idx), 3), np.int64)
+    w[:, 0] = 1
+    w[idx == 1, 1] = -1
+    w[idx >= 2, 1] = -2
+    w[idx >= 2, 2] = 1
+    return w
+
+
+#: Offsets of the candidate residuals around the shrunk target (27 in 3-D).
+_OFFSETS = np.array([(a, b, c) for a in (-1, 0, 1) for b in (-1, 0, 1) for c in (-1, 0, 1)])
+#: Candidates must lie this much (relative) inside the bound: the
+#: certified bound is measured on the decoded poles afterwards anyway.
+_MARGIN = 1e-6
+
+
+def eg_bits(r: np.ndarray) -> np.ndarray:
+    """Exp-Golomb length of zig-zag mapped integers (as ``codec.cost_bits``), elementwise."""
+    z = np.abs(r).astype(np.float64) * 2 - (r < 0)
+    return 2 * np.floor(np.log2(z + 1.0)) + 1
+
+
+def rd_extrapolate(p: np.ndarray, h: np.ndarray, bound: float, qo: np.ndarray) -> np.ndarray:
+    """Residuals (R, nu, nv, 3) of :func:`extrapolate` chosen within ``bound``,
+    on each grid step of ``h`` (R,) at once.
+
+    The closed loop of the decoder, run in its own order along the
+    anti-diagonals (each pole's predictors lie on earlier ones, so a diagonal
+    is one vectorised step): each pole's prediction from the decoded poles
+    before it; of the grid points within ``bound`` of the pole, the one whose
+    residual is cheapest (Exp-Golomb bits, then nearest to the pole), searched
+    among the 27 around the point of the bound's ball nearest to the
+    prediction.  A per-net rate-distortion choice: the pole moves anywhere
+    within its bound, not only to its nearest grid point.  The four corners
+    go to their nearest grid point (a corner pinned to a vertex stays within
+    a grid step of it), as does any pole with no candidate inside (``h`` ≤
+    2·bound/√3 makes the nearest one fit).  ``qo`` (R, 3): the origin's grid
+    point on each grid, subtracted from the first residual.
+    """
+    nu, nv, c = p.shape
+    nr = len(h)
+    t_all = (p[None] / h[:, None, None, None]).reshape(nr, nu * nv, c)
+    rho2 = ((bound / h) ** 2 * (1 - _MARGIN))[:, None]
+    rho = np.sqrt(rho2)
+    flat = np.zeros((nr, (nu + 2) * (nv + 2), c), np.int64)  # decoded grid points, padded by 2
+    r = np.zeros((nr, nu * nv, c), np.int64)
+    offsets = _OFFSETS if c == 3 else np.zeros((1, c), np.int64)
+    for d, (at, pad, nbr, w, corner) in enumerate(_diagonals(nu, nv)):
+        pred = -np.einsum("rkmc,km->rkc", flat[:, nbr], w)
+        if d == 0:
+            pred += qo[:, None, :]
+        t = t_all[:, at] - pred  # the residual that would land on the pole (R, k, c)
+        norm = np.sqrt((t * t).sum(-1))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            shrink = np.nan_to_num(np.clip(1 - rho / norm, 0, 1))
+        cand = np.rint(t * shrink[..., None])[:, :, None, :] + offsets  # (R, k, 27, c)
+        dist = ((cand - t[:, :, None, :]) ** 2).sum(-1)
+        cost = eg_bits(cand).sum(-1) + 1e-3 * dist
+        cost[dist > rho2[:, :, None]] = np.inf
+        pick = cost.argmin(-1)
+        best = np.take_along_axis(cand, pick[..., None, None], axis=2)[:, :, 0]
+        nearest = ~np.isfinite(np.take_along_axis(cost, pick[..., None], axis=2)[..., 0])
+        nearest |= corner[None]
+        best = np.where(nearest[..., None], np.rint(t), best)
+        rr = best.astype(np.int64)
+        r[:, at] = rr
+        flat[:, pad] = pred + rr
+    return r.reshape(nr, nu, nv, c)
+
+
+@functools.lru_cache(maxsize=256)
+def _diagonals(
+    nu: int, nv: int
+) -> tuple[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray], ...]:
+    """Per anti-diagonal of a (nu, nv) net, in order: its poles' flat indices,
+    their flat indices in the net padded by 2 rows and columns before,
+    their 8 predictors' padded indices and weights (A_u∘A_v without the
+    pole itself, int64) and which are corners."""
+    out = []
+    wide = nv + 2
+    for d in range(nu + nv - 1):
+        i = np.arange(max(0, d - nv + 1), min(nu, d + 1))
+        j = d - i
+        wu, wv = _axis_weights(i), _axis_weights(j)
+        lags = [(a, b) for a in range(3) for b in range(3) if a or b]
+        nbr = np.stack([(i + 2 - a) * wide + (j + 2 - b) for a, b in lags], 1)
+        w = np.stack([wu[:, a] * wv[:, b] for a, b in lags], 1)
+        corner = ((i == 0) | (i == nu - 1)) & ((j == 0) | (j == nv - 1))
+        out.append((i * nv + j, (i + 2) * wide + j + 2, nbr, w, corner))
+    return tuple(out)

@@ -309,3 +309,108 @@ def test_coons_nets_of_stacked_boundaries_are_each_net(nu: int, nv: int, r: int,
         stacked = net(u0, u1, v0, v1, s, t)
         for i in range(r):
             assert np.array_equal(stacked[i], net(u0[i], u1[i], v0[i], v1[i], s, t))
+
+
+# ----------------------------------------------------- extrapolating spatial (format 2.0)
+
+
+@given(st.integers(1, 9), st.integers(1, 9), st.integers(0, 2**31))
+def test_extrapolation_is_exactly_inverted(nu: int, nv: int, seed: int) -> None:
+    q = np.random.default_rng(seed).integers(-(2**40), 2**40, (nu, nv, 3))
+    r = spatial.extrapolate(q)
+    assert np.array_equal(spatial.unextrapolate(r), q)
+    if nu > 2 and nv > 2:  # the interior is the 9-point stencil of Δu²Δv²
+        d = np.diff(np.diff(q, 2, axis=0), 2, axis=1)
+        assert np.array_equal(r[2:, 2:], d)
+
+
+def _smooth_net(rng: np.random.Generator, nu: int, nv: int) -> np.ndarray:
+    u, v = np.meshgrid(np.linspace(0, 1, nu), np.linspace(0, 1, nv), indexing="ij")
+    a = rng.uniform(1, 50, 3)
+    return (
+        np.stack([a[0] * u, a[1] * v, a[2] * np.sin(3 * u + 1) * np.cos(2 * v)], -1)
+        + rng.uniform(-900, 900, 3)
+        + rng.normal(size=(nu, nv, 3)) * rng.choice([0.0, 1e-3, 1.0])
+    )
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.integers(2, 12),
+    st.integers(2, 12),
+    st.sampled_from([1e-3, 1e-2, 1e-1]),
+    st.sampled_from([1.0, 0.3]),
+    st.integers(0, 2**31),
+)
+def test_spatial2_holds_its_bound_and_decodes_as_written(
+    nu: int, nv: int, tol: float, frac: float, seed: int
+) -> None:
+    rng = np.random.default_rng(seed)
+    p = _smooth_net(rng, nu, nv)
+    origin = rng.uniform(-900, 900, 3)
+    limit = tol * frac
+    code = codec.encode_net(
+        p, None, None, tol, methods=(codec.Method.SPATIAL2,), origin=origin, limit=limit
+    )
+    assert code.method == codec.Method.SPATIAL2 and code.bound <= limit
+    dec, _ = codec.decode_net(code, p.shape, None, None, tol, origin)
+    err = np.sqrt(((dec - p) ** 2).sum(-1))
+    assert err.max() == code.bound
+    h = tol * code.grid  # corners on their nearest grid point: pinned as a spatial net's
+    corners = dec[[0, 0, -1, -1], [0, -1, 0, -1]]
+    assert np.array_equal(np.rint(corners / h), np.rint(p[[0, 0, -1, -1], [0, -1, 0, -1]] / h))
+    moved = codec.reorigin(code, None, tol)  # the decoded net does not depend on the origin
+    assert np.array_equal(codec.decode_net(moved, p.shape, None, None, tol)[0], dec)
+
+
+def test_spatial2_beats_the_parallelogram_on_smooth_nets() -> None:
+    rng = np.random.default_rng(3)
+    u, v = np.meshgrid(np.linspace(0, 1, 12), np.linspace(0, 1, 12), indexing="ij")
+    p = np.stack([30 * u, 20 * v, 5 * np.sin(3 * u) * np.cos(2 * v)], -1) + rng.uniform(-90, 90, 3)
+    plain = codec.encode_net(p, None, None, 0.01, methods=(codec.Method.SPATIAL,))
+    two = codec.encode_net(p, None, None, 0.01, methods=(codec.Method.SPATIAL2,))
+    assert two.bits < 0.8 * plain.bits
+
+
+def test_spatial2_is_refused_before_format_2() -> None:
+    from nurbscomp import decode
+    from nurbscomp.errors import SectionError
+    from nurbscomp.serialize import NetTable
+
+    one = np.ones(1, np.int64)
+    t = NetTable(one * 10, one * 0, one * 0, one * 0, [np.zeros(3, np.int64)], np.zeros(0))
+    decode._check_headers(t, "SNET", 0.01, 3)
+    for revision in (0, 1, 2):
+        with pytest.raises(SectionError):
+            decode._check_headers(t, "SNET", 0.01, revision)
+    with pytest.raises(SectionError):
+        decode._check_headers(t, "CNET", 0.01, 3)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(1, 6), st.integers(1, 6), st.integers(0, 2**31))
+def test_spatial2_hostile_integers_never_crash(nu: int, nv: int, seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    big = rng.integers(-(2**63), 2**63 - 1, nu * nv * 3 + int(rng.integers(-1, 2)))
+    code = codec.NetCode(codec.Method.SPATIAL2, codec.Quant.TOL, 0, 0, big, np.zeros(0), 0, 0)
+    try:
+        codec.decode_net(code, (nu, nv, 3), None, None, 0.01)
+    except ValueError:
+        pass  # too few or too many integers
+    for bad in (replace_quant(code), replace_slope(code)):
+        with pytest.raises(ValueError):
+            codec.decode_net(bad, (nu, nv, 3), None, None, 0.01)
+    with pytest.raises(ValueError):
+        codec.decode_net(code, (nu * nv, 3), None, None, 0.01)  # not for curves
+
+
+def replace_quant(code: codec.NetCode) -> codec.NetCode:
+    from dataclasses import replace
+
+    return replace(code, quant=codec.Quant.PAPER)
+
+
+def replace_slope(code: codec.NetCode) -> codec.NetCode:
+    from dataclasses import replace
+
+    return replace(code, slope=1)

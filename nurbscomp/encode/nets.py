@@ -204,7 +204,7 @@ def tighten(coded: Coded, m: BRepModel, recs: Iterable[Rec], level: int = 1) -> 
     for k in recs:
         surface = k.table == Table.SURFACE
         done = coded.surfaces if surface else coded.curves
-        methods: tuple[codec.Method, ...] = codec.SURFACE_SEARCH if surface else codec.CURVE_METHODS
+        methods: tuple[codec.Method, ...] = codec.TIGHT_SEARCH if surface else codec.CURVE_METHODS
         g = m.surfaces[k.row] if surface else m.curves3d[k.row]
         if k in done and coded.tight.get(k, 0) < level:
             assert isinstance(g, (BSplineSurface, BSplineCurve))
@@ -218,6 +218,34 @@ def tighten(coded: Coded, m: BRepModel, recs: Iterable[Rec], level: int = 1) -> 
                 continue
             coded.fine.add(k)
             coded.tight[k] = level
+
+
+def plain(coded: Coded, m: BRepModel, recs: Iterable[Rec]) -> set[Rec]:
+    """Code the surface records of ``recs`` whose code is ``SPATIAL2`` again,
+    to the limit they had, without it (``codec.TIGHT_SEARCH``), in place;
+    return those recoded.  ``SPATIAL2`` leaves each pole anywhere within
+    its bound, not on its nearest grid point; where the rebuilt B-rep has a
+    fault near such a net, the validity stage tries this first: it costs
+    less than a net 64 times tighter or stored pcurves.
+    """
+    out = set()
+    for k in recs:
+        if k.table != Table.SURFACE or k not in coded.surfaces:
+            continue
+        code = coded.surfaces[k][0]
+        if code.method != codec.Method.SPATIAL2:
+            continue
+        g = m.surfaces[k.row]
+        assert isinstance(g, BSplineSurface)
+        limit = feature_limit(g.poles, coded.tol) / TIGHTER ** coded.tight.get(k, 0)
+        try:
+            coded.surfaces[k] = _code_one(
+                g, coded.tol, codec.TIGHT_SEARCH, False, code.origin, limit
+            )
+        except codec.NoCodeError:
+            continue
+        out.add(k)
+    return out
 
 
 TRIM_S = (Kind.TRIMMED_SURFACE,)

@@ -402,6 +402,7 @@ class _Plan:
         self.as_read_e: set[int] = set()  # edges whose ranges stay as read
         self.rung: dict[int, Rung] = {}  # source face -> highest rung taken
         self.tight_f: set[int] = set()  # faces tightened for a BRepCheck fault
+        self.plain_f: set[int] = set()  # faces whose nets around lost SPATIAL2 (nets.plain)
         self.reason: dict[Rec | None, str] = {}  # record -> why it is exact
         self.loose_v: frozenset[int] = frozenset()  # the last candidate's (LossyReport)
         self.make_exact(set(self.coded.uncodable), "precision")
@@ -435,6 +436,7 @@ class _Plan:
             len(self.as_read_e),
             sum(self.rung.values()),
             len(self.tight_f),
+            len(self.plain_f),
         )
 
     def candidate(self) -> tuple[BRepModel, dict[Rec, Any], assembly.LossyReport]:
@@ -495,6 +497,10 @@ class _Plan:
             new_f = new_f - loose
         if self.ungrid(faces, "grid-brepcheck"):  # then analytic records leave their grids
             return
+        eased = self.ease(faces)  # then nets around lose SPATIAL2
+        new_e = {e for e in new_e if not set(self.faces_of[e]) & eased}
+        new_f = new_f - eased
+        faces -= eased
         fresh = faces - self.tight_f
         if fresh:
             self.tight_f |= fresh
@@ -530,6 +536,20 @@ class _Plan:
         self.make_exact(set(hit), why)
         return bool(hit)
 
+    def ease(self, faces: Iterable[int]) -> set[int]:
+        """The first remedy for a fault on ``faces`` (not taken before): the
+        ``SPATIAL2`` nets of each face and of the faces across its edges are
+        coded without it (:func:`nets.plain`); the faces where some net was
+        are returned, their fault left for the next round to judge."""
+        out = set()
+        for f in sorted(set(faces) - self.plain_f):
+            self.plain_f.add(f)
+            around = {f} | {g for e in self.edges_of[f] for g in self.faces_of[e]}
+            recs = self.with_leaders({self.faces_rec[g] for g in around})
+            if nets.plain(self.coded, self.m, [i for i in recs if i is not None]):
+                out.add(f)
+        return out
+
     def as_read(self, faces: Iterable[int]) -> None:
         """The vertices of ``faces`` stay where they are, and their edges keep
         the ranges they were read with (the BRepCheck ladder's last rung)."""
@@ -552,6 +572,7 @@ class _Plan:
                 wider = {g for f in blamed for g in self.near_faces[f]}
             blamed = wider
         blamed = blamed - spent
+        blamed -= self.ease(blamed)
         for f in sorted(blamed):
             r = Rung(self.rung.get(f, 0) + 1)
             self.rung[f] = r
