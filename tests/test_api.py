@@ -157,12 +157,17 @@ def test_no_brep_bytes_are_stored_verbatim() -> None:
 @pytest.mark.slow
 @pytest.mark.parametrize("name", ["assembly.step", "blob.step", "bracket.step", "teapot.step"])
 def test_every_sample_gives_the_cli_bytes(name: str, tmp_path: Path) -> None:
-    """``compress(path)`` and ``compress_file`` write the same container, in both modes."""
+    """``compress(path)`` and ``compress_file`` write the same container, in every mode."""
     src = SAMPLES / name
-    for kw in ({"tol": 0.01}, {"lossless": True}):
+    modes: list[tuple[dict[str, Any], dict[str, Any]]] = [
+        ({"tol": 0.01}, {"tol": 0.01}),
+        ({"lossless": "brep"}, {"lossless": True}),
+        ({"lossless": True}, {"exact": True}),
+    ]
+    for api, cli in modes:
         out = tmp_path / f"{name}.nzc"
-        pipeline.compress_file(src, out, force=True, **kw)
-        assert nurbscomp.compress(src, **kw) == out.read_bytes(), kw
+        pipeline.compress_file(src, out, force=True, **cli)
+        assert nurbscomp.compress(src, **api) == out.read_bytes(), api
 
 
 # ---------------------------------------------------------------- tol and force (issue 26)
