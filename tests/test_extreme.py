@@ -39,8 +39,8 @@ def test_far_from_the_origin(tmp_path: Path, offset: float, tol: float) -> None:
     ev = pipeline.evaluate(src, nzc)
     assert ev["verdict"] == "pass", ev["failed"]
     kept = r["validity"]["exact_faces"].get("precision", 0)
-    if offset >= 1e9 and tol <= 0.001:
-        assert kept > 0
+    if offset >= 1e9 and tol <= 0.001:  # exact, or within the bound by SNET method 10 (2.0)
+        assert kept > 0 or r["faces_by_method"].get("spatial2", 0) > 0
     if offset == 0:
         assert kept == 0
 
