@@ -76,7 +76,7 @@ LZMA_TUNINGS = (
 )
 
 
-def _lzma_raw(raw: bytes, tuning: tuple[int, int, int] | None, preset: int = _PRESET) -> bytes:
+def lzma_raw(raw: bytes, tuning: tuple[int, int, int] | None, preset: int = _PRESET) -> bytes:
     """One raw LZMA2 stream (``preset``, 9e by default), with the default literal
     settings or ``tuning``.  Any preset decodes with :data:`_LZMA_FILTERS`: its
     dictionary is no larger than 9e's."""
@@ -170,7 +170,7 @@ def _compress(
     if coder == Coder.STORED:
         return raw
     if coder == Coder.LZMA:
-        return _lzma_raw(raw, tuning, preset)
+        return lzma_raw(raw, tuning, preset)
     if coder == Coder.ZSTD:
         return zstandard.ZstdCompressor(level=19, write_content_size=False).compress(raw)
     return brotli.compress(raw, quality=11)

@@ -97,6 +97,19 @@ def pack(data: bytes, source_format: str, source_name: str, reason: str | None =
     InputError
         ``data`` is larger than a reader inflates (``container.MAX_RAW``).
     """
+    return _pack(data, source_format, source_name, reason)[0]
+
+
+def _pack(
+    data: bytes, source_format: str, source_name: str, reason: str | None
+) -> tuple[bytes, dict[str, Any]]:
+    """:func:`pack`, and the META it wrote.
+
+    Raises
+    ------
+    InputError
+        ``data`` is larger than a reader inflates (``container.MAX_RAW``).
+    """
     from .serialize import meta_text
 
     if len(data) > container.MAX_RAW - MAX_META_BYTES:
@@ -117,9 +130,8 @@ def pack(data: bytes, source_format: str, source_name: str, reason: str | None =
     if reason is not None:
         meta["reason"] = meta_text(reason)
     raw_meta = json.dumps(meta, sort_keys=True, separators=(",", ":")).encode()
-    return container.pack(
-        [("META", raw_meta), ("TEXT", blob)], container.FLAG_EXACT, coders=(Coder.STORED,)
-    )
+    sections = [("META", raw_meta), ("TEXT", blob)]
+    return container.pack(sections, container.FLAG_EXACT, coders=(Coder.STORED,)), meta
 
 
 def _meta(c: container.Container, mode: str) -> dict[str, Any]:
@@ -191,8 +203,9 @@ def read(c: container.Container) -> tuple[dict[str, Any], bytes]:
     return meta, data
 
 
-def pack_file(data: bytes, name: str, reason: str | None = None) -> tuple[bytes, str]:
-    """The byte-exact container of a STEP/IGES file's bytes, and its format.
+def pack_file(data: bytes, name: str, reason: str | None = None) -> tuple[bytes, dict[str, Any]]:
+    """The byte-exact container of a STEP/IGES file's bytes, and its META
+    (format, SHA-256, text model).
 
     ``reason`` (why the file holds no B-rep, when that is why it is stored so)
     asks for a well-formed file; asked for (``--lossless``), any file whose
@@ -209,7 +222,7 @@ def pack_file(data: bytes, name: str, reason: str | None = None) -> tuple[bytes,
     fmt = sniff_format(Path(name), data[: 1 << 16])
     if reason is not None and not well_formed(data, fmt):
         raise InputError(f"not a well-formed {fmt} file ({reason})")
-    return pack(data, fmt, name, reason), fmt
+    return _pack(data, fmt, name, reason)
 
 
 def compress_file(
@@ -234,7 +247,7 @@ def compress_file(
         data = src.read_bytes()
     except OSError as e:
         raise InputError(e.strerror or str(e)) from None
-    blob, fmt = pack_file(data, src.name, reason)
+    blob, meta = pack_file(data, src.name, reason)
     with atomic_output(dst, force, (src,)) as tmp:
         tmp.write_bytes(blob)
         if verify and read(read_container(tmp))[1] != data:
@@ -242,7 +255,6 @@ def compress_file(
     warnings = []
     if reason is not None:
         warnings.append(f"stored verbatim, byte for byte (no geometry coding): {reason}")
-    c = container.unpack(blob)
     return {
         "command": "compress",
         "input": str(src),
@@ -254,9 +266,9 @@ def compress_file(
         "passthrough": reason is not None,
         "reason": reason,
         "tolerance_mm": None,
-        "source_format": fmt,
-        "sha256": hashlib.sha256(data).hexdigest(),
-        "model": MODELS[c.get("TEXT")[0]],
+        "source_format": meta["source_format"],
+        "sha256": meta["sha256"],
+        "model": meta["model"],
         "verified": verify,
         "seconds": time.perf_counter() - t0,
         "warnings": warnings,

@@ -23,13 +23,12 @@ Layout (little-endian, docs/format.md §1.5)::
 
 from __future__ import annotations
 
-import lzma
 import os
 from concurrent.futures import ThreadPoolExecutor
 
 import brotli
 
-from ..entropy import Coder, decompress
+from ..entropy import Coder, decompress, lzma_raw
 from ..errors import CorruptError, LimitError, TruncatedError
 
 
@@ -79,14 +78,12 @@ BROTLI_MAX = 8 * 1024
 
 
 def _lzma(raw: bytes, lc: int, lp: int, pb: int) -> bytes:
-    """Raw LZMA2 at preset 9e with a dictionary no larger than ``raw`` needs
-    (a 64 MiB one costs more to set up than a small stream takes to code);
-    :func:`entropy.decompress` reads it as any ``Coder.LZMA`` stream: LZMA2
-    carries its settings in its chunks."""
-    size = min(1 << 26, max(1 << 12, 1 << max(len(raw) - 1, 1).bit_length()))
-    f = {"id": lzma.FILTER_LZMA2, "preset": 9 | lzma.PRESET_EXTREME, "dict_size": size}
-    f.update(lc=lc, lp=lp, pb=pb)
-    return lzma.compress(raw, format=lzma.FORMAT_RAW, filters=[f])
+    """Raw LZMA2 at preset 9e with these literal settings and a dictionary no
+    larger than ``raw`` needs (``entropy.lzma_raw``: a 64 MiB one costs more to
+    set up than a small stream takes to code); :func:`entropy.decompress`
+    reads it as any ``Coder.LZMA`` stream: LZMA2 carries its settings in its
+    chunks."""
+    return lzma_raw(raw, (lc, lp, pb))
 
 
 def quick_lzma(raw: bytes) -> bytes:
