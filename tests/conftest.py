@@ -43,13 +43,30 @@ def in_corpus(name: str):
     return pytest.param(CORPUS / name, marks=pytest.mark.corpus, id=name)
 
 
+def _corpus_file(item: pytest.Item) -> str | None:
+    """The name of the corpus file a test is parametrised with, if any."""
+    spec = getattr(item, "callspec", None)
+    for v in spec.params.values() if spec is not None else ():
+        if isinstance(v, Path) and v.parent == CORPUS:
+            return v.name
+    return None
+
+
+@pytest.hookimpl(tryfirst=True)  # before pytest-xdist reads the groups
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    if have_corpus():
+    """Without the corpus, skip what needs it.  With it, the tests of one
+    corpus file form one ``xdist_group`` (``make test`` distributes by group),
+    so that the containers a worker made for one test serve the next ones."""
+    if not have_corpus():
+        skip = pytest.mark.skip(reason="needs the corpus (NURBSCOMP_CORPUS; see the last line)")
+        for item in items:
+            if item.get_closest_marker("corpus") is not None:
+                item.add_marker(skip)
         return
-    skip = pytest.mark.skip(reason="needs the corpus (NURBSCOMP_CORPUS; see the last line)")
     for item in items:
-        if item.get_closest_marker("corpus") is not None:
-            item.add_marker(skip)
+        name = _corpus_file(item)
+        if name is not None:
+            item.add_marker(pytest.mark.xdist_group(name))
 
 
 def pytest_terminal_summary(terminalreporter, exitstatus: int, config: pytest.Config) -> None:
