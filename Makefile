@@ -42,13 +42,16 @@ samples: install
 # batch with -j 1 and -j 2 (goal >= 1.8x on 2 cores).  The cost of product
 # data (bench-product) goes to docs/benchmarks-product.md, the bytes of each
 # container section (issue 28) to docs/benchmarks-sections.md, byte-exact
-# lossless against xz -9e and OCCT's read (issue 29) to docs/benchmarks-exact.md.
+# lossless against xz -9e and OCCT's read (issue 29) to docs/benchmarks-exact.md,
+# a generated assembly of 800 parts (~30 MB of STEP, issue 30's scale row) to
+# docs/benchmarks-scale.md.
 bench: install
 	@$(PY) -c "import matplotlib" 2>/dev/null || $(PIP) install --quiet -e '.[bench]'
 	$(PY) benchmarks/bench.py
 	$(PY) benchmarks/product_cost.py > docs/benchmarks-product.md
 	$(PY) benchmarks/sections.py > docs/benchmarks-sections.md
 	$(PY) benchmarks/exact.py > docs/benchmarks-exact.md
+	$(PY) benchmarks/scale.py > docs/benchmarks-scale.md
 
 # What product data (format 1.2's PROD: tree, names, colours, layers, header)
 # costs per file of the corpus and the assembly sample, lossless (issue 12).
