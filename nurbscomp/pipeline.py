@@ -635,7 +635,7 @@ def compress_file(
 def max_net_displacement(a: BRepModel, b: BRepModel) -> float:
     """Largest pole displacement between the B-spline surfaces and 3-D curves of two models.
 
-    The certified bound of DESIGN §4: knots, degrees and weights are equal, so
+    The certified bound of docs/design.md §4: knots, degrees and weights are equal, so
     no point of a surface or curve moves further than its farthest pole.
     """
     worst = 0.0
