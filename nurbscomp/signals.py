@@ -49,7 +49,13 @@ def install() -> None:
 
 
 def signum_of(e: KeyboardInterrupt) -> int:
-    """The signal a ``KeyboardInterrupt`` stands for (SIGINT for a plain one)."""
+    """The signal a ``KeyboardInterrupt`` stands for: the first signal received
+    since :func:`install`, whatever became of its exception on the way (one
+    raised in a worker thread or an extension module comes back as a plain
+    ``KeyboardInterrupt``, or as the interrupt of a later signal); SIGINT for
+    a plain one with no signal received (Ctrl-C without :func:`install`)."""
+    if received is not None:
+        return received
     return e.signum if isinstance(e, Interrupted) else signal.SIGINT
 
 
