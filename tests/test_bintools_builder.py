@@ -169,3 +169,18 @@ def test_golden_containers_build_the_same(path: Path) -> None:
     stats = _compare(m)
     assert sum(stats.values()) == 1
     print(path.name, stats)
+
+
+def test_a_stream_the_reader_refuses_falls_back(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A stream OCCT's reader throws on (here cut short) is counted and the
+    model built by the per-entity builder: same shape."""
+    m, _ = shape_to_model(SHAPES["holes"])
+    real = bintools.stream
+
+    def cut(model: Any) -> tuple[bytes, list[int]]:
+        data, index = real(model)
+        return data[: len(data) // 2], index
+
+    monkeypatch.setattr(bintools, "stream", cut)
+    stats = _compare(m)
+    assert stats == {"fast": 0, "reader failed": 1}

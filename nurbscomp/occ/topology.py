@@ -7,11 +7,16 @@ reference to a sub-shape keeps its own orientation and location.
 Building goes front to back through the shapes table with ``BRep_Builder``
 (never sewing), and restores every curve and point representation of edges and
 vertices as it was, so that the rebuilt shape is the same B-rep: same sub-shape
-order, same sharing, same flags, same numbers.
+order, same sharing, same flags, same numbers.  :func:`model_to_shape` does
+that in one call into OCCT where it can, by way of a ``BinTools`` stream
+(:mod:`.bintools`, issue 30), and with one call per entity
+(:func:`slow_model_to_shape`) where the stream cannot carry the model; both
+give the same shape.
 """
 
 from __future__ import annotations
 
+import struct
 from collections.abc import Callable
 from typing import Any, cast
 
@@ -35,6 +40,8 @@ from OCP.gp import gp_Pnt, gp_Pnt2d, gp_Trsf, gp_TrsfForm, gp_Vec
 from OCP.ShapeAnalysis import ShapeAnalysis_Edge
 from OCP.ShapeExtend import ShapeExtend_DONE3, ShapeExtend_FAIL
 from OCP.ShapeFix import ShapeFix_Edge, ShapeFix_Wire
+from OCP.Standard import Standard_Failure
+from OCP.Storage import Storage_StreamFormatError, Storage_StreamReadError
 from OCP.TopAbs import TopAbs_FORWARD, TopAbs_Orientation, TopAbs_WIRE
 from OCP.TopExp import TopExp
 from OCP.TopLoc import TopLoc_Datum3D, TopLoc_Location
@@ -419,7 +426,16 @@ def _fast_build(m: BRepModel, cache: PcurveCache | None) -> Any:
     except bintools.Unexpressed as why:
         FAST_STATS[str(why)] = FAST_STATS.get(str(why), 0) + 1
         return None
-    ss = bintools.read(data)
+    except (struct.error, OverflowError):
+        # a number the stream's fixed-width fields cannot hold (a damaged
+        # container): the per-entity builder says what is wrong with it
+        FAST_STATS["out of the stream's range"] = FAST_STATS.get("out of the stream's range", 0) + 1
+        return None
+    try:
+        ss = bintools.read(data)
+    except (Standard_Failure, Storage_StreamReadError, Storage_StreamFormatError):
+        FAST_STATS["reader failed"] = FAST_STATS.get("reader failed", 0) + 1
+        return None
     FAST_STATS["fast"] += 1
     types = m.shape_type.tolist()
     _restore(ss, m)
