@@ -18,6 +18,7 @@ import numpy as np
 from .. import budget, joins
 from ..model import (
     REBUILD,
+    Analytic,
     BRepModel,
     BSplineCurve,
     BSplineSurface,
@@ -60,9 +61,10 @@ def drop_pcurves(m: BRepModel, keep_edges: set[int], keep_faces: set[int]) -> BR
     closed = kind == RepKind.ON_CLOSED_SURFACE
     pc = (kind == RepKind.ON_SURFACE) | closed
     skip = degenerated | ~has3d
+    iso = iso_lines(m) if STORE_ISO_LINES else np.zeros(len(reps), bool)
     for q in np.flatnonzero(pc).tolist():
         e, _, _, _, surface, _, loc, _ = reps[q].tolist()
-        if skip[e] or e in keep_edges or flat[surface]:
+        if skip[e] or e in keep_edges or flat[surface] or iso[q]:
             continue
         on = faces_on.get((surface, loc), [])
         if not on or any(f in keep_faces for f in on):
@@ -78,6 +80,32 @@ def drop_pcurves(m: BRepModel, keep_edges: set[int], keep_faces: set[int]) -> BR
     out.edge_rep_range = np.where(dropped[:, None], 0.0, m.edge_rep_range)
     out.edge_rep_uv = np.where(dropped[:, None], 0.0, m.edge_rep_uv)
     return prune_curves2d(out)
+
+
+#: Whether :func:`drop_pcurves` stores the pcurves that are lines along a
+#: parameter direction of their surface (``iso_lines``) instead of leaving
+#: them to a projection (docs/decode-speed.md measures both).
+STORE_ISO_LINES = False
+
+
+def iso_lines(m: BRepModel) -> np.ndarray:
+    """Per edge representation: whether it is a pcurve (both, on a seam) that
+    is a 2-D line along u or v (a direction with a zero coordinate): four
+    numbers in the container, and a projection (some 0.5 ms) saved."""
+    out = np.zeros(len(m.edge_reps), bool)
+    line = [
+        isinstance(g, Analytic) and g.kind == Kind.LINE and (g.frame[1] == 0).any()
+        for g in m.curves2d
+    ]
+    reps = m.edge_reps
+    pc = (reps[:, 1] == RepKind.ON_SURFACE) | (reps[:, 1] == RepKind.ON_CLOSED_SURFACE)
+    for q in np.flatnonzero(pc).tolist():
+        c1, c2 = int(reps[q, 2]), int(reps[q, 3])
+        ok = 0 <= c1 < len(line) and line[c1]
+        if reps[q, 1] == RepKind.ON_CLOSED_SURFACE:
+            ok = ok and 0 <= c2 < len(line) and line[c2]
+        out[q] = ok
+    return out
 
 
 def _within_budget(m: BRepModel, reps: np.ndarray, limits: budget.Limits) -> list[int]:

@@ -7,11 +7,16 @@ reference to a sub-shape keeps its own orientation and location.
 Building goes front to back through the shapes table with ``BRep_Builder``
 (never sewing), and restores every curve and point representation of edges and
 vertices as it was, so that the rebuilt shape is the same B-rep: same sub-shape
-order, same sharing, same flags, same numbers.
+order, same sharing, same flags, same numbers.  :func:`model_to_shape` does
+that in one call into OCCT where it can, by way of a ``BinTools`` stream
+(:mod:`.bintools`, issue 30), and with one call per entity
+(:func:`slow_model_to_shape`) where the stream cannot carry the model; both
+give the same shape.
 """
 
 from __future__ import annotations
 
+import struct
 from collections.abc import Callable
 from typing import Any, cast
 
@@ -35,6 +40,8 @@ from OCP.gp import gp_Pnt, gp_Pnt2d, gp_Trsf, gp_TrsfForm, gp_Vec
 from OCP.ShapeAnalysis import ShapeAnalysis_Edge
 from OCP.ShapeExtend import ShapeExtend_DONE3, ShapeExtend_FAIL
 from OCP.ShapeFix import ShapeFix_Edge, ShapeFix_Wire
+from OCP.Standard import Standard_Failure
+from OCP.Storage import Storage_StreamFormatError, Storage_StreamReadError
 from OCP.TopAbs import TopAbs_FORWARD, TopAbs_Orientation, TopAbs_WIRE
 from OCP.TopExp import TopExp
 from OCP.TopLoc import TopLoc_Datum3D, TopLoc_Location
@@ -65,6 +72,7 @@ from ..model import (
     ShapeType,
     Table,
 )
+from . import bintools
 from .geometry import GeometryBuilder, GeometryReader, record_key
 from .isolated import ReaderCrash, RoundTrip, can_fork, spare_core
 from .lists import items
@@ -393,6 +401,133 @@ def model_to_shape(m: BRepModel, cache: PcurveCache | None = None) -> Any:
     left out by an earlier build where what they were computed from is the
     same (:class:`PcurveCache`); the shape is the same as without it.
     """
+    if FAST_BUILD:
+        got = _fast_build(m, cache)
+        if got is not None:
+            return got
+    return slow_model_to_shape(m, cache)
+
+
+#: Whether :func:`model_to_shape` builds through a BinTools stream
+#: (:mod:`.bintools`) where the stream can carry the model.
+FAST_BUILD = True
+#: Builds by way of :func:`_fast_build`, and models it handed back (why, counted).
+FAST_STATS: dict[str, int] = {"fast": 0}
+
+
+def _fast_build(m: BRepModel, cache: PcurveCache | None) -> Any:
+    """The shape of ``m`` read by ``BinTools_ShapeSet::Read`` from the stream
+    :func:`.bintools.stream` writes, with the pcurves the model left out then
+    projected as :func:`slow_model_to_shape` projects them and the flags of
+    what that touched set again; None where the stream cannot carry ``m``
+    (counted in :data:`FAST_STATS` by reason)."""
+    try:
+        data, loc_index = bintools.stream(m)
+    except bintools.Unexpressed as why:
+        FAST_STATS[str(why)] = FAST_STATS.get(str(why), 0) + 1
+        return None
+    except (struct.error, OverflowError):
+        # a number the stream's fixed-width fields cannot hold (a damaged
+        # container): the per-entity builder says what is wrong with it
+        FAST_STATS["out of the stream's range"] = FAST_STATS.get("out of the stream's range", 0) + 1
+        return None
+    try:
+        ss = bintools.read(data)
+    except (Standard_Failure, Storage_StreamReadError, Storage_StreamFormatError):
+        FAST_STATS["reader failed"] = FAST_STATS.get("reader failed", 0) + 1
+        return None
+    FAST_STATS["fast"] += 1
+    types = m.shape_type.tolist()
+    _restore(ss, m)
+    owner = m.edge_reps[:, 0]
+    pend = sorted(np.flatnonzero(m.edge_reps[:, 2] == REBUILD).tolist(), key=lambda q: owner[q])
+    if pend:
+        edge_shape = np.flatnonzero(m.shape_type == _EDGE)
+        face_shape = np.flatnonzero(m.shape_type == _FACE).tolist()
+        pending: list[tuple[Any, int, int, bool, int]] = []
+        edges: dict[int, Any] = {}
+        for q in pend:
+            _, kind, _, _, srow, _, loc, _ = m.edge_reps[q].tolist()
+            k = int(m.edge_reps[q, 0])
+            sh = edges.get(k)
+            if sh is None:
+                sh = edges[k] = bintools.edge(ss, int(edge_shape[k]))
+            pending.append((sh, srow, loc, kind == _ON_CLOSED_SURFACE, k))
+        keys = None
+        if cache is not None:
+            keys = _PcurveKeys(m, _group(m.edge_reps[:, 0], len(m.edge_tol)))
+        wanted = {(srow, loc) for _, srow, loc, _, _ in pending}
+        rows = list(zip(m.face_surface.tolist(), m.face_loc.tolist()))
+        faces = [bintools.face(ss, s) for s in face_shape]
+        rebuild_pcurves(pending, faces, rows, cache, keys)
+        # the flags of every shape a projection or FixShifted may have marked
+        touched = {face_shape[k] for k, r in enumerate(rows) if r in wanted}
+        touched |= {int(edge_shape[k]) for k in edges}
+        start, child = m.child_start.tolist(), m.child_shape.tolist()
+        todo, seen = list(touched), set(touched)
+        while todo:
+            s = todo.pop()
+            for c in child[start[s] : start[s + 1]]:
+                if c not in seen:
+                    seen.add(c)
+                    todo.append(c)
+        flags = m.shape_flags.tolist()
+        for s in sorted(seen):
+            _set_flags(ss.Shape(s + 1).TShape(), flags[s])
+    # what the stream cannot say: Free on a sub-shape (TopoDS_Builder::Add
+    # clears it), Locked (not written)
+    sub = np.zeros(len(types), bool)
+    sub[m.child_shape] = True
+    for s in np.flatnonzero(((m.shape_flags & 1) != 0) & sub).tolist():
+        ss.Shape(s + 1).TShape().Free(True)
+    for s in np.flatnonzero((m.shape_flags & 128) != 0).tolist():
+        ss.Shape(s + 1).TShape().Locked(True)
+    return bintools.root(ss, m, loc_index)
+
+
+def _restore(ss: Any, m: BRepModel) -> None:
+    """Set what a stream cannot say as :func:`slow_model_to_shape` sets it:
+    the range of a degenerated edge's null 3-D curve, and the stored UV end
+    points of every pcurve the stream carried (``BRep_Builder::Range``
+    re-evaluates them from the pcurve while reading; a source may hold
+    others).  Each edge's representations are in the stream's order: a
+    degenerated edge's null 3-D curve first, then the model's, without the
+    pcurves left to compute."""
+    reps = m.edge_reps
+    kind, c1 = reps[:, 1], reps[:, 2]
+    edge_shape = np.flatnonzero(m.shape_type == _EDGE).tolist()
+    # a degenerated edge's null 3-D curve (the first representation: checked
+    # by bintools) with a range other than the one BRep_Curve3D gives it
+    null = (kind == _CURVE3D) & (c1 < 0)
+    other = null & (m.edge_rep_range != bintools.NULL_RANGE).any(axis=1)
+    for q in np.flatnonzero(other).tolist():
+        sh = bintools.edge(ss, edge_shape[int(reps[q, 0])])
+        first, last = m.edge_rep_range[q].tolist()
+        items(cast(BRep_TEdge, sh.TShape()).Curves())[0].SetRange(first, last)
+    on = ((kind == _ON_SURFACE) | (kind == _ON_CLOSED_SURFACE)) & (c1 != REBUILD)
+    if not on.any():
+        return
+    uv = m.edge_rep_uv.tolist()
+    rows = reps[:, :3].tolist()
+    by_edge = _group(reps[:, 0], len(m.edge_tol))
+    for e in sorted(set(reps[on, 0].tolist())):
+        written = [q for q in by_edge[e] if rows[q][2] != REBUILD]
+        got = items(cast(BRep_TEdge, bintools.edge(ss, edge_shape[e]).TShape()).Curves())
+        if rows[written[0]][1] == _CURVE3D and rows[written[0]][2] < 0:
+            written = written[1:]
+            got = got[1:]  # Degenerated() put its own null curve first
+            # (the model's null curve is checked to be that one: bintools._check)
+        for q, cr in zip(written, got):
+            k = rows[q][1]
+            if k == _ON_SURFACE or k == _ON_CLOSED_SURFACE:
+                u = uv[q]
+                cr.SetUVPoints(gp_Pnt2d(u[0], u[1]), gp_Pnt2d(u[2], u[3]))
+                if k == _ON_CLOSED_SURFACE:
+                    cr.SetUVPoints2(gp_Pnt2d(u[4], u[5]), gp_Pnt2d(u[6], u[7]))
+
+
+def slow_model_to_shape(m: BRepModel, cache: PcurveCache | None = None) -> Any:
+    """:func:`model_to_shape` with one ``BRep_Builder`` call per entity."""
     b = BRep_Builder()
     geo = GeometryBuilder(m.surfaces, m.curves3d, m.curves2d)
     datums = [TopLoc_Datum3D(_trsf(r, int(f))) for r, f in zip(m.datums, m.datum_forms)]
