@@ -40,6 +40,8 @@ how many groups of its kind back the nearest such group stands (a vertex's
 long matches); only new groups' numbers reach the number streams.  On the
 corpus this took 2.6% off the STEP payloads.
 
+The skeleton is stored as its distinct *statements* (cut after each ``;``),
+their lengths and one index per statement (:func:`_statements`, version 3).
 Every stream goes through :func:`nurbscomp.text.coding.pack`.  The payload
 ends with nothing: the first stream (the header) holds the output's length
 and CRC-32, checked on decode, so a damaged payload raises a ``FormatError``
@@ -55,6 +57,7 @@ from __future__ import annotations
 
 import operator
 import re
+import warnings
 import zlib
 
 import numpy as np
@@ -62,8 +65,10 @@ import numpy as np
 from ..errors import CorruptError, FormatError, LimitError
 from . import coding
 
-#: Payload version (the header's first varint).
-VERSION = 2
+#: Payload version (the header's first varint): 3 stores the skeleton as
+#: statements (:func:`_statements`); 2, the skeleton whole, is still read.
+VERSION = 3
+_VERSIONS = (2, 3)
 #: Placeholder bytes of the skeleton.
 ID, REF, NUM, STR, RAW = 1, 2, 3, 4, 5
 #: Ranks per entity name that get a context of their own (the last collects the rest).
@@ -87,6 +92,10 @@ TOKEN = re.compile(
 _GROUPS = 5
 #: An entity name in the skeleton: a word followed by ``(``.
 NAME = re.compile(rb"(?<![A-Za-z0-9_])[A-Za-z_][A-Za-z0-9_]*+(?=[ \t\r\n]*+\()")
+#: :data:`NAME` with the name captured, to cut the skeleton at its names.
+_NAME_SPLIT = re.compile(rb"(?<![A-Za-z0-9_])([A-Za-z_][A-Za-z0-9_]*+)(?=[ \t\r\n]*+\()")
+#: Where the skeleton is cut into *statements* (version 3): after each ``;``.
+_STATEMENT = re.compile(rb"(?<=;)")
 _PLACE = re.compile(rb"[\x01-\x05]")
 _PH = [b"", b"\x01", b"\x02", b"\x03", b"\x04", b"\x05"]
 
@@ -94,13 +103,11 @@ _PH = [b"", b"\x01", b"\x02", b"\x03", b"\x04", b"\x05"]
 def names(skel: bytes) -> tuple[np.ndarray, np.ndarray]:
     """Where each entity name of ``skel`` starts, and its number: distinct names
     numbered 1, 2, ... in order of first appearance."""
-    starts: list[int] = []
-    codes: list[int] = []
+    parts = _NAME_SPLIT.split(skel)  # text, name, text, name, ..., text
+    ends = np.cumsum(np.fromiter(map(len, parts), dtype=np.int64, count=len(parts)))
     seen: dict[bytes, int] = {}
-    for m in NAME.finditer(skel):
-        starts.append(m.start())
-        codes.append(seen.setdefault(m.group(), len(seen) + 1))
-    return np.asarray(starts, dtype=np.int64), np.asarray([0, *codes], dtype=np.int64)
+    codes = [seen.setdefault(m, len(seen) + 1) for m in parts[1::2]]
+    return ends[0:-1:2].copy(), np.asarray([0, *codes], dtype=np.int64)
 
 
 def contexts(skel: bytes, kind: int, named: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
@@ -232,6 +239,15 @@ def _read_ints(raw: bytes, n: int, what: str) -> np.ndarray:
         if raw:
             raise CorruptError(f"STEP model: {what} stream should be empty")
         return np.zeros(0, dtype=np.int64)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        try:  # numpy's parser, ten times Python's int(); checked below
+            fast = np.fromstring(raw, dtype=np.int64, sep=",")
+        except (ValueError, DeprecationWarning):
+            fast = None
+    # a short or saturated parse goes the strict way (which says what is wrong)
+    if fast is not None and len(fast) == n and not np.any((fast >= 1 << 62) | (fast <= -(1 << 62))):
+        return fast
     parts = raw.split(b",")
     if len(parts) != n:
         raise CorruptError(f"STEP model: {len(parts)} {what}, the skeleton has {n}")
@@ -334,7 +350,7 @@ def encode(data: bytes) -> bytes | None:
     header = b"".join(coding.varint(v) for v in head)
     streams = [
         header,
-        skel,
+        *_statements(skel),
         _ints(id_deltas.tolist()),
         _ints([len(t) for t in strs_t]),
         b"".join(strs_t),
@@ -344,6 +360,49 @@ def encode(data: bytes) -> bytes | None:
         *(b",".join(x) for x in num_streams),
     ]
     return coding.pack(streams)
+
+
+def _statements(skel: bytes) -> list[bytes]:
+    """The skeleton as three streams (version 3): its distinct *statements*
+    (the pieces it is cut into after each ``;``) in order of first
+    appearance, their lengths, and each statement's index in that list, as
+    unsigned integers of 1, 2 or 4 bytes (the fewest that hold the number of
+    distinct statements), little-endian, one byte plane after another.  A few
+    hundred distinct statements make up a skeleton of tens of thousands:
+    LZMA2 codes the three in a tenth of the time it takes on the skeleton,
+    and smaller (19% on the corpus)."""
+    seen: dict[bytes, int] = {}
+    index = [seen.setdefault(u, len(seen)) for u in _STATEMENT.split(skel)]
+    width = _index_width(len(seen))
+    planes = np.asarray(index, dtype=f"<u{width}").view(np.uint8).reshape(-1, width).T
+    return [b"".join(seen), _ints([len(u) for u in seen]), planes.tobytes()]
+
+
+def _index_width(n: int) -> int:
+    """Bytes per statement index for ``n`` distinct statements."""
+    return 1 if n <= 1 << 8 else 2 if n <= 1 << 16 else 4
+
+
+def _skeleton(units: bytes, lens_raw: bytes, index_raw: bytes, size: int) -> bytes:
+    """Invert :func:`_statements`; a skeleton longer than ``size`` (the text's
+    length: every value stands for one byte or more) is refused before it is made."""
+    if not lens_raw:
+        raise CorruptError("STEP model: no statements")
+    lens = _read_ints(lens_raw, lens_raw.count(b",") + 1, "statement lengths")
+    if lens.min() < 0 or int(lens.sum()) != len(units):
+        raise CorruptError("STEP model: statement lengths do not add up")
+    width = _index_width(len(lens))
+    if len(index_raw) % width:
+        raise CorruptError("STEP model: statement index has the wrong size")
+    planes = np.frombuffer(index_raw, np.uint8).reshape(width, -1)
+    index = np.ascontiguousarray(planes.T).view(f"<u{width}").ravel().astype(np.int64)
+    if len(index) and int(index.max()) >= len(lens):
+        raise CorruptError("STEP model: a statement index past the dictionary")
+    if int(lens[index].sum()) > size:
+        raise CorruptError("STEP model: skeleton longer than the text")
+    ends = np.cumsum(lens).tolist()
+    table = [units[a:b] for a, b in zip([0, *ends[:-1]], ends)]
+    return b"".join(_pick(table, index))
 
 
 def _cost(stream: bytes) -> int:
@@ -381,11 +440,17 @@ def _decode(payload: bytes, limit: int) -> bytes:
         v, pos = coding.read_varint(header, pos)
         return v
 
-    if next_int() != VERSION:
+    version = next_int()
+    if version not in _VERSIONS:
         raise CorruptError("STEP model: unknown version")
     size, crc, nr, nn = next_int(), next_int(), next_int(), next_int()
     if size > limit:
         raise LimitError(f"STEP model decodes to {size} bytes, more than {limit}")
+    if version >= 3:  # the skeleton as statements: three streams for one
+        if len(streams) < 11:
+            raise CorruptError(f"STEP model: {len(streams)} streams")
+        skel = _skeleton(streams[1], streams[2], streams[3], size)
+        streams = [streams[0], skel, *streams[4:]]
     if len(streams) != 9 + nr + nn:
         raise CorruptError(f"STEP model: {len(streams)} streams, header says {9 + nr + nn}")
     modes = [next_int() for _ in range(nr + 1)]
