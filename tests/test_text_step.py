@@ -212,5 +212,7 @@ def test_version_2_still_decodes():
     data = SNIPPETS[0] * 3
     streams = coding.unpack(step.encode(data), 10 * len(data))
     head = coding.varint(2) + streams[0][1:]
-    skel = step._skeleton(*streams[1:4], len(data))
+    table, index = step._skeleton(*streams[1:4], len(data))
+    skel = b"".join(table[i] for i in index.tolist())
+    assert b"CARTESIAN_POINT" in skel and skel.count(b";") > 3
     assert step.decode(coding.pack([head, skel, *streams[4:]]), len(data)) == data

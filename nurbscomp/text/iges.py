@@ -117,17 +117,106 @@ def _rows(blob: bytes, width: int, n: int) -> np.ndarray:
     return np.frombuffer(blob, np.uint8).reshape(n, width)
 
 
-def _layout(mode: int, bounds: list[int], s: int, e: int) -> int:
-    """The predicted length of a P line starting at ``s`` in a record ending at ``e``."""
-    if mode == 0:  # fill to P_WIDTH, breaking after a delimiter
+def _layout(mode: int, bounds: np.ndarray, s: np.ndarray, e: np.ndarray) -> np.ndarray:
+    """The predicted length of a P line starting at each ``s`` in a record
+    ending at ``e`` (-1 where ``s`` is at or past ``e``): mode 0, fill to
+    P_WIDTH breaking after the last delimiter that fits; mode 1, one parameter
+    a line.  ``bounds``: the positions just after each delimiter, ascending."""
+    if mode == 0:
+        i = np.searchsorted(bounds, s + P_WIDTH, side="right") - 1
+        b = np.where(i >= 0, bounds[np.maximum(i, 0)] if len(bounds) else -1, -1)
+        n = np.where(b > s, b - s, P_WIDTH)
+        n = np.where(e - s <= P_WIDTH, e - s, n)
+    else:
+        i = np.searchsorted(bounds, s, side="right")
+        b = bounds[np.minimum(i, len(bounds) - 1)] if len(bounds) else e
+        b = np.where(i < len(bounds), b, e)
+        n = np.minimum(np.minimum(b, e), s + P_WIDTH) - s
+    return np.where(s < e, n, -1)
+
+
+def _layout1(mode: int, bounds: list[int], s: int, e: int) -> int:
+    """:func:`_layout` of one line."""
+    if s >= e:
+        return -1
+    if mode == 0:
         if e - s <= P_WIDTH:
             return e - s
         i = bisect_right(bounds, s + P_WIDTH) - 1
         b = bounds[i] if i >= 0 else -1
         return b - s if b > s else P_WIDTH
-    i = bisect_right(bounds, s)  # one parameter a line
+    i = bisect_right(bounds, s)
     b = bounds[i] if i < len(bounds) else e
     return min(b, e, s + P_WIDTH) - s
+
+
+#: Records laid out together below this many: then the rest line by line.
+FEW_RECORDS = 24
+
+
+def _bounds(ptext: bytes, pd: int, rd: int) -> np.ndarray:
+    """The positions just after each delimiter of ``ptext``."""
+    a = np.frombuffer(ptext, np.uint8)
+    return np.flatnonzero((a == pd) | (a == rd)) + 1
+
+
+def _lines(
+    mode: int,
+    bounds: np.ndarray,
+    rlen: np.ndarray,
+    rcount: np.ndarray,
+    exc: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Where each P line starts in the joined record text and its length: the
+    records (of ``rlen`` bytes and ``rcount`` lines, joined by one byte each)
+    laid out by :func:`_layout` but where ``exc`` (one per line, -1 for none)
+    gives the length.  All records advance a line at a time together.
+
+    Raises
+    ------
+    CorruptError
+        A line that does not fit its record, or lines that do not cover it.
+    """
+    nrec = len(rlen)
+    npl = int(rcount.sum())
+    rpos = np.cumsum(rlen + 1) - (rlen + 1)
+    ends = rpos + rlen
+    base = np.cumsum(rcount) - rcount
+    order = np.argsort(-rcount, kind="stable")
+    desc = rcount[order]
+    starts = np.empty(npl, np.int64)
+    lens = np.empty(npl, np.int64)
+    pos = rpos.copy()
+    bnd: list[int] | None = None
+    for j in range(int(desc[0]) if nrec else 0):
+        act = order[: int(np.searchsorted(-desc, -j, side="left"))]
+        if len(act) < FEW_RECORDS:  # a few long records left: line by line
+            bnd = bounds.tolist() if bnd is None else bnd
+            for r in act.tolist():
+                pr, er, lr = int(pos[r]), int(ends[r]), int(base[r])
+                for li in range(lr + j, lr + int(rcount[r])):
+                    w = int(exc[li])
+                    w = w if w >= 0 else _layout1(mode, bnd, pr, er)
+                    if w < 0 or w > P_WIDTH or pr + w > er:
+                        raise CorruptError("IGES model: P line layout does not fit its record")
+                    starts[li] = pr
+                    lens[li] = w
+                    pr += w
+                pos[r] = pr
+            break
+        p, e = pos[act], ends[act]
+        li = base[act] + j
+        n = _layout(mode, bounds, p, e)
+        x = exc[li]
+        n = np.where(x >= 0, x, n)
+        if ((n < 0) | (n > P_WIDTH) | (p + n > e)).any():
+            raise CorruptError("IGES model: P line layout does not fit its record")
+        starts[li] = p
+        lens[li] = n
+        pos[act] = p + n
+    if (pos != ends).any():
+        raise CorruptError("IGES model: P lines do not cover their record")
+    return starts, lens
 
 
 class _Varints:
@@ -249,29 +338,22 @@ def _encode(data: bytes) -> bytes | None:
     ptext = b"\n".join(rtexts)
 
     # layout of P lines: the policy with fewest exceptions
-    delim = np.frombuffer(ptext, np.uint8)
-    bounds = (np.flatnonzero((delim == pd) | (delim == rd)) + 1).tolist()
-    best_lay: tuple[int, int, list[int], list[int]] | None = None
+    bounds = _bounds(ptext, pd, rd)
+    lens_a = np.asarray(lens, np.int64)
+    rcount_a = np.asarray(rcount, np.int64)
+    rec = np.repeat(np.arange(len(rcount_a)), rcount_a)
+    rlen = np.asarray([len(t) for t in rtexts], np.int64)
+    line_pos = np.cumsum(lens_a) - lens_a + rec  # one joining byte per record before
+    line_end = (np.cumsum(rlen + 1) - 1)[rec] if len(rec) else line_pos
+    best_lay: tuple[int, np.ndarray] | None = None
     for mode in (0, 1):
-        exc_i: list[int] = []
-        exc_l: list[int] = []
-        li, pos = 0, 0
-        for r, c in enumerate(rcount):
-            e = pos + len(rtexts[r])
-            for _ in range(c):
-                pred_l = _layout(mode, bounds, pos, e) if pos < e else -1
-                if pred_l != lens[li]:
-                    exc_i.append(li)
-                    exc_l.append(lens[li])
-                pos += lens[li]
-                li += 1
-            pos = e + 1
-        if best_lay is None or len(exc_i) < len(best_lay[2]):
-            best_lay = (mode, 0, exc_i, exc_l)
-        if not exc_i:
-            break
+        bad = np.flatnonzero(_layout(mode, bounds, line_pos, line_end) != lens_a)
+        if best_lay is None or len(bad) < len(best_lay[1]):
+            best_lay = (mode, bad)
     assert best_lay is not None
-    lay_mode, _, lay_i, lay_l = best_lay
+    lay_mode = best_lay[0]
+    lay_i = best_lay[1].tolist()
+    lay_l = lens_a[best_lay[1]].tolist()
 
     # D entries
     D = M[d_idx, :72].reshape(nd, 18, 8)
@@ -730,33 +812,19 @@ def _decode(payload: bytes, limit: int) -> bytes:
 
     # P lines: their lengths by the layout policy, then one scatter
     bounds_a = np.frombuffer(ptext, np.uint8)
-    bounds = (np.flatnonzero((bounds_a == pd) | (bounds_a == rd)) + 1).tolist()
-    lex = dict(zip(lay_i, lay_l))
-    starts: list[int] = []
-    lens: list[int] = []
-    li = pos = 0
-    for r in range(nrec):
-        e = pos + len(rtexts[r])
-        for _ in range(rcount[r]):
-            got = lex.get(li)
-            n = got if got is not None else (_layout(lay_mode, bounds, pos, e) if pos < e else -1)
-            if n < 0 or n > P_WIDTH or pos + n > e:
-                raise CorruptError("IGES model: P line layout does not fit its record")
-            starts.append(pos)
-            lens.append(n)
-            pos += n
-            li += 1
-        if pos != e:
-            raise CorruptError("IGES model: P lines do not cover their record")
-        pos = e + 1
+    exc = np.full(npl, -1, np.int64)
+    if nlay:
+        exc[np.asarray(lay_i, np.int64)] = np.asarray(lay_l, np.int64)
+    rlen = np.asarray([len(t) for t in rtexts], np.int64)
+    starts, lens = _lines(lay_mode, _bounds(ptext, pd, rd), rlen, np.asarray(rcount, np.int64), exc)
     if npl:
         Pc = np.full((npl, 72), 32, np.uint8)
-        ln = np.array(lens, np.int64)
+        ln = lens
         total = int(ln.sum())
         prow = np.repeat(np.arange(npl), ln)
         first = np.repeat(np.cumsum(ln) - ln, ln)
         cols = np.arange(total) - first
-        Pc[prow, cols] = bounds_a[np.repeat(np.array(starts, np.int64), ln) + cols]
+        Pc[prow, cols] = bounds_a[np.repeat(starts, ln) + cols]
         Pc[:, 64:72] = np.repeat(_rows(b"".join(rtails), 8, nrec), rcount, axis=0)
         M[is_p, :72] = Pc
 

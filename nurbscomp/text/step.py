@@ -312,7 +312,8 @@ def encode(data: bytes) -> bytes | None:
     id_deltas = np.diff(np.r_[np.int64(0), ids]) - 1
 
     # references, by context, each stream in the smaller of its two modes
-    named = names(skel)
+    table, index = _units(skel)
+    named = _unit_names(table, index)
     refs = np.asarray([int(t[1:]) for t in refs_t], dtype=np.int64)
     r_stream, r_map = _streams_of(contexts(skel, REF, named))
     owner = _owners(skel, REF, ids)
@@ -350,7 +351,7 @@ def encode(data: bytes) -> bytes | None:
     header = b"".join(coding.varint(v) for v in head)
     streams = [
         header,
-        *_statements(skel),
+        *_statements(table, index),
         _ints(id_deltas.tolist()),
         _ints([len(t) for t in strs_t]),
         b"".join(strs_t),
@@ -362,20 +363,81 @@ def encode(data: bytes) -> bytes | None:
     return coding.pack(streams)
 
 
-def _statements(skel: bytes) -> list[bytes]:
-    """The skeleton as three streams (version 3): its distinct *statements*
-    (the pieces it is cut into after each ``;``) in order of first
-    appearance, their lengths, and each statement's index in that list, as
-    unsigned integers of 1, 2 or 4 bytes (the fewest that hold the number of
-    distinct statements), little-endian, one byte plane after another.  A few
-    hundred distinct statements make up a skeleton of tens of thousands:
-    LZMA2 codes the three in a tenth of the time it takes on the skeleton,
-    and smaller (19% on the corpus)."""
+def _units(skel: bytes) -> tuple[list[bytes], np.ndarray]:
+    """The skeleton's distinct *statements* (the pieces it is cut into after
+    each ``;``) in order of first appearance, and each statement's index in
+    that list."""
     seen: dict[bytes, int] = {}
     index = [seen.setdefault(u, len(seen)) for u in _STATEMENT.split(skel)]
-    width = _index_width(len(seen))
-    planes = np.asarray(index, dtype=f"<u{width}").view(np.uint8).reshape(-1, width).T
-    return [b"".join(seen), _ints([len(u) for u in seen]), planes.tobytes()]
+    return list(seen), np.asarray(index, dtype=np.int64)
+
+
+def _statements(table: list[bytes], index: np.ndarray) -> list[bytes]:
+    """The skeleton as three streams (version 3): its distinct statements
+    (:func:`_units`), their lengths, and each statement's index, as unsigned
+    integers of 1, 2 or 4 bytes (the fewest that hold the number of distinct
+    statements), little-endian, one byte plane after another.  A few hundred
+    distinct statements make up a skeleton of tens of thousands: LZMA2 codes
+    the three in a tenth of the time it takes on the skeleton, and smaller
+    (19% on the corpus)."""
+    width = _index_width(len(table))
+    planes = index.astype(f"<u{width}").view(np.uint8).reshape(-1, width).T
+    return [b"".join(table), _ints([len(u) for u in table]), planes.tobytes()]
+
+
+def _unit_names(table: list[bytes], index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`names` of the skeleton the statements make, found in each
+    distinct statement once (a name never crosses a statement: each ends
+    with ``;``)."""
+    lens = np.fromiter(map(len, table), dtype=np.int64, count=len(table))
+    pos: list[int] = []
+    local: list[int] = []
+    count = np.zeros(len(table), dtype=np.int64)
+    seen: dict[bytes, int] = {}
+    for u, unit in enumerate(table):
+        parts = _NAME_SPLIT.split(unit)
+        if len(parts) > 1:
+            ends = np.cumsum(np.fromiter(map(len, parts), dtype=np.int64, count=len(parts)))
+            pos += ends[0:-1:2].tolist()
+            local += [seen.setdefault(m, len(seen)) for m in parts[1::2]]
+            count[u] = len(parts) // 2
+    if not len(index) or not pos:
+        return np.zeros(0, dtype=np.int64), np.zeros(1, dtype=np.int64)
+    first = np.cumsum(count) - count
+    k = count[index]
+    total = int(k.sum())
+    at = np.repeat(np.cumsum(lens[index]) - lens[index], k)
+    within = np.arange(total, dtype=np.int64) - np.repeat(np.cumsum(k) - k, k)
+    src = np.repeat(first[index], k) + within
+    starts = np.asarray(pos, dtype=np.int64)[src] + at
+    lid = np.asarray(local, dtype=np.int64)[src]
+    # number the names in order of first appearance in the skeleton
+    uniq, first_at = np.unique(lid, return_index=True)
+    rank = np.empty(len(seen), dtype=np.int64)
+    rank[uniq[np.argsort(first_at)]] = np.arange(1, len(uniq) + 1)
+    return starts, np.r_[np.int64(0), rank[lid]]
+
+
+def _assemble(table: list[bytes], index: np.ndarray, values: list[bytes]) -> bytes:
+    """The text: the statements picked by ``index``, each placeholder
+    replaced, in order, by the next of ``values``."""
+    pieces: list[bytes] = []
+    count = np.zeros(len(table), dtype=np.int64)
+    for u, unit in enumerate(table):
+        parts = _PLACE.split(unit)
+        pieces += parts
+        count[u] = len(parts)  # one more than the unit's placeholders
+    first = np.cumsum(count) - count
+    k = count[index]
+    total = int(k.sum()) + len(values)
+    if total != 2 * int(k.sum()) - len(index):
+        raise CorruptError("STEP model: values do not match the skeleton")
+    slots = 2 * k - 1  # per statement: piece, value, piece, ..., piece
+    local = np.arange(total, dtype=np.int64) - np.repeat(np.cumsum(slots) - slots, slots)
+    is_piece = local % 2 == 0
+    piece = np.repeat(first[index], slots) + local // 2
+    value = np.cumsum(~is_piece) - 1 + len(pieces)
+    return b"".join(_pick(pieces + values, np.where(is_piece, piece, value)))
 
 
 def _index_width(n: int) -> int:
@@ -383,9 +445,12 @@ def _index_width(n: int) -> int:
     return 1 if n <= 1 << 8 else 2 if n <= 1 << 16 else 4
 
 
-def _skeleton(units: bytes, lens_raw: bytes, index_raw: bytes, size: int) -> bytes:
-    """Invert :func:`_statements`; a skeleton longer than ``size`` (the text's
-    length: every value stands for one byte or more) is refused before it is made."""
+def _skeleton(
+    units: bytes, lens_raw: bytes, index_raw: bytes, size: int
+) -> tuple[list[bytes], np.ndarray]:
+    """Invert :func:`_statements`: the table and index of :func:`_units`.  A
+    skeleton longer than ``size`` (the text's length: every value stands for
+    one byte or more) is refused before it is made."""
     if not lens_raw:
         raise CorruptError("STEP model: no statements")
     lens = _read_ints(lens_raw, lens_raw.count(b",") + 1, "statement lengths")
@@ -402,7 +467,7 @@ def _skeleton(units: bytes, lens_raw: bytes, index_raw: bytes, size: int) -> byt
         raise CorruptError("STEP model: skeleton longer than the text")
     ends = np.cumsum(lens).tolist()
     table = [units[a:b] for a, b in zip([0, *ends[:-1]], ends)]
-    return b"".join(_pick(table, index))
+    return table, index
 
 
 def _cost(stream: bytes) -> int:
@@ -449,8 +514,10 @@ def _decode(payload: bytes, limit: int) -> bytes:
     if version >= 3:  # the skeleton as statements: three streams for one
         if len(streams) < 11:
             raise CorruptError(f"STEP model: {len(streams)} streams")
-        skel = _skeleton(streams[1], streams[2], streams[3], size)
-        streams = [streams[0], skel, *streams[4:]]
+        table, index = _skeleton(streams[1], streams[2], streams[3], size)
+        streams = [streams[0], b"".join(_pick(table, index)), *streams[4:]]
+    else:
+        table, index = _units(streams[1])
     if len(streams) != 9 + nr + nn:
         raise CorruptError(f"STEP model: {len(streams)} streams, header says {9 + nr + nn}")
     modes = [next_int() for _ in range(nr + 1)]
@@ -480,7 +547,7 @@ def _decode(payload: bytes, limit: int) -> bytes:
     id_t = [b"#%d" % v for v in ids.tolist()]
 
     # references
-    named = names(skel)
+    named = _unit_names(table, index)
     r_ctx = contexts(skel, REF, named)
     r_stream = _apply_map(r_ctx, r_map)
     owner = _owners(skel, REF, ids)
@@ -537,11 +604,7 @@ def _decode(payload: bytes, limit: int) -> bytes:
     total = len(skel) - n + sum(map(len, values))
     if total != size:
         raise CorruptError(f"STEP model decodes to {total} bytes, header says {size}")
-    lits = _PLACE.split(skel)
-    out_parts: list[bytes] = [b""] * (2 * n + 1)
-    out_parts[0::2] = lits
-    out_parts[1::2] = values
-    out = b"".join(out_parts)
+    out = _assemble(table, index, values)
     if zlib.crc32(out) != crc:
         raise CorruptError("STEP model: CRC-32 of the text does not match")
     return out
