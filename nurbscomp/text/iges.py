@@ -46,7 +46,10 @@ import numpy as np
 from ..errors import CorruptError, FormatError, LimitError, TruncatedError
 from . import coding
 
-VERSION = 1
+#: Payload version: 2 adds the second-difference pole predictor (lane flag 2);
+#: 1 is still read.
+VERSION = 2
+_VERSIONS = (1, 2)
 #: Columns of parameter data on a P line.
 P_WIDTH = 64
 #: D fields predicted from elsewhere: type, parameter pointer, type again, line count.
@@ -474,6 +477,9 @@ def _placeholder(ptext: bytes) -> int | None:
 SHORT = 2
 #: Longest mantissa (in digits) a pole lane predicts: differences stay in int64.
 LANE_DIGITS = 17
+#: Second differences are taken where their estimated cost is below this
+#: share of the first's (bearing's nets lose to LZMA's matches otherwise).
+D2_GAIN = 0.9
 _SLOT = ord("#")  # a digit's place in a number format
 _TO_SLOT = bytes.maketrans(b"0123456789", b"##########")
 
@@ -568,6 +574,19 @@ def _diff(a: np.ndarray) -> np.ndarray:
     return np.diff(np.diff(a, axis=0, prepend=0), axis=1, prepend=0)
 
 
+def _diff2(a: np.ndarray) -> np.ndarray:
+    """Second differences along both axes of a surface's poles (zeros before
+    the first): the residual of a prediction that follows the net's
+    curvature, not only its slope (version 2, lane flag 2; at most 16 times
+    the poles, within int64 at LANE_DIGITS)."""
+    d = np.diff(np.diff(a, axis=0, prepend=0), axis=0, prepend=0)
+    return np.diff(np.diff(d, axis=1, prepend=0), axis=1, prepend=0)
+
+
+def _undiff2(d: np.ndarray) -> np.ndarray:
+    return np.cumsum(np.cumsum(np.cumsum(np.cumsum(d, axis=0), axis=0), axis=1), axis=1)
+
+
 def _undiff(d: np.ndarray) -> np.ndarray:
     if d.shape[0] == 1:
         return np.cumsum(np.cumsum(d[0]))[None, :]
@@ -616,13 +635,19 @@ def _numbers_encode(ptext: bytes, pd: int, rd: int, ph: int) -> list[bytes]:
         m = np.array([int(digs[i]) for i in ix.flat.__array__().tolist()], np.int64)
         m = np.where(neg[ix], -m.reshape(ix.shape), m.reshape(ix.shape))
         m = m * np.int64(10) ** (q[ix] - q[ix].min())  # at the lane's finest quantum
-        d = _diff(m).ravel()
-        bits = np.log2(2.0 * np.abs(d.astype(np.float64)) + 2.0).sum() + 2.0 * d.size
-        use = bool(bits < 3.3 * float(nd[ix].sum()))
-        flags.append(use)
-        if use:
+        best, flag = 3.3 * float(nd[ix].sum()), 0  # the digits' cost, in bits
+        res_d = np.zeros(0, np.int64)
+        for fl, pred, gain in ((1, _diff, 1.0), (2, _diff2, D2_GAIN)):
+            if fl == 2 and min(ix.shape) < 3:
+                continue
+            dd = pred(m).ravel()
+            bits = float(np.log2(2.0 * np.abs(dd.astype(np.float64)) + 2.0).sum()) + 2.0 * dd.size
+            if bits < gain * best:
+                best, flag, res_d = bits, fl, dd
+        flags.append(flag)
+        if flag:
             predicted[ix] = True
-            res.append(d)
+            res.append(res_d)
     r = np.concatenate(res) if res else np.zeros(0, np.int64)
     z = ((r << 1) ^ (r >> 63)).astype(np.uint64)  # zigzag
     digits = b"".join(d for d, p in zip(digs, predicted.tolist()) if not p)
@@ -636,7 +661,7 @@ def _numbers_encode(ptext: bytes, pd: int, rd: int, ph: int) -> list[bytes]:
     ]
 
 
-def _numbers_decode(streams: list[bytes], pd: int, ph: int) -> bytes:
+def _numbers_decode(streams: list[bytes], pd: int, ph: int, version: int) -> bytes:
     flags, skel, fdict, fids, digits, zres = streams
     if len(fids) % 2 or len(zres) % 8:
         raise CorruptError("IGES model: number streams have the wrong size")
@@ -654,8 +679,9 @@ def _numbers_decode(streams: list[bytes], pd: int, ph: int) -> bytes:
     nd_f, q_f, neg_f = _template_info(fmts)
     nd, q = nd_f[ids], q_f[ids]
     sel = _lane_sel(_pole_lanes(skel.split(b"\n"), pd, ph), nd, q)
-    if len(flags) != len(sel) or flags.strip(b"\x00\x01"):
+    if len(flags) != len(sel) or flags.strip(b"\x00\x01\x02" if version >= 2 else b"\x00\x01"):
         raise CorruptError("IGES model: pole lane flags do not match")
+    how = [f for f in flags if f]
     sel = [ix for ix, f in zip(sel, flags) if f]
     z = np.frombuffer(zres, np.uint8).reshape(8, -1).T.copy().view(np.uint64).ravel()
     r = ((z >> np.uint64(1)).astype(np.int64)) ^ -((z & np.uint64(1)).astype(np.int64))
@@ -663,13 +689,15 @@ def _numbers_decode(streams: list[bytes], pd: int, ph: int) -> bytes:
     predicted = np.zeros(n, bool)
     at = 0
     pidx, pm = [], []
-    for ix in sel:
+    for ix, f in zip(sel, how):
         k = ix.size
         if at + k > len(r):
             raise CorruptError("IGES model: fewer pole residuals than poles")
+        if f == 2 and min(ix.shape) < 3:
+            raise CorruptError("IGES model: second differences on a short lane")
         pidx.append(ix.ravel())
         scale = np.int64(10) ** (q[ix] - q[ix].min())
-        big = _undiff(r[at : at + k].reshape(ix.shape))
+        big = (_undiff2 if f == 2 else _undiff)(r[at : at + k].reshape(ix.shape))
         if (big % scale).any():
             raise CorruptError("IGES model: a pole is finer than its format")
         pm.append((big // scale).ravel())
@@ -717,7 +745,8 @@ def _decode(payload: bytes, limit: int) -> bytes:
     streams = coding.unpack(payload, 2 * limit + 4096, count=_N_STREAMS)
     hdr_s, raw_s, ints_s, text_s, dmask_s, dvals_s = streams[:6]
     h = _Varints(hdr_s)
-    if h() != VERSION:
+    version = h()
+    if version not in _VERSIONS:
         raise CorruptError("IGES model: unknown version")
     flags = h()
     if flags >> 4:
@@ -785,7 +814,7 @@ def _decode(payload: bytes, limit: int) -> bytes:
         M[text_mask, :72] = _rows(b"".join(r.ljust(72) for r in rows), 72, ntext)
 
     # parameter text
-    ptext = _numbers_decode(streams[6:], pd, ph)
+    ptext = _numbers_decode(streams[6:], pd, ph, version)
     rtexts = ptext.split(b"\n") if nrec else []
     npl = int(is_p.sum())
     if len(rtexts) != nrec or sum(rcount) != npl or any(c < 1 for c in rcount):
