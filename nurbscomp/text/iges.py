@@ -95,6 +95,18 @@ def _fmt(zero: bool, width: int, values: list[int]) -> bytes:
     return b"".join([(f % (width, v))[-width:] for v in values])
 
 
+def _fmt_rows(zero: bool, width: int, values: np.ndarray) -> np.ndarray:
+    """:func:`_fmt` of values >= 0 as an (n, width) array of bytes."""
+    v = values.astype(np.int64)
+    if len(v) and v.min() < 0:
+        return np.frombuffer(_fmt(zero, width, v.tolist()), np.uint8).reshape(len(v), width)
+    p = np.int64(10) ** np.arange(width - 1, -1, -1, dtype=np.int64)
+    out = ((v[:, None] // p) % 10 + 48).astype(np.uint8)
+    if not zero:
+        out[(v[:, None] < p) & (p > 1)] = 32
+    return out
+
+
 def _delims(gtext: bytes) -> tuple[int, int]:
     """The parameter and record delimiters the global section declares
     (``,`` and ``;`` by default, or ``1Hx`` for another)."""
@@ -280,11 +292,11 @@ def _encode(data: bytes) -> bytes | None:
     starts = np.concatenate(([0], change))
     counts = np.diff(np.concatenate((starts, [m])))
     run_id = np.repeat(np.arange(len(starts)), counts)
-    seqno = (np.arange(m) - starts[run_id] + 1).tolist()
+    seqno = np.arange(m) - starts[run_id] + 1
     seq_actual = M[:, 73:80]
     best: tuple[int, bool, np.ndarray] | None = None
     for zero in (True, False):
-        pred = np.frombuffer(_fmt(zero, 7, seqno), np.uint8).reshape(m, 7)
+        pred = _fmt_rows(zero, 7, seqno)
         bad = np.flatnonzero((pred != seq_actual).any(axis=1))
         if best is None or len(bad) < best[0]:
             best = (len(bad), zero, bad)
@@ -551,18 +563,24 @@ def _pole_lanes(recs: list[bytes], pd: int, ph: int) -> list[tuple[int, int, int
 def _lane_sel(lanes: list[tuple[int, int, int]], nd: np.ndarray, q: np.ndarray) -> list[np.ndarray]:
     """The real indices of each pole lane (entity and coordinate) that is
     predicted: all its reals have digit slots, and at the lane's finest
-    quantum none has more than LANE_DIGITS digits."""
-    ok = nd >= SHORT
-    sel = []
-    for first, rows, cols in lanes:
-        idx = first + np.arange(3 * rows * cols).reshape(rows, cols, 3)
-        for c in range(3):
-            ix = idx[:, :, c]
-            if ok[ix].all():
-                shift = q[ix] - q[ix].min()
-                if (nd[ix] + shift).max() <= LANE_DIGITS:
-                    sel.append(ix)
-    return sel
+    quantum none has more than LANE_DIGITS digits.  (All lanes at once: one
+    flat index array, reduced per lane.)"""
+    if not lanes:
+        return []
+    first_e, rows_e, cols_e = (np.asarray(x, dtype=np.int64) for x in zip(*lanes))
+    size = np.repeat(rows_e * cols_e, 3)
+    start = np.repeat(first_e, 3) + np.tile(np.arange(3), len(lanes))
+    off = np.cumsum(size) - size
+    t = np.arange(int(size.sum()), dtype=np.int64) - np.repeat(off, size)
+    flat = np.repeat(start, size) + 3 * t
+    ok = np.minimum.reduceat((nd >= SHORT)[flat], off)
+    qf = q[flat]
+    qmin = np.minimum.reduceat(qf, off)
+    widest = np.maximum.reduceat(nd[flat] + qf - np.repeat(qmin, size), off)
+    keep = np.flatnonzero(ok & (widest <= LANE_DIGITS)).tolist()
+    shape = np.repeat(np.stack([rows_e, cols_e], axis=1), 3, axis=0).tolist()
+    offl, sizel = off.tolist(), size.tolist()
+    return [flat[offl[k] : offl[k] + sizel[k]].reshape(shape[k]) for k in keep]
 
 
 def _diff(a: np.ndarray) -> np.ndarray:
@@ -687,24 +705,32 @@ def _numbers_decode(streams: list[bytes], pd: int, ph: int, version: int) -> byt
     r = ((z >> np.uint64(1)).astype(np.int64)) ^ -((z & np.uint64(1)).astype(np.int64))
     slots = int(nd.sum())
     predicted = np.zeros(n, bool)
-    at = 0
-    pidx, pm = [], []
-    for ix, f in zip(sel, how):
-        k = ix.size
-        if at + k > len(r):
-            raise CorruptError("IGES model: fewer pole residuals than poles")
+    sizes = np.asarray([ix.size for ix in sel], dtype=np.int64)
+    if int(sizes.sum()) != len(r):
+        raise CorruptError("IGES model: pole residuals do not match the poles")
+    at = np.cumsum(sizes) - sizes
+    groups: dict[tuple[int, int, int], list[int]] = {}
+    for k, (ix, f) in enumerate(zip(sel, how)):
         if f == 2 and min(ix.shape) < 3:
             raise CorruptError("IGES model: second differences on a short lane")
-        pidx.append(ix.ravel())
-        scale = np.int64(10) ** (q[ix] - q[ix].min())
-        big = (_undiff2 if f == 2 else _undiff)(r[at : at + k].reshape(ix.shape))
+        groups.setdefault((f, *ix.shape), []).append(k)
+    pidx, pm = [], []
+    for (f, rows, cols), ks in groups.items():  # lanes of one shape together
+        ix = np.stack([sel[k] for k in ks])
+        d = r[at[ks][:, None] + np.arange(rows * cols)].reshape(len(ks), rows, cols)
+        if f == 2:
+            big = np.cumsum(np.cumsum(np.cumsum(np.cumsum(d, 1), 1), 2), 2)
+        elif rows == 1:
+            big = np.cumsum(np.cumsum(d, 2), 2)
+        else:
+            big = np.cumsum(np.cumsum(d, 1), 2)
+        qx = q[ix]
+        scale = np.int64(10) ** (qx - qx.min(axis=(1, 2), keepdims=True))
         if (big % scale).any():
             raise CorruptError("IGES model: a pole is finer than its format")
+        pidx.append(ix.ravel())
         pm.append((big // scale).ravel())
-        at += k
         predicted[ix] = True
-    if at != len(r):
-        raise CorruptError("IGES model: more pole residuals than poles")
     out = np.empty(slots, np.uint8)
     pslot = np.repeat(predicted, nd)
     if int((~pslot).sum()) != len(digits):
@@ -792,8 +818,9 @@ def _decode(payload: bytes, limit: int) -> bytes:
     M = np.empty((m, 80), np.uint8)
     M[:, 72] = letters
     counts = [c for _, c in runs]
-    seqno = [i + 1 for c in counts for i in range(c)]
-    M[:, 73:80] = _rows(_fmt(seq_zero, 7, seqno), 7, m)
+    cnt = np.asarray(counts, dtype=np.int64)
+    seqno = np.arange(m, dtype=np.int64) - np.repeat(np.cumsum(cnt) - cnt, cnt) + 1
+    M[:, 73:80] = _fmt_rows(seq_zero, 7, seqno)
     if nseq:
         M[seq_bad, 73:80] = _rows(eb[: 7 * nseq], 7, nseq)
     is_d = letters == ord("D")
