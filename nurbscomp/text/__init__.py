@@ -16,9 +16,11 @@ Coding the plain stream costs what ``xz -9e`` costs, more than the model.
 So it is made only where the model might lose to it: the file is first coded
 with LZMA2 preset 1 (a tenth of 9e's time), and a model no larger than
 :data:`PLAIN_FLOOR` of that is kept without the plain stream.  On the corpus
-``xz -9e`` codes a file to 0.73-0.83 of preset 1 (the 9e search finds longer
-and farther matches, never fewer), so a model under 0.7 of preset 1 is below
-``xz -9e`` of the file; the corpus's models are at 0.45-0.63 of it.
+``xz -9e`` codes a file to 0.73-0.83 of preset 1, so a model under 0.7 of
+preset 1 is below ``xz -9e`` of the file there; the corpus's models are at
+0.40-0.63 of it.  This is a measured bound, not a proved one: a file that 9e
+codes to less than 0.7 of preset 1 and whose model lands between the two
+would keep a model larger than ``xz -9e`` of it (by at most that margin).
 Nothing here needs OpenCASCADE: this reads text.
 """
 
