@@ -13,13 +13,18 @@ $(VENV)/bin/nurbscomp: pyproject.toml
 	$(PIP) install --quiet -e '.[dev]'
 	@$(VENV)/bin/nurbscomp --version
 
-# The whole suite, corpus round trips included.  pytest exits 5 when no test
-# ran, which fails this target as it should.
+# The whole suite, corpus round trips included, on every core (pytest-xdist;
+# the tests of one corpus file in one worker, which reuses their containers;
+# TEST_JOBS=0 runs it in this process).  The corpus is ../shared/corpus, or the
+# folder NURBSCOMP_CORPUS names; without it the corpus tests are skipped and
+# the run says so.  pytest exits 5 when no test ran, which fails this target
+# as it should.  test-fast leaves out the slow corpus tiers.
+TEST_JOBS ?= auto
 test: install
-	$(PY) -m pytest -q
+	$(PY) -m pytest -q -n $(TEST_JOBS) --dist loadgroup
 
 test-fast: install
-	$(PY) -m pytest -q -m "not slow"
+	$(PY) -m pytest -q -n $(TEST_JOBS) --dist loadgroup -m "not slow"
 
 lint: install
 	$(VENV)/bin/ruff check nurbscomp tests samples benchmarks
@@ -37,13 +42,16 @@ samples: install
 # batch with -j 1 and -j 2 (goal >= 1.8x on 2 cores).  The cost of product
 # data (bench-product) goes to docs/benchmarks-product.md, the bytes of each
 # container section (issue 28) to docs/benchmarks-sections.md, byte-exact
-# lossless against xz -9e and OCCT's read (issue 29) to docs/benchmarks-exact.md.
+# lossless against xz -9e and OCCT's read (issue 29) to docs/benchmarks-exact.md,
+# a generated assembly of 800 parts (~30 MB of STEP, issue 30's scale row) to
+# docs/benchmarks-scale.md.
 bench: install
 	@$(PY) -c "import matplotlib" 2>/dev/null || $(PIP) install --quiet -e '.[bench]'
 	$(PY) benchmarks/bench.py
 	$(PY) benchmarks/product_cost.py > docs/benchmarks-product.md
 	$(PY) benchmarks/sections.py > docs/benchmarks-sections.md
 	$(PY) benchmarks/exact.py > docs/benchmarks-exact.md
+	$(PY) benchmarks/scale.py > docs/benchmarks-scale.md
 
 # What product data (format 1.2's PROD: tree, names, colours, layers, header)
 # costs per file of the corpus and the assembly sample, lossless (issue 12).

@@ -66,7 +66,7 @@ DEFAULT_TOL = 0.01  # the CLI's default; speed and memory are measured there
 REPEATS = 3  # medians over this many runs for the cheap timings
 WORKERS = 2
 XZ = 9 | lzma.PRESET_EXTREME
-#: Goals of ../shared/DESIGN.md §6 (total ratio over the corpus, and speed/memory).
+#: Goals of docs/design.md §6 (total ratio over the corpus, and speed/memory).
 RATIO_GOALS = {None: 10.0, 0.001: 45.0, 0.01: 80.0, 0.1: 150.0}  # issue 28's for the tolerances
 SPEED_GOALS = {"compress": 2.0, "decode": 0.1, "memory": 1.5}
 #: The speed goals of issues 10 and 14 (ratios to OCCT's read).
@@ -806,7 +806,7 @@ def plot(fig_data: Figures, path: Path) -> None:
         if y:
             ax.axhline(y, color=c, ls=ls, lw=1.2, label=f"{label}: {y:.1f}×")
     goals = [(t, RATIO_GOALS[t]) for t in tols]
-    ax.plot(*zip(*goals), "k_", ms=14, mew=2, ls="none", label="goal (DESIGN §6)")
+    ax.plot(*zip(*goals), "k_", ms=14, mew=2, ls="none", label="goal (design §6)")
     ax.set_xscale("log")
     ax.set_yscale("log")
     ys = [y for line in ax.get_lines() for y in line.get_ydata()]
@@ -942,7 +942,7 @@ def report(
         rows.append([label, f"≤ {goal:g}×", fx(val) + "×", "", "met" if ok else "**behind**"])
     w(
         table(
-            ["goal (../shared/DESIGN.md §6)", "goal", "measured", "--no-step-safe", "status"],
+            ["goal (docs/design.md §6)", "goal", "measured", "--no-step-safe", "status"],
             rows,
             "lrrrl",
         )
@@ -1740,7 +1740,7 @@ def readme_section(f: Figures, ctx: dict[str, Any]) -> str:
             "",
             "Per-file sizes and deviations, bits per pole against the naive quantizer, the",
             "paper's Tables 1–2, speed and memory per file, and every goal (from",
-            "`../shared/DESIGN.md`): [docs/benchmarks.md](docs/benchmarks.md).",
+            "`docs/design.md`): [docs/benchmarks.md](docs/benchmarks.md).",
             README_END,
         ]
     )

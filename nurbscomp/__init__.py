@@ -42,14 +42,10 @@ _REPORT = {"Counts", "FaceDeviation", "Report"}
 def __getattr__(name: str) -> Any:
     """The API's names, imported on first use (PEP 562): ``import nurbscomp``
     loads neither numpy's users nor OCP."""
-    if name == "__version__":  # importlib.metadata costs 25 ms: the script starts without it
-        from importlib.metadata import PackageNotFoundError, version
+    if name == "__version__":
+        from ._version import version
 
-        try:
-            v = version("nurbscomp")
-        except PackageNotFoundError:  # running from a source tree without install
-            v = "0.0.0"
-        globals()["__version__"] = v
+        globals()["__version__"] = v = version()
         return v
     if name in _API:
         from . import _api

@@ -8,7 +8,7 @@ byte backs, a pcurve the decoder computes costs no byte at all, and an IGES
 writer flattens every instance.  :func:`expansion` measures all of that with
 one pass over the shapes table in each direction (sub-shapes precede their
 parents, so the table is its own topological order: no recursion, no
-revisiting), and :func:`check` refuses what is past :class:`Limits`.
+revisiting), and :func:`check_structure` refuses what is past :class:`Limits`.
 
 Counts are capped at ``CAP`` while they are summed, so that a hostile DAG
 costs no big-integer arithmetic.

@@ -30,7 +30,7 @@ float) and a tolerance-driven ``(1+slope·(k+l))·Δ`` with Δ = tol·2^(e/4).
 
 Knots, degrees and weights are kept exactly, so the decoded surface is the
 same convex combination of the decoded poles, and max |S - S'| ≤ max_i
-|P_i - P'_i| (DESIGN §4).  That maximum is each code's certified ``bound``; the
+|P_i - P'_i| (docs/design.md §4).  That maximum is each code's certified ``bound``; the
 search keeps the cheapest code whose bound is ≤ tol.
 
 Everything here is numpy on plain arrays: nets are (nu, nv, 3).

@@ -5,11 +5,11 @@ patch of its four boundary curves lies in the surface's own spline space
 (splines reproduce linear functions, and the Greville abscissae are where they
 do so), and its control net is the discrete Coons formula taken at the
 normalised Greville abscissae.  For rational surfaces the same net is used as
-a predictor only; the weights are kept exactly (DESIGN §4).
+a predictor only; the weights are kept exactly (docs/design.md §4).
 
 The paper's bicubically blended variant (eq. 11: S = S1 + S2 − S3 with cubic
 blends) is :func:`bicubic_net`: cross-boundary derivatives are cubic curves
-between the boundary curves' end slopes (DESIGN §4), the corners' bilinear
+between the boundary curves' end slopes (docs/design.md §4), the corners' bilinear
 twist as their end slopes.  It is not
 in the spline space, so it is a predictor only, for every net.
 """

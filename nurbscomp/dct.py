@@ -1,7 +1,7 @@
 """Discrete cosine transforms and quantizers of the paper (eq. 8-10, 26-27).
 
 The paper writes the DCT of a length-N sequence with ``n-2`` where N = n-1 is
-meant (a typo, DESIGN §4); we use scipy's orthonormal DCT-II, which is
+meant (a typo, docs/design.md §4); we use scipy's orthonormal DCT-II, which is
 eq. 8-9 with that correction, and its inverse (DCT-III).  All functions work
 on numpy arrays and transform along the leading axes, so xyz sits in the last.
 """

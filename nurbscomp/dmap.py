@@ -8,9 +8,9 @@ Greville points (eq. 18).  The optimal surface is linear in d (the weights
 are exact, so the rational basis R_ij = N_i·N_j·w_ij / Σ N·N·w is fixed), and
 eq. 19–24 are the normal equations of that linear least-squares problem; we
 solve it with ``scipy.linalg.lstsq`` on the design matrix instead of forming
-and inverting A (DESIGN §4).
+and inverting A (docs/design.md §4).
 
-As DESIGN asks, only interior poles are unknowns: the boundary rows and
+As docs/design.md asks, only interior poles are unknowns: the boundary rows and
 columns are the decoded boundary curves, shared with the neighbours.  The
 paper's eq. 19 sums over all (n+1)(m+1) poles.
 

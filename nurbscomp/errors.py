@@ -1,6 +1,9 @@
-"""One exception family for nurbscomp; ``cli.py`` is the only place that catches it.
+"""One exception family for nurbscomp; ``cli.py`` turns it into what the user sees.
 
-Every error carries a one-line message. The CLI prints ``error: FILE: message``
+Inside, it is caught only where a stage has an answer to it (``batch``
+counts a file as failed and goes on, ``pipeline`` and the validity stage try
+the next remedy).  Every error carries a one-line message. The CLI prints
+``error: FILE: message``
 and exits with the code of the class (see README, "Exit codes"); a batch
 exits with the highest code among its files.
 """

@@ -8,8 +8,9 @@ tolerance: OCCT's STEP reader projects each edge's 3-D curve onto its face
 again, finds the two projected ends apart in (u, v), and "repairs" the gap
 with a new degenerated edge, changing the topology.
 
-Vertices are stored exactly, and the end poles of a clamped curve *are* its
-end points.  So after the nets are decoded, both the encoder and the decoder
+Vertices are decoded before the nets (exactly, or on the vertex grid of
+docs/format.md §2.6), and the end poles of a clamped curve *are* its end
+points.  So after the nets are decoded, both the encoder and the decoder
 run :func:`pin_curve_ends`: every coded curve that an edge uses over its whole
 parameter range gets its end poles set to that edge's vertices.  The move is
 at most the vertex's distance from the original end (its tolerance, usually
@@ -337,7 +338,7 @@ def iso_sources(
     those of ``boundary(surface poles, side, reversed)``, for the surface (in
     ``surface_rows``, clamped, unlocated face) of a face on that edge.  Such a
     curve is not coded: the decoder copies it from the decoded surface, so
-    the two meet exactly (DESIGN §4, "shared iso-boundaries coded once").
+    the two meet exactly (docs/design.md §4, "shared iso-boundaries coded once").
     """
     faces_of = faces_around(m, ShapeType.EDGE)
     out: dict[int, tuple[int, int, int]] = {}

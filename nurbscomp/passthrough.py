@@ -26,10 +26,12 @@ import zlib
 from pathlib import Path
 from typing import Any
 
-from . import __version__, container, text
+from . import container, text
+from ._version import version
 from .entropy import Coder
 from .errors import ChecksumError, CorruptError, InputError, LimitError, SectionError
 from .formats import BREP_SUFFIXES, IGES_SUFFIXES, STEP_SUFFIXES, output_format
+from .paths import atomic_output, check_output, read_container
 
 #: The sections of a passthrough container (1.2), in order.
 SECTIONS = ("META", "FILE")
@@ -125,7 +127,7 @@ def _pack(
         "source_bytes": len(data),
         "sha256": hashlib.sha256(data).hexdigest(),
         "model": MODELS[blob[0]],
-        "writer": f"nurbscomp {__version__}",
+        "writer": f"nurbscomp {version()}",
     }
     if reason is not None:
         meta["reason"] = meta_text(reason)
@@ -239,9 +241,8 @@ def compress_file(
     InputError
         ``src`` cannot be read, is not STEP/IGES, or is too large to store.
     OutputError
-        ``dst`` cannot be written (see ``pipeline.atomic_output``).
+        ``dst`` cannot be written (see ``paths.atomic_output``).
     """
-    from .pipeline import atomic_output, read_container
 
     try:
         data = src.read_bytes()
@@ -301,7 +302,6 @@ def decompress_file(
     OutputError
         ``dst`` cannot be written.
     """
-    from .pipeline import atomic_output, check_output, read_container
 
     t0 = time.perf_counter()
     check_output(dst, force, (src,))
@@ -335,7 +335,6 @@ def decompress_file(
 
 def info(src: Path) -> dict[str, Any]:
     """What a verbatim container holds (the fields of ``pipeline.info`` that apply)."""
-    from .pipeline import read_container
 
     c = read_container(src)
     meta, data = read(c)

@@ -1,25 +1,21 @@
 """The stages wired together: compress, decompress, info, test.
 
 Each function takes paths and options and returns a report (a plain dict that
-the CLI prints as text or JSON).  Outputs are written to a temporary file in
-the target folder and renamed into place only when complete, so a failure or
-an interrupt leaves nothing behind.
+the CLI prints as text or JSON).  Outputs go through ``paths.atomic_output``:
+a failure or an interrupt leaves nothing behind.
 """
 
 from __future__ import annotations
 
 import collections
-import contextlib
 import dataclasses
 import functools
 import hashlib
 import logging
 import os
-import signal
-import stat
 import tempfile
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeVar, cast
@@ -27,7 +23,8 @@ from typing import TYPE_CHECKING, Any, TypeVar, cast
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from . import __version__, budget, container, passthrough, product, serialize, units
+from . import budget, container, passthrough, product, serialize, units
+from ._version import version
 from .decode import model_to_sections, sections_to_model
 from .errors import (
     CorruptError,
@@ -52,6 +49,7 @@ from .model import (
     differences,
     nonfinite,
 )
+from .paths import atomic_output, check_output, read_container
 from .report import verdict
 
 if TYPE_CHECKING:
@@ -101,137 +99,6 @@ def default_decompressed_name(src: Path) -> Path:
             return src.with_name(stem.name)
         return src.with_name(stem.name + ".step")
     return src.with_name(src.name + ".step")
-
-
-#: Longest file name a temporary name's stem keeps, in bytes: the name
-#: ``.STEM.XXXXXXXX.tmp`` then fits the 255 bytes of common file systems.
-_TMP_STEM_BYTES = 200
-
-
-def _os_message(e: OSError) -> str:
-    return e.strerror or str(e)
-
-
-def check_output(dst: Path, force: bool, inputs: tuple[Path, ...] = ()) -> None:
-    """Refuse an output that may not be written, before any work is done.
-
-    Raises
-    ------
-    OutputError
-        ``dst`` is one of ``inputs`` (even with ``force``), exists and ``force``
-        is not set, is a folder, or cannot be looked at (the OS's message); or
-        it is not a regular file (a symbolic link, even a dangling one, a FIFO,
-        a device, a socket), which is never replaced, even with ``force``.
-    """
-    try:
-        if not dst.exists():
-            if dst.is_symlink():
-                raise OutputError(f"{dst} is a symbolic link; it is never replaced")
-            return
-        for src in inputs:
-            if src.exists() and os.path.samefile(src, dst):
-                raise OutputError(f"{dst} is the input file; it is never overwritten")
-        if dst.is_dir():
-            raise OutputError(f"{dst} is a directory")
-        kind = _not_regular(dst)
-        if kind:
-            raise OutputError(f"{dst} is {kind}, not a regular file; it is never replaced")
-    except OSError as e:
-        raise OutputError(f"cannot write {dst}: {_os_message(e)}") from None
-    if not force:
-        raise OutputError(f"{dst} already exists (use --force to overwrite)")
-
-
-def _not_regular(path: Path) -> str:
-    """What ``path`` is if it is not a regular file (``"a symbolic link"``,
-    ``"a FIFO"`` …), else ``""``; the link itself is looked at, not its target."""
-    mode = os.lstat(path).st_mode
-    if stat.S_ISREG(mode):
-        return ""
-    for test, kind in (
-        (stat.S_ISLNK, "a symbolic link"),
-        (stat.S_ISFIFO, "a FIFO"),
-        (stat.S_ISCHR, "a character device"),
-        (stat.S_ISBLK, "a block device"),
-        (stat.S_ISSOCK, "a socket"),
-    ):
-        if test(mode):
-            return kind
-    return "a special file"
-
-
-def _tmp_prefix(name: str) -> str:
-    """``.NAME.``, NAME cut to ``_TMP_STEM_BYTES`` bytes (mkstemp adds the unique part)."""
-    while len(os.fsencode(name)) > _TMP_STEM_BYTES:  # whole characters only
-        name = name[: -1 - (len(os.fsencode(name)) - _TMP_STEM_BYTES) // 4]
-    return f".{name}."
-
-
-@contextlib.contextmanager
-def atomic_output(dst: Path, force: bool, inputs: tuple[Path, ...] = ()) -> Iterator[Path]:
-    """Yield a temporary path beside ``dst``; rename it to ``dst`` on success.
-
-    The temporary name is ``.NAME.XXXXXXXX.tmp`` (NAME shortened so that it
-    fits 255 bytes); it is removed on any failure or interrupt (the CLI turns
-    SIGTERM and SIGHUP into interrupts).
-
-    Raises
-    ------
-    OutputError
-        ``dst`` is one of ``inputs``, exists and ``force`` is not set, its
-        folder does not exist, or the OS refuses a write (its message).
-    """
-    check_output(dst, force, inputs)
-    folder = dst.parent if str(dst.parent) else Path(".")
-    if not folder.is_dir():
-        raise OutputError(f"output folder {folder} does not exist")
-    # no interrupt between making the file and the try that removes it: the
-    # signals the CLI turns into interrupts wait until the try is entered
-    held = {signal.SIGINT, signal.SIGTERM, signal.SIGHUP}
-    old_mask = signal.pthread_sigmask(signal.SIG_BLOCK, held)
-    try:
-        fd, tmp = tempfile.mkstemp(prefix=_tmp_prefix(dst.name), suffix=".tmp", dir=folder)
-    except OSError as e:
-        signal.pthread_sigmask(signal.SIG_SETMASK, old_mask)
-        raise OutputError(f"cannot write in {folder}: {_os_message(e)}") from None
-    try:
-        signal.pthread_sigmask(signal.SIG_SETMASK, old_mask)
-        os.close(fd)
-        yield Path(tmp)
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; outputs get the usual mode
-        check_output(dst, force, inputs)  # the input may have been linked there meanwhile
-        os.replace(tmp, dst)
-    except OSError as e:
-        raise OutputError(f"cannot write {dst}: {_os_message(e)}") from None
-    finally:
-        with contextlib.suppress(FileNotFoundError):
-            os.unlink(tmp)
-
-
-# ---------------------------------------------------------------- reading containers
-
-
-def read_container(path: Path) -> container.Container:
-    """Read and check a ``.nzc`` file.
-
-    Raises
-    ------
-    InputError
-        The file is missing or is a folder.
-    FormatError
-        The bytes are not a valid container.
-    """
-    if not path.exists():
-        raise InputError("no such file")
-    if path.is_dir():
-        raise InputError("is a directory")
-    try:
-        data = path.read_bytes()
-    except OSError as e:
-        raise InputError(e.strerror or str(e)) from None
-    return container.unpack(data)
 
 
 def source_format(path: Path) -> str:
@@ -320,7 +187,7 @@ def write(
     """Write a decoded shape; the STEP header is taken from the container's META.
 
     FILE_NAME's name is the source file's name and its originating system the
-    writer named in META; the time stamp is fixed (``occ.files.STEP_TIME_STAMP``),
+    writer named in META; the time stamp is fixed (``occ.exchange.STEP_TIME_STAMP``),
     so the same container always gives the same bytes.  With product data
     (format 1.2), STEP and IGES are written through OCCT's XDE writers with
     the source's tree, names, colours, layers, schema and header
@@ -528,7 +395,7 @@ def encode_cad(
         "tolerance_mm": None if lossless else tol,
         "source_name": serialize.meta_text(name),
         "source_bytes": source_bytes,
-        "writer": f"nurbscomp {__version__}",
+        "writer": f"nurbscomp {version()}",
     }
     flags = container.FLAG_LOSSLESS if lossless else 0
 
@@ -768,7 +635,7 @@ def compress_file(
 def max_net_displacement(a: BRepModel, b: BRepModel) -> float:
     """Largest pole displacement between the B-spline surfaces and 3-D curves of two models.
 
-    The certified bound of DESIGN §4: knots, degrees and weights are equal, so
+    The certified bound of docs/design.md §4: knots, degrees and weights are equal, so
     no point of a surface or curve moves further than its farthest pole.
     """
     worst = 0.0

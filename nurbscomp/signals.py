@@ -3,7 +3,7 @@
 ``install`` (called by ``cli.main`` only: a library does not take over a
 program's signals) makes each of them raise :class:`Interrupted`, a
 ``KeyboardInterrupt``, so that the output being written is removed on the way
-out (``pipeline.atomic_output``), and remembers that it came.
+out (``paths.atomic_output``), and remembers that it came.
 
 Why remember: a signal can arrive inside code that turns exceptions into
 reports.  While OCP loads, the ``KeyboardInterrupt`` raised in an extension

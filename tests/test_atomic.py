@@ -10,7 +10,7 @@ from typing import Any
 import pytest
 from click.testing import CliRunner
 
-from nurbscomp import occ, pipeline
+from nurbscomp import occ, paths, pipeline
 from nurbscomp.cli import cli
 from nurbscomp.errors import EXIT_OUTPUT, OutputError, RebuildError
 
@@ -166,7 +166,7 @@ def test_long_output_names(work: Path) -> None:
     uni = work / ("é" * 100 + "y" * 40 + ".step")  # 145 characters, 245 bytes
     pipeline.decompress_file(src, uni)
     assert _names(work) == sorted(["part.step.nzc", out.name, uni.name])
-    assert pipeline._tmp_prefix("é" * 200).encode() == b"." + "é".encode() * 100 + b"."
+    assert paths._tmp_prefix("é" * 200).encode() == b"." + "é".encode() * 100 + b"."
     with pytest.raises(OutputError, match="File name too long"):
         pipeline.decompress_file(src, work / ("z" * 300 + ".step"))
     r = CliRunner().invoke(cli, ["decompress", str(src), "-o", str(work / ("z" * 300))])

@@ -472,6 +472,7 @@ def archive_round_trip(cad: Path, tmp_path: Path) -> dict[str, dict[str, Any]]:
     return recs
 
 
+@pytest.mark.corpus
 @pytest.mark.slow
 def test_corpus_archive_round_trip(tmp_path: Path) -> None:
     """The issue's "done when": the corpus and generated files, -j 2, and back."""

@@ -409,6 +409,7 @@ def test_rm_removes_inputs_once_done(work: Path) -> None:
     assert code == 1 and (work / "bad.step").exists()
 
 
+@pytest.mark.corpus
 def test_decompress_to_stdout_in_the_source_format(work: Path) -> None:
     assert run("compress", "-q", str(work / "part.step"))[0] == 0
     igs = work / "occ.nzc"  # no format in the name: the container's META tells

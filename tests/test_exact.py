@@ -17,7 +17,7 @@ import pytest
 import nurbscomp
 from nurbscomp import container, errors, occ, passthrough, pipeline, text
 
-from .conftest import CORPUS, SAMPLES
+from .conftest import CORPUS, SAMPLES, in_corpus
 
 
 def _cli(*args: str, stdin: bytes | None = None) -> subprocess.CompletedProcess[bytes]:
@@ -28,7 +28,11 @@ def _cli(*args: str, stdin: bytes | None = None) -> subprocess.CompletedProcess[
 
 @pytest.mark.parametrize(
     "src",
-    [CORPUS / "occt__occ22470.igs", CORPUS / "trimesh__featuretype.STEP", SAMPLES / "bracket.step"],
+    [
+        in_corpus("occt__occ22470.igs"),
+        in_corpus("trimesh__featuretype.STEP"),
+        SAMPLES / "bracket.step",
+    ],
     ids=lambda p: p.name,
 )
 def test_lossless_gives_the_file_back(tmp_path: Path, src: Path) -> None:
@@ -158,6 +162,7 @@ def test_no_brep_file_is_kept_byte_exact_in_tolerance_mode(tmp_path: Path) -> No
         pipeline.decode_file(nzc)
 
 
+@pytest.mark.corpus
 def test_text_blob_is_never_larger_than_its_plain_stream() -> None:
     """The model is kept only where it is smaller than raw LZMA2 at 9e (xz -9e's coding)."""
     for src in (SAMPLES / "teapot.step", CORPUS / "pythonocc-core__sunglasses_lens.igs"):

@@ -75,12 +75,14 @@ def test_step_source_to_iges(tmp_path: Path, mode: str) -> None:
     assert got["solids"] == 1 and got["free_edges"] == 0
 
 
+@pytest.mark.corpus
 @pytest.mark.parametrize("mode", sorted(MODES))
 def test_occ22470_keeps_its_solid(tmp_path: Path, mode: str) -> None:
     got = _assert_iges_keeps(CORPUS / "occt__occ22470.igs", tmp_path, mode)
     assert (got["solids"], got["shells"], got["edges"], got["free_edges"]) == (1, 1, 44, 0)
 
 
+@pytest.mark.corpus
 @pytest.mark.slow
 @pytest.mark.parametrize("mode", sorted(MODES))
 @pytest.mark.parametrize(
@@ -96,6 +98,7 @@ def test_corpus_to_iges(tmp_path: Path, name: str, mode: str) -> None:
     _assert_iges_keeps(CORPUS / name, tmp_path, mode)
 
 
+@pytest.mark.corpus
 def test_eval_fails_the_faces_mode_output(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """``nurbscomp eval SRC OUT.igs`` on occ22470 at 0.01 mm: exit 6 (topology
     differs, 88 free edges) for the faces-mode output the writer made before,

@@ -41,6 +41,7 @@ def _left(tmp: Path) -> list[str]:
     return sorted(str(p.relative_to(tmp)) for p in tmp.rglob("*") if p.name != "scratch")
 
 
+@pytest.mark.corpus
 @pytest.mark.parametrize("after", [0.2, 0.5, 1.0, 2.0])
 def test_sigint_during_compress(tmp_path: Path, after: float) -> None:
     p = _start(["compress", str(LONG), "-o", "out.nzc"], tmp_path)
@@ -54,6 +55,7 @@ def test_sigint_during_compress(tmp_path: Path, after: float) -> None:
     assert _left(tmp_path) == [], _left(tmp_path)
 
 
+@pytest.mark.corpus
 def test_sigterm_during_compress(tmp_path: Path) -> None:
     p = _start(["compress", str(LONG), "-o", "out.nzc"], tmp_path)
     time.sleep(1.0)
@@ -64,6 +66,7 @@ def test_sigterm_during_compress(tmp_path: Path) -> None:
     assert _left(tmp_path) == []
 
 
+@pytest.mark.corpus
 def test_a_batch_interrupted_counts_what_it_finished(tmp_path: Path) -> None:
     """The first file's output is in place when the signal comes: it is a
     done record, and the summary says so, with the exit status 130."""

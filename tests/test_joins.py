@@ -176,6 +176,7 @@ def test_located_surface_model_keeps_its_free_edges(tmp_path: Path) -> None:
     assert occ.free_edges_sewn(shape) <= occ.free_edges_sewn(occ.read_cad(src).shape)
 
 
+@pytest.mark.corpus
 def test_corner_pins_follow_the_format_minor(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:

@@ -75,6 +75,7 @@ def _no_new_gaps(path: Path, tmp_path: Path, tol: float) -> None:
     assert occ.free_edges_sewn(back) <= occ.free_edges_sewn(occ.read_cad(path).shape)
 
 
+@pytest.mark.corpus
 def test_bearing_step_keeps_free_edges(tmp_path: Path) -> None:
     """bearing.iges at 0.01 mm decompressed to STEP read back with 39 free
     edges (sewn at 1e-7) where OCCT's own IGES -> STEP -> read has 34 and the
@@ -230,6 +231,7 @@ def test_an_invalid_re_read_fails_the_step_check_with_no_faulty_face() -> None:
     floor.close()
 
 
+@pytest.mark.corpus
 @pytest.mark.slow
 def test_multibody_assembly_keeps_what_occts_round_trip_keeps(tmp_path: Path) -> None:
     """An assembly written by OCCT's XDE writer whose one part is a compound
@@ -405,6 +407,7 @@ def _curve_points(g, t: np.ndarray) -> np.ndarray:
     return h[:, :-1] / h[:, -1:]
 
 
+@pytest.mark.corpus
 @pytest.mark.parametrize("name", ["occ22470.igs", "NIST_MBE_PMI_2.stp"])
 def test_unit_curves_keep_every_edge_point_for_point(name: str) -> None:
     """Free 3-D curves go onto [0, 1]: each edge evaluates to the same points at

@@ -292,6 +292,7 @@ def test_ap203_assembly_comes_back_ap203(tmp_path: Path, variant: str) -> None:
         assert _step_text(out)["nauo"] == 4, mode
 
 
+@pytest.mark.corpus
 def test_iges_face_colours(tmp_path: Path) -> None:
     src = CORPUS / "occt__occ22470.igs"
     nzc = _compress(src, tmp_path, "lossless")
@@ -329,6 +330,7 @@ def test_an_older_container_has_no_product(tmp_path: Path) -> None:
     assert json.loads(r.output)["product"] is None
 
 
+@pytest.mark.corpus
 def test_compress_warning_names_what_is_dropped(tmp_path: Path) -> None:
     src = CORPUS / "occt__trj5_k1-pe-214.stp"
     r = pipeline.compress_file(src, tmp_path / "k.nzc", lossless=True)

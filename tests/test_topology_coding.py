@@ -20,9 +20,9 @@ from nurbscomp.errors import FormatError, LimitError
 from nurbscomp.model import BRepModel
 
 from . import fuzz
+from .conftest import CORPUS
 
 GOLDEN = Path(__file__).parent / "golden"
-CORPUS = Path(__file__).resolve().parents[2] / "shared" / "corpus"
 TABLES = ("shape_type", "shape_flags", "child_start", "child_shape", "child_orient", "child_loc")
 
 
@@ -65,6 +65,7 @@ def test_coded_is_smaller_than_the_arrays() -> None:
     assert len(coded) < len(serialize._write_shape_arrays(m)) / 2
 
 
+@pytest.mark.corpus
 @pytest.mark.slow
 @pytest.mark.parametrize(
     "name", ["occt__bearing.iges", "axom_data__boxed_sphere.step", "trimesh__featuretype.STEP"]

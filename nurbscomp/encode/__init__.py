@@ -1,4 +1,4 @@
-"""Tolerance policy on a whole model (DESIGN §2).
+"""Tolerance policy on a whole model (docs/design.md §2).
 
 The stages, in the order the encoder runs them:
 

@@ -1,4 +1,4 @@
-"""The model the decoder will rebuild from a model's codes (DESIGN §2, ``encode/``).
+"""The model the decoder will rebuild from a model's codes (docs/design.md §2, ``encode/``).
 
 :func:`assemble` puts the *decoded* poles of every coded record into the
 model's tables, leaving a chosen set of records exact, and does what the

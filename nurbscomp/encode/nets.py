@@ -1,4 +1,4 @@
-"""Which records of a model are coded, and how (DESIGN §2, ``encode/``).
+"""Which records of a model are coded, and how (docs/design.md §2, ``encode/``).
 
 :func:`code_model` runs the per-net search of :mod:`nurbscomp.codec`
 (:func:`codec.encode_net`, the paper's §6) once on each distinct B-spline

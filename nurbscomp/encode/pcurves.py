@@ -1,4 +1,4 @@
-"""Pcurves and parameter ranges the container need not store (DESIGN §4a, ``encode/``).
+"""Pcurves and parameter ranges the container need not store (docs/design.md §4a, ``encode/``).
 
 :func:`drop_pcurves` leaves pcurves for the decoder to compute (OCCT projects
 the 3-D curve); :func:`unit_curves` maps coded curves to [0, 1] where their

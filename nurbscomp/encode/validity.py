@@ -1,7 +1,7 @@
 """The validity stage: the cheapest decodable model that is as valid as the source.
 
-Every B-spline net and curve is coded (:func:`nurbscomp.nets.code_model`),
-and the pcurves OCCT can compute are left for the decoder (DESIGN §4a).  The
+Every B-spline net and curve is coded (:func:`encode.nets.code_model`),
+and the pcurves OCCT can compute are left for the decoder (docs/design.md §4a).  The
 B-rep the decoder will build is then checked, and remedies are applied where
 it falls short, cheapest first.  Two checks:
 
@@ -21,7 +21,7 @@ it falls short, cheapest first.  Two checks:
    climbs one rung of :class:`Rung` per round; a face whose rungs are all
    spent passes the blame to its edge neighbours, then to its vertex
    neighbours.  Faces that come back split with no face to blame get the
-   deliberate rule of :func:`nurbscomp.nets.kinked_records`.
+   deliberate rule of :func:`encode.nets.kinked_records`.
 
 Faces and edges are always indices of the *source* model (``m``): a re-read
 shape's faces are mapped onto the source's by :func:`step_losses` before

@@ -23,9 +23,8 @@ from OCP.IFSelect import IFSelect_ReturnStatus
 from OCP.IGESControl import IGESControl_Reader, IGESControl_Writer
 from OCP.Interface import Interface_Static
 from OCP.Message import Message
-from OCP.StepBasic import StepBasic_CalendarDate, StepBasic_LocalTime, StepBasic_Product
+from OCP.StepBasic import StepBasic_Product
 from OCP.STEPControl import STEPControl_AsIs, STEPControl_Reader, STEPControl_Writer
-from OCP.StepRepr import StepRepr_NextAssemblyUsageOccurrence
 from OCP.TCollection import TCollection_HAsciiString
 from OCP.TColStd import TColStd_SequenceOfAsciiString
 from OCP.TopAbs import TopAbs_COMPOUND
@@ -39,6 +38,13 @@ from ..formats import (  # noqa: F401 (re-exported: they were defined here)
     sniff_format,
 )
 from ..units import UNITS_MM
+from .exchange import (  # noqa: F401 (re-exported: they were defined here)
+    IGES_DATE,
+    STEP_TIME_STAMP,
+    check_readable,
+    fix_iges_dates,
+    settle_model,
+)
 
 # OCCT prints progress and statistics to stdout; the CLI owns stdout.
 Message.DefaultMessenger_s().ChangePrinters().Clear()
@@ -101,21 +107,6 @@ class CadFile:
     product: Any = None
 
 
-def _check_readable(path: Path) -> bytes:
-    if not path.exists():
-        raise InputError("no such file")
-    if path.is_dir():
-        raise InputError("is a directory")
-    try:
-        with open(path, "rb") as fh:
-            head = fh.read(1 << 16)
-    except OSError as e:
-        raise InputError(e.strerror or str(e)) from None
-    if not head.strip():
-        raise InputError("file is empty")
-    return head
-
-
 #: Deepest nesting of parentheses a STEP file may have (real files: under 10).
 #: OCCT's STEP parser recurses on it: measured, 10,000 levels parse and
 #: 100,000 crash the process (SIGSEGV).
@@ -174,7 +165,7 @@ def read_cad(path: str | os.PathLike[str], product: bool = False, own: bool = Fa
         nothing OCCT can turn into a B-rep.
     """
     p = Path(path)
-    head = _check_readable(p)
+    head = check_readable(p)
     fmt = sniff_format(p, head)
     if fmt == "STEP" and not own:
         screen_step(p)
@@ -242,12 +233,6 @@ def _step_losses(path: Path) -> list[str]:
     if not found:
         return []
     return [f"not stored: {', '.join(found)} (geometry and topology only)"]
-
-
-#: The STEP header's time stamp: fixed, so that the same shape gives the same bytes.
-STEP_TIME_STAMP = "1970-01-01T00:00:00"
-#: The IGES global section's dates, for the same reason.
-IGES_DATE = "19700101.000000"
 
 
 def write_shape(
@@ -333,14 +318,6 @@ def write_shape(
         raise OutputError(f"cannot write STEP ({status.name})")
 
 
-def fix_iges_dates(model: Any) -> None:
-    """Set an IGES model's dates to the fixed ``IGES_DATE``, like STEP's time stamp."""
-    gs = model.GlobalSection()
-    gs.SetDate(TCollection_HAsciiString(IGES_DATE))
-    gs.SetLastChangeDate(TCollection_HAsciiString(IGES_DATE))
-    model.SetGlobalSection(gs)
-
-
 def _name_products(model: Any, name: str) -> None:
     """Name the PRODUCTs of a STEP model after ``name`` (``name``, ``name 2`` …)
     and settle the rest (:func:`settle_model`)."""
@@ -353,31 +330,6 @@ def _name_products(model: Any, name: str) -> None:
             e.SetName(label)
             e.SetId(label)
     settle_model(model)
-
-
-def settle_model(model: Any) -> None:
-    """Make a STEP model's bytes depend on nothing but the shape: number its
-    assembly occurrences 1, 2 … in entity order (OCCT's own ids count what
-    was written before in the same process), and date its dates and times
-    ``STEP_TIME_STAMP`` (OCCT's AP203 writer dates its approvals and
-    security classification with the wall clock)."""
-    occurrences = 0
-    year, month, day = (int(x) for x in STEP_TIME_STAMP[:10].split("-"))
-    for i in range(1, model.NbEntities() + 1):
-        e = model.Value(i)
-        if isinstance(e, StepRepr_NextAssemblyUsageOccurrence):
-            occurrences += 1
-            e.SetId(TCollection_HAsciiString(str(occurrences)))
-        elif isinstance(e, StepBasic_CalendarDate):
-            e.SetYearComponent(year)
-            e.SetMonthComponent(month)
-            e.SetDayComponent(day)
-        elif isinstance(e, StepBasic_LocalTime):
-            e.SetHourComponent(0)
-            if e.HasMinuteComponent():
-                e.SetMinuteComponent(0)
-            if e.HasSecondComponent():
-                e.SetSecondComponent(0.0)
 
 
 def bintools_bytes(shape: Any) -> bytes:

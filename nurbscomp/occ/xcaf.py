@@ -63,14 +63,9 @@ from OCP.XCAFDoc import (
 )
 
 from ..errors import OutputError, RebuildError
+from ..formats import sniff_format
 from ..product import HEADER_FIELDS, HIDDEN, INSTANCE, NAMED, PRODUCT, SUBSHAPE, ProductData
-from .files import (
-    STEP_TIME_STAMP,
-    _check_readable,
-    fix_iges_dates,
-    settle_model,
-    sniff_format,
-)
+from .exchange import STEP_TIME_STAMP, check_readable, fix_iges_dates, settle_model
 from .measure import faces as faces_of
 from .mesh import face_meshes
 from .topology import _trsf, _trsf_rows
@@ -548,7 +543,7 @@ def write(
     written in the source's schema (:func:`step_schema`) with its header
     fields, assembly occurrences numbered 1, 2 …; IGES with fixed dates.
     Header fields the source did not have (an IGES source's) are ``name``,
-    ``system`` as originating system and ``files.STEP_TIME_STAMP``, as
+    ``system`` as originating system and ``exchange.STEP_TIME_STAMP``, as
     ``files.write_shape`` writes them, so the output depends on nothing else.
 
     Raises
@@ -641,7 +636,7 @@ def _set_header(model: Any, header: dict[str, list[str]]) -> None:
 def read_document(path: str | os.PathLike[str]) -> Any:
     """A STEP or IGES file read by OCCT's XCAF reader (names, colours, layers)."""
     p = Path(path)
-    fmt = sniff_format(p, _check_readable(p))
+    fmt = sniff_format(p, check_readable(p))
     caf, _ = caf_reader(fmt)
     if caf.ReadFile(str(p)) != IFSelect_ReturnStatus.IFSelect_RetDone:
         raise RebuildError(f"cannot read {p.name}")
@@ -655,7 +650,7 @@ def round_trip(src: str | os.PathLike[str], dst: str | os.PathLike[str]) -> None
     """OCCT's own XCAF read -> write of ``src`` to ``dst`` (STEP in the source's
     schema, or IGES by ``dst``'s extension): what the tests compare with."""
     s = Path(src)
-    fmt = sniff_format(s, _check_readable(s))
+    fmt = sniff_format(s, check_readable(s))
     caf, plain = caf_reader(fmt)
     caf.ReadFile(str(s))
     doc = new_document()

@@ -1,0 +1,69 @@
+"""What the plain and the XDE (``xcaf``) readers and writers share: the check
+that a file can be read, and the fixed dates and ids that make the same shape
+give the same bytes."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from OCP.StepBasic import StepBasic_CalendarDate, StepBasic_LocalTime
+from OCP.StepRepr import StepRepr_NextAssemblyUsageOccurrence
+from OCP.TCollection import TCollection_HAsciiString
+
+from ..errors import InputError
+
+#: The STEP header's time stamp: fixed, so that the same shape gives the same bytes.
+STEP_TIME_STAMP = "1970-01-01T00:00:00"
+#: The IGES global section's dates, for the same reason.
+IGES_DATE = "19700101.000000"
+
+
+def check_readable(path: Path) -> bytes:
+    """The first 64 KiB of ``path``; an ``InputError`` if it is missing, a
+    folder, unreadable or empty."""
+    if not path.exists():
+        raise InputError("no such file")
+    if path.is_dir():
+        raise InputError("is a directory")
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(1 << 16)
+    except OSError as e:
+        raise InputError(e.strerror or str(e)) from None
+    if not head.strip():
+        raise InputError("file is empty")
+    return head
+
+
+def fix_iges_dates(model: Any) -> None:
+    """Set an IGES model's dates to the fixed ``IGES_DATE``, like STEP's time stamp."""
+    gs = model.GlobalSection()
+    gs.SetDate(TCollection_HAsciiString(IGES_DATE))
+    gs.SetLastChangeDate(TCollection_HAsciiString(IGES_DATE))
+    model.SetGlobalSection(gs)
+
+
+def settle_model(model: Any) -> None:
+    """Make a STEP model's bytes depend on nothing but the shape: number its
+    assembly occurrences 1, 2 … in entity order (OCCT's own ids count what
+    was written before in the same process), and date its dates and times
+    ``STEP_TIME_STAMP`` (OCCT's AP203 writer dates its approvals and
+    security classification with the wall clock)."""
+    occurrences = 0
+    year, month, day = (int(x) for x in STEP_TIME_STAMP[:10].split("-"))
+    for i in range(1, model.NbEntities() + 1):
+        e = model.Value(i)
+        if isinstance(e, StepRepr_NextAssemblyUsageOccurrence):
+            occurrences += 1
+            e.SetId(TCollection_HAsciiString(str(occurrences)))
+        elif isinstance(e, StepBasic_CalendarDate):
+            e.SetYearComponent(year)
+            e.SetMonthComponent(month)
+            e.SetDayComponent(day)
+        elif isinstance(e, StepBasic_LocalTime):
+            e.SetHourComponent(0)
+            if e.HasMinuteComponent():
+                e.SetMinuteComponent(0)
+            if e.HasSecondComponent():
+                e.SetSecondComponent(0.0)
