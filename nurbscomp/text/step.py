@@ -453,9 +453,11 @@ def _unit_names(table: list[bytes], index: np.ndarray) -> tuple[np.ndarray, np.n
     return starts, np.r_[np.int64(0), rank[lid]]
 
 
-def _assemble(table: list[bytes], index: np.ndarray, values: list[bytes]) -> bytes:
-    """The text: the statements picked by ``index``, each placeholder
-    replaced, in order, by the next of ``values``."""
+def _assemble(
+    table: list[bytes], index: np.ndarray, values: list[bytes], place: np.ndarray
+) -> bytes:
+    """The text: the statements picked by ``index``, the k-th placeholder
+    replaced by ``values[place[k]]``."""
     pieces: list[bytes] = []
     count = np.zeros(len(table), dtype=np.int64)
     for u, unit in enumerate(table):
@@ -464,14 +466,14 @@ def _assemble(table: list[bytes], index: np.ndarray, values: list[bytes]) -> byt
         count[u] = len(parts)  # one more than the unit's placeholders
     first = np.cumsum(count) - count
     k = count[index]
-    total = int(k.sum()) + len(values)
+    total = int(k.sum()) + len(place)
     if total != 2 * int(k.sum()) - len(index):
         raise CorruptError("STEP model: values do not match the skeleton")
     slots = 2 * k - 1  # per statement: piece, value, piece, ..., piece
     local = np.arange(total, dtype=np.int64) - np.repeat(np.cumsum(slots) - slots, slots)
     is_piece = local % 2 == 0
     piece = np.repeat(first[index], slots) + local // 2
-    value = np.cumsum(~is_piece) - 1 + len(pieces)
+    value = place[np.maximum(np.cumsum(~is_piece) - 1, 0)] + len(pieces) if len(place) else piece
     return b"".join(_pick(pieces + values, np.where(is_piece, piece, value)))
 
 
@@ -636,11 +638,11 @@ def _decode(payload: bytes, limit: int) -> bytes:
         sel = kinds == k
         place[sel] = np.arange(offset, offset + int(counts[k]))
         offset += int(counts[k])
-    values = _pick(allv, place)
-    total = len(skel) - n + sum(map(len, values))
+    vlen = np.fromiter(map(len, allv), dtype=np.int64, count=len(allv))
+    total = len(skel) - n + int(vlen[place].sum())
     if total != size:
         raise CorruptError(f"STEP model decodes to {total} bytes, header says {size}")
-    out = _assemble(table, index, values)
+    out = _assemble(table, index, allv, place)
     if zlib.crc32(out) != crc:
         raise CorruptError("STEP model: CRC-32 of the text does not match")
     return out
