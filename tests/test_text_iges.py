@@ -202,3 +202,21 @@ def test_limit_is_enforced():
     assert payload is not None
     with pytest.raises(FormatError):
         iges.decode(payload, len(data) // 2)
+
+
+@pytest.mark.parametrize("path", [p for p in IGES if "sunglasses" in p.name], ids=lambda p: p.name)
+def test_second_differences_and_version_1(path):
+    """Version 2 codes some surface pole lanes as second differences (lane flag
+    2: the sunglasses lens's smooth nets); a version 1 payload, whose flags are
+    0 or 1 only, still decodes, and flag 2 under version 1 is refused."""
+    data = path.read_bytes()
+    streams = coding.unpack(_roundtrip(data), 4 * len(data))
+    assert streams[0][0] == 2 and b"\x02" in streams[6]
+    v1 = coding.pack([b"\x01" + streams[0][1:], *streams[1:]])
+    with pytest.raises(FormatError):
+        iges.decode(v1, len(data))
+    small = _small_iges()
+    s = coding.unpack(_roundtrip(small), 4 * len(small))
+    assert b"\x02" not in s[6]
+    old = coding.pack([b"\x01" + s[0][1:], *s[1:]])
+    assert iges.decode(old, len(small)) == small

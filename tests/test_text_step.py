@@ -6,6 +6,7 @@ import hashlib
 import lzma
 import random
 
+import numpy as np
 import pytest
 
 from nurbscomp import text
@@ -71,12 +72,14 @@ def test_context_streams():
     xs = b",".join(repr(r[0]).encode() for r in rows)
     zs = b",".join(repr(r[2]).encode() for r in rows)
     assert xs in streams and zs in streams
-    assert streams[2] == b",".join([b"9"] + [b"0"] * (n - 1))  # ids: #10, then +1 each
+    ids = step._read_int_stream(streams[4], n, "ids")
+    assert ids.tolist() == [9] + [0] * (n - 1)  # ids: #10, then +1 each
+    assert streams[4] == bytes([1, 18]) + bytes(n - 1)  # one byte each, zigzag
 
 
 def test_group_copies():
     """A CARTESIAN_POINT whose numbers repeat an earlier point's is a copy
-    (stream 6: how many points back), with its numbers out of the number
+    (stream 8: how many points back), with its numbers out of the number
     streams; a DIRECTION with the same numbers is of another kind and new; a
     copy that reaches too far back or forward is refused."""
     pts = [b"(1.5,2.,3.)", b"(4.,5.,6.)", b"(1.5,2.,3.)", b"(4.,5.,6.)", b"(4.,5.,6.)"]
@@ -86,17 +89,21 @@ def test_group_copies():
     data += b"#9=DIRECTION('',(1.5,2.,3.));\n#10=A('x',7);\n#11=A('y',7);\n"
     assert _round(data) == data
     streams = coding.unpack(step.encode(data), 10 * len(data))
-    assert streams[6] == b"0,0,0,2,2,1,0,0,1"  # the first: 10303 and -21 of the magic
-    assert b"4.,4." not in b"".join(streams[7:])
+    copies = step._read_int_stream(streams[8], 9, "copies").tolist()
+    assert copies == [0, 0, 0, 2, 2, 1, 0, 0, 1]  # the first: 10303 and -21 of the magic
+    assert b"4.,4." not in b"".join(streams[9:])
+    ok = step._int_stream(np.array(copies))
+    assert ok == streams[8]
     bad_copies = (
-        b"0,0,0,3,2,1,0,0,1",
-        b"0,0,0,2,2,1,0,0,-1",
-        b"0,0,0,2,2,1,0,0",
-        b"0,0,0,2,2,1,x,1",
+        step._int_stream(np.array([0, 0, 0, 3, 2, 1, 0, 0, 1])),
+        step._int_stream(np.array([0, 0, 0, 2, 2, 1, 0, 0, -1])),
+        step._int_stream(np.array([0, 0, 0, 2, 2, 1, 0, 0])),
+        bytes([3]) + ok[1:],
+        ok + b"\x00",
     )
     for bad in bad_copies:
         with pytest.raises(CorruptError):
-            step.decode(coding.pack([*streams[:6], bad, *streams[7:]]), len(data))
+            step.decode(coding.pack([*streams[:8], bad, *streams[9:]]), len(data))
 
 
 def test_damaged_payload_raises():
@@ -186,3 +193,64 @@ def test_short_fuzz():
         if result.startswith("FAIL"):
             fails.append((k, result))
     assert not fails
+
+
+def test_statements():
+    """Version 3 stores the skeleton as its distinct statements (stream 1, cut
+    after each ``;``), their lengths (2) and one index per statement (3); an
+    index past the dictionary, or one that would make the skeleton longer
+    than the text, is refused."""
+    data = b"ISO-10303-21;\nDATA;\n" + b"".join(
+        b"#%d=CARTESIAN_POINT('',(%d.,2.,3.));\n" % (i + 1, i) for i in range(300)
+    )
+    assert _round(data) == data
+    streams = coding.unpack(step.encode(data), 10 * len(data))
+    # "ISO-#-#;", "\nDATA;", "\n#=CARTESIAN_POINT(...);" and the last "\n"
+    assert streams[1].count(b"CARTESIAN_POINT") == 1
+    assert streams[2] == b"8,6,30,1"
+    assert streams[3] == b"\x00\x01" + b"\x02" * 300 + b"\x03"
+    for bad in (bytes([250]) * len(streams[3]), bytes([1]) * (50 * len(streams[3]))):
+        with pytest.raises(CorruptError):
+            step.decode(coding.pack([*streams[:3], bad, *streams[4:]]), len(data))
+
+
+def test_version_2_still_decodes():
+    """A version 2 payload (the skeleton as one stream, integers as decimal
+    text) decodes as before."""
+    data = SNIPPETS[0] * 3
+    streams = coding.unpack(step.encode(data), 10 * len(data))
+    head, pos = streams[0], 0
+    fields = []
+    for _ in range(5):  # version, size, crc, nr, nn
+        v, pos = coding.read_varint(head, pos)
+        fields.append(v)
+    assert fields[0] == 3
+    nr = fields[3]
+
+    def text(raw: bytes) -> bytes:
+        n = (len(raw) - 1) // raw[0] if raw else 0
+        return b",".join(b"%d" % v for v in step._read_int_stream(raw, n, "x").tolist())
+
+    v2 = [*streams]
+    for i in [4, 5, 8, *range(9, 10 + nr)]:
+        v2[i] = text(streams[i])
+    table, index = step._skeleton(*streams[1:4], len(data))
+    skel = b"".join(table[i] for i in index.tolist())
+    assert b"CARTESIAN_POINT" in skel and skel.count(b";") > 3
+    old = [coding.varint(2) + head[1:], skel, *v2[4:]]
+    assert step.decode(coding.pack(old), len(data)) == data
+
+
+def test_int_streams():
+    """Version 3 integer streams: a width byte and zigzag byte planes, the
+    narrowest width that holds them; empty for no values."""
+    for vals in ([0], [1, -1, 2, -2], [300, -5], [2**40, -(2**40)], [2**62, -(2**62)]):
+        raw = step._int_stream(np.array(vals, dtype=np.int64))
+        assert step._read_int_stream(raw, len(vals), "x").tolist() == vals
+    assert step._int_stream(np.array([1, -1, 127])) == bytes([1, 2, 1, 254])
+    assert step._int_stream(np.array([128]))[0] == 2
+    assert step._int_stream(np.zeros(0, dtype=np.int64)) == b""
+    with pytest.raises(CorruptError):
+        step._read_int_stream(b"\x01\x00", 2, "x")
+    with pytest.raises(CorruptError):
+        step._read_int_stream(b"", 1, "x")

@@ -46,7 +46,10 @@ import numpy as np
 from ..errors import CorruptError, FormatError, LimitError, TruncatedError
 from . import coding
 
-VERSION = 1
+#: Payload version: 2 adds the second-difference pole predictor (lane flag 2);
+#: 1 is still read.
+VERSION = 2
+_VERSIONS = (1, 2)
 #: Columns of parameter data on a P line.
 P_WIDTH = 64
 #: D fields predicted from elsewhere: type, parameter pointer, type again, line count.
@@ -92,6 +95,18 @@ def _fmt(zero: bool, width: int, values: list[int]) -> bytes:
     return b"".join([(f % (width, v))[-width:] for v in values])
 
 
+def _fmt_rows(zero: bool, width: int, values: np.ndarray) -> np.ndarray:
+    """:func:`_fmt` of values >= 0 as an (n, width) array of bytes."""
+    v = values.astype(np.int64)
+    if len(v) and v.min() < 0:
+        return np.frombuffer(_fmt(zero, width, v.tolist()), np.uint8).reshape(len(v), width)
+    p = np.int64(10) ** np.arange(width - 1, -1, -1, dtype=np.int64)
+    out = ((v[:, None] // p) % 10 + 48).astype(np.uint8)
+    if not zero:
+        out[(v[:, None] < p) & (p > 1)] = 32
+    return out
+
+
 def _delims(gtext: bytes) -> tuple[int, int]:
     """The parameter and record delimiters the global section declares
     (``,`` and ``;`` by default, or ``1Hx`` for another)."""
@@ -117,17 +132,106 @@ def _rows(blob: bytes, width: int, n: int) -> np.ndarray:
     return np.frombuffer(blob, np.uint8).reshape(n, width)
 
 
-def _layout(mode: int, bounds: list[int], s: int, e: int) -> int:
-    """The predicted length of a P line starting at ``s`` in a record ending at ``e``."""
-    if mode == 0:  # fill to P_WIDTH, breaking after a delimiter
+def _layout(mode: int, bounds: np.ndarray, s: np.ndarray, e: np.ndarray) -> np.ndarray:
+    """The predicted length of a P line starting at each ``s`` in a record
+    ending at ``e`` (-1 where ``s`` is at or past ``e``): mode 0, fill to
+    P_WIDTH breaking after the last delimiter that fits; mode 1, one parameter
+    a line.  ``bounds``: the positions just after each delimiter, ascending."""
+    if mode == 0:
+        i = np.searchsorted(bounds, s + P_WIDTH, side="right") - 1
+        b = np.where(i >= 0, bounds[np.maximum(i, 0)] if len(bounds) else -1, -1)
+        n = np.where(b > s, b - s, P_WIDTH)
+        n = np.where(e - s <= P_WIDTH, e - s, n)
+    else:
+        i = np.searchsorted(bounds, s, side="right")
+        b = bounds[np.minimum(i, len(bounds) - 1)] if len(bounds) else e
+        b = np.where(i < len(bounds), b, e)
+        n = np.minimum(np.minimum(b, e), s + P_WIDTH) - s
+    return np.where(s < e, n, -1)
+
+
+def _layout1(mode: int, bounds: list[int], s: int, e: int) -> int:
+    """:func:`_layout` of one line."""
+    if s >= e:
+        return -1
+    if mode == 0:
         if e - s <= P_WIDTH:
             return e - s
         i = bisect_right(bounds, s + P_WIDTH) - 1
         b = bounds[i] if i >= 0 else -1
         return b - s if b > s else P_WIDTH
-    i = bisect_right(bounds, s)  # one parameter a line
+    i = bisect_right(bounds, s)
     b = bounds[i] if i < len(bounds) else e
     return min(b, e, s + P_WIDTH) - s
+
+
+#: Records laid out together below this many: then the rest line by line.
+FEW_RECORDS = 24
+
+
+def _bounds(ptext: bytes, pd: int, rd: int) -> np.ndarray:
+    """The positions just after each delimiter of ``ptext``."""
+    a = np.frombuffer(ptext, np.uint8)
+    return np.flatnonzero((a == pd) | (a == rd)) + 1
+
+
+def _lines(
+    mode: int,
+    bounds: np.ndarray,
+    rlen: np.ndarray,
+    rcount: np.ndarray,
+    exc: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Where each P line starts in the joined record text and its length: the
+    records (of ``rlen`` bytes and ``rcount`` lines, joined by one byte each)
+    laid out by :func:`_layout` but where ``exc`` (one per line, -1 for none)
+    gives the length.  All records advance a line at a time together.
+
+    Raises
+    ------
+    CorruptError
+        A line that does not fit its record, or lines that do not cover it.
+    """
+    nrec = len(rlen)
+    npl = int(rcount.sum())
+    rpos = np.cumsum(rlen + 1) - (rlen + 1)
+    ends = rpos + rlen
+    base = np.cumsum(rcount) - rcount
+    order = np.argsort(-rcount, kind="stable")
+    desc = rcount[order]
+    starts = np.empty(npl, np.int64)
+    lens = np.empty(npl, np.int64)
+    pos = rpos.copy()
+    bnd: list[int] | None = None
+    for j in range(int(desc[0]) if nrec else 0):
+        act = order[: int(np.searchsorted(-desc, -j, side="left"))]
+        if len(act) < FEW_RECORDS:  # a few long records left: line by line
+            bnd = bounds.tolist() if bnd is None else bnd
+            for r in act.tolist():
+                pr, er, lr = int(pos[r]), int(ends[r]), int(base[r])
+                for li in range(lr + j, lr + int(rcount[r])):
+                    w = int(exc[li])
+                    w = w if w >= 0 else _layout1(mode, bnd, pr, er)
+                    if w < 0 or w > P_WIDTH or pr + w > er:
+                        raise CorruptError("IGES model: P line layout does not fit its record")
+                    starts[li] = pr
+                    lens[li] = w
+                    pr += w
+                pos[r] = pr
+            break
+        p, e = pos[act], ends[act]
+        li = base[act] + j
+        n = _layout(mode, bounds, p, e)
+        x = exc[li]
+        n = np.where(x >= 0, x, n)
+        if ((n < 0) | (n > P_WIDTH) | (p + n > e)).any():
+            raise CorruptError("IGES model: P line layout does not fit its record")
+        starts[li] = p
+        lens[li] = n
+        pos[act] = p + n
+    if (pos != ends).any():
+        raise CorruptError("IGES model: P lines do not cover their record")
+    return starts, lens
 
 
 class _Varints:
@@ -188,11 +292,11 @@ def _encode(data: bytes) -> bytes | None:
     starts = np.concatenate(([0], change))
     counts = np.diff(np.concatenate((starts, [m])))
     run_id = np.repeat(np.arange(len(starts)), counts)
-    seqno = (np.arange(m) - starts[run_id] + 1).tolist()
+    seqno = np.arange(m) - starts[run_id] + 1
     seq_actual = M[:, 73:80]
     best: tuple[int, bool, np.ndarray] | None = None
     for zero in (True, False):
-        pred = np.frombuffer(_fmt(zero, 7, seqno), np.uint8).reshape(m, 7)
+        pred = _fmt_rows(zero, 7, seqno)
         bad = np.flatnonzero((pred != seq_actual).any(axis=1))
         if best is None or len(bad) < best[0]:
             best = (len(bad), zero, bad)
@@ -249,29 +353,22 @@ def _encode(data: bytes) -> bytes | None:
     ptext = b"\n".join(rtexts)
 
     # layout of P lines: the policy with fewest exceptions
-    delim = np.frombuffer(ptext, np.uint8)
-    bounds = (np.flatnonzero((delim == pd) | (delim == rd)) + 1).tolist()
-    best_lay: tuple[int, int, list[int], list[int]] | None = None
+    bounds = _bounds(ptext, pd, rd)
+    lens_a = np.asarray(lens, np.int64)
+    rcount_a = np.asarray(rcount, np.int64)
+    rec = np.repeat(np.arange(len(rcount_a)), rcount_a)
+    rlen = np.asarray([len(t) for t in rtexts], np.int64)
+    line_pos = np.cumsum(lens_a) - lens_a + rec  # one joining byte per record before
+    line_end = (np.cumsum(rlen + 1) - 1)[rec] if len(rec) else line_pos
+    best_lay: tuple[int, np.ndarray] | None = None
     for mode in (0, 1):
-        exc_i: list[int] = []
-        exc_l: list[int] = []
-        li, pos = 0, 0
-        for r, c in enumerate(rcount):
-            e = pos + len(rtexts[r])
-            for _ in range(c):
-                pred_l = _layout(mode, bounds, pos, e) if pos < e else -1
-                if pred_l != lens[li]:
-                    exc_i.append(li)
-                    exc_l.append(lens[li])
-                pos += lens[li]
-                li += 1
-            pos = e + 1
-        if best_lay is None or len(exc_i) < len(best_lay[2]):
-            best_lay = (mode, 0, exc_i, exc_l)
-        if not exc_i:
-            break
+        bad = np.flatnonzero(_layout(mode, bounds, line_pos, line_end) != lens_a)
+        if best_lay is None or len(bad) < len(best_lay[1]):
+            best_lay = (mode, bad)
     assert best_lay is not None
-    lay_mode, _, lay_i, lay_l = best_lay
+    lay_mode = best_lay[0]
+    lay_i = best_lay[1].tolist()
+    lay_l = lens_a[best_lay[1]].tolist()
 
     # D entries
     D = M[d_idx, :72].reshape(nd, 18, 8)
@@ -392,6 +489,9 @@ def _placeholder(ptext: bytes) -> int | None:
 SHORT = 2
 #: Longest mantissa (in digits) a pole lane predicts: differences stay in int64.
 LANE_DIGITS = 17
+#: Second differences are taken where their estimated cost is below this
+#: share of the first's (bearing's nets lose to LZMA's matches otherwise).
+D2_GAIN = 0.9
 _SLOT = ord("#")  # a digit's place in a number format
 _TO_SLOT = bytes.maketrans(b"0123456789", b"##########")
 
@@ -463,18 +563,24 @@ def _pole_lanes(recs: list[bytes], pd: int, ph: int) -> list[tuple[int, int, int
 def _lane_sel(lanes: list[tuple[int, int, int]], nd: np.ndarray, q: np.ndarray) -> list[np.ndarray]:
     """The real indices of each pole lane (entity and coordinate) that is
     predicted: all its reals have digit slots, and at the lane's finest
-    quantum none has more than LANE_DIGITS digits."""
-    ok = nd >= SHORT
-    sel = []
-    for first, rows, cols in lanes:
-        idx = first + np.arange(3 * rows * cols).reshape(rows, cols, 3)
-        for c in range(3):
-            ix = idx[:, :, c]
-            if ok[ix].all():
-                shift = q[ix] - q[ix].min()
-                if (nd[ix] + shift).max() <= LANE_DIGITS:
-                    sel.append(ix)
-    return sel
+    quantum none has more than LANE_DIGITS digits.  (All lanes at once: one
+    flat index array, reduced per lane.)"""
+    if not lanes:
+        return []
+    first_e, rows_e, cols_e = (np.asarray(x, dtype=np.int64) for x in zip(*lanes))
+    size = np.repeat(rows_e * cols_e, 3)
+    start = np.repeat(first_e, 3) + np.tile(np.arange(3), len(lanes))
+    off = np.cumsum(size) - size
+    t = np.arange(int(size.sum()), dtype=np.int64) - np.repeat(off, size)
+    flat = np.repeat(start, size) + 3 * t
+    ok = np.minimum.reduceat((nd >= SHORT)[flat], off)
+    qf = q[flat]
+    qmin = np.minimum.reduceat(qf, off)
+    widest = np.maximum.reduceat(nd[flat] + qf - np.repeat(qmin, size), off)
+    keep = np.flatnonzero(ok & (widest <= LANE_DIGITS)).tolist()
+    shape = np.repeat(np.stack([rows_e, cols_e], axis=1), 3, axis=0).tolist()
+    offl, sizel = off.tolist(), size.tolist()
+    return [flat[offl[k] : offl[k] + sizel[k]].reshape(shape[k]) for k in keep]
 
 
 def _diff(a: np.ndarray) -> np.ndarray:
@@ -484,6 +590,19 @@ def _diff(a: np.ndarray) -> np.ndarray:
         a = a[0]
         return np.diff(np.diff(a, prepend=0), prepend=0)[None, :]
     return np.diff(np.diff(a, axis=0, prepend=0), axis=1, prepend=0)
+
+
+def _diff2(a: np.ndarray) -> np.ndarray:
+    """Second differences along both axes of a surface's poles (zeros before
+    the first): the residual of a prediction that follows the net's
+    curvature, not only its slope (version 2, lane flag 2; at most 16 times
+    the poles, within int64 at LANE_DIGITS)."""
+    d = np.diff(np.diff(a, axis=0, prepend=0), axis=0, prepend=0)
+    return np.diff(np.diff(d, axis=1, prepend=0), axis=1, prepend=0)
+
+
+def _undiff2(d: np.ndarray) -> np.ndarray:
+    return np.cumsum(np.cumsum(np.cumsum(np.cumsum(d, axis=0), axis=0), axis=1), axis=1)
 
 
 def _undiff(d: np.ndarray) -> np.ndarray:
@@ -534,13 +653,19 @@ def _numbers_encode(ptext: bytes, pd: int, rd: int, ph: int) -> list[bytes]:
         m = np.array([int(digs[i]) for i in ix.flat.__array__().tolist()], np.int64)
         m = np.where(neg[ix], -m.reshape(ix.shape), m.reshape(ix.shape))
         m = m * np.int64(10) ** (q[ix] - q[ix].min())  # at the lane's finest quantum
-        d = _diff(m).ravel()
-        bits = np.log2(2.0 * np.abs(d.astype(np.float64)) + 2.0).sum() + 2.0 * d.size
-        use = bool(bits < 3.3 * float(nd[ix].sum()))
-        flags.append(use)
-        if use:
+        best, flag = 3.3 * float(nd[ix].sum()), 0  # the digits' cost, in bits
+        res_d = np.zeros(0, np.int64)
+        for fl, pred, gain in ((1, _diff, 1.0), (2, _diff2, D2_GAIN)):
+            if fl == 2 and min(ix.shape) < 3:
+                continue
+            dd = pred(m).ravel()
+            bits = float(np.log2(2.0 * np.abs(dd.astype(np.float64)) + 2.0).sum()) + 2.0 * dd.size
+            if bits < gain * best:
+                best, flag, res_d = bits, fl, dd
+        flags.append(flag)
+        if flag:
             predicted[ix] = True
-            res.append(d)
+            res.append(res_d)
     r = np.concatenate(res) if res else np.zeros(0, np.int64)
     z = ((r << 1) ^ (r >> 63)).astype(np.uint64)  # zigzag
     digits = b"".join(d for d, p in zip(digs, predicted.tolist()) if not p)
@@ -554,7 +679,7 @@ def _numbers_encode(ptext: bytes, pd: int, rd: int, ph: int) -> list[bytes]:
     ]
 
 
-def _numbers_decode(streams: list[bytes], pd: int, ph: int) -> bytes:
+def _numbers_decode(streams: list[bytes], pd: int, ph: int, version: int) -> bytes:
     flags, skel, fdict, fids, digits, zres = streams
     if len(fids) % 2 or len(zres) % 8:
         raise CorruptError("IGES model: number streams have the wrong size")
@@ -572,29 +697,40 @@ def _numbers_decode(streams: list[bytes], pd: int, ph: int) -> bytes:
     nd_f, q_f, neg_f = _template_info(fmts)
     nd, q = nd_f[ids], q_f[ids]
     sel = _lane_sel(_pole_lanes(skel.split(b"\n"), pd, ph), nd, q)
-    if len(flags) != len(sel) or flags.strip(b"\x00\x01"):
+    if len(flags) != len(sel) or flags.strip(b"\x00\x01\x02" if version >= 2 else b"\x00\x01"):
         raise CorruptError("IGES model: pole lane flags do not match")
+    how = [f for f in flags if f]
     sel = [ix for ix, f in zip(sel, flags) if f]
     z = np.frombuffer(zres, np.uint8).reshape(8, -1).T.copy().view(np.uint64).ravel()
     r = ((z >> np.uint64(1)).astype(np.int64)) ^ -((z & np.uint64(1)).astype(np.int64))
     slots = int(nd.sum())
     predicted = np.zeros(n, bool)
-    at = 0
+    sizes = np.asarray([ix.size for ix in sel], dtype=np.int64)
+    if int(sizes.sum()) != len(r):
+        raise CorruptError("IGES model: pole residuals do not match the poles")
+    at = np.cumsum(sizes) - sizes
+    groups: dict[tuple[int, int, int], list[int]] = {}
+    for k, (ix, f) in enumerate(zip(sel, how)):
+        if f == 2 and min(ix.shape) < 3:
+            raise CorruptError("IGES model: second differences on a short lane")
+        groups.setdefault((f, *ix.shape), []).append(k)
     pidx, pm = [], []
-    for ix in sel:
-        k = ix.size
-        if at + k > len(r):
-            raise CorruptError("IGES model: fewer pole residuals than poles")
-        pidx.append(ix.ravel())
-        scale = np.int64(10) ** (q[ix] - q[ix].min())
-        big = _undiff(r[at : at + k].reshape(ix.shape))
+    for (f, rows, cols), ks in groups.items():  # lanes of one shape together
+        ix = np.stack([sel[k] for k in ks])
+        d = r[at[ks][:, None] + np.arange(rows * cols)].reshape(len(ks), rows, cols)
+        if f == 2:
+            big = np.cumsum(np.cumsum(np.cumsum(np.cumsum(d, 1), 1), 2), 2)
+        elif rows == 1:
+            big = np.cumsum(np.cumsum(d, 2), 2)
+        else:
+            big = np.cumsum(np.cumsum(d, 1), 2)
+        qx = q[ix]
+        scale = np.int64(10) ** (qx - qx.min(axis=(1, 2), keepdims=True))
         if (big % scale).any():
             raise CorruptError("IGES model: a pole is finer than its format")
+        pidx.append(ix.ravel())
         pm.append((big // scale).ravel())
-        at += k
         predicted[ix] = True
-    if at != len(r):
-        raise CorruptError("IGES model: more pole residuals than poles")
     out = np.empty(slots, np.uint8)
     pslot = np.repeat(predicted, nd)
     if int((~pslot).sum()) != len(digits):
@@ -635,7 +771,8 @@ def _decode(payload: bytes, limit: int) -> bytes:
     streams = coding.unpack(payload, 2 * limit + 4096, count=_N_STREAMS)
     hdr_s, raw_s, ints_s, text_s, dmask_s, dvals_s = streams[:6]
     h = _Varints(hdr_s)
-    if h() != VERSION:
+    version = h()
+    if version not in _VERSIONS:
         raise CorruptError("IGES model: unknown version")
     flags = h()
     if flags >> 4:
@@ -681,8 +818,9 @@ def _decode(payload: bytes, limit: int) -> bytes:
     M = np.empty((m, 80), np.uint8)
     M[:, 72] = letters
     counts = [c for _, c in runs]
-    seqno = [i + 1 for c in counts for i in range(c)]
-    M[:, 73:80] = _rows(_fmt(seq_zero, 7, seqno), 7, m)
+    cnt = np.asarray(counts, dtype=np.int64)
+    seqno = np.arange(m, dtype=np.int64) - np.repeat(np.cumsum(cnt) - cnt, cnt) + 1
+    M[:, 73:80] = _fmt_rows(seq_zero, 7, seqno)
     if nseq:
         M[seq_bad, 73:80] = _rows(eb[: 7 * nseq], 7, nseq)
     is_d = letters == ord("D")
@@ -703,7 +841,7 @@ def _decode(payload: bytes, limit: int) -> bytes:
         M[text_mask, :72] = _rows(b"".join(r.ljust(72) for r in rows), 72, ntext)
 
     # parameter text
-    ptext = _numbers_decode(streams[6:], pd, ph)
+    ptext = _numbers_decode(streams[6:], pd, ph, version)
     rtexts = ptext.split(b"\n") if nrec else []
     npl = int(is_p.sum())
     if len(rtexts) != nrec or sum(rcount) != npl or any(c < 1 for c in rcount):
@@ -730,33 +868,19 @@ def _decode(payload: bytes, limit: int) -> bytes:
 
     # P lines: their lengths by the layout policy, then one scatter
     bounds_a = np.frombuffer(ptext, np.uint8)
-    bounds = (np.flatnonzero((bounds_a == pd) | (bounds_a == rd)) + 1).tolist()
-    lex = dict(zip(lay_i, lay_l))
-    starts: list[int] = []
-    lens: list[int] = []
-    li = pos = 0
-    for r in range(nrec):
-        e = pos + len(rtexts[r])
-        for _ in range(rcount[r]):
-            got = lex.get(li)
-            n = got if got is not None else (_layout(lay_mode, bounds, pos, e) if pos < e else -1)
-            if n < 0 or n > P_WIDTH or pos + n > e:
-                raise CorruptError("IGES model: P line layout does not fit its record")
-            starts.append(pos)
-            lens.append(n)
-            pos += n
-            li += 1
-        if pos != e:
-            raise CorruptError("IGES model: P lines do not cover their record")
-        pos = e + 1
+    exc = np.full(npl, -1, np.int64)
+    if nlay:
+        exc[np.asarray(lay_i, np.int64)] = np.asarray(lay_l, np.int64)
+    rlen = np.asarray([len(t) for t in rtexts], np.int64)
+    starts, lens = _lines(lay_mode, _bounds(ptext, pd, rd), rlen, np.asarray(rcount, np.int64), exc)
     if npl:
         Pc = np.full((npl, 72), 32, np.uint8)
-        ln = np.array(lens, np.int64)
+        ln = lens
         total = int(ln.sum())
         prow = np.repeat(np.arange(npl), ln)
         first = np.repeat(np.cumsum(ln) - ln, ln)
         cols = np.arange(total) - first
-        Pc[prow, cols] = bounds_a[np.repeat(np.array(starts, np.int64), ln) + cols]
+        Pc[prow, cols] = bounds_a[np.repeat(starts, ln) + cols]
         Pc[:, 64:72] = np.repeat(_rows(b"".join(rtails), 8, nrec), rcount, axis=0)
         M[is_p, :72] = Pc
 
