@@ -1224,7 +1224,10 @@ def _write_nets(
     if anchors:
         w.ints(np.zeros(len(t.ints), np.int64) if t.anchor is None else t.anchor)
     parts: list[list[np.ndarray]] = [[] for _ in range(codec.STREAMS)]
+    prev = 0  # an ISO code's surface row is stored against the previous one's
     for k, ints in enumerate(t.ints):
+        if int(t.method[k]) == codec.Method.ISO and len(ints):
+            ints, prev = np.concatenate([ints[:1] - prev, ints[1:]]), int(ints[0])
         at = 0
         for stream, n in codec.segments(int(t.method[k]), int(t.quant[k]), shapes[k]):
             parts[stream].append(ints[at : at + n])
@@ -1268,13 +1271,19 @@ def _read_nets(
     r.done()
     finite(dcs, f"{tag} DC coefficients", MAX_COORD)
     per = []
+    prev = 0
     for k in range(n):
         try:
             runs = codec.segments(int(method[k]), int(quant[k]), shapes[k])
         except ValueError as e:
             raise SectionError(f"{tag}: net {k}: {e}") from None
         got = [streams[s].take(c) for s, c in runs]
-        per.append(np.concatenate(got) if got else np.zeros(0, np.int64))
+        one = np.concatenate(got) if got else np.zeros(0, np.int64)
+        if int(method[k]) == codec.Method.ISO:
+            with np.errstate(over="ignore"):  # a wrapped sum is an out-of-table row
+                one[0] += prev
+            prev = int(one[0])
+        per.append(one)
     for c in streams:
         c.done()
     return NetTable(method, quant, level, slope, per, dcs, anchor)

@@ -472,6 +472,12 @@ def _tables(rng: np.random.Generator, surfaces: bool) -> tuple[object, list[tupl
             p = np.cumsum(rng.normal(size=(nu, nv, 3)), 0) * 5
             s, t = np.linspace(0, 1, nu), np.linspace(0, 1, nv)
             codes.append(codec.encode_net(p, s, t, 0.01, methods=codec.SURFACE_SEARCH))
+        elif rng.random() < 0.3:  # references: an ISO or a COPY code
+            iso = bool(rng.random() < 0.5)
+            m = codec.Method.ISO if iso else codec.Method.COPY
+            ints = rng.integers(0, 9, 3 if iso else 2)
+            codes.append(codec.NetCode(m, codec.Quant.TOL, 0, 0, ints, np.zeros(0), 0.0, 0.0))
+            p = np.zeros((int(rng.integers(2, 9)), 3))
         else:
             p = np.cumsum(rng.normal(size=(int(rng.integers(2, 9)), 3)), 0) * 5
             codes.append(codec.encode_net(p, None, None, 0.01, methods=codec.CURVE_METHODS))
@@ -490,7 +496,7 @@ def _tables(rng: np.random.Generator, surfaces: bool) -> tuple[object, list[tupl
     return t, shapes
 
 
-@settings(max_examples=30, deadline=None)
+@settings(max_examples=60, deadline=None)
 @given(st.booleans(), st.integers(0, 2**31))
 def test_net_tables_round_trip_in_2_0_and_2_1(surfaces: bool, seed: int) -> None:
     from nurbscomp import serialize
