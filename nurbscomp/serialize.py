@@ -1216,7 +1216,7 @@ def _write_nets(
     w = BlockWriter()
     for col in (t.method, t.quant, t.level, t.slope):
         w.ints(col)
-    if revision < 4:
+    if revision < 4 or not t.ints:  # from revision 4 too, a table of no rows
         w.ints([len(x) for x in t.ints])
         w.ints(np.concatenate(t.ints) if t.ints else [])
         w.floats(t.dcs)
@@ -1248,10 +1248,11 @@ def _read_nets(
     revision: int = container.REVISION,
 ) -> NetTable:
     """A SNET/CNET section of ``n`` coded rows (of pole arrays ``shapes``); the
-    integers split per row: before revision 4 by the stored counts, from it
-    by :func:`codec.segments` from the five streams."""
+    integers split per row: before revision 4 (and in a table of no rows) by
+    the stored counts, from it by :func:`codec.segments` from the five
+    streams."""
     r = BlockReader(data, tag)
-    if revision < 4:
+    if revision < 4 or n == 0:  # from revision 4 too, a table of no rows
         method, quant, level, slope, counts = (r.ints(n) for _ in range(5))
         ints = _Cursor(r.ints(), f"{tag} ints")
         dcs = r.floats()
