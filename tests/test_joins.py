@@ -371,7 +371,7 @@ def test_surface_nets_anchored_at_their_face_vertices(tmp_path: Path) -> None:
     src, dst = SAMPLES / "blob.step", tmp_path / "blob.nzc"
     pipeline.compress_file(src, dst, tol=0.01, force=True)  # verified: within tol
     c = container.unpack(dst.read_bytes())
-    assert c.revision == container.REVISION == 4
+    assert c.revision == container.REVISION >= 4
     m, _, t = serialize.read_sections(c.get, c.revision, None)
     assert t.snet.anchor is not None and (t.snet.anchor > 0).sum() > len(t.snet.anchor) // 2
     rows = serialize.coded_rows(m.surfaces)
