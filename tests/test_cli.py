@@ -207,7 +207,10 @@ def test_step_without_brep_is_stored_verbatim(
     code, out, _ = run("info", "--json", str(nzc))
     rep = json.loads(out)
     assert code == 0 and rep["passthrough"] and rep["mode"] == "passthrough"
-    assert rep["format_version"] == f"{container.MAJOR}.{container.MINOR}" and fragment in rep["reason"]
+    assert (
+        rep["format_version"] == f"{container.MAJOR}.{container.MINOR}"
+        and fragment in rep["reason"]
+    )
     assert rep["source_bytes"] == len(content)
     code, out, _ = run("info", str(nzc))
     assert code == 0 and "passthrough" in out
