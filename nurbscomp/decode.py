@@ -26,7 +26,7 @@ from typing import Any, cast
 
 import numpy as np
 
-from . import budget, codec, container, coons, dmap, joins, serialize
+from . import budget, codec, container, coons, dmap, joins, serialize, spatial
 from .errors import BadReferenceError, SectionError
 from .model import (
     BRepModel,
@@ -174,16 +174,22 @@ def _net_table(
     codes: dict[Rec, codec.NetCode],
     tol: float,
     anchors: dict[int, np.ndarray] | None = None,
+    choices: dict[int, np.ndarray] | None = None,
 ) -> NetTable:
     """The codes of the coded records of a table (the model's ``which`` table),
     in the order of their first rows.
 
     Each code is re-based on the origin the decoder will use: the previous
     coded row's decoded first pole (:func:`codec.reorigin`), or the row's
-    anchor point where it has one (:func:`joins.anchors`).
+    anchor point where it has one (:func:`joins.anchors`).  With ``choices``
+    (``SNET`` from format 2.1: per row, the points of
+    :func:`joins.surface_anchor_candidates`), a row is coded against the one
+    of them, or the previous pole, whose first integers cost the fewest
+    bits (:func:`_anchor_choice`), and the table gets an anchor column.
     """
     anchors = anchors or {}
     order = []
+    picked = []
     origin = None
     for row, first in enumerate(first_row(records)):
         if row == first and Rec(which, row) in codes:
@@ -191,10 +197,17 @@ def _net_table(
             code = codes[Rec(which, row)]
             if code.method == codec.Method.COPY:  # filled last: not on the origin chain
                 order.append(code)
+                picked.append(0)
                 continue
+            k = 0
             if code.method != codec.Method.ISO:  # an ISO code holds references, no point
                 code = codec.reorigin(code, anchors.get(row, origin), tol)
+                if choices is not None and len(choices.get(row, ())):
+                    k = _anchor_choice(code, choices[row], tol)
+                    if k:
+                        code = codec.reorigin(code, choices[row][k - 1], tol)
             order.append(code)
+            picked.append(k)
             poles = cast(BSplineCurve | BSplineSurface, g).poles
             origin = poles.reshape(-1, poles.shape[-1])[0] if code.first is None else code.first
 
@@ -208,7 +221,31 @@ def _net_table(
         col("slope"),
         [c.ints for c in order],
         np.concatenate([c.dcs for c in order]) if order else np.zeros(0),
+        None if choices is None else np.array(picked, np.int64),
     )
+
+
+def _anchor_choice(code: codec.NetCode, points: np.ndarray, tol: float) -> int:
+    """0, or k > 0 for the k-th of ``points`` (k, 3): the origin that costs
+    ``code``'s first pole the fewest bits (:func:`codec.cost_bits` of its
+    first three integers, plus the anchor's own: the previous net's first
+    pole on a tie)."""
+    h = tol * code.grid
+    old = np.zeros(3) if code.origin is None else code.origin
+    head = code.ints[:3] + spatial.snap(old, h)
+    best, pick = codec.cost_bits(code.ints[:3]) + 1, 0
+    for k, pt in enumerate(points, 1):
+        bits = codec.cost_bits(head - spatial.snap(pt, h)) + codec.cost_bits(np.array([k]))
+        if bits < best:
+            best, pick = bits, k
+    return pick
+
+
+def _surface_choices(m: BRepModel, codes: dict[Rec, codec.NetCode]) -> dict[int, np.ndarray]:
+    """Per coded surface row, the points of its anchor candidates (format 2.1)."""
+    rows = [k.row for k in codes if k.table == Table.SURFACE]
+    cands = joins.surface_anchor_candidates(m, rows)
+    return {r: m.vertex_point[v] for r, v in cands.items()}
 
 
 def _curve_anchors(m: BRepModel, codes: dict[Rec, codec.NetCode]) -> dict[int, np.ndarray]:
@@ -223,7 +260,7 @@ def tables(m: BRepModel, codes: dict[Rec, codec.NetCode] | None, tol: float) -> 
     *decoded* poles)."""
     codes = codes or {}
     return Tables(
-        _net_table(m.surfaces, Table.SURFACE, codes, tol),
+        _net_table(m.surfaces, Table.SURFACE, codes, tol, None, _surface_choices(m, codes)),
         _net_table(m.curves3d, Table.CURVE3D, codes, tol, _curve_anchors(m, codes)),
         range_kinds(m),
         frozenset(codes),
@@ -407,6 +444,24 @@ def check_location_matrices(m: BRepModel) -> None:
             raise SectionError(f"LOCS: location {k}'s matrix is not finite or out of range")
 
 
+def _surface_anchors(m: BRepModel, t: NetTable, rows: list[int]) -> dict[int, np.ndarray]:
+    """The points a format 2.1 ``SNET`` codes first poles against: per row
+    whose anchor k > 0, the k-th vertex of :func:`joins.surface_anchor_candidates`
+    (a k past them, or below 0, is a ``SectionError``)."""
+    if t.anchor is None:
+        return {}
+    cands = joins.surface_anchor_candidates(m, rows)
+    out = {}
+    for k, (row, a) in enumerate(zip(rows, t.anchor.tolist(), strict=True)):
+        if a == 0:
+            continue
+        verts = cands.get(row, [])
+        if not 0 < a <= len(verts):
+            raise SectionError(f"SNET: net {k} (table row {row}): no anchor vertex {a}")
+        out[row] = m.vertex_point[verts[a - 1]]
+    return out
+
+
 def apply(m: BRepModel, t: Tables, tol: float, revision: int) -> None:
     """Run the decoder's geometric steps (module docstring) on ``m``, in place,
     as the file's version (``container.VERSIONS[revision]``) defines them (from
@@ -416,7 +471,9 @@ def apply(m: BRepModel, t: Tables, tol: float, revision: int) -> None:
     resolve_ranges(m, t.range_how)
     srows = coded_rows(m.surfaces)
     coded_surfaces = set(srows)
-    _decode_nets(t.snet, m.surfaces, tol, "SNET", revision=revision)
+    _decode_nets(
+        t.snet, m.surfaces, tol, "SNET", _surface_anchors(m, t.snet, srows), None, revision
+    )
     radius = None  # before 1.2: every corner within tol of a vertex of its face
     if revision >= 2:
         radius = {

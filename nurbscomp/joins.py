@@ -21,6 +21,7 @@ This costs no bits: it is a rule both sides apply to the same tables.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass, replace
 from typing import Any, cast
 
@@ -259,6 +260,23 @@ def face_vertices(m: BRepModel) -> list[list[int]]:
                 elif types[c] < ShapeType.VERTEX:
                     stack.append(c)
         out.append(sorted(found))
+    return out
+
+
+def surface_anchor_candidates(m: BRepModel, rows: Iterable[int]) -> dict[int, list[int]]:
+    """Per surface row of ``rows`` that a face stands on, the vertex rows a
+    format 2.1 ``SNET`` may code its first pole against (docs/format.md §2.4):
+    the vertices of the first face on it (:func:`face_vertices`: reached
+    through unlocated sub-shapes, in increasing row order).  A net's first
+    pole is often a corner of its face: against that vertex its grid
+    residual is near zero, where against the previous net's first pole it
+    costs some 30 bits."""
+    want = set(rows)
+    verts = face_vertices(m)
+    out: dict[int, list[int]] = {}
+    for f, r in enumerate(m.face_surface.tolist()):
+        if r in want and r not in out:
+            out[r] = verts[f]
     return out
 
 

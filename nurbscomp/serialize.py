@@ -29,7 +29,7 @@ from typing import Any, cast
 
 import numpy as np
 
-from . import budget, container, product, topocode
+from . import budget, codec, container, product, topocode
 from .errors import BadReferenceError, CorruptError, LimitError, SectionError
 from .model import (
     REBUILD,
@@ -1186,7 +1186,10 @@ class NetTable:
     """A SNET or CNET section as numbers: per coded row, in row order
     (:func:`coded_rows`), its method, quantizer, level and slope, and its
     integers; the DC coefficients of all of them, in order (how many each
-    takes is known only as it is decoded: ``decode.apply``)."""
+    takes is known only as it is decoded: ``decode.apply``).  ``anchor``
+    (``SNET`` from format 2.1): per row, 0 where its first pole is coded
+    against the previous net's, k > 0 against the k-th vertex of the first
+    face on it (:func:`joins.surface_anchor_candidates`)."""
 
     method: np.ndarray
     quant: np.ndarray
@@ -1194,31 +1197,97 @@ class NetTable:
     slope: np.ndarray
     ints: list[np.ndarray]
     dcs: np.ndarray
+    anchor: np.ndarray | None = None
 
 
-def _write_nets(t: NetTable) -> bytes:
+#: Names of the integer streams of a 2.1 net table (``codec.segments``), in order.
+NET_STREAMS = ("points", "residuals", "curve coefficients", "map coefficients", "references")
+
+
+def _write_nets(
+    t: NetTable,
+    shapes: list[tuple[int, ...]],
+    anchors: bool,
+    revision: int = container.REVISION,
+) -> bytes:
+    """A SNET/CNET section (docs/format.md §2.4); ``shapes``: the coded rows'
+    pole arrays' shapes, ``anchors``: whether the table has the anchor column
+    (``SNET``, from revision 4)."""
     w = BlockWriter()
     for col in (t.method, t.quant, t.level, t.slope):
         w.ints(col)
-    w.ints([len(x) for x in t.ints])
-    w.ints(np.concatenate(t.ints) if t.ints else [])
+    if revision < 4 or not t.ints:  # from revision 4 too, a table of no rows
+        w.ints([len(x) for x in t.ints])
+        w.ints(np.concatenate(t.ints) if t.ints else [])
+        w.floats(t.dcs)
+        return bytes(w)
+    if anchors:
+        w.ints(np.zeros(len(t.ints), np.int64) if t.anchor is None else t.anchor)
+    parts: list[list[np.ndarray]] = [[] for _ in range(codec.STREAMS)]
+    prev = 0  # an ISO code's surface row is stored against the previous one's
+    for k, ints in enumerate(t.ints):
+        if int(t.method[k]) == codec.Method.ISO and len(ints):
+            ints, prev = np.concatenate([ints[:1] - prev, ints[1:]]), int(ints[0])
+        at = 0
+        for stream, n in codec.segments(int(t.method[k]), int(t.quant[k]), shapes[k]):
+            parts[stream].append(ints[at : at + n])
+            at += n
+        if at != len(ints):
+            raise ValueError(f"net {k} holds {len(ints)} integers, its method {at}")
+    for p in parts:
+        w.ints(np.concatenate(p) if p else [])
     w.floats(t.dcs)
     return bytes(w)
 
 
-def _read_nets(data: bytes, n: int, tag: str) -> NetTable:
-    """A SNET/CNET section of ``n`` coded rows; the integers split per row."""
+def _read_nets(
+    data: bytes,
+    n: int,
+    tag: str,
+    shapes: list[tuple[int, ...]] | None = None,
+    revision: int = container.REVISION,
+) -> NetTable:
+    """A SNET/CNET section of ``n`` coded rows (of pole arrays ``shapes``); the
+    integers split per row: before revision 4 (and in a table of no rows) by
+    the stored counts, from it by :func:`codec.segments` from the five
+    streams."""
     r = BlockReader(data, tag)
-    method, quant, level, slope, counts = (r.ints(n) for _ in range(5))
-    ints = _Cursor(r.ints(), f"{tag} ints")
+    if revision < 4 or n == 0:  # from revision 4 too, a table of no rows
+        method, quant, level, slope, counts = (r.ints(n) for _ in range(5))
+        ints = _Cursor(r.ints(), f"{tag} ints")
+        dcs = r.floats()
+        r.done()
+        finite(dcs, f"{tag} DC coefficients", MAX_COORD)
+        if (counts < 0).any():
+            raise SectionError(f"{tag}: bad net header")
+        per = [ints.take(int(c)) for c in counts]
+        ints.done()
+        return NetTable(method, quant, level, slope, per, dcs)
+    if shapes is None or len(shapes) != n:
+        raise ValueError("a net table from format 2.1 is read with its rows' shapes")
+    method, quant, level, slope = (r.ints(n) for _ in range(4))
+    anchor = r.ints(n) if tag == "SNET" else None
+    streams = [_Cursor(r.ints(), f"{tag} {name}") for name in NET_STREAMS]
     dcs = r.floats()
     r.done()
     finite(dcs, f"{tag} DC coefficients", MAX_COORD)
-    if (counts < 0).any():
-        raise SectionError(f"{tag}: bad net header")
-    per = [ints.take(int(c)) for c in counts]
-    ints.done()
-    return NetTable(method, quant, level, slope, per, dcs)
+    per = []
+    prev = 0
+    for k in range(n):
+        try:
+            runs = codec.segments(int(method[k]), int(quant[k]), shapes[k])
+        except ValueError as e:
+            raise SectionError(f"{tag}: net {k}: {e}") from None
+        got = [streams[s].take(c) for s, c in runs]
+        one = np.concatenate(got) if got else np.zeros(0, np.int64)
+        if int(method[k]) == codec.Method.ISO:
+            with np.errstate(over="ignore"):  # a wrapped sum is an out-of-table row
+                one[0] += prev
+            prev = int(one[0])
+        per.append(one)
+    for c in streams:
+        c.done()
+    return NetTable(method, quant, level, slope, per, dcs, anchor)
 
 
 @dataclass
@@ -1241,6 +1310,19 @@ class Tables:
 # ---------------------------------------------------------------- whole model
 
 
+def _shapes(records: list[Geometry], rows: list[int]) -> list[tuple[int, ...]]:
+    """The shapes of the pole arrays of ``rows``."""
+    return [cast(BSplineCurve | BSplineSurface, records[r]).poles.shape for r in rows]
+
+
+def _net_shapes(records: list[Geometry], t: Tables, which: Table) -> list[tuple[int, ...]]:
+    """The shapes of the pole arrays of a table's coded rows (the coded records'
+    first rows, in order: the rows of its net table)."""
+    coded = t.rows(which)
+    first = first_row(records)
+    return _shapes(records, [r for r in range(len(records)) if r == first[r] and r in coded])
+
+
 def model_to_sections(m: BRepModel, meta: dict[str, Any], t: Tables) -> list[tuple[str, bytes]]:
     """The sections of a container holding ``m`` and the tables ``t`` (made by
     ``decode.tables``: in tolerance mode, ``m`` holds the *decoded* poles of
@@ -1251,9 +1333,9 @@ def model_to_sections(m: BRepModel, meta: dict[str, Any], t: Tables) -> list[tup
         ("META", json.dumps(meta, sort_keys=True, separators=(",", ":")).encode()),
         ("LOCS", _write_locations(m)),
         ("SURF", _write_geometry(m.surfaces, 3, t.rows(Table.SURFACE))),
-        ("SNET", _write_nets(t.snet)),
+        ("SNET", _write_nets(t.snet, _net_shapes(m.surfaces, t, Table.SURFACE), True)),
         ("CRV3", _write_geometry(m.curves3d, 3, t.rows(Table.CURVE3D))),
-        ("CNET", _write_nets(t.cnet)),
+        ("CNET", _write_nets(t.cnet, _net_shapes(m.curves3d, t, Table.CURVE3D), False)),
         ("CRV2", _write_geometry(m.curves2d, 2)),
         ("SHAP", _write_shapes(m)),
         ("VERT", _write_vertices(m, tol)),
@@ -1487,11 +1569,14 @@ def _read_sections(
     if limits is not None:
         budget.check_structure(m, limits)
     coded_surfaces = coded_rows(m.surfaces)
-    snet = _read_nets(get("SNET"), len(coded_surfaces), "SNET")
+    snet = _read_nets(
+        get("SNET"), len(coded_surfaces), "SNET", _shapes(m.surfaces, coded_surfaces), revision
+    )
     sides = _optional(get, "SIDE") if "SIDE" in layout(revision) else None
     if sides is not None:
         _read_sides(sides, m, set(coded_surfaces))
-    cnet = _read_nets(get("CNET"), len(coded_rows(m.curves3d)), "CNET")
+    crows = coded_rows(m.curves3d)
+    cnet = _read_nets(get("CNET"), len(crows), "CNET", _shapes(m.curves3d, crows), revision)
     prod = _optional(get, "PROD") if "PROD" in layout(revision) else None
     if prod is not None:
         m.product = product.read(prod, len(m.shape_type))

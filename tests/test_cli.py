@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
+from nurbscomp import container
 from nurbscomp.cli import cli
 from nurbscomp.errors import EXIT_CONTAINER, EXIT_OUTPUT
 
@@ -73,7 +74,7 @@ def test_json_info_and_test(work: Path) -> None:
     assert info["passthrough"] is False and rep["passthrough"] is False
     assert set(info["section_raw_bytes"]) >= {"META", "SURF", "SHAP", "EDGE"}
     code, out, _ = run("info", str(work / "part.step.nzc"))
-    assert code == 0 and "format:      .nzc 2.0," in out
+    assert code == 0 and f"format:      .nzc {container.MAJOR}.{container.MINOR}," in out
     code, out, _ = run("test", str(work / "part.step.nzc"))
     assert code == 0 and "OK" in out
 
@@ -206,7 +207,10 @@ def test_step_without_brep_is_stored_verbatim(
     code, out, _ = run("info", "--json", str(nzc))
     rep = json.loads(out)
     assert code == 0 and rep["passthrough"] and rep["mode"] == "passthrough"
-    assert rep["format_version"] == "2.0" and fragment in rep["reason"]
+    assert (
+        rep["format_version"] == f"{container.MAJOR}.{container.MINOR}"
+        and fragment in rep["reason"]
+    )
     assert rep["source_bytes"] == len(content)
     code, out, _ = run("info", str(nzc))
     assert code == 0 and "passthrough" in out

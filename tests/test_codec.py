@@ -414,3 +414,125 @@ def replace_slope(code: codec.NetCode) -> codec.NetCode:
     from dataclasses import replace
 
     return replace(code, slope=1)
+
+
+# ---------------------------------------------------------------- format 2.1 streams
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(2, 7), st.integers(2, 7), st.booleans(), st.integers(0, 2**31))
+def test_segments_count_every_methods_integers(nu: int, nv: int, paper: bool, seed: int) -> None:
+    """codec.segments says how many integers of each kind a code holds (the
+    2.1 layout has no count column): it must match what _code records, for
+    every method, quantizer and shape, curves included."""
+    rng = np.random.default_rng(seed)
+    p = np.cumsum(rng.normal(size=(nu, nv, 3)), 0) * 10
+    s, t = np.linspace(0, 1, nu), np.linspace(0, 1, nv)
+    basis = dmap.Basis.of(s, [2] + [1] * (nu - 2) + [2], t, [2] + [1] * (nv - 2) + [2], 1, 1, None)
+    quant = codec.Quant.PAPER if paper else codec.Quant.TOL
+    level = 8 if paper else 0
+    for m in codec.SURFACE_METHODS_2:
+        if m == codec.Method.DMAP and (nu < 3 or nv < 3):
+            with pytest.raises(ValueError):
+                codec.segments(m, quant, p.shape)
+            continue
+        if m == codec.Method.SPATIAL2 and paper:
+            continue
+        st_ = codec._Stepper(quant, level, 0, 0.01)
+        w = codec._Writer(st_)
+        w.bound = 0.01
+        codec._code(w, p, m, s, t, np.zeros(3), basis)
+        n = sum(len(x) for x in w.ints)
+        runs = codec.segments(m, quant, p.shape)
+        assert sum(c for _, c in runs) == n, (m, quant, p.shape)
+        if n:
+            assert runs[0][0] == codec.POS
+    curve = p[:, 0]
+    for m in codec.CURVE_METHODS:
+        w = codec._Writer(codec._Stepper(quant, level, 0, 0.01))
+        codec._code(w, curve, m, None, None, np.zeros(3))
+        n = sum(len(x) for x in w.ints)
+        assert sum(c for _, c in codec.segments(m, quant, curve.shape)) == n
+    with pytest.raises(ValueError):
+        codec.segments(codec.Method.CHORD, quant, p.shape)  # a curve method on a net
+    with pytest.raises(ValueError):
+        codec.segments(codec.Method.SPATIAL, quant, curve.shape)
+    with pytest.raises(ValueError):
+        codec.segments(99, quant, curve.shape)
+
+
+def _tables(rng: np.random.Generator, surfaces: bool) -> tuple[object, list[tuple[int, ...]]]:
+    """A random net table and its rows' shapes, coded by encode_net."""
+    from nurbscomp.serialize import NetTable
+
+    codes, shapes = [], []
+    for _ in range(int(rng.integers(0, 6))):
+        if surfaces:
+            nu, nv = (int(x) for x in rng.integers(2, 7, 2))
+            p = np.cumsum(rng.normal(size=(nu, nv, 3)), 0) * 5
+            s, t = np.linspace(0, 1, nu), np.linspace(0, 1, nv)
+            codes.append(codec.encode_net(p, s, t, 0.01, methods=codec.SURFACE_SEARCH))
+        elif rng.random() < 0.3:  # references: an ISO or a COPY code
+            iso = bool(rng.random() < 0.5)
+            m = codec.Method.ISO if iso else codec.Method.COPY
+            ints = rng.integers(0, 9, 3 if iso else 2)
+            codes.append(codec.NetCode(m, codec.Quant.TOL, 0, 0, ints, np.zeros(0), 0.0, 0.0))
+            p = np.zeros((int(rng.integers(2, 9)), 3))
+        else:
+            p = np.cumsum(rng.normal(size=(int(rng.integers(2, 9)), 3)), 0) * 5
+            codes.append(codec.encode_net(p, None, None, 0.01, methods=codec.CURVE_METHODS))
+        shapes.append(p.shape)
+    col = lambda name: np.array([int(getattr(c, name)) for c in codes], np.int64)  # noqa: E731
+    anchor = rng.integers(0, 3, len(codes)) if surfaces else None
+    t = NetTable(
+        col("method"),
+        col("quant"),
+        col("level"),
+        col("slope"),
+        [c.ints for c in codes],
+        np.concatenate([c.dcs for c in codes]) if codes else np.zeros(0),
+        anchor,
+    )
+    return t, shapes
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.booleans(), st.integers(0, 2**31))
+def test_net_tables_round_trip_in_2_0_and_2_1(surfaces: bool, seed: int) -> None:
+    from nurbscomp import serialize
+
+    t, shapes = _tables(np.random.default_rng(seed), surfaces)
+    tag = "SNET" if surfaces else "CNET"
+    for revision in (3, 4):
+        data = serialize._write_nets(t, shapes, surfaces, revision)
+        back = serialize._read_nets(data, len(shapes), tag, shapes, revision)
+        for name in ("method", "quant", "level", "slope", "dcs"):
+            assert np.array_equal(getattr(back, name), getattr(t, name))
+        assert len(back.ints) == len(t.ints)
+        assert all(np.array_equal(a, b) for a, b in zip(back.ints, t.ints, strict=True))
+        if revision == 4 and surfaces and shapes:
+            assert np.array_equal(back.anchor, t.anchor)
+        else:  # no anchor column before 2.1, in CNET, or in a table of no rows
+            assert back.anchor is None
+        if not shapes:  # a table of no rows is laid out as in 2.0
+            assert data == serialize._write_nets(t, shapes, surfaces, 3)
+
+
+def test_a_2_1_net_table_refuses_short_and_long_streams() -> None:
+    from nurbscomp import serialize
+    from nurbscomp.errors import SectionError
+
+    rng = np.random.default_rng(7)
+    t, shapes = _tables(rng, True)
+    while not shapes:
+        t, shapes = _tables(rng, True)
+    data = serialize._write_nets(t, shapes, True, 4)
+    bigger = [(s[0] + 1, *s[1:]) for s in shapes]  # rows asking for more integers
+    with pytest.raises(SectionError, match="too short"):
+        serialize._read_nets(data, len(shapes), "SNET", bigger, 4)
+    smaller = [(1, 1, 3)] * len(shapes)  # rows leaving integers over
+    with pytest.raises(SectionError):
+        serialize._read_nets(data, len(shapes), "SNET", smaller, 4)
+    curves = [(s[0] * s[1], 3) for s in shapes]  # surface methods on curve rows
+    with pytest.raises(SectionError, match="does not apply"):
+        serialize._read_nets(data, len(shapes), "SNET", curves, 4)

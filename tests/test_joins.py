@@ -361,3 +361,34 @@ def test_free_edges_count_faces_in_no_shell_beside_a_solid() -> None:
         b.Add(c, part)
     assert occ.free_edges(box) == 0
     assert occ.free_edges(loose) == occ.free_edges(shelled) == 4
+
+
+def test_surface_nets_anchored_at_their_face_vertices(tmp_path: Path) -> None:
+    """Format 2.1: a SNET net's first pole is coded against a vertex of its
+    face where that is cheaper (anchor k > 0); the container decodes within
+    tol, and an anchor past the face's vertices is refused by name."""
+    from .conftest import SAMPLES
+
+    src, dst = SAMPLES / "blob.step", tmp_path / "blob.nzc"
+    pipeline.compress_file(src, dst, tol=0.01, force=True)  # verified: within tol
+    c = container.unpack(dst.read_bytes())
+    assert c.revision == container.REVISION >= 4
+    m, _, t = serialize.read_sections(c.get, c.revision, None)
+    assert t.snet.anchor is not None and (t.snet.anchor > 0).sum() > len(t.snet.anchor) // 2
+    rows = serialize.coded_rows(m.surfaces)
+    cands = joins.surface_anchor_candidates(m, rows)
+    at = decode._surface_anchors(m, t.snet, rows)
+    for k, row in enumerate(rows):
+        a = int(t.snet.anchor[k])
+        if a:
+            assert np.array_equal(at[row], m.vertex_point[cands[row][a - 1]])
+        else:
+            assert row not in at
+    bad = replace(t.snet, anchor=t.snet.anchor.copy())
+    k = int(np.flatnonzero(bad.anchor > 0)[0])
+    bad.anchor[k] = len(cands[rows[k]]) + 1
+    with pytest.raises(SectionError, match=f"net {k} .* no anchor vertex"):
+        decode._surface_anchors(m, bad, rows)
+    bad.anchor[k] = -1
+    with pytest.raises(SectionError, match="no anchor vertex"):
+        decode._surface_anchors(m, bad, rows)
