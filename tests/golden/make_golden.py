@@ -64,10 +64,17 @@ GOLDEN = [
     ("assembly.step", "v2.tol0.01", {"tol": 0.01}),
     ("assembly.step", "v2.lossless", {"lossless": True}),
     ("loft.step", "v2.exact", {"exact": True}),
+    # format 2.1: SNET/CNET in streams by kind, nets anchored at face vertices (issue 28)
+    ("loft.step", "v2_1.tol0.01", {"tol": 0.01}),
+    ("blob.step", "v2_1.tol0.1", {"tol": 0.1}),  # bicubic Coons nets, anchors
+    ("teapot.step", "v2_1.faces.tol0.01", {"tol": 0.01}),  # ISO rows, copies, SIDE
+    ("assembly.step", "v2_1.tol0.001", {"tol": 0.001}),
 ]
 
 
 def _version(sample: str, mode: str) -> str:
+    if mode.startswith("v2_1."):
+        return "2.1"
     if mode.startswith("v2."):
         return "2.0"
     if sample.startswith("assembly."):
