@@ -53,6 +53,7 @@ from ..model import (
     RepKind,
     ShapeType,
 )
+from .geometry import _ulps
 
 _ORIENT = [TopAbs_Orientation(i) for i in range(4)]
 _VERSION = b"\nOpen CASCADE Topology V3 (c)\n"
@@ -111,14 +112,6 @@ class Unexpressed(Exception):
 
 
 # ---------------------------------------------------------------- directions
-
-
-def _ulps(x: float, radius: int) -> list[float]:
-    out, lo, hi = [x], x, x
-    for _ in range(radius):
-        lo, hi = math.nextafter(lo, -math.inf), math.nextafter(hi, math.inf)
-        out += [lo, hi]
-    return out
 
 
 def _preimage(target: tuple[float, ...], make: Any, read: Any) -> tuple[float, ...]:
