@@ -23,7 +23,7 @@ from click.testing import CliRunner
 from nurbscomp import batch, container, pipeline
 from nurbscomp.cli import cli
 from nurbscomp.errors import EXIT_CONTAINER, EXIT_INPUT, EXIT_INTERNAL, EXIT_OUTPUT
-from nurbscomp.occ import files as occ_files
+from nurbscomp.occ import exchange as occ_exchange
 
 from .conftest import SAMPLES, default_signals
 from .test_cli import CURVE_ONLY, TESSELLATED
@@ -128,7 +128,7 @@ def test_mixed_batch_json_and_back(tmp_path: Path, monkeypatch: pytest.MonkeyPat
             raise PermissionError(13, "Permission denied", str(file))
         return real_open(file, *a, **k)
 
-    monkeypatch.setattr(occ_files, "open", refuse, raising=False)
+    monkeypatch.setattr(occ_exchange, "open", refuse, raising=False)  # check_readable
     out, back = tmp_path / "out", tmp_path / "back"
     code, stdout, err = run("compress", "-r", str(src), "-O", str(out), "-j", "1", "--json")
     assert code == 1

@@ -25,7 +25,16 @@ TOPS = {m.split(".")[0] for m in MODULES}
 SPAN = re.compile(r"`([^`\n]+)`")
 DOTTED = re.compile(r"^(?:nurbscomp\.)?([A-Za-z_]\w*(?:\.[A-Za-z_*][\w*]*)+)(?:\(.*\))?$")
 FILE = re.compile(r"^([\w./-]+\.(?:py|md))(?::\d+)?$")
-FOLDERS = ("", "nurbscomp", "nurbscomp/encode", "nurbscomp/occ", "nurbscomp/text", "docs", "tests")
+FOLDERS = (
+    "",
+    "nurbscomp",
+    "nurbscomp/encode",
+    "nurbscomp/occ",
+    "nurbscomp/text",
+    "docs",
+    "tests",
+    "benchmarks",
+)
 
 
 def _has(obj: object, name: str) -> bool:
