@@ -14,17 +14,16 @@ $(VENV)/bin/nurbscomp: pyproject.toml
 	@$(VENV)/bin/nurbscomp --version
 
 # The whole suite, corpus round trips included, on every core (pytest-xdist;
-# the tests of one corpus file in one worker, which reuses their containers;
 # TEST_JOBS=0 runs it in this process).  The corpus is ../shared/corpus, or the
 # folder NURBSCOMP_CORPUS names; without it the corpus tests are skipped and
 # the run says so.  pytest exits 5 when no test ran, which fails this target
 # as it should.  test-fast leaves out the slow corpus tiers.
 TEST_JOBS ?= auto
 test: install
-	$(PY) -m pytest -q -n $(TEST_JOBS) --dist loadgroup
+	$(PY) -m pytest -q -n $(TEST_JOBS)
 
 test-fast: install
-	$(PY) -m pytest -q -n $(TEST_JOBS) --dist loadgroup -m "not slow"
+	$(PY) -m pytest -q -n $(TEST_JOBS) -m "not slow"
 
 lint: install
 	$(VENV)/bin/ruff check nurbscomp tests samples benchmarks

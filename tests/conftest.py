@@ -43,30 +43,45 @@ def in_corpus(name: str):
     return pytest.param(CORPUS / name, marks=pytest.mark.corpus, id=name)
 
 
-def _corpus_file(item: pytest.Item) -> str | None:
-    """The name of the corpus file a test is parametrised with, if any."""
-    spec = getattr(item, "callspec", None)
-    for v in spec.params.values() if spec is not None else ():
-        if isinstance(v, Path) and v.parent == CORPUS:
-            return v.name
-    return None
-
-
-@pytest.hookimpl(tryfirst=True)  # before pytest-xdist reads the groups
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    """Without the corpus, skip what needs it.  With it, the tests of one
-    corpus file form one ``xdist_group`` (``make test`` distributes by group),
-    so that the containers a worker made for one test serve the next ones."""
-    if not have_corpus():
-        skip = pytest.mark.skip(reason="needs the corpus (NURBSCOMP_CORPUS; see the last line)")
-        for item in items:
-            if item.get_closest_marker("corpus") is not None:
-                item.add_marker(skip)
+    """Without the corpus, skip what needs it."""
+    if have_corpus():
         return
+    skip = pytest.mark.skip(reason="needs the corpus (NURBSCOMP_CORPUS; see the last line)")
     for item in items:
-        name = _corpus_file(item)
-        if name is not None:
-            item.add_marker(pytest.mark.xdist_group(name))
+        if item.get_closest_marker("corpus") is not None:
+            item.add_marker(skip)
+
+
+@pytest.fixture(scope="session")
+def made(tmp_path_factory: pytest.TempPathFactory):
+    """``made(src, tol)``: the container of ``src`` at ``tol`` (defaults
+    otherwise), made once for the whole run, by whichever worker asks first:
+    a folder that every pytest-xdist worker shares, a lock file per container.
+    ``made(src, tol, have=path)`` offers a container a test made already."""
+    import fcntl
+    import shutil
+
+    from nurbscomp import pipeline
+
+    root = tmp_path_factory.getbasetemp()
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        root = root.parent  # the run's folder, above each worker's own
+    folder = root / "made"
+    folder.mkdir(exist_ok=True)
+
+    def get(src: Path, tol: float, have: Path | None = None) -> Path:
+        out = folder / f"{src.name}.{tol}.nzc"
+        with open(folder / f"{src.name}.{tol}.lock", "w") as lock:
+            fcntl.flock(lock, fcntl.LOCK_EX)
+            if not out.exists():
+                if have is not None:
+                    shutil.copyfile(have, out)
+                else:
+                    pipeline.compress_file(src, out, tol=tol)  # written whole or not at all
+        return out
+
+    return get
 
 
 def pytest_terminal_summary(terminalreporter, exitstatus: int, config: pytest.Config) -> None:

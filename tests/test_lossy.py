@@ -54,21 +54,9 @@ def _read_brep(path: Path):
 
 #: Containers of corpus files made with the defaults, by (file name, tol),
 #: shared by the slow tests so that each is made once per session.
-_MADE: dict[tuple[str, float], Path] = {}
-
-
-def _made(path: Path, tol: float, tmp_path: Path) -> Path:
-    if (path.name, tol) not in _MADE:
-        nzc = tmp_path / f"{path.name}.{tol}.nzc"
-        pipeline.compress_file(path, nzc, tol=tol)
-        _MADE[path.name, tol] = nzc
-    return _MADE[path.name, tol]
-
-
-def _no_new_gaps(path: Path, tmp_path: Path, tol: float) -> None:
-    """The decoded shape (as a .brep file holds it, no STEP reader mending it)
-    has no more free edges sewn at 1e-7 than the source."""
-    nzc = _made(path, tol, tmp_path)
+def _no_new_gaps(path: Path, tmp_path: Path, nzc: Path) -> None:
+    """The decoded shape of ``nzc`` (as a .brep file holds it, no STEP reader
+    mending it) has no more free edges sewn at 1e-7 than the source."""
     brep = tmp_path / "x.brep"
     pipeline.decompress_file(nzc, brep, force=True)
     back = _read_brep(brep)
@@ -259,17 +247,16 @@ def test_multibody_assembly_keeps_what_occts_round_trip_keeps(tmp_path: Path) ->
 
 @pytest.mark.slow
 @pytest.mark.parametrize("path", corpus_files(), ids=lambda p: p.name)
-def test_corpus_within_tol(path: Path, tmp_path: Path) -> None:
+def test_corpus_within_tol(path: Path, tmp_path: Path, made) -> None:
     _check(path, tmp_path, 0.01, step=True)
-    _MADE[path.name, 0.01] = tmp_path / "x.nzc"
-    _no_new_gaps(path, tmp_path, 0.01)
+    _no_new_gaps(path, tmp_path, made(path, 0.01, have=tmp_path / "x.nzc"))
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("path", corpus_files(), ids=lambda p: p.name)
 @pytest.mark.parametrize("tol", [0.001, 0.1])
-def test_corpus_no_new_gaps(path: Path, tmp_path: Path, tol: float) -> None:
-    _no_new_gaps(path, tmp_path, tol)
+def test_corpus_no_new_gaps(path: Path, tmp_path: Path, tol: float, made) -> None:
+    _no_new_gaps(path, tmp_path, made(path, tol))
 
 
 #: Files known to grow with tol (strict xfails: the day one stops growing,
@@ -292,9 +279,9 @@ def _growth_cases() -> list[object]:
 
 @pytest.mark.slow
 @pytest.mark.parametrize("path", _growth_cases(), ids=lambda p: getattr(p, "name", str(p)))
-def test_corpus_no_growth_with_tol(path: Path, tmp_path: Path) -> None:
+def test_corpus_no_growth_with_tol(path: Path, made) -> None:
     """A larger tolerance never gives a larger container (issue 10)."""
-    sizes = [_made(path, tol, tmp_path).stat().st_size for tol in (0.001, 0.01, 0.1)]
+    sizes = [made(path, tol).stat().st_size for tol in (0.001, 0.01, 0.1)]
     assert sizes == sorted(sizes, reverse=True), f"bytes at 0.001, 0.01, 0.1 mm: {sizes}"
 
 
