@@ -564,7 +564,7 @@ def measure_batch(corpus: list[Path], tmp: str, src: str, log: Any) -> dict[str,
         cmd = [sys.executable, "-m", "nurbscomp.cli", "compress", "-r", str(folder)]
         t = time.perf_counter()
         r = subprocess.run(
-            [*cmd, "-d", str(d), "-j", str(jobs), "--json"], env=env, capture_output=True
+            [*cmd, "-O", str(d), "-j", str(jobs), "--json"], env=env, capture_output=True
         )
         walls[jobs] = time.perf_counter() - t
         summary = json.loads(r.stdout.decode().splitlines()[-1]) if r.stdout else {}
