@@ -12,7 +12,8 @@ each placed apart so that none is an instance of another.
 
 Every measurement runs in a fresh process that reports its wall time and its
 own peak resident set (``ru_maxrss``), so one step's memory does not count in
-another's.  Usage::
+another's; the assembly is made in a process of its own too (Linux hands a
+process's peak RSS down to the children it forks).  Usage::
 
     python benchmarks/scale.py [--parts 800] [--work DIR] > docs/benchmarks-scale.md
 """
@@ -135,8 +136,11 @@ def main(argv: list[str] | None = None) -> int:
         work = a.work or Path(tmp)
         work.mkdir(parents=True, exist_ok=True)
         src = work / f"scale{a.parts}.step"
-        if not src.exists():
-            make_assembly(a.parts, src)
+        if not src.exists():  # in a child: a process's peak RSS passes to the children it forks
+            code = "import sys; from pathlib import Path; sys.path.insert(0, sys.argv[3]); "
+            code += "import scale; scale.make_assembly(int(sys.argv[1]), Path(sys.argv[2]))"
+            here = str(Path(__file__).resolve().parent)
+            subprocess.run([sys.executable, "-c", code, str(a.parts), str(src), here], check=True)
         nzc, out, ref = work / "scale.nzc", work / "back.step", work / "occt.step"
         got = {
             "read": timed("read", src, src),
