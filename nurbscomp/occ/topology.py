@@ -16,6 +16,7 @@ give the same shape.
 
 from __future__ import annotations
 
+import collections
 import struct
 from collections.abc import Callable
 from typing import Any, cast
@@ -412,7 +413,7 @@ def model_to_shape(m: BRepModel, cache: PcurveCache | None = None) -> Any:
 #: (:mod:`.bintools`) where the stream can carry the model.
 FAST_BUILD = True
 #: Builds by way of :func:`_fast_build`, and models it handed back (why, counted).
-FAST_STATS: dict[str, int] = {"fast": 0}
+FAST_STATS: collections.Counter[str] = collections.Counter(fast=0)
 
 
 def _fast_build(m: BRepModel, cache: PcurveCache | None) -> Any:
@@ -424,17 +425,17 @@ def _fast_build(m: BRepModel, cache: PcurveCache | None) -> Any:
     try:
         data, loc_index = bintools.stream(m)
     except bintools.Unexpressed as why:
-        FAST_STATS[str(why)] = FAST_STATS.get(str(why), 0) + 1
+        FAST_STATS[str(why)] += 1
         return None
     except (struct.error, OverflowError):
         # a number the stream's fixed-width fields cannot hold (a damaged
         # container): the per-entity builder says what is wrong with it
-        FAST_STATS["out of the stream's range"] = FAST_STATS.get("out of the stream's range", 0) + 1
+        FAST_STATS["out of the stream's range"] += 1
         return None
     try:
         ss = bintools.read(data)
     except (Standard_Failure, Storage_StreamReadError, Storage_StreamFormatError):
-        FAST_STATS["reader failed"] = FAST_STATS.get("reader failed", 0) + 1
+        FAST_STATS["reader failed"] += 1
         return None
     FAST_STATS["fast"] += 1
     types = m.shape_type.tolist()
