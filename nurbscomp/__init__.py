@@ -5,8 +5,9 @@ The Python API (docs/api.md)::
     import nurbscomp
     data = nurbscomp.compress("part.step", tol=0.01)   # or a cadquery / OCP shape, or bytes
     shape = nurbscomp.decompress(data)                  # a cadquery.Shape (or Assembly)
-    nurbscomp.info(data)                                # what the container holds
-    nurbscomp.evaluate("part.step", data)               # a Report of the deviation
+    nurbscomp.info(data)                                # an InfoReport: what it holds
+    nurbscomp.evaluate("part.step", data)               # an EvalReport of the deviation
+    data, r = nurbscomp.compress("part.step", report=True)  # and a CompressReport
     data = nurbscomp.compress("part.step", lossless=True)  # the same file back:
     nurbscomp.original(data)                            # its bytes, SHA-256 checked
 
@@ -21,11 +22,14 @@ from typing import TYPE_CHECKING, Any
 if TYPE_CHECKING:
     __version__: str
     from ._api import compress, decompress, evaluate, info, original
-    from .report import Counts, FaceDeviation, Report
+    from .report import CompressReport, Counts, EvalReport, FaceDeviation, InfoReport, Report
 
 __all__ = [
+    "CompressReport",
     "Counts",
+    "EvalReport",
     "FaceDeviation",
+    "InfoReport",
     "Report",
     "__version__",
     "compress",
@@ -36,7 +40,7 @@ __all__ = [
 ]
 
 _API = {"compress", "decompress", "evaluate", "info", "original"}
-_REPORT = {"Counts", "FaceDeviation", "Report"}
+_REPORT = {"CompressReport", "Counts", "EvalReport", "FaceDeviation", "InfoReport", "Report"}
 
 
 def __getattr__(name: str) -> Any:

@@ -14,14 +14,15 @@ import math
 import numbers
 import os
 import tempfile
+from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Literal, Union
+from typing import TYPE_CHECKING, Any, Literal, Union, overload
 
 from . import budget, container, passthrough, pipeline
 from .errors import ArgumentError, CorruptError, InputError, NoBRepError
 from .formats import sniff_format
 from .lazy import lazy_module
-from .report import Report
+from .report import CompressReport, InfoReport, Report
 from .units import check_tolerance, parse_length
 
 if TYPE_CHECKING:
@@ -71,6 +72,30 @@ def _source_name(data: bytes) -> str:
     return "data.step" if fmt == "STEP" else "data.igs"
 
 
+@overload
+def compress(
+    obj: Source,
+    *,
+    tol: Length = ...,
+    lossless: bool | Literal["exact", "brep"] = ...,
+    verify: bool = ...,
+    step_safe: bool = ...,
+    report: Literal[False] = ...,
+) -> bytes: ...
+
+
+@overload
+def compress(
+    obj: Source,
+    *,
+    tol: Length = ...,
+    lossless: bool | Literal["exact", "brep"] = ...,
+    verify: bool = ...,
+    step_safe: bool = ...,
+    report: Literal[True],
+) -> tuple[bytes, CompressReport]: ...
+
+
 def compress(
     obj: Source,
     *,
@@ -78,7 +103,8 @@ def compress(
     lossless: bool | Literal["exact", "brep"] = False,
     verify: bool = True,
     step_safe: bool = True,
-) -> bytes:
+    report: bool = False,
+) -> bytes | tuple[bytes, CompressReport]:
     """Compress a CAD model into ``.nzc`` container bytes.
 
     Parameters
@@ -105,10 +131,13 @@ def compress(
         ``nurbscomp compress`` does; ``--no-verify``).
     step_safe : bool, optional
         As ``--step-safe`` (the default) and ``--no-step-safe``.
+    report : bool, optional
+        Also return a :class:`CompressReport` (what ``nurbscomp compress
+        --json`` prints: sizes, ratio, mode, certified bounds, counts).
 
     Returns
     -------
-    bytes
+    bytes, or (bytes, CompressReport) with ``report``
         The container: the same bytes ``nurbscomp compress`` writes for the
         same file and options.  A valid STEP/IGES file that holds no B-rep is
         stored verbatim (a passthrough container), as the CLI does.
@@ -138,10 +167,26 @@ def compress(
         t = None if lossless else check_tolerance(checked)
     except ValueError as e:  # outside what the format codes (units.TOL_RANGE_MM)
         raise ArgumentError(str(e)) from None
+    data, made = _compress(obj, t, lossless, verify, step_safe)
+    return (data, CompressReport.from_dict(made())) if report else data
+
+
+#: A compress report, made when asked for (``compress(..., report=True)``).
+_Made = Callable[[], dict[str, Any]]
+
+
+def _compress(
+    obj: Source,
+    tol: float | None,
+    lossless: bool | Literal["exact", "brep"],
+    verify: bool,
+    step_safe: bool,
+) -> tuple[bytes, _Made]:
+    """:func:`compress`'s container, and its report's maker."""
     file_like = isinstance(obj, (*_BYTES, str, os.PathLike))
     if lossless == "exact" or (lossless is True and file_like):
         return _compress_exact(obj, verify)
-    opts: dict[str, Any] = {"tol": t, "lossless": bool(lossless), "step_safe": step_safe}
+    opts: dict[str, Any] = {"tol": tol, "lossless": bool(lossless), "step_safe": step_safe}
     if isinstance(obj, _BYTES):
         data = bytes(obj)
         name = _source_name(data)
@@ -166,11 +211,11 @@ def compress(
     enc = pipeline.encode_cad(pipeline.shape_source(shape), "", 0, for_verify=verify, **opts)
     if verify:
         pipeline.verify_encoded(enc, enc.data)
-    return enc.data
+    return enc.data, lambda: pipeline.compress_report(enc, verify)
 
 
-def _compress_exact(obj: Source, verify: bool) -> bytes:
-    """The byte-exact container of a file (path or bytes)."""
+def _compress_exact(obj: Source, verify: bool) -> tuple[bytes, _Made]:
+    """The byte-exact container of a file (path or bytes), and its report's maker."""
     if isinstance(obj, _BYTES):
         data, name = bytes(obj), _source_name(bytes(obj))
     elif isinstance(obj, (str, os.PathLike)):
@@ -185,12 +230,12 @@ def _compress_exact(obj: Source, verify: bool) -> bytes:
     return _pack_verbatim(data, name, None, verify)
 
 
-def _pack_verbatim(data: bytes, name: str, reason: str | None, verify: bool) -> bytes:
-    """``passthrough.pack_file``, read back when ``verify``."""
-    blob, _ = passthrough.pack_file(data, name, reason)
+def _pack_verbatim(data: bytes, name: str, reason: str | None, verify: bool) -> tuple[bytes, _Made]:
+    """``passthrough.pack_file``, read back when ``verify``; and its report's maker."""
+    blob, meta = passthrough.pack_file(data, name, reason)
     if verify and passthrough.read(container.unpack(blob))[1] != data:
         raise CorruptError("the byte-exact container does not give the file back")
-    return blob
+    return blob, lambda: passthrough.report(data, blob, meta, reason, verify)
 
 
 def original(data: Data) -> bytes:
@@ -223,8 +268,11 @@ def original(data: Data) -> bytes:
     return passthrough.read(c)[1]
 
 
-def _compress_file(path: Path, name: str, verify: bool, opts: dict[str, Any]) -> bytes:
-    """``pipeline.compress_file``'s stages on a file, to bytes; ``name`` goes to META."""
+def _compress_file(
+    path: Path, name: str, verify: bool, opts: dict[str, Any]
+) -> tuple[bytes, _Made]:
+    """``pipeline.compress_file``'s stages on a file, to bytes (``name`` goes to
+    META), and the report's maker."""
     try:
         cad = pipeline.read_source(path)
     except NoBRepError as e:
@@ -233,7 +281,7 @@ def _compress_file(path: Path, name: str, verify: bool, opts: dict[str, Any]) ->
         enc = pipeline.encode_cad(cad, name, path.stat().st_size, for_verify=verify, **opts)
         if verify:
             pipeline.verify_encoded(enc, enc.data)
-        return enc.data
+        return enc.data, lambda: pipeline.compress_report(enc, verify)
     return _pack_verbatim(path.read_bytes(), name or path.name, reason, verify)
 
 
@@ -299,7 +347,7 @@ def _has_instances(p: Any) -> bool:
     return bool(summary(p)["instances"])
 
 
-def info(data: Data) -> dict[str, Any]:
+def info(data: Data) -> InfoReport:
     """What a container holds, without building its shape.
 
     Parameters
@@ -309,21 +357,17 @@ def info(data: Data) -> dict[str, Any]:
 
     Returns
     -------
-    dict
-        The report of ``nurbscomp info --json``: format version, mode,
+    InfoReport
+        The fields of ``nurbscomp info --json``: format version, mode,
         tolerance, unit, source name and format, counts of shapes and
         geometry, faces by type, bytes per section, product data.
-        ``input`` is the path, or ``"<bytes>"``.
+        ``input`` is the path, or ``"<bytes>"``.  ``r.to_json()`` gives
+        JSON; ``r["mode"]`` reads a field as ``r.mode`` does.
     """
     if isinstance(data, _BYTES):
-        with tempfile.TemporaryDirectory(prefix="nurbscomp.") as d:
-            path = Path(d) / "data.nzc"
-            path.write_bytes(bytes(data))
-            r = pipeline.info(path)
-        r["input"] = "<bytes>"
-        return r
+        return InfoReport.from_dict(pipeline.info_data(bytes(data)))
     if isinstance(data, (str, os.PathLike)):
-        return pipeline.info(data)
+        return InfoReport.from_dict(pipeline.info(data))
     raise ArgumentError(f"cannot read a {_what(data)}: give a .nzc path or its bytes")
 
 

@@ -253,13 +253,25 @@ def compress_file(
         tmp.write_bytes(blob)
         if verify and read(read_container(tmp))[1] != data:
             raise CorruptError("the byte-exact container does not give the file back")
-    warnings = []
-    if reason is not None:
-        warnings.append(f"stored verbatim, byte for byte (no geometry coding): {reason}")
     return {
         "command": "compress",
         "input": str(src),
         "output": str(dst),
+        **report(data, blob, meta, reason, verify),
+        "seconds": time.perf_counter() - t0,
+    }
+
+
+def report(
+    data: bytes, blob: bytes, meta: dict[str, Any], reason: str | None, verified: bool
+) -> dict[str, Any]:
+    """The compress report of a verbatim container ``blob`` of ``data`` (its
+    META ``meta``; ``reason`` as :func:`compress_file` takes it), less
+    ``command``, ``input``, ``output`` and times."""
+    warnings = []
+    if reason is not None:
+        warnings.append(f"stored verbatim, byte for byte (no geometry coding): {reason}")
+    return {
         "input_bytes": len(data),
         "output_bytes": len(blob),
         "ratio": len(data) / len(blob),
@@ -270,8 +282,7 @@ def compress_file(
         "source_format": meta["source_format"],
         "sha256": meta["sha256"],
         "model": meta["model"],
-        "verified": verify,
-        "seconds": time.perf_counter() - t0,
+        "verified": verified,
         "warnings": warnings,
     }
 
@@ -333,15 +344,15 @@ def decompress_file(
     }
 
 
-def info(src: Path) -> dict[str, Any]:
-    """What a verbatim container holds (the fields of ``pipeline.info`` that apply)."""
-
-    c = read_container(src)
+def info(c: container.Container, name: str, file_bytes: int) -> dict[str, Any]:
+    """What a verbatim container holds (the fields of ``pipeline.info_data``
+    that apply); ``name`` is the ``input`` reported, ``file_bytes`` the
+    container's size."""
     meta, data = read(c)
     exact = bool(c.flags & container.FLAG_EXACT)
     return {
         "command": "info",
-        "input": str(src),
+        "input": name,
         "format_version": f"{c.major}.{c.minor}",
         "lossless": False,
         "passthrough": "reason" in meta,
@@ -354,7 +365,7 @@ def info(src: Path) -> dict[str, Any]:
         "sha256": hashlib.sha256(data).hexdigest(),
         "model": meta.get("model", "verbatim"),
         "writer": meta.get("writer"),
-        "file_bytes": src.stat().st_size,
+        "file_bytes": file_bytes,
         "coder": container.entropy.Coder(c.coder).name.lower(),
         "body_stored_bytes": c.stored_length,
         "section_raw_bytes": {s.tag: len(s.raw) for s in c.sections},

@@ -127,6 +127,24 @@ def atomic_output(dst: Path, force: bool, inputs: tuple[Path, ...] = ()) -> Iter
             os.unlink(tmp)
 
 
+def read_input(path: Path) -> bytes:
+    """The bytes of an input file.
+
+    Raises
+    ------
+    InputError
+        The file is missing, is a folder, or cannot be read.
+    """
+    if not path.exists():
+        raise InputError("no such file")
+    if path.is_dir():
+        raise InputError("is a directory")
+    try:
+        return path.read_bytes()
+    except OSError as e:
+        raise InputError(e.strerror or str(e)) from None
+
+
 def read_container(path: Path) -> container.Container:
     """Read and check a ``.nzc`` file.
 
@@ -137,12 +155,4 @@ def read_container(path: Path) -> container.Container:
     FormatError
         The bytes are not a valid container.
     """
-    if not path.exists():
-        raise InputError("no such file")
-    if path.is_dir():
-        raise InputError("is a directory")
-    try:
-        data = path.read_bytes()
-    except OSError as e:
-        raise InputError(e.strerror or str(e)) from None
-    return container.unpack(data)
+    return container.unpack(read_input(path))

@@ -49,7 +49,7 @@ from .model import (
     differences,
     nonfinite,
 )
-from .paths import atomic_output, check_output, read_container
+from .paths import atomic_output, check_output, read_container, read_input
 from .report import verdict
 
 if TYPE_CHECKING:
@@ -515,7 +515,7 @@ def compress_report(enc: Encoded, verified: bool) -> dict[str, Any]:
     return {
         "input_bytes": src_bytes,
         "output_bytes": len(enc.data),
-        "ratio": src_bytes / len(enc.data),
+        "ratio": src_bytes / len(enc.data) if src_bytes else None,
         "mode": enc.meta["mode"],
         "tolerance_mm": enc.meta["tolerance_mm"],
         "geometry": "exact"
@@ -689,15 +689,24 @@ def decompress_file(
 
 
 def info(src: str | os.PathLike[str], limits: budget.Limits = budget.DEFAULT) -> dict[str, Any]:
-    """What a container holds: version, mode, unit, counts, bytes per section."""
+    """:func:`info_data` of a ``.nzc`` file; ``input`` is its path."""
     p = Path(src)
-    if passthrough.is_verbatim(p):
-        return passthrough.info(p)
-    c = read_container(p)
+    return info_data(read_input(p), str(p), limits)
+
+
+def info_data(
+    data: bytes, name: str = "<bytes>", limits: budget.Limits = budget.DEFAULT
+) -> dict[str, Any]:
+    """What a container holds: version, mode, unit, counts, bytes per section
+    (``report.InfoReport``'s fields, and ``command``); ``name`` is the ``input``
+    it reports."""
+    c = container.unpack(data)
+    if c.flags & passthrough.VERBATIM:
+        return passthrough.info(c, name, len(data))
     m, meta = decode(c, limits)
     return {
         "command": "info",
-        "input": str(p),
+        "input": name,
         "format_version": f"{c.major}.{c.minor}",
         "lossless": bool(c.flags & container.FLAG_LOSSLESS),
         "passthrough": False,
@@ -708,7 +717,7 @@ def info(src: str | os.PathLike[str], limits: budget.Limits = budget.DEFAULT) ->
         "source_name": meta.get("source_name"),
         "source_bytes": meta.get("source_bytes"),
         "writer": meta.get("writer"),
-        "file_bytes": p.stat().st_size,
+        "file_bytes": len(data),
         "coder": container.entropy.Coder(c.coder).name.lower()
         if c.coder in {int(x) for x in container.entropy.Coder}
         else c.coder,

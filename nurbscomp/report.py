@@ -1,12 +1,76 @@
-"""The typed report of ``nurbscomp.evaluate``: what the ``eval`` command prints,
-and its verdict (:func:`verdict`)."""
+"""The typed reports the API returns: :class:`CompressReport` (``compress(...,
+report=True)``), :class:`InfoReport` (``info``) and :class:`EvalReport`
+(``evaluate``, also named :class:`Report`), each with ``to_dict()`` and
+``to_json()``; and the verdict of ``eval`` (:func:`verdict`).
+
+The command line prints the same fields (``--json``); a report is made from
+the pipeline's dict by ``from_dict``, which ignores what only the command line
+prints (``command``, ``output``, ``seconds``).
+"""
 
 from __future__ import annotations
 
+import dataclasses
+import json
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+
+
+def _plain(v: Any) -> Any:
+    """``v`` with numpy arrays and scalars made lists and Python numbers (JSON's types)."""
+    if isinstance(v, np.ndarray):
+        return v.tolist()
+    if isinstance(v, np.generic):
+        return v.item()
+    if isinstance(v, dict):
+        return {str(k): _plain(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [_plain(x) for x in v]
+    return v
+
+
+class _Typed:
+    """What every report offers: ``to_dict``, ``to_json``, and the fields by
+    name, ``r["mode"]`` as ``r.mode``, with ``keys()`` (so code written for
+    the dicts the API returned before keeps working)."""
+
+    def to_dict(self) -> dict[str, Any]:
+        """The fields, nested reports as dicts, arrays as lists."""
+        return {f.name: _plain(_asdict(getattr(self, f.name))) for f in _fields(self)}
+
+    def to_json(self, indent: int | None = 2) -> str:
+        """:meth:`to_dict` as JSON text."""
+        return json.dumps(self.to_dict(), indent=indent)
+
+    def __getitem__(self, key: str) -> Any:
+        if key not in self.keys():
+            raise KeyError(key)
+        return getattr(self, key)
+
+    def keys(self) -> list[str]:
+        """The field names (with ``r[key]``: ``dict(r)``, ``{**r}``)."""
+        return [f.name for f in _fields(self)]
+
+    @classmethod
+    def from_dict(cls, r: dict[str, Any]) -> Any:
+        """From the pipeline's report dict: the keys that are fields."""
+        names = {f.name for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
+        return cls(**{k: v for k, v in r.items() if k in names})
+
+
+def _fields(obj: Any) -> tuple[dataclasses.Field[Any], ...]:
+    return dataclasses.fields(obj)
+
+
+def _asdict(v: Any) -> Any:
+    if dataclasses.is_dataclass(v) and not isinstance(v, type):
+        return dataclasses.asdict(v)
+    if isinstance(v, list):
+        return [_asdict(x) for x in v]
+    return v
+
 
 #: How far a sampled point may be beyond the tolerance and still count within
 #: it: the precision of the measure (points projected on the other face by
@@ -64,7 +128,7 @@ class FaceDeviation:
 
 
 @dataclass(frozen=True)
-class Report:
+class Report(_Typed):
     """The error between an original shape and its reconstruction.
 
     Attributes
@@ -124,6 +188,7 @@ class Report:
     @classmethod
     def from_dict(cls, r: dict[str, Any]) -> Report:
         """From the report dict of ``pipeline.evaluate`` (the CLI's JSON)."""
+        # the eval dict nests counts, validity and free edges by side
         return cls(
             original=r["original"],
             reconstructed=r["reconstructed"],
@@ -146,3 +211,144 @@ class Report:
             passed=r["verdict"] == "pass",
             failed=list(r["failed"]),
         )
+
+
+#: ``evaluate``'s report, by the name of its kind (``Report`` is the same class).
+EvalReport = Report
+
+
+@dataclass(frozen=True)
+class CompressReport(_Typed):
+    """What a compression did (``compress(..., report=True)``; the fields of
+    ``nurbscomp compress --json`` but the command line's own).
+
+    Attributes
+    ----------
+    input_bytes, output_bytes : int
+        The source's size (the file, or the STEP written from a shape) and
+        the container's.
+    ratio : float or None
+        ``input_bytes / output_bytes``; None for a shape in memory, which has
+        no file (its ``input_bytes`` is 0).
+    mode : str
+        ``"tolerance"``, ``"lossless"`` (the B-rep exact), ``"exact"`` (the
+        file byte for byte) or ``"passthrough"`` (a file with no B-rep, kept
+        byte for byte).
+    tolerance_mm : float or None
+        The tolerance coded with; None in the byte-for-byte modes.
+    source_format : str
+        ``"STEP"``, ``"IGES"`` or ``"BREP"`` (a shape in memory).
+    verified : bool
+        The container was decoded and checked.
+    warnings : list of str
+    unit : str or None
+        The source's length unit (tolerance and lossless modes).
+    counts : dict
+        Sub-shapes of the source by type (tolerance and lossless modes).
+    faces_by_type, faces_by_method : dict
+        Faces by surface type; by the coding method chosen (tolerance mode).
+    max_bound_mm, max_curve_bound_mm : float
+        The largest certified bound of a face's surface, of a 3-D curve.
+    certified_faces : int
+        Faces with a certified bound (coded nets).
+    pcurves_rebuilt : int
+    step_safe : bool
+        Whether the STEP check ran (``step_safe`` and a tolerance mode).
+    product : dict or None
+        The product data's summary (parts, instances, names, colours).
+    product_bytes : int
+    validity : dict
+        What the validity stage did (tolerance mode).
+    sha256, model : str or None
+        Byte-for-byte modes: the file's SHA-256, the text model used.
+    reason : str or None
+        Passthrough mode: why the file holds no B-rep.
+    """
+
+    input_bytes: int
+    output_bytes: int
+    ratio: float | None
+    mode: str
+    tolerance_mm: float | None
+    source_format: str
+    verified: bool
+    warnings: list[str] = field(default_factory=list)
+    unit: str | None = None
+    counts: dict[str, int] = field(default_factory=dict)
+    faces_by_type: dict[str, int] = field(default_factory=dict)
+    faces_by_method: dict[str, int] = field(default_factory=dict)
+    max_bound_mm: float = 0.0
+    max_curve_bound_mm: float = 0.0
+    certified_faces: int = 0
+    pcurves_rebuilt: int = 0
+    step_safe: bool = False
+    product: dict[str, Any] | None = None
+    product_bytes: int = 0
+    validity: dict[str, Any] = field(default_factory=dict)
+    sha256: str | None = None
+    model: str | None = None
+    reason: str | None = None
+
+
+@dataclass(frozen=True)
+class InfoReport(_Typed):
+    """What a container holds (``info``; the fields of ``nurbscomp info --json``
+    but ``command``).
+
+    Attributes
+    ----------
+    input : str
+        The path, or ``"<bytes>"``.
+    format_version : str
+        ``"major.minor"``.
+    mode : str
+        ``"tolerance"``, ``"lossless"``, ``"exact"`` or ``"passthrough"``.
+    lossless, passthrough : bool
+    tolerance_mm : float or None
+    source_format, source_name : str or None
+    source_bytes : int or None
+    writer : str or None
+    file_bytes : int
+        The container's size.
+    coder : str
+        The body's entropy coder (``"lzma"``, ``"stored"``, ...).
+    body_stored_bytes : int
+    section_raw_bytes : dict
+        Bytes of each section, by tag, as decoded.
+    unit : str or None
+    shapes : dict
+        Sub-shapes by type (B-rep containers).
+    faces_by_type : dict
+    geometry : dict
+        Counts of surfaces, 3-D curves and pcurves (B-rep containers).
+    product, product_tree : dict or None
+        The product data's summary and tree.
+    reason : str
+        Passthrough: why the file was stored verbatim.
+    sha256, model : str or None
+        Byte-for-byte containers: the file's SHA-256, the text model.
+    """
+
+    input: str
+    format_version: str
+    mode: str
+    lossless: bool
+    passthrough: bool
+    tolerance_mm: float | None
+    source_format: str | None
+    source_name: str | None
+    source_bytes: int | None
+    writer: str | None
+    file_bytes: int
+    coder: str
+    body_stored_bytes: int
+    section_raw_bytes: dict[str, int]
+    unit: str | None = None
+    shapes: dict[str, int] = field(default_factory=dict)
+    faces_by_type: dict[str, int] = field(default_factory=dict)
+    geometry: dict[str, int] = field(default_factory=dict)
+    product: dict[str, Any] | None = None
+    product_tree: Any = None
+    reason: str = ""
+    sha256: str | None = None
+    model: str | None = None

@@ -3,6 +3,8 @@ and out, typed reports, one-line errors."""
 
 from __future__ import annotations
 
+import dataclasses
+import json
 import subprocess
 import sys
 from pathlib import Path
@@ -65,7 +67,10 @@ def test_bytes_in_and_out(tmp_path: Path) -> None:
     (tmp_path / "x.nzc").write_bytes(data)
     by_bytes, by_path = nurbscomp.info(data), nurbscomp.info(tmp_path / "x.nzc")
     assert by_bytes["input"] == "<bytes>" and by_path["input"] == str(tmp_path / "x.nzc")
-    assert {**by_bytes, "input": ""} == {**by_path, "input": ""}
+    assert isinstance(by_bytes, nurbscomp.InfoReport)
+    assert dataclasses.replace(by_bytes, input="") == dataclasses.replace(by_path, input="")
+    assert {**by_bytes, "input": ""} == {**by_path, "input": ""}  # read as a dict still
+    assert json.loads(by_bytes.to_json())["shapes"] == by_bytes.shapes
     assert by_bytes["source_name"] == "data.step" and by_bytes["mode"] == "tolerance"
     a = nurbscomp.decompress(data, raw=True)
     b = nurbscomp.decompress(tmp_path / "x.nzc", raw=True)
@@ -254,3 +259,31 @@ def test_evaluate_heatmap_is_not_overwritten_without_force(cq, tmp_path: Path) -
     nurbscomp.evaluate(part, data, heatmap=png, force=True)
     assert png.read_bytes()[:4] == b"\x89PNG"
     assert not [p for p in tmp_path.iterdir() if p.name.endswith(".tmp")]
+
+
+def test_compress_report(tmp_path: Path) -> None:
+    """``compress(..., report=True)`` gives the same container and a typed report
+    of what the CLI's ``--json`` says (sizes, mode, tolerance, counts)."""
+    src = SAMPLES / "loft.step"
+    data, r = nurbscomp.compress(src, tol=0.01, report=True)
+    assert data == nurbscomp.compress(src, tol=0.01)
+    assert isinstance(r, nurbscomp.CompressReport)
+    assert (r.input_bytes, r.output_bytes) == (src.stat().st_size, len(data))
+    assert r.ratio == pytest.approx(src.stat().st_size / len(data))
+    assert (r.mode, r.tolerance_mm, r.source_format, r.verified) == ("tolerance", 0.01, "STEP", True)
+    assert r.counts["faces"] == nurbscomp.info(data).shapes["face"]
+    assert 0 < r.max_bound_mm <= 0.01 and r.certified_faces > 0
+    assert json.loads(r.to_json())["faces_by_method"] == r.faces_by_method
+    cli = pipeline.compress_file(src, tmp_path / "x.nzc", tol=0.01)
+    assert {k: cli[k] for k in ("ratio", "mode", "counts", "max_bound_mm")} == {
+        k: r[k] for k in ("ratio", "mode", "counts", "max_bound_mm")
+    }
+
+    exact, e = nurbscomp.compress(src, lossless=True, report=True)
+    assert (e.mode, e.output_bytes, e.tolerance_mm) == ("exact", len(exact), None)
+    assert e.sha256 == nurbscomp.info(exact).sha256 and e.model == "step"
+
+    import cadquery as cq
+
+    _, s = nurbscomp.compress(cq.Workplane().box(1, 2, 3).val(), report=True)
+    assert (s.source_format, s.input_bytes, s.ratio) == ("BREP", 0, None)
