@@ -24,6 +24,7 @@ import numpy as np
 
 from .errors import CorruptError, LimitError, SectionError
 from .model import (
+    EC,
     REBUILD,
     Analytic,
     BRepModel,
@@ -366,7 +367,7 @@ def edge_samples(m: BRepModel, edges: set[int]) -> dict[int, int]:
     out = dict.fromkeys(edges, SAMPLES)
     seen: set[int] = set()
     reps = m.edge_reps
-    for e, c in reps[reps[:, 1] == RepKind.CURVE3D][:, [0, 2]].tolist():
+    for e, c in reps[reps[:, EC.KIND] == RepKind.CURVE3D][:, [EC.EDGE, EC.CURVE]].tolist():
         if e in out and e not in seen and c >= 0:
             seen.add(e)
             out[e] = curve_samples(m.curves3d, c)
@@ -385,8 +386,10 @@ def projections(m: BRepModel, work: list[int] | None = None) -> list[tuple[int, 
         work = _table(m.surfaces, m.curves3d).work
     faces = Counter(zip(m.face_surface.tolist(), m.face_loc.tolist()))
     reps = m.edge_reps
-    rows = np.flatnonzero((reps[:, 1] != RepKind.CURVE3D) & (reps[:, 2] == REBUILD)).tolist()
-    todo = reps[rows][:, [0, 4, 6]].tolist()
+    rows = np.flatnonzero(
+        (reps[:, EC.KIND] != RepKind.CURVE3D) & (reps[:, EC.CURVE] == REBUILD)
+    ).tolist()
+    todo = reps[rows][:, [EC.EDGE, EC.SURFACE, EC.LOC]].tolist()
     samples = edge_samples(m, {e for e, _, _ in todo})
     out = []
     for q, (e, s, loc) in zip(rows, todo):
@@ -442,7 +445,7 @@ def check_projections(m: BRepModel) -> None:
         One line naming the surface row.
     """
     reps = m.edge_reps
-    todo = reps[(reps[:, 1] != RepKind.CURVE3D) & (reps[:, 2] == REBUILD)]
+    todo = reps[(reps[:, EC.KIND] != RepKind.CURVE3D) & (reps[:, EC.CURVE] == REBUILD)]
     if not len(todo):
         return
     rows = sorted({int(r) for r in todo[:, 4].tolist()})

@@ -29,6 +29,7 @@ import numpy as np
 from . import budget, codec, container, coons, dmap, joins, serialize, spatial
 from .errors import BadReferenceError, SectionError
 from .model import (
+    EC,
     BRepModel,
     BSplineCurve,
     BSplineSurface,
@@ -93,7 +94,7 @@ def _natural_range(g: Geometry | None) -> tuple[float, float] | None:
 
 
 def _curve_of(m: BRepModel, q: int) -> Geometry | None:
-    kind, c = int(m.edge_reps[q, 1]), int(m.edge_reps[q, 2])
+    kind, c = int(m.edge_reps[q, EC.KIND]), int(m.edge_reps[q, EC.CURVE])
     table = m.curves3d if kind == RepKind.CURVE3D else m.curves2d
     return table[c] if 0 <= c < len(table) else None
 
@@ -101,8 +102,8 @@ def _curve_of(m: BRepModel, q: int) -> Geometry | None:
 def _range_of_3d(m: BRepModel) -> dict[int, int]:
     """Per edge, its first 3-D curve representation's row."""
     out: dict[int, int] = {}
-    for q in np.flatnonzero(m.edge_reps[:, 1] == RepKind.CURVE3D).tolist():
-        out.setdefault(int(m.edge_reps[q, 0]), q)
+    for q in np.flatnonzero(m.edge_reps[:, EC.KIND] == RepKind.CURVE3D).tolist():
+        out.setdefault(int(m.edge_reps[q, EC.EDGE]), q)
     return out
 
 
@@ -157,7 +158,7 @@ def resolve_ranges(m: BRepModel, how: np.ndarray) -> None:
     finite(m.edge_rep_range[how == RANGE_VERTICES], "EDGE: ranges from vertices", MAX_COORD)
     of3d = _range_of_3d(m)
     for q in np.flatnonzero(how == RANGE_OF_3D).tolist():
-        r3 = of3d.get(int(m.edge_reps[q, 0]))
+        r3 = of3d.get(int(m.edge_reps[q, EC.EDGE]))
         if r3 is None or how[r3] == RANGE_OF_3D:
             raise BadReferenceError(
                 f"EDGE: representation {q}'s range refers to a missing 3-D curve"

@@ -29,6 +29,7 @@ import numpy as np
 
 from . import bspline
 from .model import (
+    EC,
     Analytic,
     BRepModel,
     BSplineCurve,
@@ -73,7 +74,7 @@ def curve_end_pins(
     start, child = m.child_start.tolist(), m.child_shape.tolist()
     orient, cloc, stype = m.child_orient.tolist(), m.child_loc.tolist(), m.shape_type.tolist()
     vertex = int(ShapeType.VERTEX)
-    for q in np.flatnonzero(reps[:, 1] == RepKind.CURVE3D).tolist():
+    for q in np.flatnonzero(reps[:, EC.KIND] == RepKind.CURVE3D).tolist():
         _, _, c, _, _, _, located = reps[q, :7].tolist()
         if c not in coded_rows or c in out or located != 0:
             continue
@@ -84,7 +85,7 @@ def curve_end_pins(
         first, last = (0.0, 1.0) if g.bezier else (float(g.knots[0]), float(g.knots[-1]))
         if lo != first or hi != last:
             continue
-        s = edge_shapes[reps[q, 0]]
+        s = edge_shapes[reps[q, EC.EDGE]]
         pins = []
         for k in range(start[s], start[s + 1]):
             o, v = orient[k], child[k]
@@ -135,14 +136,14 @@ def vertex_ranges(m: BRepModel) -> dict[int, tuple[float, float]]:
     edge_shapes = np.flatnonzero(m.shape_type == ShapeType.EDGE)
     reps = m.edge_reps
     out: dict[int, tuple[float, float]] = {}
-    for q in np.flatnonzero(reps[:, 1] == RepKind.CURVE3D).tolist():
-        c = int(reps[q, 2])
-        if c < 0 or c >= len(m.curves3d) or reps[q, 6] != 0:
+    for q in np.flatnonzero(reps[:, EC.KIND] == RepKind.CURVE3D).tolist():
+        c = int(reps[q, EC.CURVE])
+        if c < 0 or c >= len(m.curves3d) or reps[q, EC.LOC] != 0:
             continue
         g = m.curves3d[c]
         if not isinstance(g, Analytic) or g.kind not in (Kind.LINE, Kind.CIRCLE):
             continue
-        s = int(edge_shapes[reps[q, 0]])
+        s = int(edge_shapes[reps[q, EC.EDGE]])
         ends: dict[int, int] = {}
         for k in range(m.child_start[s], m.child_start[s + 1]):
             v, o = int(m.child_shape[k]), int(m.child_orient[k])
@@ -361,9 +362,9 @@ def iso_sources(
     faces_of = faces_around(m, ShapeType.EDGE)
     out: dict[int, tuple[int, int, int]] = {}
     reps = m.edge_reps
-    for q in np.flatnonzero(reps[:, 1] == RepKind.CURVE3D).tolist():
-        c = int(reps[q, 2])
-        if c not in curve_rows or c in out or reps[q, 6] != 0:
+    for q in np.flatnonzero(reps[:, EC.KIND] == RepKind.CURVE3D).tolist():
+        c = int(reps[q, EC.CURVE])
+        if c not in curve_rows or c in out or reps[q, EC.LOC] != 0:
             continue
         g = m.curves3d[c]
         if not isinstance(g, BSplineCurve) or not _clamped(g):
@@ -371,7 +372,7 @@ def iso_sources(
         first, last = (0.0, 1.0) if g.bezier else (g.knots[0], g.knots[-1])
         if (m.edge_rep_range[q] != (first, last)).any():
             continue
-        e = int(reps[q, 0])
+        e = int(reps[q, EC.EDGE])
         for f in faces_of[e]:
             r = int(m.face_surface[f])
             hit = _boundary_match(g, m.surfaces[r]) if r in surface_rows else None
@@ -780,12 +781,12 @@ def curve_placements(m: BRepModel) -> dict[int, np.ndarray]:
                 many[c] = True
     at: dict[int, list[np.ndarray | None]] = {}
     reps = m.edge_reps
-    for q in np.flatnonzero(reps[:, 1] == RepKind.CURVE3D).tolist():
-        c = int(reps[q, 2])
-        e = int(reps[q, 0])
+    for q in np.flatnonzero(reps[:, EC.KIND] == RepKind.CURVE3D).tolist():
+        c = int(reps[q, EC.CURVE])
+        e = int(reps[q, EC.EDGE])
         if e in edge_at:
             t = edge_at[e]
-            at.setdefault(c, []).append(None if t is None else t @ mats[int(reps[q, 6])])
+            at.setdefault(c, []).append(None if t is None else t @ mats[int(reps[q, EC.LOC])])
     return {
         c: ts[0]
         for c, ts in at.items()

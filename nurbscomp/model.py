@@ -103,6 +103,35 @@ class RepKind(IntEnum):
     ON_TWO_SURFACES = 3  # regularity: surface, surface2, location, location2, continuity
 
 
+class EdgeCol(IntEnum):
+    """Columns of ``BRepModel.edge_reps``: one row per curve representation of
+    an edge; -1 where a column does not apply to the row's kind."""
+
+    EDGE = 0  # the edge's row
+    KIND = 1  # RepKind
+    CURVE = 2  # 3-D curve (CURVE3D) or pcurve (ON_SURFACE, ON_CLOSED_SURFACE); REBUILD
+    CURVE2 = 3  # the seam's second pcurve (ON_CLOSED_SURFACE)
+    SURFACE = 4  # the pcurve's surface, or the first of ON_TWO_SURFACES
+    SURFACE2 = 5  # the second surface of ON_TWO_SURFACES
+    LOC = 6  # location of the curve or surface
+    LOC2 = 7  # location of SURFACE2
+
+
+class VertexCol(IntEnum):
+    """Columns of ``BRepModel.vertex_reps``: one row per point representation
+    of a vertex."""
+
+    VERTEX = 0  # the vertex's row
+    KIND = 1  # PointRepKind
+    CURVE = 2  # 3-D curve (ON_CURVE) or pcurve (ON_CURVE_ON_SURFACE)
+    SURFACE = 3  # surface (ON_CURVE_ON_SURFACE, ON_SURFACE)
+    LOC = 4  # location
+
+
+#: Short names of :class:`EdgeCol` and :class:`VertexCol`, for indexing.
+EC, VC = EdgeCol, VertexCol
+
+
 #: Curve index of a pcurve representation that the decoder computes itself
 #: (projection of the edge's 3-D curve onto the face's surface).
 REBUILD = -2
@@ -421,7 +450,7 @@ def nonfinite(m: BRepModel, bound: float) -> str | None:
         if bad(getattr(m, name)):
             return where
     # an edge without a 3-D curve (degenerated) has OCCT's default range, ±DBL_MAX
-    curveless = (m.edge_reps[:, 1] == RepKind.CURVE3D) & (m.edge_reps[:, 2] == -1)
+    curveless = (m.edge_reps[:, EC.KIND] == RepKind.CURVE3D) & (m.edge_reps[:, EC.CURVE] == -1)
     if not np.isfinite(m.edge_rep_range).all() or bad(m.edge_rep_range[~curveless]):
         return "EDGE ranges"
     for name, tag in _TABLE_TAGS:

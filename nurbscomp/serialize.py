@@ -32,7 +32,9 @@ import numpy as np
 from . import budget, codec, container, product, topocode
 from .errors import BadReferenceError, CorruptError, LimitError, SectionError
 from .model import (
+    EC,
     REBUILD,
+    VC,
     Analytic,
     BRepModel,
     BSplineCurve,
@@ -41,6 +43,7 @@ from .model import (
     Geometry,
     Kind,
     Location,
+    PointRepKind,
     Rec,
     RepKind,
     ShapeType,
@@ -909,7 +912,7 @@ def _write_vertices(m: BRepModel, tol: float = 0.0) -> bytes:
         w.ints(q[rows, axis] - pred[:, axis])
     _write_tolerances(w, m.vertex_tol)
     reps = m.vertex_reps
-    w.ints(np.bincount(reps[:, 0], minlength=len(m.vertex_tol)) if len(reps) else [])
+    w.ints(np.bincount(reps[:, VC.VERTEX], minlength=len(m.vertex_tol)) if len(reps) else [])
     for col in range(1, 5):
         w.ints(reps[:, col])
     w.floats(m.vertex_rep_params.reshape(-1))
@@ -1009,23 +1012,28 @@ def _write_edges(m: BRepModel, how: np.ndarray) -> bytes:
     _write_tolerances(w, m.edge_tol)
     w.ints(m.edge_flags)
     reps = m.edge_reps
-    w.ints(np.bincount(reps[:, 0], minlength=len(m.edge_tol)) if len(reps) else [])
-    kind = reps[:, 1]
+    w.ints(np.bincount(reps[:, EC.EDGE], minlength=len(m.edge_tol)) if len(reps) else [])
+    kind = reps[:, EC.KIND]
     w.ints(kind)
     # each column only where the representation kind uses it
-    w.deltas(reps[kind == RepKind.CURVE3D, 2])  # 3-D curve
-    w.deltas(reps[(kind == RepKind.ON_SURFACE) | (kind == RepKind.ON_CLOSED_SURFACE), 2])  # pcurve
-    w.ints(reps[kind == RepKind.ON_CLOSED_SURFACE, 3])  # second pcurve
+    w.deltas(reps[kind == RepKind.CURVE3D, EC.CURVE])  # 3-D curve
+    w.deltas(
+        reps[(kind == RepKind.ON_SURFACE) | (kind == RepKind.ON_CLOSED_SURFACE), EC.CURVE]
+    )  # pcurve
+    w.ints(reps[kind == RepKind.ON_CLOSED_SURFACE, EC.CURVE2])  # second pcurve
     # surfaces (2.0): picked among the surfaces of the edge's faces, or escaped
     cands = edge_candidates(m)
-    s1, e1 = reps[kind != RepKind.CURVE3D, 4], reps[kind != RepKind.CURVE3D, 0]
-    s2, e2 = reps[kind == RepKind.ON_TWO_SURFACES, 5], reps[kind == RepKind.ON_TWO_SURFACES, 0]
+    s1, e1 = reps[kind != RepKind.CURVE3D, EC.SURFACE], reps[kind != RepKind.CURVE3D, EC.EDGE]
+    s2, e2 = (
+        reps[kind == RepKind.ON_TWO_SURFACES, EC.SURFACE2],
+        reps[kind == RepKind.ON_TWO_SURFACES, EC.EDGE],
+    )
     p1, p2 = _picks(s1, e1, cands), _picks(s2, e2, cands)
     w.ints(p1)
     w.ints(p2)
     w.deltas(np.concatenate([s1[p1 < 0], s2[p2 < 0]]))
-    w.ints(reps[:, 6])  # location
-    w.ints(reps[kind == RepKind.ON_TWO_SURFACES, 7])  # second location
+    w.ints(reps[:, EC.LOC])  # location
+    w.ints(reps[kind == RepKind.ON_TWO_SURFACES, EC.LOC2])  # second location
     cont = (kind == RepKind.ON_CLOSED_SURFACE) | (kind == RepKind.ON_TWO_SURFACES)
     w.ints(m.edge_rep_cont[cont])
     ranged = kind != RepKind.ON_TWO_SURFACES
@@ -1067,15 +1075,15 @@ def _read_edges(data: bytes, m: BRepModel, revision: int = 3) -> tuple[np.ndarra
     if q and (kind.min() < 0 or kind.max() > 3):
         raise SectionError("EDGE: unknown representation kind")
     reps = np.full((q, 8), -1, np.int64)
-    reps[:, 0] = np.repeat(np.arange(len(per)), per)
-    reps[:, 1] = kind
+    reps[:, EC.EDGE] = np.repeat(np.arange(len(per)), per)
+    reps[:, EC.KIND] = kind
     two = kind == RepKind.ON_TWO_SURFACES
     closed = kind == RepKind.ON_CLOSED_SURFACE
     c3 = kind == RepKind.CURVE3D
     pc = ~two & ~c3
-    reps[c3, 2] = r.deltas(int(c3.sum()))
-    reps[pc, 2] = r.deltas(int(pc.sum()))
-    reps[closed, 3] = r.ints(int(closed.sum()))
+    reps[c3, EC.CURVE] = r.deltas(int(c3.sum()))
+    reps[pc, EC.CURVE] = r.deltas(int(pc.sum()))
+    reps[closed, EC.CURVE2] = r.ints(int(closed.sum()))
     picks = None
     if revision >= 3:
         first, second = r.ints(int((~c3).sum())), r.ints(int(two.sum()))
@@ -1083,14 +1091,14 @@ def _read_edges(data: bytes, m: BRepModel, revision: int = 3) -> tuple[np.ndarra
             raise SectionError("EDGE: a surface pick below -1")
         n_esc = int((first == -1).sum() + (second == -1).sum())
         picks = _Picks(first, second, r.deltas(n_esc))
-        reps[~c3, 4] = 0
-        reps[two, 5] = 0
+        reps[~c3, EC.SURFACE] = 0
+        reps[two, EC.SURFACE2] = 0
     else:
-        reps[~c3, 4] = r.deltas(int((~c3).sum()))
-        reps[two, 5] = r.deltas(int(two.sum()))
-    reps[:, 6] = r.ints(q)
-    reps[:, 7] = 0
-    reps[two, 7] = r.ints(int(two.sum()))
+        reps[~c3, EC.SURFACE] = r.deltas(int((~c3).sum()))
+        reps[two, EC.SURFACE2] = r.deltas(int(two.sum()))
+    reps[:, EC.LOC] = r.ints(q)
+    reps[:, EC.LOC2] = 0
+    reps[two, EC.LOC2] = r.ints(int(two.sum()))
     m.edge_reps = reps
     cont = r.ints(int((closed | two).sum()))
     if len(cont) and (cont.min() < 0 or cont.max() > 6):
@@ -1110,7 +1118,7 @@ def _read_edges(data: bytes, m: BRepModel, revision: int = 3) -> tuple[np.ndarra
     m.edge_rep_uv[closed, 4:] = r.floats(4 * int(closed.sum())).reshape(-1, 4)
     r.done()
     # an edge without a 3-D curve (degenerated) has OCCT's default range, ±DBL_MAX
-    curveless = (kind == RepKind.CURVE3D) & (reps[:, 2] == -1)
+    curveless = (kind == RepKind.CURVE3D) & (reps[:, EC.CURVE] == -1)
     finite(m.edge_rep_range, "EDGE ranges")
     finite(m.edge_rep_range[~curveless], "EDGE ranges", MAX_COORD)
     finite(m.edge_rep_uv, "EDGE uv points", MAX_COORD)
@@ -1122,17 +1130,17 @@ def _resolve_picks(m: BRepModel, p: _Picks, cap: float) -> None:
     cands = edge_candidates(m, cap)
     reps = m.edge_reps
     esc = iter(p.escaped.tolist())
-    kind = reps[:, 1]
+    kind = reps[:, EC.KIND]
     for col, sel, pick in (
-        (4, kind != RepKind.CURVE3D, p.first),
-        (5, kind == RepKind.ON_TWO_SURFACES, p.second),
+        (EC.SURFACE, kind != RepKind.CURVE3D, p.first),
+        (EC.SURFACE2, kind == RepKind.ON_TWO_SURFACES, p.second),
     ):
         rows = np.flatnonzero(sel).tolist()
         for q, k in zip(rows, pick.tolist()):
             if k == -1:
                 reps[q, col] = next(esc)  # as many as the picks of -1: read so
                 continue
-            c = cands[int(reps[q, 0])]
+            c = cands[int(reps[q, EC.EDGE])]
             if k >= len(c):
                 raise BadReferenceError(
                     f"EDGE: representation {q} picks surface {k} of an edge on {len(c)}"
@@ -1610,29 +1618,30 @@ def check_references(m: BRepModel) -> None:
     within(m.face_surface, 0, ns, "a face surface")
     within(m.face_loc, 0, nl, "a face location")
     reps = m.edge_reps
-    kind = reps[:, 1]
+    kind = reps[:, EC.KIND]
     two = kind == RepKind.ON_TWO_SURFACES
     c3 = kind == RepKind.CURVE3D
-    within(reps[c3, 2], -1, n3, "an edge curve")
-    within(reps[~two & ~c3, 2], REBUILD, n2, "an edge pcurve")
-    within(reps[kind == RepKind.ON_CLOSED_SURFACE, 3], REBUILD, n2, "a seam pcurve")
-    if (reps[~two & ~c3, 2] == -1).any() or (
-        reps[kind == RepKind.ON_CLOSED_SURFACE, 3] == -1
+    within(reps[c3, EC.CURVE], -1, n3, "an edge curve")
+    within(reps[~two & ~c3, EC.CURVE], REBUILD, n2, "an edge pcurve")
+    within(reps[kind == RepKind.ON_CLOSED_SURFACE, EC.CURVE2], REBUILD, n2, "a seam pcurve")
+    if (reps[~two & ~c3, EC.CURVE] == -1).any() or (
+        reps[kind == RepKind.ON_CLOSED_SURFACE, EC.CURVE2] == -1
     ).any():
         raise BadReferenceError("an edge pcurve refers to a missing entry")
     seam = reps[kind == RepKind.ON_CLOSED_SURFACE]
-    if ((seam[:, 2] == REBUILD) != (seam[:, 3] == REBUILD)).any():
+    if ((seam[:, EC.CURVE] == REBUILD) != (seam[:, EC.CURVE2] == REBUILD)).any():
         raise BadReferenceError("a seam has one pcurve stored and the other one computed")
-    within(reps[~c3, 4], 0, ns, "an edge surface")
-    within(reps[two, 5], 0, ns, "an edge surface")
-    within(reps[:, 6], 0, nl, "an edge location")
-    within(reps[two, 7], 0, nl, "an edge location")
+    within(reps[~c3, EC.SURFACE], 0, ns, "an edge surface")
+    within(reps[two, EC.SURFACE2], 0, ns, "an edge surface")
+    within(reps[:, EC.LOC], 0, nl, "an edge location")
+    within(reps[two, EC.LOC2], 0, nl, "an edge location")
     within(m.edge_rep_cont, 0, 7, "a continuity")
     vr = m.vertex_reps
-    within(vr[:, 1], 0, 3, "a vertex representation kind")
-    within(vr[vr[:, 1] == 0, 2], 0, n3, "a vertex curve")
-    within(vr[vr[:, 1] == 1, 2], 0, n2, "a vertex pcurve")
-    within(vr[vr[:, 1] > 0, 3], 0, ns, "a vertex surface")
-    within(vr[:, 4], 0, nl, "a vertex location")
+    within(vr[:, VC.KIND], 0, 3, "a vertex representation kind")
+    within(vr[vr[:, VC.KIND] == PointRepKind.ON_CURVE, VC.CURVE], 0, n3, "a vertex curve")
+    pcurve = vr[:, VC.KIND] == PointRepKind.ON_CURVE_ON_SURFACE
+    within(vr[pcurve, VC.CURVE], 0, n2, "a vertex pcurve")
+    within(vr[vr[:, VC.KIND] != PointRepKind.ON_CURVE, VC.SURFACE], 0, ns, "a vertex surface")
+    within(vr[:, VC.LOC], 0, nl, "a vertex location")
     types = m.shape_type
     within(types, 0, 8, "a shape type")

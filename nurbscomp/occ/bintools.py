@@ -41,7 +41,9 @@ from OCP.TopAbs import TopAbs_Orientation
 from OCP.TopoDS import TopoDS
 
 from ..model import (
+    EC,
     REBUILD,
+    VC,
     Analytic,
     BRepModel,
     BSplineCurve,
@@ -189,8 +191,12 @@ class _Geometry:
         than ``GeometryBuilder`` builds it."""
         m = self.m
         face_rows = set(m.face_surface.tolist())
-        used = face_rows | set(m.edge_reps[:, 4].tolist()) | set(m.edge_reps[:, 5].tolist())
-        used |= set(m.vertex_reps[:, 3].tolist())
+        used = (
+            face_rows
+            | set(m.edge_reps[:, EC.SURFACE].tolist())
+            | set(m.edge_reps[:, EC.SURFACE2].tolist())
+        )
+        used |= set(m.vertex_reps[:, VC.SURFACE].tolist())
         for table in (m.curves3d, m.curves2d):
             for r in table:
                 if isinstance(r, Derived):
@@ -394,12 +400,12 @@ def _check(m: BRepModel) -> None:
         raise Unexpressed("vertex tolerance below RealEpsilon")
     reps = m.edge_reps
     ne = len(m.edge_tol)
-    kind, c1 = reps[:, 1], reps[:, 2]
+    kind, c1 = reps[:, EC.KIND], reps[:, EC.CURVE]
     written = (kind == _CURVE3D) & (c1 >= 0) | ((kind == _ON_SURFACE) | (kind == _ON_CLOSED)) & (
         c1 != REBUILD
     )
     has = np.zeros(ne, bool)
-    has[reps[written, 0]] = True
+    has[reps[written, EC.EDGE]] = True
     if ne and not has.all():
         raise Unexpressed("edge without a curve to carry its tolerance")
     if ne and float(m.edge_tol.min()) < _REAL_EPSILON:
@@ -472,10 +478,10 @@ def _shapes(m: BRepModel, li: list[int]) -> bytes:
         m.child_loc.tolist(),
     )
     vreps: list[list[int]] = [[] for _ in range(len(m.vertex_tol))]
-    for q, v in enumerate(m.vertex_reps[:, 0].tolist()):
+    for q, v in enumerate(m.vertex_reps[:, VC.VERTEX].tolist()):
         vreps[v].append(q)
     ereps: list[list[int]] = [[] for _ in range(len(m.edge_tol))]
-    for q, e in enumerate(m.edge_reps[:, 0].tolist()):
+    for q, e in enumerate(m.edge_reps[:, EC.EDGE].tolist()):
         ereps[e].append(q)
     vrows, vpar = m.vertex_reps.tolist(), m.vertex_rep_params.astype("<f8")
     vpt, vtol = m.vertex_point.astype("<f8"), m.vertex_tol.tolist()

@@ -63,7 +63,9 @@ from OCP.TopTools import TopTools_IndexedMapOfShape
 
 from ..errors import UnsupportedError
 from ..model import (
+    EC,
     REBUILD,
+    VC,
     BRepModel,
     Derived,
     Kind,
@@ -440,8 +442,10 @@ def _fast_build(m: BRepModel, cache: PcurveCache | None) -> Any:
     FAST_STATS["fast"] += 1
     types = m.shape_type.tolist()
     _restore(ss, m)
-    owner = m.edge_reps[:, 0]
-    pend = sorted(np.flatnonzero(m.edge_reps[:, 2] == REBUILD).tolist(), key=lambda q: owner[q])
+    owner = m.edge_reps[:, EC.EDGE]
+    pend = sorted(
+        np.flatnonzero(m.edge_reps[:, EC.CURVE] == REBUILD).tolist(), key=lambda q: owner[q]
+    )
     if pend:
         edge_shape = np.flatnonzero(m.shape_type == _EDGE)
         face_shape = np.flatnonzero(m.shape_type == _FACE).tolist()
@@ -449,14 +453,14 @@ def _fast_build(m: BRepModel, cache: PcurveCache | None) -> Any:
         edges: dict[int, Any] = {}
         for q in pend:
             _, kind, _, _, srow, _, loc, _ = m.edge_reps[q].tolist()
-            k = int(m.edge_reps[q, 0])
+            k = int(m.edge_reps[q, EC.EDGE])
             sh = edges.get(k)
             if sh is None:
                 sh = edges[k] = bintools.edge(ss, int(edge_shape[k]))
             pending.append((sh, srow, loc, kind == _ON_CLOSED_SURFACE, k))
         keys = None
         if cache is not None:
-            keys = _PcurveKeys(m, _group(m.edge_reps[:, 0], len(m.edge_tol)))
+            keys = _PcurveKeys(m, _group(m.edge_reps[:, EC.EDGE], len(m.edge_tol)))
         wanted = {(srow, loc) for _, srow, loc, _, _ in pending}
         rows = list(zip(m.face_surface.tolist(), m.face_loc.tolist()))
         faces = [bintools.face(ss, s) for s in face_shape]
@@ -495,14 +499,14 @@ def _restore(ss: Any, m: BRepModel) -> None:
     degenerated edge's null 3-D curve first, then the model's, without the
     pcurves left to compute."""
     reps = m.edge_reps
-    kind, c1 = reps[:, 1], reps[:, 2]
+    kind, c1 = reps[:, EC.KIND], reps[:, EC.CURVE]
     edge_shape = np.flatnonzero(m.shape_type == _EDGE).tolist()
     # a degenerated edge's null 3-D curve (the first representation: checked
     # by bintools) with a range other than the one BRep_Curve3D gives it
     null = (kind == _CURVE3D) & (c1 < 0)
     other = null & (m.edge_rep_range != bintools.NULL_RANGE).any(axis=1)
     for q in np.flatnonzero(other).tolist():
-        sh = bintools.edge(ss, edge_shape[int(reps[q, 0])])
+        sh = bintools.edge(ss, edge_shape[int(reps[q, EC.EDGE])])
         first, last = m.edge_rep_range[q].tolist()
         items(cast(BRep_TEdge, sh.TShape()).Curves())[0].SetRange(first, last)
     on = ((kind == _ON_SURFACE) | (kind == _ON_CLOSED_SURFACE)) & (c1 != REBUILD)
@@ -510,8 +514,8 @@ def _restore(ss: Any, m: BRepModel) -> None:
         return
     uv = m.edge_rep_uv.tolist()
     rows = reps[:, :3].tolist()
-    by_edge = _group(reps[:, 0], len(m.edge_tol))
-    for e in sorted(set(reps[on, 0].tolist())):
+    by_edge = _group(reps[:, EC.EDGE], len(m.edge_tol))
+    for e in sorted(set(reps[on, EC.EDGE].tolist())):
         written = [q for q in by_edge[e] if rows[q][2] != REBUILD]
         got = items(cast(BRep_TEdge, bintools.edge(ss, edge_shape[e]).TShape()).Curves())
         if rows[written[0]][1] == _CURVE3D and rows[written[0]][2] < 0:
@@ -541,9 +545,9 @@ def slow_model_to_shape(m: BRepModel, cache: PcurveCache | None = None) -> Any:
         locs.append(acc)
 
     tidx = m.type_index().tolist()
-    vreps = _group(m.vertex_reps[:, 0], len(m.vertex_tol))
+    vreps = _group(m.vertex_reps[:, VC.VERTEX], len(m.vertex_tol))
     pending: list[tuple[Any, int, int, bool, int]] = []
-    ereps = _group(m.edge_reps[:, 0], len(m.edge_tol))
+    ereps = _group(m.edge_reps[:, EC.EDGE], len(m.edge_tol))
     built: list[Any] = []
     start, child_shape = m.child_start.tolist(), m.child_shape.tolist()
     child_orient, child_loc = m.child_orient.tolist(), m.child_loc.tolist()
@@ -579,8 +583,9 @@ def slow_model_to_shape(m: BRepModel, cache: PcurveCache | None = None) -> Any:
             curves = te.ChangeCurves()
             for q in ereps[k]:
                 row = m.edge_reps[q].tolist()
-                if row[2] == REBUILD:
-                    pending.append((sh, row[4], row[6], row[1] == _ON_CLOSED_SURFACE, k))
+                if row[EC.CURVE] == REBUILD:
+                    closed = row[EC.KIND] == _ON_CLOSED_SURFACE
+                    pending.append((sh, row[EC.SURFACE], row[EC.LOC], closed, k))
                 else:
                     curves.Append(_edge_rep(m, q, geo, locs, row))
         elif t == _FACE:
