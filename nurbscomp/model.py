@@ -311,7 +311,8 @@ class BRepModel:
     vertex_tol : ndarray, shape (V,)
     vertex_reps : ndarray of int64, shape (R, 5)
         Rows (vertex, PointRepKind, curve or pcurve, surface, location), grouped
-        by vertex in the order of the vertex's representation list.
+        by vertex in the order of the vertex's representation list; columns
+        named by :class:`VertexCol`.
     vertex_rep_params : ndarray, shape (R, 2)
         The curve parameter, or the surface (u, v).
     edge_tol : ndarray, shape (E,)
@@ -320,7 +321,8 @@ class BRepModel:
     edge_reps : ndarray of int64, shape (Q, 8)
         Rows (edge, RepKind, curve, curve2, surface, surface2, location, location2),
         grouped by edge in the order of the edge's representation list; -1
-        where a column does not apply (and for a degenerated edge's null curve).
+        where a column does not apply (and for a degenerated edge's null curve);
+        columns named by :class:`EdgeCol`.
     edge_rep_cont : ndarray of uint8, shape (Q,)
         ``GeomAbs_Shape`` continuity of seam and two-surface representations.
     edge_rep_range : ndarray, shape (Q, 2)

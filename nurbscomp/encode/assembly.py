@@ -17,6 +17,7 @@ import numpy as np
 
 from .. import codec, joins
 from ..model import (
+    EC,
     BRepModel,
     BSplineCurve,
     BSplineSurface,
@@ -157,8 +158,10 @@ def assemble(
             face_method.append("exact")
     reps = m.edge_reps
     edge_bound = np.zeros(len(m.edge_tol))
-    for q in np.flatnonzero(reps[:, 1] == RepKind.CURVE3D).tolist():
-        edge_bound[reps[q, 0]] = max(edge_bound[reps[q, 0]], curve_bound(int(reps[q, 2])))
+    for q in np.flatnonzero(reps[:, EC.KIND] == RepKind.CURVE3D).tolist():
+        edge_bound[reps[q, EC.EDGE]] = max(
+            edge_bound[reps[q, EC.EDGE]], curve_bound(int(reps[q, EC.CURVE]))
+        )
     # a snapped vertex's tolerance covers the grid's bound, not its own move:
     # one value for all (their codes repeat), and the same at every vertex
     cover = np.where(moved_v > 0, np.maximum(moved_v, coded.tol / 2), 0.0)
@@ -243,8 +246,8 @@ def _snap_vertices(
     tidx = m.type_index()
     curve_of: dict[int, int] = {}
     reps = m.edge_reps
-    for q in np.flatnonzero(reps[:, 1] == RepKind.CURVE3D).tolist():
-        curve_of[int(reps[q, 0])] = int(reps[q, 2]) if reps[q, 6] == 0 else -1
+    for q in np.flatnonzero(reps[:, EC.KIND] == RepKind.CURVE3D).tolist():
+        curve_of[int(reps[q, EC.EDGE])] = int(reps[q, EC.CURVE]) if reps[q, EC.LOC] == 0 else -1
     srec, crec = records(m.surfaces, Table.SURFACE), records(m.curves3d, Table.CURVE3D)
     ok = np.ones(len(m.vertex_tol), bool)
     for e, s in enumerate(np.flatnonzero(m.shape_type == ShapeType.EDGE).tolist()):

@@ -25,6 +25,7 @@ import numpy as np
 from .. import codec, joins, serialize
 from ..decode import net_abscissae, net_basis
 from ..model import (
+    EC,
     BRepModel,
     BSplineCurve,
     BSplineSurface,
@@ -409,8 +410,8 @@ def _lonely_curves(
     at 0.01 mm otherwise)."""
     curve_of: dict[int, int] = {}
     reps = m.edge_reps
-    for q in np.flatnonzero(reps[:, 1] == RepKind.CURVE3D).tolist():
-        curve_of.setdefault(int(reps[q, 0]), int(reps[q, 2]))
+    for q in np.flatnonzero(reps[:, EC.KIND] == RepKind.CURVE3D).tolist():
+        curve_of.setdefault(int(reps[q, EC.EDGE]), int(reps[q, EC.CURVE]))
     lead = {c: r for c, (r, _, _) in twins.items()}
     side_lead = {k: v[0] for k, v in sides.items()}
 
@@ -505,10 +506,10 @@ def edge_records(m: BRepModel) -> list[Rec | None]:
     cfirst = first_row(m.curves3d)
     out: list[Rec | None] = [None] * len(m.edge_tol)
     reps = m.edge_reps
-    for q in np.flatnonzero(reps[:, 1] == RepKind.CURVE3D).tolist():
-        if reps[q, 2] >= 0:
-            row = resolve_row(m.curves3d, int(reps[q, 2]), TRIM_C)
-            out[reps[q, 0]] = Rec(Table.CURVE3D, cfirst[row])
+    for q in np.flatnonzero(reps[:, EC.KIND] == RepKind.CURVE3D).tolist():
+        if reps[q, EC.CURVE] >= 0:
+            row = resolve_row(m.curves3d, int(reps[q, EC.CURVE]), TRIM_C)
+            out[reps[q, EC.EDGE]] = Rec(Table.CURVE3D, cfirst[row])
     return out
 
 

@@ -17,7 +17,9 @@ import numpy as np
 
 from .. import budget, joins
 from ..model import (
+    EC,
     REBUILD,
+    VC,
     Analytic,
     BRepModel,
     BSplineCurve,
@@ -25,6 +27,7 @@ from ..model import (
     Derived,
     Geometry,
     Kind,
+    PointRepKind,
     RepKind,
     ShapeType,
     below,
@@ -49,10 +52,10 @@ def drop_pcurves(m: BRepModel, keep_edges: set[int], keep_faces: set[int]) -> BR
     B-rep and keeps what fails (:func:`nurbscomp.pipeline.compress_file`).
     """
     reps = m.edge_reps.copy()
-    kind = reps[:, 1]
+    kind = reps[:, EC.KIND]
     has3d = np.zeros(len(m.edge_tol), bool)
     c3 = kind == RepKind.CURVE3D
-    has3d[reps[c3, 0]] = reps[c3, 2] >= 0
+    has3d[reps[c3, EC.EDGE]] = reps[c3, EC.CURVE] >= 0
     faces_on: dict[tuple[int, int], list[int]] = collections.defaultdict(list)
     for f, key in enumerate(zip(m.face_surface.tolist(), m.face_loc.tolist())):
         faces_on[key].append(f)
@@ -69,14 +72,14 @@ def drop_pcurves(m: BRepModel, keep_edges: set[int], keep_faces: set[int]) -> BR
         on = faces_on.get((surface, loc), [])
         if not on or any(f in keep_faces for f in on):
             continue
-        reps[q, 2] = REBUILD
+        reps[q, EC.CURVE] = REBUILD
         if closed[q]:
-            reps[q, 3] = REBUILD
+            reps[q, EC.CURVE2] = REBUILD
     for q in _within_budget(m, reps, budget.DEFAULT):
-        reps[q, 2:4] = m.edge_reps[q, 2:4]
+        reps[q, EC.CURVE : EC.CURVE2 + 1] = m.edge_reps[q, EC.CURVE : EC.CURVE2 + 1]
     out: Any = replace(m)
     out.edge_reps = reps
-    dropped = reps[:, 2] == REBUILD
+    dropped = reps[:, EC.CURVE] == REBUILD
     out.edge_rep_range = np.where(dropped[:, None], 0.0, m.edge_rep_range)
     out.edge_rep_uv = np.where(dropped[:, None], 0.0, m.edge_rep_uv)
     return prune_curves2d(out)
@@ -98,11 +101,11 @@ def iso_lines(m: BRepModel) -> np.ndarray:
         for g in m.curves2d
     ]
     reps = m.edge_reps
-    pc = (reps[:, 1] == RepKind.ON_SURFACE) | (reps[:, 1] == RepKind.ON_CLOSED_SURFACE)
+    pc = (reps[:, EC.KIND] == RepKind.ON_SURFACE) | (reps[:, EC.KIND] == RepKind.ON_CLOSED_SURFACE)
     for q in np.flatnonzero(pc).tolist():
-        c1, c2 = int(reps[q, 2]), int(reps[q, 3])
+        c1, c2 = int(reps[q, EC.CURVE]), int(reps[q, EC.CURVE2])
         ok = 0 <= c1 < len(line) and line[c1]
-        if reps[q, 1] == RepKind.ON_CLOSED_SURFACE:
+        if reps[q, EC.KIND] == RepKind.ON_CLOSED_SURFACE:
             ok = ok and 0 <= c2 < len(line) and line[c2]
         out[q] = ok
     return out
@@ -133,12 +136,12 @@ def prune_curves2d(m: BRepModel) -> BRepModel:
     """Drop 2-D curves nothing refers to, renumbering the references."""
     used = np.zeros(len(m.curves2d), bool)
     reps = m.edge_reps
-    pc = (reps[:, 1] == RepKind.ON_SURFACE) | (reps[:, 1] == RepKind.ON_CLOSED_SURFACE)
+    pc = (reps[:, EC.KIND] == RepKind.ON_SURFACE) | (reps[:, EC.KIND] == RepKind.ON_CLOSED_SURFACE)
     for col in (2, 3):
         idx = reps[pc, col]
         used[idx[idx >= 0]] = True
     vr = m.vertex_reps
-    idx = vr[vr[:, 1] == 1, 2]
+    idx = vr[vr[:, VC.KIND] == PointRepKind.ON_CURVE_ON_SURFACE, VC.CURVE]
     used[idx[idx >= 0]] = True
     for i in range(len(m.curves2d) - 1, -1, -1):  # bases precede their curves
         g = m.curves2d[i]
@@ -159,8 +162,8 @@ def prune_curves2d(m: BRepModel) -> BRepModel:
         reps[sel, col] = new_index[reps[sel, col]]
     out.edge_reps = reps
     vr = vr.copy()
-    sel = (vr[:, 1] == 1) & (vr[:, 2] >= 0)
-    vr[sel, 2] = new_index[vr[sel, 2]]
+    sel = (vr[:, VC.KIND] == PointRepKind.ON_CURVE_ON_SURFACE) & (vr[:, VC.CURVE] >= 0)
+    vr[sel, VC.CURVE] = new_index[vr[sel, VC.CURVE]]
     out.vertex_reps = vr
     return out
 
@@ -237,16 +240,16 @@ def unit_curves(m: BRepModel, memo: dict[tuple[Any, ...], bool] | None = None) -
     ``memo`` keeps the size test's answers across calls (:func:`_cheaper`).
     """
     reps = m.edge_reps
-    kind = reps[:, 1]
+    kind = reps[:, EC.KIND]
     on3d = kind == RepKind.CURVE3D
     busy: set[int] = set()
     pc = (kind == RepKind.ON_SURFACE) | (kind == RepKind.ON_CLOSED_SURFACE)
-    kept_pc_edges = set(reps[pc & (reps[:, 2] != REBUILD), 0].tolist())
+    kept_pc_edges = set(reps[pc & (reps[:, EC.CURVE] != REBUILD), EC.EDGE].tolist())
     for q in np.flatnonzero(on3d).tolist():
-        if int(reps[q, 0]) in kept_pc_edges:
-            busy.add(int(reps[q, 2]))
+        if int(reps[q, EC.EDGE]) in kept_pc_edges:
+            busy.add(int(reps[q, EC.CURVE]))
     vr = m.vertex_reps
-    busy |= set(vr[vr[:, 1] == 0, 2].tolist())
+    busy |= set(vr[vr[:, VC.KIND] == PointRepKind.ON_CURVE, VC.CURVE].tolist())
     for g in m.curves3d:
         if isinstance(g, Derived):
             busy.add(g.basis)
@@ -268,14 +271,14 @@ def unit_curves(m: BRepModel, memo: dict[tuple[Any, ...], bool] | None = None) -
             if _mantissa_bits((g.knots - a) / (b - a)) < _mantissa_bits(g.knots):
                 maps[first[i]] = (a, b)
     rng = m.edge_rep_range.copy()
-    rows = np.flatnonzero(on3d & (reps[:, 2] >= 0)).tolist()
+    rows = np.flatnonzero(on3d & (reps[:, EC.CURVE] >= 0)).tolist()
     for q in rows:
-        ab = maps.get(first[int(reps[q, 2])])
+        ab = maps.get(first[int(reps[q, EC.CURVE])])
         if ab is not None:
             if (m.edge_rep_range[q] == ab).all():
                 rng[q] = (0.0, 1.0)
             else:  # a partial range would cost more as a mapped float than the knots save
-                maps.pop(first[int(reps[q, 2])], None)
+                maps.pop(first[int(reps[q, EC.CURVE])], None)
     if not maps or not _cheaper(m, maps, memo):
         return m
     table: list[Geometry] = []
@@ -290,7 +293,7 @@ def unit_curves(m: BRepModel, memo: dict[tuple[Any, ...], bool] | None = None) -
     out: Any = replace(m)
     out.curves3d = table
     for q in rows:
-        if first[int(reps[q, 2])] not in maps:
+        if first[int(reps[q, EC.CURVE])] not in maps:
             rng[q] = m.edge_rep_range[q]
     out.edge_rep_range = rng
     return out
@@ -329,10 +332,10 @@ def vertex_ranges(
                 vs = [tidx[v] for v in below(m, s, ShapeType.VERTEX)]
                 moved[e] = by_vertex[vs].max() if vs else 0.0
     for q, t in joins.vertex_ranges(m).items():
-        e = int(m.edge_reps[q, 0])
+        e = int(m.edge_reps[q, EC.EDGE])
         if e in keep:
             continue
-        g = m.curves3d[int(m.edge_reps[q, 2])]
+        g = m.curves3d[int(m.edge_reps[q, EC.CURVE])]
         speed = float(g.params[0]) if g.kind == Kind.CIRCLE else 1.0  # type: ignore[union-attr]
         d = np.abs(np.array(t) - rng[q])
         # a curve on its grid moved by up to its grid's bound, and its vertices'
@@ -341,7 +344,7 @@ def vertex_ranges(
         slack = RANGE_SLACK * tol + analytic.grid_bound(g)  # type: ignore[arg-type]
         reach = moved[e] * (2.0 if g.kind == Kind.CIRCLE and moved[e] <= speed / 2 else 1.0)
         if (d > 0).any() and d.max() * speed <= slack + reach:
-            same = (m.edge_reps[:, 0] == m.edge_reps[q, 0]) & (rng == rng[q]).all(-1)
+            same = (m.edge_reps[:, EC.EDGE] == m.edge_reps[q, EC.EDGE]) & (rng == rng[q]).all(-1)
             out_rng[same] = t
     if np.array_equal(out_rng, rng):
         return m

@@ -50,7 +50,18 @@ import numpy as np
 
 from .. import decode, joins, occ
 from ..errors import InputError, NurbscompError, RebuildError
-from ..model import REBUILD, BRepModel, Derived, Kind, Rec, ShapeType, Table, faces_around, records
+from ..model import (
+    EC,
+    REBUILD,
+    BRepModel,
+    Derived,
+    Kind,
+    Rec,
+    ShapeType,
+    Table,
+    faces_around,
+    records,
+)
 from . import assembly, nets, pcurves
 
 log = logging.getLogger(__name__)
@@ -709,7 +720,7 @@ def _done(
     vr.exact_faces = plan.exact_faces(report)
     vr.pcurves_kept = len(plan.keep_f)
     vr.tightened = plan.tightened()
-    rebuilt = int((cand.edge_reps[:, 2] == REBUILD).sum())
+    rebuilt = int((cand.edge_reps[:, EC.CURVE] == REBUILD).sum())
     return Target(cand, codes, report, shape, vr, rebuilt, early)
 
 
