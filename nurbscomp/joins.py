@@ -23,7 +23,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable
 from dataclasses import dataclass, replace
-from typing import Any, cast
+from typing import Any, NamedTuple, cast
 
 import numpy as np
 
@@ -346,9 +346,26 @@ def pinned_corners(m: BRepModel, g: BSplineSurface, pins: list[tuple[int, int]])
     return _pinned(m, g.poles, [(CORNERS[k], v) for k, v in pins])
 
 
-def iso_sources(
-    m: BRepModel, curve_rows: set[int], surface_rows: set[int]
-) -> dict[int, tuple[int, int, int]]:
+class IsoSource(NamedTuple):
+    """Where an iso-boundary curve comes from (:func:`iso_sources`): side
+    ``side`` of the net of surface row ``surface``, reversed if ``reversed``."""
+
+    surface: int
+    side: int
+    reversed: int
+
+
+class Twin(NamedTuple):
+    """A member of a twin pair (:func:`twin_curves`, :func:`twin_sides`): it is
+    its ``leader`` (a curve row, or a (surface row, side)), reversed if
+    ``reversed``, up to ``distance``."""
+
+    leader: Any
+    reversed: int
+    distance: float
+
+
+def iso_sources(m: BRepModel, curve_rows: set[int], surface_rows: set[int]) -> dict[int, IsoSource]:
     """Curves that are a boundary of a surface on the same edge, bit for bit.
 
     Returns ``{curve row: (surface row, side, reversed)}`` for each curve row in
@@ -360,7 +377,7 @@ def iso_sources(
     the two meet exactly (docs/design.md §4, "shared iso-boundaries coded once").
     """
     faces_of = faces_around(m, ShapeType.EDGE)
-    out: dict[int, tuple[int, int, int]] = {}
+    out: dict[int, IsoSource] = {}
     reps = m.edge_reps
     for q in np.flatnonzero(reps[:, EC.KIND] == RepKind.CURVE3D).tolist():
         c = int(reps[q, EC.CURVE])
@@ -377,7 +394,7 @@ def iso_sources(
             r = int(m.face_surface[f])
             hit = _boundary_match(g, m.surfaces[r]) if r in surface_rows else None
             if hit is not None and m.face_loc[f] == 0:
-                out[c] = (r, *hit)
+                out[c] = IsoSource(r, *hit)
                 break
     return out
 
@@ -649,8 +666,8 @@ def _pair_up(
     runs: list[tuple[Any, _Run]],
     eps: float,
     leaders_only: set[Any] = frozenset(),  # type: ignore[assignment]
-) -> dict[Any, tuple[Any, int, float]]:
-    """``{member key: (leader key, reversed, distance)}`` over ``runs`` (in key
+) -> dict[Any, Twin]:
+    """``{member key: Twin(leader key, reversed, distance)}`` over ``runs`` (in key
     order): each run that is an earlier run up to ``eps`` (:func:`_twins`),
     the earlier being the first of its kind and no member itself.  Keys in
     ``leaders_only`` are never members."""
@@ -660,7 +677,7 @@ def _pair_up(
     # candidates: runs whose ends (or swapped ends) are within 2 eps, a superset
     # of the twins (ends within eps each: sqrt(2) eps), which _twins sorts out
     nearby = _near_ends(ends, 2 * eps)
-    out: dict[Any, tuple[Any, int, float]] = {}
+    out: dict[Any, Twin] = {}
     for i, (key, a) in enumerate(runs):
         if key in out:
             continue
@@ -670,7 +687,7 @@ def _pair_up(
                 continue
             hit = _twins(a, b, eps)
             if hit is not None:
-                out[other] = (key, *hit)
+                out[other] = Twin(key, *hit)
     return out
 
 
@@ -805,11 +822,11 @@ def twin_curves(
     eps: float,
     iso: set[int] = frozenset(),  # type: ignore[assignment]
     where: dict[int, np.ndarray] | None = None,
-) -> dict[int, tuple[int, int, float]]:
+) -> dict[int, Twin]:
     """Rows of ``rows`` whose B-spline curve is another row's up to ``eps``, in
     the model's frame.
 
-    Returns ``{member row: (leader row, reversed, distance)}``.  Faces of an
+    Returns ``{member row: Twin(leader row, reversed, distance)}``.  Faces of an
     IGES surface model (and of many STEP files) meet along separate edges
     whose curves coincide, often with their poles reversed, and each face may
     have a frame of its own: coded independently, they would part by up to
@@ -860,10 +877,10 @@ def joined_sides(g: BSplineSurface, lead: BSplineSurface, join: np.ndarray) -> n
 
 def twin_sides(
     surfaces: list[Geometry], rows: list[int], eps: float
-) -> dict[tuple[int, int], tuple[tuple[int, int], int, float]]:
+) -> dict[tuple[int, int], Twin]:
     """Sides of clamped nets in ``rows`` that are an earlier side up to ``eps``.
 
-    Returns ``{(member row, side): ((leader row, side), reversed, distance)}``.
+    Returns ``{(member row, side): Twin((leader row, side), reversed, distance)}``.
     Untrimmed patches of a surface model meet along their natural boundaries;
     each side is then set to its leader's decoded side (the SIDE section), so
     neighbouring nets, and the iso-boundary curves copied from them, meet

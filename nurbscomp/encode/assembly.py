@@ -257,7 +257,7 @@ def _snap_vertices(
             or (
                 crec[c] in coded.iso
                 and crec[c] not in exact
-                and srec[coded.iso[crec[c]][0]] in codes
+                and srec[coded.iso[crec[c]].surface] in codes
             )
         )
         # a copy of a coincident curve (faces-mode IGES: bearing) keeps its

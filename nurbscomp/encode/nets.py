@@ -81,7 +81,7 @@ class Coded:
     curves: dict[Rec, tuple[codec.NetCode, Geometry]]
     tol: float
     #: curve record -> (surface row, side, reversed): copied from a decoded surface
-    iso: dict[Rec, tuple[int, int, int]] = field(default_factory=dict)
+    iso: dict[Rec, joins.IsoSource] = field(default_factory=dict)
     #: every vertex snapped to the vertex grid (used where all its edges' curves are
     #: coded): its cluster's first vertex's grid point (:func:`joins.vertex_clusters`)
     vgrid: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
@@ -291,7 +291,7 @@ def code_model(
     # where faces share an edge, its tolerance covers their coding errors: no
     # side needs joining there (joining would only move them off their other edges)
     on = _edges_by_surface(m)
-    sides = {k: v for k, v in sides.items() if not on[k[0]] & on[v[0][0]]}
+    sides = {k: v for k, v in sides.items() if not on[k[0]] & on[v.leader[0]]}
     searched = codec.SURFACE_METHODS if paper else codec.SURFACE_SEARCH
     uncodable: set[Rec] = set()
     surfaces = _code_table(
@@ -340,9 +340,9 @@ def code_model(
     limits = _leader_limits(m.curves3d, crec, twins, tol)
     for c, (r, _, d) in twins.items():  # a surface whose boundary leads is coded to suit
         if r in iso:
-            sg = m.surfaces[iso[r][0]]
+            sg = m.surfaces[iso[r].surface]
             need = feature_limit(cast(BSplineCurve, m.curves3d[c]).poles, tol) - d
-            sk = srec[iso[r][0]]
+            sk = srec[iso[r].surface]
             code = surfaces[sk][0] if sk in surfaces else None
             if code is not None and code.bound > need:
                 assert isinstance(sg, BSplineSurface)
@@ -395,9 +395,9 @@ COINCIDENT = 1e-6
 def _lonely_curves(
     m: BRepModel,
     points: np.ndarray,
-    twins: dict[int, tuple[int, int, float]],
-    iso: dict[int, tuple[int, int, int]],
-    sides: dict[tuple[int, int], tuple[tuple[int, int], int, float]],
+    twins: dict[int, joins.Twin],
+    iso: dict[int, joins.IsoSource],
+    sides: dict[tuple[int, int], joins.Twin],
     sewn: Sequence[tuple[int, int]] = (),
 ) -> set[int]:
     """3-D curve rows of coincident edges (:func:`joins.coincident_edges`) and
@@ -413,14 +413,14 @@ def _lonely_curves(
     for q in np.flatnonzero(reps[:, EC.KIND] == RepKind.CURVE3D).tolist():
         curve_of.setdefault(int(reps[q, EC.EDGE]), int(reps[q, EC.CURVE]))
     lead = {c: r for c, (r, _, _) in twins.items()}
-    side_lead = {k: v[0] for k, v in sides.items()}
+    side_lead = {k: v.leader for k, v in sides.items()}
 
     def root(c: int) -> tuple[str, Any]:
         """What a curve's decoded poles come from: a copy's leader's source,
         an iso-boundary's (joined) side, or the curve itself."""
         c = lead.get(c, c)
         if c in iso:
-            k = iso[c][:2]
+            k = (iso[c].surface, iso[c].side)
             return ("side", side_lead.get(k, k))
         return ("curve", c)
 
@@ -447,17 +447,21 @@ def _edges_by_surface(m: BRepModel) -> dict[int, set[int]]:
     return out
 
 
-def _affordable(table: list[Geometry], pairs: dict[Any, Any], tol: float) -> dict[Any, Any]:
+def _affordable(
+    table: list[Geometry], pairs: dict[Any, joins.Twin], tol: float
+) -> dict[Any, joins.Twin]:
     """The twin pairs (``{member: (leader, reversed, distance)}``, keys a row or
     (row, side)) whose distance is at most half the member's limit: the
     leader is coded to the rest (:func:`_leader_limits`)."""
     return {
-        k: v for k, v in pairs.items() if v[2] <= feature_limit(poles_of(table[_row(k)]), tol) / 2
+        k: v
+        for k, v in pairs.items()
+        if v.distance <= feature_limit(poles_of(table[_row(k)]), tol) / 2
     }
 
 
 def _leader_limits(
-    table: list[Geometry], recs: list[Rec], pairs: dict[Any, Any], tol: float
+    table: list[Geometry], recs: list[Rec], pairs: dict[Any, joins.Twin], tol: float
 ) -> dict[Rec, float]:
     """``{leader record: limit}``: a leader coded to this leaves each copy of it,
     which moves by the leader's bound plus their distance, within the copy's limit.
