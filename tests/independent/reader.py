@@ -50,6 +50,8 @@ class Model:
     sides: list[tuple[int, int, int, int, int]]
     snet: bytes
     cnet: bytes
+    surf_copies: list[bool]
+    crv3_copies: list[bool]
 
     def floats(self) -> dict[str, np.ndarray]:
         """Every float, one array per kind of value, as make_golden.model_floats."""
@@ -236,9 +238,9 @@ def read(data: bytes) -> Model:
         raise ReadError("lossless flag")
     rev = c.revision
     forms, datums, locs = read_locs(c.sections["LOCS"])
-    surfaces = read_geometry(c.sections["SURF"], "SURF", 3, rev)
-    curves3d = read_geometry(c.sections["CRV3"], "CRV3", 3, rev)
-    curves2d = read_geometry(c.sections["CRV2"], "CRV2", 2, rev)
+    surfaces, surf_copies = read_geometry(c.sections["SURF"], "SURF", 3, rev)
+    curves3d, crv3_copies = read_geometry(c.sections["CRV3"], "CRV3", 3, rev)
+    curves2d, _ = read_geometry(c.sections["CRV2"], "CRV2", 2, rev)
     shapes = read_shap(c.sections["SHAP"], rev)
     vertices = read_vertices(c.sections["VERT"], rev, shapes, tol)
     edges = read_edges(c.sections["EDGE"], rev)
@@ -246,7 +248,8 @@ def read(data: bytes) -> Model:
     resolve_picks(shapes, faces, edges)
     sides = read_sides(c.sections["SIDE"]) if "SIDE" in c.sections else []
     m = Model(rev, meta, tol, forms, datums, locs, surfaces, curves3d, curves2d, shapes,
-              vertices, edges, faces, sides, c.sections["SNET"], c.sections["CNET"])  # fmt: skip
+              vertices, edges, faces, sides, c.sections["SNET"], c.sections["CNET"],
+              surf_copies, crv3_copies)  # fmt: skip
     fill_ranges(m)
     nets.decode(m)
     return m

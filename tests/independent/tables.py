@@ -120,7 +120,10 @@ def evenly_spaced(a: float, b: float, res: np.ndarray) -> np.ndarray:
 # ---------------------------------------------------------------- geometry tables
 
 
-def read_geometry(raw: bytes, tag: str, dim: int, revision: int) -> list[Record]:
+def read_geometry(
+    raw: bytes, tag: str, dim: int, revision: int
+) -> tuple[list[Record], list[bool]]:
+    """The rows, and for each whether it is a copy (kind 255) of an earlier one."""
     a = Arrays(raw, tag)
     kinds = a.ints()
     copy = Take(a.ints(), f"{tag} copy")
@@ -139,6 +142,7 @@ def read_geometry(raw: bytes, tag: str, dim: int, revision: int) -> list[Record]
     vectors: list[tuple[np.ndarray, np.ndarray]] = []  # knot vectors by number (2.0)
     rational: list[np.ndarray] = []  # weights of the rows with a wref, in order (2.0)
     rows: list[Record] = []
+    copies: list[bool] = []
 
     def vector(nk: int) -> tuple[np.ndarray, np.ndarray]:
         if revision < 3:
@@ -191,7 +195,9 @@ def read_geometry(raw: bytes, tag: str, dim: int, revision: int) -> list[Record]
             if not 1 <= back <= i:
                 raise ReadError(f"{tag}: copy {back} at row {i}")
             rows.append(rows[i - back])
+            copies.append(True)
             continue
+        copies.append(False)
         on_grid = kind >= 128
         if on_grid:
             kind -= 128
@@ -258,7 +264,7 @@ def read_geometry(raw: bytes, tag: str, dim: int, revision: int) -> list[Record]
             raise ReadError(f"{tag}: unknown kind {kind}")
     for t in (copy, header, basis, mults, kres, grid, frames, params, poles, weights, knots):
         t.end()
-    return rows
+    return rows, copies
 
 
 # ---------------------------------------------------------------- tolerances (2.0)
