@@ -67,7 +67,9 @@ class Container:
         payload = data[pos + 16 :]
         if len(payload) != stored_length:
             raise ReadError("payload length")
-        crc = zlib.crc32(data[pos + 16 :], zlib.crc32(data[pos : pos + 12], zlib.crc32(data[16:pos])))
+        crc = zlib.crc32(
+            data[pos + 16 :], zlib.crc32(data[pos : pos + 12], zlib.crc32(data[16:pos]))
+        )
         if crc != body_crc:
             raise ReadError("body crc")
         if raw_length != sum(d[1] for d in directory):

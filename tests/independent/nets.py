@@ -23,17 +23,19 @@ SLOPES = (0.0, 1.0)
 
 
 def dct_matrix(n: int) -> np.ndarray:
-    """Rows w_k cos(pi k (2i + 1) / (2N)) of the orthonormal DCT-II."""
-    k = np.arange(n, dtype=float)[:, None]
-    i = np.arange(n, dtype=float)[None, :]
-    w = np.full((n, 1), math.sqrt(2.0 / n))
-    w[0] = math.sqrt(1.0 / n)
-    return w * np.cos(np.pi * k * (2 * i + 1) / (2 * n))
+    """The orthonormal DCT-II matrix, as §2.4.1 evaluates it."""
+    k = np.arange(n)[:, None]
+    c = np.cos(np.pi * k * (2 * np.arange(n)[None, :] + 1) / (2 * n)) * np.sqrt(2.0 / n)
+    c[0] /= np.sqrt(2.0)
+    return c
 
 
 def idct(x: np.ndarray, axis: int = 0) -> np.ndarray:
+    """Inverse DCT along ``axis`` as the matrix product M.T @ x (x's other axes flattened)."""
     m = dct_matrix(x.shape[axis])
-    return np.moveaxis(np.tensordot(m.T, np.moveaxis(x, axis, 0), axes=1), 0, axis)
+    y = np.moveaxis(x, axis, 0)
+    r = (m.T @ y.reshape(y.shape[0], -1)).reshape(y.shape)
+    return np.moveaxis(r, 0, axis)
 
 
 def idct2(x: np.ndarray) -> np.ndarray:
@@ -43,7 +45,9 @@ def idct2(x: np.ndarray) -> np.ndarray:
 # ---------------------------------------------------------------- abscissae
 
 
-def flat_knots(knots: np.ndarray, mults: np.ndarray, degree: int, periodic: bool, n: int) -> list[float]:
+def flat_knots(
+    knots: np.ndarray, mults: np.ndarray, degree: int, periodic: bool, n: int
+) -> list[float]:
     flat = [float(k) for k, m in zip(knots.tolist(), mults.tolist(), strict=True) for _ in range(m)]
     if periodic:
         period = float(knots[-1]) - float(knots[0])
@@ -52,7 +56,9 @@ def flat_knots(knots: np.ndarray, mults: np.ndarray, degree: int, periodic: bool
     return flat
 
 
-def abscissae(knots: np.ndarray, mults: np.ndarray, degree: int, periodic: bool, n: int) -> np.ndarray:
+def abscissae(
+    knots: np.ndarray, mults: np.ndarray, degree: int, periodic: bool, n: int
+) -> np.ndarray:
     """§2.4.1 Abscissae: normalised Greville abscissae (eq. 17)."""
     u = flat_knots(knots, mults, degree, periodic, n)
     if degree == 0:
@@ -335,9 +341,7 @@ def vertex_set(m: Model, shape: int) -> list[int]:
 
 def face_vertex_sets(m: Model) -> list[list[int]]:
     faces = m.shapes.of(4)
-    return [
-        vertex_set(m, faces[f]) if int(m.faces.loc[f]) == 0 else [] for f in range(len(faces))
-    ]
+    return [vertex_set(m, faces[f]) if int(m.faces.loc[f]) == 0 else [] for f in range(len(faces))]
 
 
 def dist(a: np.ndarray, b: np.ndarray) -> float:
@@ -364,8 +368,16 @@ def boundary(p: np.ndarray, side: int) -> np.ndarray:
 def decode(m: Model) -> None:
     snet = Table(m.snet, "SNET", m.revision)
     cnet = Table(m.cnet, "CNET", m.revision)
-    srows = [i for i, g in enumerate(m.surfaces) if not m.surf_copies[i] and isinstance(g, Spline) and g.coded]
-    crows = [i for i, g in enumerate(m.curves3d) if not m.crv3_copies[i] and isinstance(g, Spline) and g.coded]
+    srows = [
+        i
+        for i, g in enumerate(m.surfaces)
+        if not m.surf_copies[i] and isinstance(g, Spline) and g.coded
+    ]
+    crows = [
+        i
+        for i, g in enumerate(m.curves3d)
+        if not m.crv3_copies[i] and isinstance(g, Spline) and g.coded
+    ]
     if snet.n != len(srows) or cnet.n != len(crows):
         raise ReadError("net counts")
     if m.tol is None:
@@ -383,9 +395,7 @@ def decode(m: Model) -> None:
         nu, nv = g.shape
         o = origin
         if snet.anchor[k] > 0:
-            cand = next(
-                (vsets[f] for f in range(len(vsets)) if int(m.faces.surface[f]) == row), []
-            )
+            cand = next((vsets[f] for f in range(len(vsets)) if int(m.faces.surface[f]) == row), [])
             if snet.anchor[k] > len(cand):
                 raise ReadError("SNET anchor past the candidates")
             o = points[cand[snet.anchor[k] - 1]][None]
@@ -408,7 +418,13 @@ def decode(m: Model) -> None:
     for f in range(len(vsets)):
         r = int(m.faces.surface[f])
         g = m.surfaces[r]
-        if r not in coded or r in pinned or not vsets[f] or not isinstance(g, Spline) or not clamped(g):
+        if (
+            r not in coded
+            or r in pinned
+            or not vsets[f]
+            or not isinstance(g, Spline)
+            or not clamped(g)
+        ):
             continue
         quant, e = level[r]
         if m.revision < 2:

@@ -4,7 +4,9 @@ docs/format.md alone.  ``read(data)`` returns a :class:`Model`;
 
 from __future__ import annotations
 
+import hashlib
 import math
+import struct
 from dataclasses import dataclass
 
 import numpy as np
@@ -52,6 +54,52 @@ class Model:
     cnet: bytes
     surf_copies: list[bool]
     crv3_copies: list[bool]
+
+    def int_arrays(self) -> dict[str, np.ndarray]:
+        """Every integer, as make_golden.int_arrays lays them out."""
+        geo: list[int] = []
+        for g in [*self.surfaces, *self.curves3d, *self.curves2d]:
+            geo.append(g.kind)
+            if isinstance(g, Spline) and g.is_surface:
+                assert g.poles is not None
+                geo += [*g.degrees, *g.poles.shape, *(int(p) for p in g.periodic)]
+                geo += [*g.mults[0].tolist(), -1, *g.mults[1].tolist(), int(g.weights is not None)]
+            elif isinstance(g, Spline):
+                assert g.poles is not None
+                geo += [g.degrees[0], *g.poles.shape, int(g.periodic[0]), *g.mults[0].tolist()]
+                geo.append(int(g.weights is not None))
+            elif isinstance(g, Derived):
+                geo.append(g.basis)
+        sh = self.shapes
+        nchild = [len(c) for c in sh.children]
+        flat = [c for cs in sh.children for c in cs]
+        out = {
+            "geometry": geo,
+            "datum_forms": self.datum_forms,
+            "locations": [x for d, p in self.locations[1:] for x in (*d, *p)],
+            "shape_type": sh.type,
+            "shape_flags": sh.flags,
+            "child_start": np.concatenate([[0], np.cumsum(nchild)]),
+            "child_shape": [c[0] for c in flat],
+            "child_orient": [c[1] for c in flat],
+            "child_loc": [c[2] for c in flat],
+            "root": list(sh.root),
+            "vertex_reps": self.vertices.reps,
+            "edge_flags": self.edges.flags,
+            "edge_reps": self.edges.reps,
+            "edge_rep_cont": self.edges.cont,
+            "face_surface": self.faces.surface,
+            "face_loc": self.faces.loc,
+            "face_natural": self.faces.natural,
+        }
+        return {k: np.asarray(v).astype(np.int64) for k, v in out.items()}
+
+    def int_digest(self) -> str:
+        """SHA-256 of :meth:`int_arrays`, as make_golden.int_digest."""
+        h = hashlib.sha256()
+        for k, a in sorted(self.int_arrays().items()):
+            h.update(k.encode() + struct.pack("<Q", a.size) + a.astype("<i8").tobytes())
+        return h.hexdigest()
 
     def floats(self) -> dict[str, np.ndarray]:
         """Every float, one array per kind of value, as make_golden.model_floats."""
@@ -165,7 +213,9 @@ def _angle(p: np.ndarray, g: Analytic) -> float:
     y = np.array([n[1] * x[2] - n[2] * x[1], n[2] * x[0] - n[0] * x[2], n[0] * x[1] - n[1] * x[0]])
     y = y / math.sqrt((y[0] * y[0] + y[1] * y[1]) + y[2] * y[2])
     q = p - o
-    a = math.atan2((q[0] * y[0] + q[1] * y[1]) + q[2] * y[2], (q[0] * x[0] + q[1] * x[1]) + q[2] * x[2])
+    a = math.atan2(
+        (q[0] * y[0] + q[1] * y[1]) + q[2] * y[2], (q[0] * x[0] + q[1] * x[1]) + q[2] * x[2]
+    )
     if a < 0:
         a = 0.0 if a > -1e-9 else a + 2 * math.pi
     return a

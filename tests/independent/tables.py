@@ -120,9 +120,7 @@ def evenly_spaced(a: float, b: float, res: np.ndarray) -> np.ndarray:
 # ---------------------------------------------------------------- geometry tables
 
 
-def read_geometry(
-    raw: bytes, tag: str, dim: int, revision: int
-) -> tuple[list[Record], list[bool]]:
+def read_geometry(raw: bytes, tag: str, dim: int, revision: int) -> tuple[list[Record], list[bool]]:
     """The rows, and for each whether it is a copy (kind 255) of an earlier one."""
     a = Arrays(raw, tag)
     kinds = a.ints()
@@ -243,8 +241,19 @@ def read_geometry(
             coded = bool(flags & 8)
             p = None if coded else poles(nu * nv * 3).reshape(nu, nv, 3).copy()
             rows.append(
-                Spline(kind, 3, (nu, nv), [udeg, vdeg], [uk, vk], [um, vm],
-                       [bool(flags & 2), bool(flags & 4)], w, coded, p, kind == 9)  # fmt: skip
+                Spline(
+                    kind,
+                    3,
+                    (nu, nv),
+                    [udeg, vdeg],
+                    [uk, vk],
+                    [um, vm],
+                    [bool(flags & 2), bool(flags & 4)],
+                    w,
+                    coded,
+                    p,
+                    kind == 9,
+                )  # fmt: skip
             )
         elif kind in (21, 22):
             n, flags = header(), header()
@@ -257,8 +266,9 @@ def read_geometry(
             coded = bool(flags & 4)
             p = None if coded else poles(n * dim).reshape(n, dim).copy()
             rows.append(
-                Spline(kind, dim, (n,), [deg], [kv], [mv], [bool(flags & 2)], w, coded, p,
-                       kind == 21)  # fmt: skip
+                Spline(
+                    kind, dim, (n,), [deg], [kv], [mv], [bool(flags & 2)], w, coded, p, kind == 21
+                )  # fmt: skip
             )
         else:
             raise ReadError(f"{tag}: unknown kind {kind}")
@@ -439,6 +449,7 @@ def read_edges(raw: bytes, revision: int) -> Edges:
     a.end()
     owner = np.repeat(np.arange(len(nreps)), nreps)
     reps = np.full((q, 8), -1, np.int64)
+    reps[:, 7] = 0  # location2: 0 where it does not apply (kind 0-2), as the model has it
     out_cont = np.zeros(q, np.int64)
     out_rk = np.full(q, -1, np.int64)
     out_range = np.zeros((q, 2))
