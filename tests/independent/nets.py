@@ -505,6 +505,11 @@ def decode(m: Model) -> None:
         assert isinstance(g, Spline) and g.poles is not None
         g.poles[end] = points[v]
     # ---- copies
+    if copies and located(m):
+        # §2.4 method 9 moves the copied poles by inv(P_row)·P_leader where the two
+        # rows sit in different frames; no golden file or corpus container has a
+        # located sub-shape, so this reader does not implement it (untested).
+        raise ReadError("CNET: copies in a located model are not implemented by this reader")
     for row, back, rev in copies:
         g, lead = m.curves3d[row], m.curves3d[row - back]
         assert isinstance(g, Spline)
@@ -512,6 +517,18 @@ def decode(m: Model) -> None:
             raise ReadError("CNET: copy of a row without poles")
         p = lead.poles.copy()
         g.poles = p[::-1].copy() if rev else p
+
+
+def located(m: Model) -> bool:
+    """Whether any placement can differ from the identity: a located root,
+    sub-shape reference or 3-D curve representation."""
+    sh = m.shapes
+    kind0 = m.edges.reps[m.edges.reps[:, 1] == 0]
+    return bool(
+        sh.root[2] != 0
+        or any(loc != 0 for cs in sh.children for _, _, loc in cs)
+        or (kind0[:, 6] != 0).any()
+    )
 
 
 def _rep_candidates(m: Model, rows: set[int]):
