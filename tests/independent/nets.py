@@ -30,8 +30,17 @@ def dct_matrix(n: int) -> np.ndarray:
     return c
 
 
+#: Lengths up to this use the matrix; longer ones scipy.fft (§2.4.1, the DCT).
+MATRIX_MAX = 64
+
+
 def idct(x: np.ndarray, axis: int = 0) -> np.ndarray:
-    """Inverse DCT along ``axis`` as the matrix product M.T @ x (x's other axes flattened)."""
+    """Inverse DCT along ``axis``: the matrix product M.T @ x (x's other axes
+    flattened) up to 64 values, scipy.fft's orthonormal DCT-III above."""
+    if x.shape[axis] > MATRIX_MAX:
+        from scipy import fft
+
+        return np.asarray(fft.idct(x, type=2, norm="ortho", axis=axis))
     m = dct_matrix(x.shape[axis])
     y = np.moveaxis(x, axis, 0)
     r = (m.T @ y.reshape(y.shape[0], -1)).reshape(y.shape)
@@ -39,6 +48,11 @@ def idct(x: np.ndarray, axis: int = 0) -> np.ndarray:
 
 
 def idct2(x: np.ndarray) -> np.ndarray:
+    """Along axis 0, then axis 1; scipy.fft over both when either side is over 64."""
+    if max(x.shape[:2]) > MATRIX_MAX:
+        from scipy import fft
+
+        return np.asarray(fft.idctn(x, type=2, norm="ortho", axes=(0, 1)))
     return idct(idct(x, 0), 1)
 
 
