@@ -56,8 +56,9 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
 @pytest.fixture(scope="session")
 def made(tmp_path_factory: pytest.TempPathFactory):
     """``made(src, tol)``: the container of ``src`` at ``tol`` (defaults
-    otherwise), made once for the whole run, by whichever worker asks first:
-    a folder that every pytest-xdist worker shares, a lock file per container.
+    otherwise; ``tol`` None: lossless-brep), made once for the whole run, by
+    whichever worker asks first: a folder that every pytest-xdist worker
+    shares, a lock file per container.
     ``made(src, tol, have=path)`` offers a container a test made already."""
     import fcntl
     import shutil
@@ -70,7 +71,7 @@ def made(tmp_path_factory: pytest.TempPathFactory):
     folder = root / "made"
     folder.mkdir(exist_ok=True)
 
-    def get(src: Path, tol: float, have: Path | None = None) -> Path:
+    def get(src: Path, tol: float | None, have: Path | None = None) -> Path:
         out = folder / f"{src.name}.{tol}.nzc"
         with open(folder / f"{src.name}.{tol}.lock", "w") as lock:
             fcntl.flock(lock, fcntl.LOCK_EX)
@@ -78,7 +79,8 @@ def made(tmp_path_factory: pytest.TempPathFactory):
                 if have is not None:
                     shutil.copyfile(have, out)
                 else:
-                    pipeline.compress_file(src, out, tol=tol)  # written whole or not at all
+                    # written whole or not at all; tol None: lossless-brep
+                    pipeline.compress_file(src, out, tol=tol, lossless=tol is None)
         return out
 
     return get

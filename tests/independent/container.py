@@ -1,0 +1,174 @@
+"""§1 (header, directory, body) and §2.1 (arrays) of docs/format.md."""
+
+from __future__ import annotations
+
+import json
+import lzma
+import struct
+import zlib
+
+import numpy as np
+
+MAGIC = b"\x89NZC"
+#: (major, minor) -> revision (§0)
+REVISION = {(1, 0): 0, (1, 1): 1, (1, 2): 2, (2, 0): 3, (2, 1): 4}
+
+
+class ReadError(Exception):
+    """Anything this reader refuses."""
+
+
+def _inflate(coder: int, payload: bytes, raw_length: int) -> bytes:
+    if coder == 0:
+        out = payload
+    elif coder == 1:
+        filt = [{"id": lzma.FILTER_LZMA2, "preset": 9 | lzma.PRESET_EXTREME}]
+        out = lzma.LZMADecompressor(lzma.FORMAT_RAW, filters=filt).decompress(
+            payload, max_length=raw_length + 1
+        )
+    elif coder == 2:
+        import zstandard
+
+        reader = zstandard.ZstdDecompressor().stream_reader(payload)
+        out = reader.read(raw_length + 1)
+    elif coder == 3:
+        import brotli
+
+        out = brotli.decompress(payload)
+    else:
+        raise ReadError(f"unknown coder {coder}")
+    if len(out) != raw_length:
+        raise ReadError("body length")
+    return out
+
+
+class Container:
+    """The header's fields and the sections' bytes by tag (§1.1–1.3)."""
+
+    def __init__(self, data: bytes) -> None:
+        if len(data) < 16 or data[:4] != MAGIC:
+            raise ReadError("bad magic")
+        self.major, self.minor, self.flags, nsec, reserved = struct.unpack_from("<BBHHH", data, 4)
+        (crc,) = struct.unpack_from("<I", data, 12)
+        if crc != zlib.crc32(data[:12]) or reserved:
+            raise ReadError("header")
+        if (self.major, self.minor) not in REVISION:
+            raise ReadError(f"version {self.major}.{self.minor}")
+        self.revision = REVISION[(self.major, self.minor)]
+        pos = 16
+        directory = []
+        for _ in range(nsec):
+            tag, length, scrc = struct.unpack_from("<4sII", data, pos)
+            directory.append((tag.decode("ascii"), length, scrc))
+            pos += 12
+        coder, res, raw_length, stored_length, body_crc = struct.unpack_from("<B3sIII", data, pos)
+        if res != b"\0\0\0":
+            raise ReadError("reserved body bytes")
+        payload = data[pos + 16 :]
+        if len(payload) != stored_length:
+            raise ReadError("payload length")
+        crc = zlib.crc32(
+            data[pos + 16 :], zlib.crc32(data[pos : pos + 12], zlib.crc32(data[16:pos]))
+        )
+        if crc != body_crc:
+            raise ReadError("body crc")
+        if raw_length != sum(d[1] for d in directory):
+            raise ReadError("raw length")
+        body = _inflate(coder, payload, raw_length)
+        self.sections: dict[str, bytes] = {}
+        self.order: list[str] = []
+        at = 0
+        for tag, length, scrc in directory:
+            raw = body[at : at + length]
+            at += length
+            if zlib.crc32(raw) != scrc:
+                raise ReadError(f"section {tag} crc")
+            if tag in self.sections:
+                raise ReadError(f"section {tag} twice")
+            self.sections[tag] = raw
+            self.order.append(tag)
+
+    @property
+    def lossless(self) -> bool:
+        return bool(self.flags & 1)
+
+    @property
+    def has_model(self) -> bool:
+        return not self.flags & 6
+
+    def meta(self) -> dict:
+        return json.loads(self.sections["META"].decode("utf-8"))
+
+
+class Arrays:
+    """A section read as a sequence of arrays (§2.1)."""
+
+    def __init__(self, raw: bytes, tag: str = "", pos: int = 0) -> None:
+        self.raw, self.pos, self.tag = raw, pos, tag
+
+    @property
+    def remaining(self) -> int:
+        return len(self.raw) - self.pos
+
+    def _header(self) -> tuple[int, int, int]:
+        if self.remaining < 6:
+            raise ReadError(f"{self.tag}: array header at {self.pos}")
+        kind, width, count = struct.unpack_from("<BBI", self.raw, self.pos)
+        if width not in (1, 2, 4, 8) or kind not in (0, 1) or (kind == 1 and width != 8):
+            raise ReadError(f"{self.tag}: bad array header at {self.pos}")
+        if count * width > self.remaining - 6:
+            raise ReadError(f"{self.tag}: array past the section at {self.pos}")
+        return kind, width, count
+
+    def ints(self) -> np.ndarray:
+        kind, width, count = self._header()
+        if kind != 0:
+            raise ReadError(f"{self.tag}: integers expected at {self.pos}")
+        start = self.pos + 6
+        planes = np.frombuffer(self.raw, np.uint8, count * width, start).reshape(width, count)
+        self.pos = start + count * width
+        u = np.zeros(count, np.uint64)
+        for b in range(width):
+            u |= planes[b].astype(np.uint64) << np.uint64(8 * b)
+        # zig-zag: 0, -1, 1, -2 ... -> 0, 1, 2, 3 ...
+        half = (u >> np.uint64(1)).astype(np.int64)
+        neg = (u & np.uint64(1)).astype(bool)
+        return np.where(neg, -half - 1, half).astype(np.int64)
+
+    def floats(self) -> np.ndarray:
+        kind, width, count = self._header()
+        if kind != 1:
+            raise ReadError(f"{self.tag}: floats expected at {self.pos}")
+        start = self.pos + 6
+        self.pos = start + 8 * count
+        return np.frombuffer(self.raw, "<f8", count, start).astype(float)
+
+    def deltas(self) -> np.ndarray:
+        """``D[n]``: entry k is the sum of the first k + 1 stored integers."""
+        return np.cumsum(self.ints()).astype(np.int64)
+
+    def end(self) -> None:
+        if self.remaining:
+            raise ReadError(f"{self.tag}: {self.remaining} bytes left over")
+
+
+class Take:
+    """Values taken one after another from the front of an array."""
+
+    def __init__(self, values: np.ndarray, name: str = "") -> None:
+        self.values, self.at, self.name = values, 0, name
+
+    def __call__(self, k: int | None = None):
+        if k is None:
+            if self.at >= len(self.values):
+                raise ReadError(f"{self.name} runs out")
+            self.at += 1
+            return self.values[self.at - 1].item()
+        if self.at + k > len(self.values):
+            raise ReadError(f"{self.name} runs out")
+        self.at += k
+        return self.values[self.at - k : self.at]
+
+    def end(self) -> None:
+        if self.at != len(self.values):
+            raise ReadError(f"{self.name}: {len(self.values) - self.at} values left over")

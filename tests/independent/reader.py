@@ -1,0 +1,305 @@
+"""The independent reader: a container's bytes to its tables and floats, from
+docs/format.md alone.  ``read(data)`` returns a :class:`Model`;
+``Model.floats()`` gives the arrays that ``tests/golden/*.npz`` hold."""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import struct
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import nets
+from .container import Container, ReadError
+from .tables import (
+    Analytic,
+    Derived,
+    Edges,
+    Faces,
+    Record,
+    Shapes,
+    Spline,
+    Vertices,
+    read_edges,
+    read_faces,
+    read_geometry,
+    read_locs,
+    read_sides,
+    read_vertices,
+)
+from .topo import read_shap
+
+ORDER = ["META", "LOCS", "SURF", "SNET", "CRV3", "CNET", "CRV2", "SHAP", "VERT", "EDGE", "FACE"]
+
+
+@dataclass(eq=False)
+class Model:
+    revision: int
+    meta: dict
+    tol: float | None
+    datum_forms: np.ndarray
+    datums: np.ndarray
+    locations: list[tuple[list[int], list[int]]]
+    surfaces: list[Record]
+    curves3d: list[Record]
+    curves2d: list[Record]
+    shapes: Shapes
+    vertices: Vertices
+    edges: Edges
+    faces: Faces
+    sides: list[tuple[int, int, int, int, int]]
+    snet: bytes
+    cnet: bytes
+    surf_copies: list[bool]
+    crv3_copies: list[bool]
+
+    def int_arrays(self) -> dict[str, np.ndarray]:
+        """Every integer, as make_golden.int_arrays lays them out."""
+        geo: list[int] = []
+        for g in [*self.surfaces, *self.curves3d, *self.curves2d]:
+            geo.append(g.kind)
+            if isinstance(g, Spline) and g.is_surface:
+                assert g.poles is not None
+                geo += [*g.degrees, *g.poles.shape, *(int(p) for p in g.periodic)]
+                geo += [*g.mults[0].tolist(), -1, *g.mults[1].tolist(), int(g.weights is not None)]
+            elif isinstance(g, Spline):
+                assert g.poles is not None
+                geo += [g.degrees[0], *g.poles.shape, int(g.periodic[0]), *g.mults[0].tolist()]
+                geo.append(int(g.weights is not None))
+            elif isinstance(g, Derived):
+                geo.append(g.basis)
+        sh = self.shapes
+        nchild = [len(c) for c in sh.children]
+        flat = [c for cs in sh.children for c in cs]
+        out = {
+            "geometry": geo,
+            "datum_forms": self.datum_forms,
+            "locations": [x for d, p in self.locations[1:] for x in (*d, *p)],
+            "shape_type": sh.type,
+            "shape_flags": sh.flags,
+            "child_start": np.concatenate([[0], np.cumsum(nchild)]),
+            "child_shape": [c[0] for c in flat],
+            "child_orient": [c[1] for c in flat],
+            "child_loc": [c[2] for c in flat],
+            "root": list(sh.root),
+            "vertex_reps": self.vertices.reps,
+            "edge_flags": self.edges.flags,
+            "edge_reps": self.edges.reps,
+            "edge_rep_cont": self.edges.cont,
+            "face_surface": self.faces.surface,
+            "face_loc": self.faces.loc,
+            "face_natural": self.faces.natural,
+        }
+        return {k: np.asarray(v).astype(np.int64) for k, v in out.items()}
+
+    def int_digest(self) -> str:
+        """SHA-256 of :meth:`int_arrays`, as make_golden.int_digest."""
+        h = hashlib.sha256()
+        for k, a in sorted(self.int_arrays().items()):
+            h.update(k.encode() + struct.pack("<Q", a.size) + a.astype("<i8").tobytes())
+        return h.hexdigest()
+
+    def floats(self) -> dict[str, np.ndarray]:
+        """Every float, one array per kind of value, as make_golden.model_floats."""
+
+        def cat(parts: list) -> np.ndarray:
+            return np.concatenate(
+                [np.asarray(p, float).reshape(-1) for p in parts] or [np.zeros(0)]
+            )
+
+        recs = [*self.surfaces, *self.curves3d, *self.curves2d]
+        spl = [g for g in recs if isinstance(g, Spline)]
+        return {
+            "poles": cat([g.poles for g in spl]),
+            "weights": cat([g.weights for g in spl if g.weights is not None]),
+            "knots": cat([k for g in spl for k in g.knots]),
+            "frames": cat([g.frame for g in recs if isinstance(g, (Analytic, Derived))]),
+            "params": cat([g.params for g in recs if isinstance(g, (Analytic, Derived))]),
+            "datums": self.datums.reshape(-1),
+            "vertex_point": self.vertices.point.reshape(-1),
+            "vertex_tol": self.vertices.tol,
+            "vertex_rep_params": self.vertices.params.reshape(-1),
+            "edge_tol": self.edges.tol,
+            "edge_rep_range": self.edges.range.reshape(-1),
+            "edge_rep_uv": self.edges.uv.reshape(-1),
+            "face_tol": self.faces.tol,
+        }
+
+
+def check_layout(c: Container) -> None:
+    want = list(ORDER)
+    if c.revision >= 1:
+        want.append("SIDE")
+    if c.revision >= 2:
+        want.append("PROD")
+    tags = [t for t in c.order if t in want or c.revision < 3]
+    pos = -1
+    for t in tags:
+        if t not in want:
+            if c.major == 1 and c.minor > 2:
+                continue
+            raise ReadError(f"unknown section {t}")
+        i = want.index(t)
+        if i <= pos:
+            raise ReadError(f"section {t} out of order")
+        pos = i
+    for t in ORDER:
+        if t not in c.sections:
+            raise ReadError(f"missing section {t}")
+
+
+def below(shapes: Shapes) -> list[set[int]]:
+    """For each shape, every shape reached from it through references (itself included)."""
+    out: list[set[int]] = []
+    for s in range(len(shapes.type)):
+        acc = {s}
+        for c, _, _ in shapes.children[s]:
+            acc |= out[c]
+        out.append(acc)
+    return out
+
+
+def resolve_picks(shapes: Shapes, faces: Faces, edges: Edges) -> None:
+    """§2.7, surfaces by prediction (2.0)."""
+    if edges.picks is None:
+        return
+    p1, p2, esc = edges.picks
+    reach = below(shapes)
+    face_shapes = shapes.of(4)
+    edge_shapes = shapes.of(6)
+    cache: dict[int, list[int]] = {}
+
+    def cand(e: int) -> list[int]:
+        if e not in cache:
+            es = edge_shapes[e]
+            lst: list[int] = []
+            for f, fs in enumerate(face_shapes):
+                if es in reach[fs] and int(faces.surface[f]) not in lst:
+                    lst.append(int(faces.surface[f]))
+            cache[e] = lst
+        return cache[e]
+
+    it1, it2, ie = iter(p1), iter(p2), iter(esc)
+    for col, it, kinds in ((4, it1, (1, 2, 3)), (5, it2, (3,))):
+        for r in range(len(edges.reps)):
+            if edges.reps[r, 1] not in kinds:
+                continue
+            k = next(it)
+            if k >= 0:
+                edges.reps[r, col] = cand(int(edges.reps[r, 0]))[k]
+            elif k == -1:
+                edges.reps[r, col] = next(ie)
+            else:
+                raise ReadError("EDGE: pick below -1")
+    for it in (it1, it2, ie):
+        if next(it, None) is not None:
+            raise ReadError("EDGE: picks left over")
+
+
+def curve_range(g: Record) -> tuple[float, float]:
+    if isinstance(g, Spline):
+        if g.bezier:
+            return 0.0, 1.0
+        return float(g.knots[0][0]), float(g.knots[0][-1])
+    if isinstance(g, Derived) and g.kind == 23:
+        return float(g.params[0]), float(g.params[1])
+    raise ReadError("EDGE: range kind 1 on a curve without its own range")
+
+
+def _angle(p: np.ndarray, g: Analytic) -> float:
+    o, n, x = g.frame[0], g.frame[1], g.frame[2]
+    y = np.array([n[1] * x[2] - n[2] * x[1], n[2] * x[0] - n[0] * x[2], n[0] * x[1] - n[1] * x[0]])
+    y = y / math.sqrt((y[0] * y[0] + y[1] * y[1]) + y[2] * y[2])
+    q = p - o
+    a = math.atan2(
+        (q[0] * y[0] + q[1] * y[1]) + q[2] * y[2], (q[0] * x[0] + q[1] * x[1]) + q[2] * x[2]
+    )
+    if a < 0:
+        a = 0.0 if a > -1e-9 else a + 2 * math.pi
+    return a
+
+
+def vertex_range(m: Model, r: int) -> tuple[float, float]:
+    """§2.7, range kind 4."""
+    sh = m.shapes
+    es = sh.of(6)[int(m.edges.reps[r, 0])]
+    g = m.curves3d[int(m.edges.reps[r, 2])]
+    fwd = rev = None
+    for c, o, loc in sh.children[es]:
+        if sh.type[c] != 7 or loc != 0:
+            continue
+        if o == 0 and fwd is None:
+            fwd = c
+        elif o == 1 and rev is None:
+            rev = c
+    if fwd is None or rev is None or not isinstance(g, Analytic) or m.edges.reps[r, 6] != 0:
+        raise ReadError("EDGE: range kind 4 without its vertices")
+    pa = m.vertices.point[sh.row_of[fwd]]
+    pb = m.vertices.point[sh.row_of[rev]]
+    if g.kind == 16:
+        o, d = g.frame[0], g.frame[1]
+
+        def par(p: np.ndarray) -> float:
+            return ((p[0] - o[0]) * d[0] + (p[1] - o[1]) * d[1]) + (p[2] - o[2]) * d[2]
+
+        return par(pa), par(pb)
+    if g.kind == 17:
+        a = _angle(pa, g)
+        if fwd == rev:
+            return a, a + 2 * math.pi
+        b = _angle(pb, g)
+        if b <= a:
+            b += 2 * math.pi
+        return a, b
+    raise ReadError("EDGE: range kind 4 on a curve other than a line or circle")
+
+
+def fill_ranges(m: Model) -> None:
+    e = m.edges
+    first0: dict[int, int] = {}
+    for r in range(len(e.reps)):
+        k, rk = int(e.reps[r, 1]), int(e.range_kind[r])
+        if k == 0 and int(e.reps[r, 0]) not in first0:
+            first0[int(e.reps[r, 0])] = r
+        if rk == 1:
+            table = m.curves3d if k == 0 else m.curves2d
+            e.range[r] = curve_range(table[int(e.reps[r, 2])])
+        elif rk == 3:
+            e.range[r] = 0.0
+        elif rk == 4:
+            e.range[r] = vertex_range(m, r)
+        elif rk not in (0, 2, -1):
+            raise ReadError(f"EDGE: range kind {rk}")
+    for r in range(len(e.reps)):
+        if int(e.range_kind[r]) == 2:
+            e.range[r] = e.range[first0[int(e.reps[r, 0])]]
+
+
+def read(data: bytes) -> Model:
+    c = Container(data)
+    if not c.has_model:
+        raise ReadError("no model: a passthrough or byte-exact container")
+    check_layout(c)
+    meta = c.meta()
+    tol = None if meta["mode"] == "lossless" else float(meta["tolerance_mm"])
+    if c.lossless != (tol is None):
+        raise ReadError("lossless flag")
+    rev = c.revision
+    forms, datums, locs = read_locs(c.sections["LOCS"])
+    surfaces, surf_copies = read_geometry(c.sections["SURF"], "SURF", 3, rev)
+    curves3d, crv3_copies = read_geometry(c.sections["CRV3"], "CRV3", 3, rev)
+    curves2d, _ = read_geometry(c.sections["CRV2"], "CRV2", 2, rev)
+    shapes = read_shap(c.sections["SHAP"], rev)
+    vertices = read_vertices(c.sections["VERT"], rev, shapes, tol)
+    edges = read_edges(c.sections["EDGE"], rev)
+    faces = read_faces(c.sections["FACE"])
+    resolve_picks(shapes, faces, edges)
+    sides = read_sides(c.sections["SIDE"]) if "SIDE" in c.sections else []
+    m = Model(rev, meta, tol, forms, datums, locs, surfaces, curves3d, curves2d, shapes,
+              vertices, edges, faces, sides, c.sections["SNET"], c.sections["CNET"],
+              surf_copies, crv3_copies)  # fmt: skip
+    fill_ranges(m)
+    nets.decode(m)
+    return m
