@@ -482,18 +482,15 @@ def _read_journal(folder: Path, key: str) -> dict[str, Any] | None:
 def _init_worker() -> None:
     """A pool worker: handle the stop signals; OCP is imported already (the fork
     server preloads it, ``WORKER_PRELOAD``), or here, once for all its files.
-    The workers keep the cores busy, so the validity stage begins no STEP
-    round trip it may not need (``encode.validity.SPECULATE``) and a build
-    forks no child to share its projections
-    (``occ.topology.SPLIT_PROJECTIONS``)."""
+    The workers keep the cores busy, so the process says so
+    (``occ.share_cores``): the validity stage then begins no STEP round trip
+    it may not need, and a build forks no child to share its projections."""
     for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
         signal.signal(sig, _stop_worker)
     from . import occ
-    from .encode import validity
 
     occ.read_cad  # noqa: B018 (the import itself: seconds, once per worker)
-    validity.SPECULATE = False
-    occ.topology.SPLIT_PROJECTIONS = False
+    occ.share_cores()
 
 
 # ---------------------------------------------------------------- running

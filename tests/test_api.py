@@ -270,7 +270,12 @@ def test_compress_report(tmp_path: Path) -> None:
     assert isinstance(r, nurbscomp.CompressReport)
     assert (r.input_bytes, r.output_bytes) == (src.stat().st_size, len(data))
     assert r.ratio == pytest.approx(src.stat().st_size / len(data))
-    assert (r.mode, r.tolerance_mm, r.source_format, r.verified) == ("tolerance", 0.01, "STEP", True)
+    assert (r.mode, r.tolerance_mm, r.source_format, r.verified) == (
+        "tolerance",
+        0.01,
+        "STEP",
+        True,
+    )
     assert r.counts["faces"] == nurbscomp.info(data).shapes["face"]
     assert 0 < r.max_bound_mm <= 0.01 and r.certified_faces > 0
     assert json.loads(r.to_json())["faces_by_method"] == r.faces_by_method

@@ -197,16 +197,14 @@ def _pack(model: object, codes: dict) -> tuple[int, bytes]:
     return id(model), container.pack(model_to_sections(model, meta, codes), 0, thorough=False)
 
 
-@pytest.mark.parametrize("speculate", [True, False])
 @pytest.mark.parametrize("spare", [True, False])
 def test_what_is_packed_meanwhile_is_the_target(
-    speculate: bool, spare: bool, monkeypatch: pytest.MonkeyPatch
+    spare: bool, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """``lossy_target(meanwhile=...)`` runs while a candidate's STEP round trip
     does: what it returns is kept for the model returned, which is still as
-    it was then; the floor begun at once (``SPECULATE``) or when needed
+    it was then; the floor begun at once (a core to spare) or when needed
     changes nothing but time.  With no core to spare it does not run."""
-    monkeypatch.setattr(validity, "SPECULATE", speculate)
     monkeypatch.setattr(validity.occ, "spare_core", lambda: spare)
     cad = occ.read_cad(SAMPLES / "loft.step")
     m, _ = occ.shape_to_model(cad.shape)
@@ -259,3 +257,16 @@ def test_a_busy_machine_makes_no_round_trip_for_a_faulty_candidate(
         )
         assert (new_e, new_f, blamed, early) == ({1}, set(), None, None)
         assert len(trips) == made
+
+
+def test_a_process_that_shares_the_cores_has_none_to_spare() -> None:
+    """``occ.share_cores`` (what a batch's worker calls) makes ``spare_core``
+    answer False whatever the machine's load, and can be undone."""
+    from nurbscomp.occ import isolated
+
+    try:
+        isolated.share_cores()
+        assert isolated.spare_core() is False
+    finally:
+        isolated.share_cores(False)
+    assert not isolated._Cores.shared

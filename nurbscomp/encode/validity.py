@@ -69,12 +69,10 @@ log = logging.getLogger(__name__)
 #: Rounds of remedies before the fallbacks.
 MAX_ROUNDS = 20
 
-#: Begin OCCT's own STEP round trip of the source (the floor) at the start,
-#: in a child beside the net search, in case a candidate needs it, where a
-#: core is spare (``occ.spare_core``); a batch that keeps every core busy
-#: turns this off (``batch``): there the round trips no candidate needs
-#: would cost other files' time.
-SPECULATE = True
+#: OCCT's own STEP round trip of the source (the floor) is begun at the
+#: start, in a child beside the net search, in case a candidate needs it,
+#: where a core is spare (``occ.spare_core``; never in a batch's worker,
+#: which keeps every core busy: ``occ.share_cores``).
 #: The niceness the floor's round trip gets when begun that way.
 SPECULATIVE_NICE = 10
 
@@ -203,9 +201,8 @@ class _Floor:
 
     A child works beside this process until it is asked: with a core to
     spare, a candidate's round trip is begun before its BRepCheck
-    (:func:`_check`), and with
-    :data:`SPECULATE` the floor's is begun at once (:meth:`begin`), beside the
-    net search, and stopped unused if no candidate needs it.  Only the round
+    (:func:`_check`), and the floor's is begun at once (:meth:`begin`), beside
+    the net search, and stopped unused if no candidate needs it.  Only the round
     trips whose answers are used count in the report.
     """
 
@@ -640,7 +637,7 @@ def lossy_target(
     try:
         if floor is not None and floor.limit is not None:
             floor.begin()  # beside the candidates': a loop costs one limit, not two
-        elif floor is not None and SPECULATE and occ.spare_core():
+        elif floor is not None and occ.spare_core():
             floor.begin(speculative=True)
         return _search(m, source, tol, vr, floor, meanwhile)
     finally:

@@ -14,7 +14,7 @@ from .files import (
     step_round_trip,
     write_shape,
 )
-from .isolated import ReaderCrash, ReaderTimeout, RoundTrip, spare_core
+from .isolated import ReaderCrash, ReaderTimeout, RoundTrip, share_cores, spare_core
 from .measure import (
     counts,
     deviation,
@@ -68,6 +68,7 @@ __all__ = [
     "sewn_edge_pairs",
     "thin_solids",
     "shape_to_model",
+    "share_cores",
     "spare_core",
     "step_round_trip",
     "write_shape",

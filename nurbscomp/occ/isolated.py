@@ -82,13 +82,31 @@ def can_fork() -> bool:
     return hasattr(os, "fork") and sys.platform != "darwin"
 
 
+class _Cores:
+    """Whether this process shares the cores with others that keep them busy
+    (:func:`share_cores`)."""
+
+    shared = False
+
+
+def share_cores(shared: bool = True) -> None:
+    """Say that this process is one of a pool that keeps every core busy (a
+    batch's worker): :func:`spare_core` then answers False, so neither the
+    validity stage's speculative STEP round trip nor a split build starts
+    work that would cost the other files' time."""
+    _Cores.shared = shared
+
+
 def spare_core() -> bool:
-    """Whether another core looks idle: more than one usable, no other
+    """Whether another core looks idle: none while the process shares the
+    cores (:func:`share_cores`); else more than one usable, no other
     process's thread running right now on all the others (:func:`_others_running`),
     and a load average over the last minute at least half a core below
     their number.  With the other core busy a split build is some 5 % slower
     than a serial one (``topology.rebuild_pcurves``; the corpus's decode beside a CPU-bound process:
     3.31 s against 3.15 s), idle some 15 % faster (2.6 s against 3.0 s)."""
+    if _Cores.shared:
+        return False
     try:
         cores = len(os.sched_getaffinity(0))
         load = os.getloadavg()[0]
