@@ -22,6 +22,7 @@ origins these steps will use (:func:`codec.reorigin`).
 
 from __future__ import annotations
 
+from collections.abc import Collection
 from typing import Any, cast
 
 import numpy as np
@@ -269,12 +270,15 @@ def tables(m: BRepModel, codes: dict[Rec, codec.NetCode] | None, tol: float) -> 
 
 
 def model_to_sections(
-    m: BRepModel, meta: dict[str, Any], codes: dict[Rec, codec.NetCode] | None = None
+    m: BRepModel,
+    meta: dict[str, Any],
+    codes: dict[Rec, codec.NetCode] | None = None,
+    only: Collection[str] | None = None,
 ) -> list[tuple[str, bytes]]:
     """The sections of a container holding ``m`` (:func:`serialize.model_to_sections`
-    of ``m`` and its :func:`tables`)."""
+    of ``m`` and its :func:`tables`; ``only``: just the sections of these tags)."""
     tol = float(meta.get("tolerance_mm") or 0.0)
-    return serialize.model_to_sections(m, meta, tables(m, codes, tol))
+    return serialize.model_to_sections(m, meta, tables(m, codes, tol), only)
 
 
 # ---------------------------------------------------------------- the reader's side

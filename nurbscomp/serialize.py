@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import json
 import lzma
+from collections.abc import Callable, Collection
 from dataclasses import dataclass
 from typing import Any, cast
 
@@ -697,11 +698,42 @@ _MAX_TRSF_FORM = 8
 _MAX_POWER = 2**31 - 1
 
 
+#: The shapes table of the last SHAP written, and its bytes (:func:`_write_shapes`).
+_last_shapes: tuple[tuple[Any, ...], bytes] | None = None
+
+
+def _shapes_key(m: BRepModel) -> tuple[Any, ...]:
+    """Everything SHAP is written from: the shapes table, by value."""
+    arrays = (m.shape_type, m.shape_flags, m.child_start, m.child_shape, m.child_orient)
+    return (
+        *((a.dtype.str, a.shape, a.tobytes()) for a in map(np.asarray, (*arrays, m.child_loc))),
+        int(m.root_shape),
+        int(m.root_orient),
+        int(m.root_loc),
+    )
+
+
 def _write_shapes(m: BRepModel) -> bytes:
     """SHAP as format 2.0 lays it out (docs/format.md §2.5.1): a mode byte, then
     the walk's coded stream, or the 1.x arrays for a model the walk does not
     number as it is numbered or, under 512 coded bytes, whose arrays compress
-    smaller."""
+    smaller.
+
+    The last table's bytes are kept: the validity stage's candidates of one
+    source differ in their geometry, not in their shapes, and the walk's
+    coder is a Python loop (a fifth of a second on NIST_MBE_PMI_2)."""
+    global _last_shapes
+    key = _shapes_key(m)
+    last = _last_shapes
+    if last is not None and last[0] == key:
+        return last[1]
+    out = _write_shapes_now(m)
+    _last_shapes = (key, out)
+    return out
+
+
+def _write_shapes_now(m: BRepModel) -> bytes:
+    """:func:`_write_shapes`, without the kept table."""
     arrays = bytes([topocode.MODE_ARRAYS]) + _write_shape_arrays(m)
     coded = topocode.encode(m)
     if coded is None:
@@ -1331,27 +1363,33 @@ def _net_shapes(records: list[Geometry], t: Tables, which: Table) -> list[tuple[
     return _shapes(records, [r for r in range(len(records)) if r == first[r] and r in coded])
 
 
-def model_to_sections(m: BRepModel, meta: dict[str, Any], t: Tables) -> list[tuple[str, bytes]]:
+def model_to_sections(
+    m: BRepModel, meta: dict[str, Any], t: Tables, only: Collection[str] | None = None
+) -> list[tuple[str, bytes]]:
     """The sections of a container holding ``m`` and the tables ``t`` (made by
     ``decode.tables``: in tolerance mode, ``m`` holds the *decoded* poles of
-    the nets ``t`` codes, so that what the decoder rebuilds is ``m``)."""
+    the nets ``t`` codes, so that what the decoder rebuilds is ``m``).
+
+    ``only``: the tags wanted (the others are not written; a measure of some
+    sections' size needs no more)."""
     meta = {**meta, "unit": m.unit, "source_format": m.source_format}
     tol = float(meta.get("tolerance_mm") or 0.0)
-    return [
-        ("META", json.dumps(meta, sort_keys=True, separators=(",", ":")).encode()),
-        ("LOCS", _write_locations(m)),
-        ("SURF", _write_geometry(m.surfaces, 3, t.rows(Table.SURFACE))),
-        ("SNET", _write_nets(t.snet, _net_shapes(m.surfaces, t, Table.SURFACE), True)),
-        ("CRV3", _write_geometry(m.curves3d, 3, t.rows(Table.CURVE3D))),
-        ("CNET", _write_nets(t.cnet, _net_shapes(m.curves3d, t, Table.CURVE3D), False)),
-        ("CRV2", _write_geometry(m.curves2d, 2)),
-        ("SHAP", _write_shapes(m)),
-        ("VERT", _write_vertices(m, tol)),
-        ("EDGE", _write_edges(m, t.range_how)),
-        ("FACE", _write_faces(m)),
-        *([("SIDE", _write_sides(m))] if len(m.side_joins) else []),
-        *([("PROD", product.write(m.product))] if m.product is not None else []),
+    writers: list[tuple[str, Callable[[], bytes]]] = [
+        ("META", lambda: json.dumps(meta, sort_keys=True, separators=(",", ":")).encode()),
+        ("LOCS", lambda: _write_locations(m)),
+        ("SURF", lambda: _write_geometry(m.surfaces, 3, t.rows(Table.SURFACE))),
+        ("SNET", lambda: _write_nets(t.snet, _net_shapes(m.surfaces, t, Table.SURFACE), True)),
+        ("CRV3", lambda: _write_geometry(m.curves3d, 3, t.rows(Table.CURVE3D))),
+        ("CNET", lambda: _write_nets(t.cnet, _net_shapes(m.curves3d, t, Table.CURVE3D), False)),
+        ("CRV2", lambda: _write_geometry(m.curves2d, 2)),
+        ("SHAP", lambda: _write_shapes(m)),
+        ("VERT", lambda: _write_vertices(m, tol)),
+        ("EDGE", lambda: _write_edges(m, t.range_how)),
+        ("FACE", lambda: _write_faces(m)),
+        *([("SIDE", lambda: _write_sides(m))] if len(m.side_joins) else []),
+        *([("PROD", lambda: product.write(m.product))] if m.product is not None else []),
     ]
+    return [(tag, write()) for tag, write in writers if only is None or tag in only]
 
 
 def _write_sides(m: BRepModel) -> bytes:

@@ -416,6 +416,7 @@ class _Plan:
         self.make_exact(set(self.coded.uncodable), "precision")
         self.grid = True  # analytic records on their grids (encode.analytic)
         self.gridded: frozenset[Rec] = frozenset()  # those of the last candidate
+        self._made: tuple[Any, ...] | None = None  # (state, grid, what _candidate made)
         self.grid = self._grid_pays()
 
     def _grid_pays(self) -> bool:
@@ -426,14 +427,19 @@ class _Plan:
         the grid and pays for the widening (featuretype at 0.01 mm: 218
         bytes more; NIST_MBE_PMI_2: 1.1 KB less)."""
         sizes = []
+        made = {}
         for grid in (False, True):
             self.grid = grid
-            cand, codes, _ = self.candidate()
-            secs = dict(decode.model_to_sections(cand, {"tolerance_mm": self.tol}, codes))
-            raw = b"".join(secs[t] for t in ("SURF", "CRV3", "VERT", "EDGE"))
+            made[grid] = self._candidate()
+            cand, codes, _ = made[grid][0]
+            tags = ("SURF", "CRV3", "VERT", "EDGE")
+            secs = dict(decode.model_to_sections(cand, {"tolerance_mm": self.tol}, codes, tags))
+            raw = b"".join(secs[t] for t in tags)
             sizes.append(len(lzma.compress(raw, preset=6)))
         log.debug("analytic grid: %d -> %d bytes", *sizes)
-        return sizes[1] < sizes[0]
+        pays = sizes[1] < sizes[0]
+        self._made = (self.state(), pays, made[pays])  # the first round's candidate
+        return pays
 
     def state(self) -> tuple[int, ...]:
         return (
@@ -448,16 +454,31 @@ class _Plan:
         )
 
     def candidate(self) -> tuple[BRepModel, dict[Rec, Any], assembly.LossyReport]:
+        """The model the plan makes now, its codes and its report.
+
+        The first round's is the one :meth:`_grid_pays` made for the grid it
+        chose, when nothing has changed since (the plan's state and grid)."""
+        made, self._made = self._made, None
+        if made is not None and made[:2] == (self.state(), self.grid):
+            out, self.gridded, self.loose_v = made[2]
+            return out
+        out, self.gridded, self.loose_v = self._candidate()
+        return out
+
+    def _candidate(
+        self,
+    ) -> tuple[
+        tuple[BRepModel, dict[Rec, Any], assembly.LossyReport], frozenset[Rec], frozenset[int]
+    ]:
+        """:meth:`candidate` made now, with its ``gridded`` and ``loose_v``."""
         target, codes, report = assembly.assemble(
             self.m, self.coded, self.exact, self.still_v, self.grid
         )
-        self.gridded = report.gridded
-        self.loose_v = report.loose_v
         cand = pcurves.drop_pcurves(target, self.keep_e, self.keep_f)
         ranged = pcurves.vertex_ranges(
             pcurves.unit_curves(cand, self.knot_memo), self.tol, self.as_read_e, self.m.vertex_point
         )
-        return ranged, codes, report
+        return (ranged, codes, report), report.gridded, report.loose_v
 
     def with_leaders(self, recs: set[Rec | None]) -> set[Rec | None]:
         """``recs`` with the records their copies follow: a copied curve's leader
