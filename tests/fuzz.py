@@ -597,16 +597,18 @@ def check(data: bytes, seconds: float = 20.0, write: bool = False, fmt: str = "S
     Raises
     ------
     Hang
-        The case took longer than ``seconds`` (checked between Python bytecodes:
-        a hang inside one OCCT call is caught by the worker's timeout instead).
+        The case took more than ``seconds`` of this process's CPU time (not
+        wall time: a loaded machine does not make a case hang; checked
+        between Python bytecodes: a hang inside one OCCT call is caught by
+        the worker's timeout instead).
     MemoryError
         Python or OCCT ran out of memory (the worker's memory limit).
     Exception
         Anything but a ``FormatError``, or an ``UndiagnosedError`` (the
         decoder's last-resort wrapper): the property is broken.
     """
-    old = signal.signal(signal.SIGALRM, _alarm)
-    signal.setitimer(signal.ITIMER_REAL, seconds)
+    old = signal.signal(signal.SIGPROF, _alarm)
+    signal.setitimer(signal.ITIMER_PROF, seconds)
     try:
         m, meta = pipeline.decode(container.unpack(data), fmt=fmt if write else None)
         shape = pipeline.build(m)
@@ -622,8 +624,8 @@ def check(data: bytes, seconds: float = 20.0, write: bool = False, fmt: str = "S
             raise MemoryError(str(e)) from None  # OCCT's, turned into a RebuildError
         return type(e).__name__
     finally:
-        signal.setitimer(signal.ITIMER_REAL, 0)
-        signal.signal(signal.SIGALRM, old)
+        signal.setitimer(signal.ITIMER_PROF, 0)
+        signal.signal(signal.SIGPROF, old)
 
 
 # ---------------------------------------------------------------- the long run
