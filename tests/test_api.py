@@ -79,6 +79,7 @@ def test_bytes_in_and_out(tmp_path: Path) -> None:
     assert occ.counts(a) == occ.counts(b)
 
 
+@pytest.mark.slow
 def test_workplane_and_topods(cq) -> None:
     wp = cq.Workplane().box(2, 2, 2).faces(">Z").workplane().hole(0.5)
     s = nurbscomp.decompress(nurbscomp.compress(wp, lossless=True))
@@ -116,6 +117,7 @@ def test_sample_assembly_decodes_to_an_assembly(cq) -> None:
     assert isinstance(plain, cq.Shape)
 
 
+@pytest.mark.slow
 def test_evaluate_report(cq, tmp_path: Path) -> None:
     part = cq.Workplane().box(1, 2, 3).edges().fillet(0.2).val()
     r = nurbscomp.evaluate(part, nurbscomp.compress(part, tol=0.001))
@@ -189,6 +191,7 @@ def test_tol_takes_lengths_with_units(cq, tol: Any, mm: float) -> None:
     assert nurbscomp.evaluate(box, data, tol=tol).tolerance_mm == pytest.approx(mm, rel=1e-12)
 
 
+@pytest.mark.slow
 def test_tol_string_gives_the_cli_bytes(tmp_path: Path) -> None:
     """``compress(path, tol="1mil")`` is ``nurbscomp compress --tol 1mil``, bit for bit."""
     from click.testing import CliRunner
@@ -242,6 +245,7 @@ def test_bad_tol_is_refused_before_any_work(tmp_path: Path, tol: Any, message: s
         assert "\n" not in str(e.value)
 
 
+@pytest.mark.slow
 def test_evaluate_heatmap_is_not_overwritten_without_force(cq, tmp_path: Path) -> None:
     """``evaluate(heatmap=)``, the API's one file written: an existing picture
     raises ``OutputError`` without ``force`` (before any work: the inputs are
@@ -261,6 +265,7 @@ def test_evaluate_heatmap_is_not_overwritten_without_force(cq, tmp_path: Path) -
     assert not [p for p in tmp_path.iterdir() if p.name.endswith(".tmp")]
 
 
+@pytest.mark.slow
 def test_compress_report(tmp_path: Path) -> None:
     """``compress(..., report=True)`` gives the same container and a typed report
     of what the CLI's ``--json`` says (sizes, mode, tolerance, counts)."""

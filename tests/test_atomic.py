@@ -174,6 +174,7 @@ def test_long_output_names(work: Path) -> None:
     assert len(_names(work)) == 3
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("sig", "code"), [("SIGTERM", 143), ("SIGHUP", 129)])
 def test_signal_mid_write_leaves_nothing(work: Path, sig: str, code: int) -> None:
     """A real process, killed while its temporary file exists: the signal is

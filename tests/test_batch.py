@@ -248,6 +248,7 @@ def _cli(*args: str, **kw: Any) -> subprocess.CompletedProcess[bytes]:
     )
 
 
+@pytest.mark.slow
 def test_streams(tmp_path: Path) -> None:
     """``cat part.step | nurbscomp compress - -c > part.nzc``, then
     ``nurbscomp decompress -c --format step part.nzc``."""
@@ -269,6 +270,7 @@ def test_streams(tmp_path: Path) -> None:
     assert back.returncode == 0 and back.stdout == TESSELLATED
 
 
+@pytest.mark.slow
 def test_workers_interrupted_then_resumed(tmp_path: Path) -> None:
     """-j 2: Ctrl-C part-way exits 130 and leaves complete outputs only;
     --skip-existing then does only the files left."""
@@ -311,6 +313,7 @@ def test_workers_interrupted_then_resumed(tmp_path: Path) -> None:
     assert len(list(out.glob("*.nzc"))) == 2 * n and no_temporary_files(tmp_path)
 
 
+@pytest.mark.slow
 def test_dask_local_cluster_gives_the_same_containers(tmp_path: Path) -> None:
     """The same batch through ``--scheduler`` on a LocalCluster of two workers:
     the same records and byte-identical containers."""
@@ -380,6 +383,7 @@ def _batch_with_a_crash(
     return recs, total, runs
 
 
+@pytest.mark.slow
 def test_a_worker_that_dies_fails_only_its_file(tmp_path: Path) -> None:
     """A worker killed on one file (as by a crash in OCCT) breaks the pool:
     the file in progress then is done again, the files finished are not, and
@@ -404,6 +408,7 @@ def test_a_worker_that_dies_fails_only_its_file(tmp_path: Path) -> None:
     assert no_temporary_files(tmp_path)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("point", ["written", "sending"])
 def test_a_file_its_dead_pool_finished_is_not_done_again(tmp_path: Path, point: str) -> None:
     """The race of issue 26: c.step's output is renamed into place, then the
@@ -513,6 +518,7 @@ def _on_a_terminal(args: list[str], cwd: Path) -> tuple[int, str]:
     return p.wait(timeout=300), shown.decode(errors="replace")
 
 
+@pytest.mark.slow
 def test_progress_bar_only_on_a_terminal(tmp_path: Path) -> None:
     """Files done, bytes and ratio so far, the file's stage: on a terminal
     once the batch has run a second; nothing with -q.  Four files, so that

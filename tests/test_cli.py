@@ -286,6 +286,7 @@ def test_python_dash_m() -> None:
     assert r.returncode == 0 and "Usage: nurbscomp" in r.stdout and "Exit codes" in r.stdout
 
 
+@pytest.mark.slow
 def test_eval_reports_deviation_and_topology(work: Path) -> None:
     shutil.copy(SAMPLES / "teapot.step", work / "part.step")
     assert run("compress", "-q", "-f", "--tol", "0.05", str(work / "part.step"))[0] == 0
@@ -321,6 +322,7 @@ def test_readme_lists_every_error_class() -> None:
         assert code in section
 
 
+@pytest.mark.slow
 def test_eval_heatmap_writes_a_readable_png(work: Path) -> None:
     """``eval --heatmap``: a PNG of the expected size, not blank (many colours,
     the model drawn over a good part of it), never over a file without -f."""
@@ -370,6 +372,7 @@ def _script(*args: str, cwd: Path, stdin: bytes | None = None) -> subprocess.Com
     )
 
 
+@pytest.mark.slow
 def test_mode_flags_run_their_commands(work: Path) -> None:
     assert run("compress", "-q", str(work / "part.step"))[0] == 0
     nzc = str(work / "part.step.nzc")
@@ -413,6 +416,7 @@ def test_rm_removes_inputs_once_done(work: Path) -> None:
     assert code == 1 and (work / "bad.step").exists()
 
 
+@pytest.mark.slow
 @pytest.mark.corpus
 def test_decompress_to_stdout_in_the_source_format(work: Path) -> None:
     assert run("compress", "-q", str(work / "part.step"))[0] == 0
@@ -430,6 +434,7 @@ def test_decompress_to_stdout_in_the_source_format(work: Path) -> None:
     assert r.returncode == 0 and r.stdout.startswith(b"ISO-10303-21;"), r.stderr
 
 
+@pytest.mark.slow
 def test_info_and_test_take_many_files(work: Path) -> None:
     part = str(work / "part.step")
     assert run("compress", "-q", "-O", str(work / "arc" / "sub"), part)[0] == 0

@@ -32,6 +32,7 @@ def test_round_trip_is_byte_exact() -> None:
     assert container.pack([(s.tag, s.raw) for s in c.sections], c.flags) == data
 
 
+@pytest.mark.slow
 @given(
     st.lists(
         st.tuples(st.text("ABCDEFGHIJ", min_size=4, max_size=4), st.binary(max_size=300)),

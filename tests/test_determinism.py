@@ -25,6 +25,7 @@ def _cli(*args: str, seed: str) -> None:
     assert r.returncode == 0, r.stderr
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "opts",
     [["--lossless"], ["--lossless-brep"], ["--tol", "0.01"]],
@@ -47,6 +48,7 @@ def test_compress_is_byte_identical_across_processes(tmp_path: Path, opts: list[
     assert outs[0] == outs[1] == here.read_bytes()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["loft.lossless", "teapot.tol0.01"])
 def test_decompress_is_byte_identical(tmp_path: Path, name: str) -> None:
     src = GOLDEN / f"{name}.nzc"
@@ -63,6 +65,7 @@ def test_decompress_is_byte_identical(tmp_path: Path, name: str) -> None:
     assert f"PRODUCT('{sample}','{sample}'" in a.read_text()
 
 
+@pytest.mark.slow
 def test_iges_output_is_byte_identical(tmp_path: Path) -> None:
     src = GOLDEN / "teapot.tol0.01.nzc"
     a, b = tmp_path / "a.igs", tmp_path / "b.igs"

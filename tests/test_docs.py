@@ -23,6 +23,7 @@ def test_examples_found() -> None:
     assert len(BLOCKS) == API_MD.read_text().count("```python")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("n", range(len(BLOCKS)))
 def test_example_runs_twice(n: int, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     shutil.copy(SAMPLES / "loft.step", tmp_path / "part.step")
@@ -32,6 +33,7 @@ def test_example_runs_twice(n: int, tmp_path: Path, monkeypatch: pytest.MonkeyPa
         exec(code, {"__name__": f"api_md_{n}_run_{run}"})
 
 
+@pytest.mark.slow
 def test_docstring_examples_run() -> None:
     """The ``Examples`` sections of the API's docstrings (doctest)."""
     import doctest

@@ -26,6 +26,7 @@ def _cli(*args: str, stdin: bytes | None = None) -> subprocess.CompletedProcess[
     )
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "src",
     [
@@ -58,6 +59,7 @@ def test_lossless_gives_the_file_back(tmp_path: Path, src: Path) -> None:
     assert r.returncode == 0 and f"sha256 {want[:16]}" in r.stdout.decode()
 
 
+@pytest.mark.slow
 def test_lossless_needs_no_reader_and_takes_broken_files(tmp_path: Path) -> None:
     """A STEP file OCCT cannot read (cut in the middle of DATA) is kept byte for byte."""
     src = tmp_path / "cut.step"
@@ -90,6 +92,7 @@ def test_byte_exact_converts_to_another_format(tmp_path: Path) -> None:
     assert occ.counts(shape) == occ.counts(occ.read_cad(src).shape)
 
 
+@pytest.mark.slow
 def test_api_lossless_modes() -> None:
     import cadquery as cq
 

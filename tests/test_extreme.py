@@ -28,6 +28,7 @@ def _part(tmp: Path, name: str, offset: float = 0.0) -> Path:
     return path
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("offset, tol", [(1e6, 0.001), (1e9, 0.001), (1e9, 0.01), (0.0, 1e-6)])
 def test_far_from_the_origin(tmp_path: Path, offset: float, tol: float) -> None:
     """1e9 mm from the origin a double's spacing is 1.2e-7 mm: at 0.001 mm no
@@ -55,6 +56,7 @@ def test_tolerances_outside_the_range_are_usage_errors(tmp_path: Path, tol: str)
     assert not (tmp_path / "p.step.nzc").exists()
 
 
+@pytest.mark.slow
 def test_the_range_ends_are_coded(tmp_path: Path) -> None:
     src = _part(tmp_path, "p.step")
     for tol in units.TOL_RANGE_MM:
@@ -80,6 +82,7 @@ def test_non_finite_sources_are_one_input_error(tmp_path: Path, mode: dict) -> N
     assert "Warning" not in r.stderr and not (tmp_path / "bad.step.nzc").exists()
 
 
+@pytest.mark.slow
 def test_the_api_refuses_the_same_tolerances(tmp_path: Path) -> None:
     import nurbscomp
     from nurbscomp.errors import ArgumentError
@@ -141,6 +144,7 @@ def test_a_wall_thinner_than_tol_is_warned_of(
     assert bool(thin) == warned, r["warnings"]
 
 
+@pytest.mark.slow
 def test_a_container_declares_only_what_the_defaults_refuse(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:

@@ -57,6 +57,7 @@ def test_raw_mutations(seed: int, which: int) -> None:
     fuzz.check(data, SECONDS)
 
 
+@pytest.mark.slow
 @_settings(1000)
 @given(st.integers(0, 2**63), st.integers(0, len(SEEDS) - 1))
 def test_section_mutations_with_valid_crcs(seed: int, which: int) -> None:
@@ -69,6 +70,7 @@ def test_section_mutations_with_valid_crcs(seed: int, which: int) -> None:
     fuzz.check(data, SECONDS)
 
 
+@pytest.mark.slow
 def test_mutations_reach_the_section_decoders() -> None:
     """The section family is not all caught by the container layer: most cases
     get past ``container.unpack``, and some decode."""
@@ -80,6 +82,7 @@ def test_mutations_reach_the_section_decoders() -> None:
     assert not {"ChecksumError", "TruncatedError", "BadMagicError"} & set(outcomes)
 
 
+@pytest.mark.slow
 @_settings(100)
 @given(st.integers(0, 2**63), st.integers(0, len(SEEDS) - 1), st.booleans())
 def test_cli_decompress_on_mutations(
@@ -142,6 +145,7 @@ def test_shape_the_step_writer_refuses(tmp_path: Path, monkeypatch) -> None:
 # ---------------------------------------------------------------- structure-aware (issue 11)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("edit", fuzz.EDITS)
 def test_each_structure_edit_builds_a_container(edit: str) -> None:
     """Each edit of ``fuzz.EDITS`` makes a container whose CRCs are valid and
@@ -158,6 +162,7 @@ def test_each_structure_edit_builds_a_container(edit: str) -> None:
             assert not isinstance(e, UndiagnosedError), e
 
 
+@pytest.mark.slow
 def test_structure_cases_in_workers(capsys: pytest.CaptureFixture[str]) -> None:
     """A fast, seeded subset of ``make fuzz``'s structure-aware run: each case
     in a worker process under a memory and a time limit, decoded and written

@@ -189,6 +189,7 @@ def test_shared_compounds_40_deep_fail_fast(tmp_path: Path) -> None:
         assert "sub-shape references" in _cli_one_line(tmp_path, data, cmd)
 
 
+@pytest.mark.slow
 def test_a_100000_deep_chain_fails_fast(tmp_path: Path) -> None:
     m, meta = _model()
     fuzz.nest(m, 100_000, 1)
@@ -239,6 +240,7 @@ def test_unreached_nested_wires_are_walked_once(tmp_path: Path) -> None:
     assert "does not rebuild" in line
 
 
+@pytest.mark.slow
 def test_located_instances_are_flattened_by_iges_only() -> None:
     m, meta = _model("bracket.lossless.nzc")
     one = budget.expansion(m)
@@ -582,6 +584,7 @@ def test_deeply_nested_step_is_screened(tmp_path: Path) -> None:
     assert nurbscomp.original(tmp_path / "x.nzc") == p.read_bytes()
 
 
+@pytest.mark.slow
 def test_screening_reads_strings_and_chunks(tmp_path: Path, monkeypatch) -> None:
     """Parentheses inside a string (with an escaped apostrophe) do not count,
     and the depth and the quoting carry across the scan's chunks."""
@@ -594,6 +597,7 @@ def test_screening_reads_strings_and_chunks(tmp_path: Path, monkeypatch) -> None
         files.screen_step(p)
 
 
+@pytest.mark.slow
 def test_table_rows_are_bounded_before_any_loop() -> None:
     """A container may declare millions of rows in a few KB (the body inflates
     to 256 MB): refused by their count before the budget's own loops."""

@@ -101,6 +101,7 @@ def test_corpus_to_iges(tmp_path: Path, name: str, mode: str, made) -> None:
     _assert_iges_keeps(CORPUS / name, tmp_path, mode, made)
 
 
+@pytest.mark.slow
 @pytest.mark.corpus
 def test_eval_fails_the_faces_mode_output(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """``nurbscomp eval SRC OUT.igs`` on occ22470 at 0.01 mm: exit 6 (topology

@@ -66,6 +66,7 @@ def test_sigterm_during_compress(tmp_path: Path) -> None:
     assert _left(tmp_path) == []
 
 
+@pytest.mark.slow
 @pytest.mark.corpus
 def test_a_batch_interrupted_counts_what_it_finished(tmp_path: Path) -> None:
     """The first file's output is in place when the signal comes: it is a

@@ -170,6 +170,7 @@ def test_a_model_the_reader_may_loop_on_is_still_checked(tmp_path: Path) -> None
     )
 
 
+@pytest.mark.slow
 def test_a_reader_that_loops_on_the_source_too_leaves_no_check(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -217,6 +218,7 @@ def test_what_is_packed_meanwhile_is_the_target(
     assert t.early[1] == _pack(t.model, t.codes)[1]
 
 
+@pytest.mark.slow
 def test_nothing_is_packed_meanwhile_for_a_fallback(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:

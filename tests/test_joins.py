@@ -71,6 +71,7 @@ def _faces_iges(step: Path, dst: Path) -> Path:
     return faces_iges(step, dst)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("sample", ["teapot.step", "blob.step", "loft.step"])
 def test_surface_model_keeps_its_free_edges(sample: str, tmp_path: Path) -> None:
     """Each face with edges of its own (IGES faces mode): the decoded faces must
@@ -176,6 +177,7 @@ def test_located_surface_model_keeps_its_free_edges(tmp_path: Path) -> None:
     assert occ.free_edges_sewn(shape) <= occ.free_edges_sewn(occ.read_cad(src).shape)
 
 
+@pytest.mark.slow
 @pytest.mark.corpus
 def test_corner_pins_follow_the_format_minor(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
@@ -316,6 +318,7 @@ def _thick_loft() -> object:
     return thick.Shape()
 
 
+@pytest.mark.slow
 def test_edges_that_meet_in_part_keep_meeting(tmp_path: Path) -> None:
     """Faces-mode IGES (written at 1e-5) of a thick loft: its faces meet along
     edges cut at different points, or apart by up to their 1e-5 tolerances;
@@ -363,6 +366,7 @@ def test_free_edges_count_faces_in_no_shell_beside_a_solid() -> None:
     assert occ.free_edges(loose) == occ.free_edges(shelled) == 4
 
 
+@pytest.mark.slow
 def test_surface_nets_anchored_at_their_face_vertices(tmp_path: Path) -> None:
     """Format 2.1: a SNET net's first pole is coded against a vertex of its
     face where that is cheaper (anchor k > 0); the container decodes within

@@ -32,6 +32,7 @@ def _check(path: Path, tmp_path: Path, tol: float, step: bool = False, **kw) -> 
     return rep
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("path", sample_files(), ids=lambda p: p.name)
 @pytest.mark.parametrize("tol", [0.001, 0.1])
 def test_samples_within_tol(path: Path, tmp_path: Path, tol: float) -> None:
@@ -63,6 +64,7 @@ def _no_new_gaps(path: Path, tmp_path: Path, nzc: Path) -> None:
     assert occ.free_edges_sewn(back) <= occ.free_edges_sewn(occ.read_cad(path).shape)
 
 
+@pytest.mark.slow
 @pytest.mark.corpus
 def test_bearing_step_keeps_free_edges(tmp_path: Path) -> None:
     """bearing.iges at 0.01 mm decompressed to STEP read back with 39 free
@@ -101,6 +103,7 @@ def test_step_keeps_counts_between_the_source_and_the_floor() -> None:
     assert not validity.step_keeps(src, floor, {"edges": 81, "faces": 38})
 
 
+@pytest.mark.slow
 def test_blended_part_keeps_what_occts_round_trip_keeps(tmp_path: Path) -> None:
     """A part with many small fillets and blends (tests.stress.assemblies.blended,
     seed 6): 81 edges, 79 after OCCT's own round trip.  At 0.01 mm its
@@ -285,12 +288,14 @@ def test_corpus_no_growth_with_tol(path: Path, made) -> None:
     assert sizes == sorted(sizes, reverse=True), f"bytes at 0.001, 0.01, 0.1 mm: {sizes}"
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("path", sample_files(), ids=lambda p: p.name)
 def test_samples_without_step_safety(path: Path, tmp_path: Path) -> None:
     rep = _check(path, tmp_path, 0.05, step_safe=False)
     assert not rep["step_safe"]
 
 
+@pytest.mark.slow
 def test_lossy_is_smaller_than_lossless(tmp_path: Path) -> None:
     from .conftest import SAMPLES
 
@@ -328,6 +333,7 @@ def test_coded_curve_ends_meet_their_vertices(name: str, tmp_path: Path) -> None
     assert pipeline.max_net_displacement(src, m) <= 0.05
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["teapot.step", "blob.step"])
 def test_iso_boundary_curves_are_their_surfaces_boundaries(name: str, tmp_path: Path) -> None:
     """An edge curve that is a surface's boundary comes back as the decoded boundary, bit for bit,
@@ -394,6 +400,7 @@ def _curve_points(g, t: np.ndarray) -> np.ndarray:
     return h[:, :-1] / h[:, -1:]
 
 
+@pytest.mark.slow
 @pytest.mark.corpus
 @pytest.mark.parametrize("name", ["occ22470.igs", "NIST_MBE_PMI_2.stp"])
 def test_unit_curves_keep_every_edge_point_for_point(name: str) -> None:
@@ -431,6 +438,7 @@ def test_unit_curves_keep_every_edge_point_for_point(name: str) -> None:
     assert moved > 0 and held > 0
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("split", [False, True])
 @pytest.mark.parametrize("name", ["teapot.step", "blob.step"])
 def test_pcurve_cache_builds_the_same_shape(

@@ -17,6 +17,7 @@ periodic, mults[0] == mults[-1] <= degree and sum(mults) - mults[-1] = poles
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from OCP.Geom import Geom_BSplineCurve, Geom_BSplineSurface
@@ -152,6 +153,7 @@ def _coded_within_tol(g: BSplineSurface | BSplineCurve, tol: float, methods: tup
     return back
 
 
+@pytest.mark.slow
 @settings(max_examples=300, deadline=None)
 @given(surfaces(), st.sampled_from(TOLS))
 def test_surface_nets_code_within_tol(g: BSplineSurface, tol: float) -> None:
@@ -163,6 +165,7 @@ def test_surface_nets_code_within_tol(g: BSplineSurface, tol: float) -> None:
     assert (back.weights is None) == (g.weights is None)
 
 
+@pytest.mark.slow
 @settings(max_examples=300, deadline=None)
 @given(curves(), st.sampled_from(TOLS))
 def test_curve_nets_code_within_tol(g: BSplineCurve, tol: float) -> None:

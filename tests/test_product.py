@@ -123,6 +123,7 @@ def test_face_colours_paired_by_place() -> None:
 # ---------------------------------------------------------------- the assembly sample
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("mode", sorted(MODES))
 def test_assembly_sample_matches_occt_round_trip(tmp_path: Path, mode: str) -> None:
     got = assert_same_product(ASSEMBLY, _compress(ASSEMBLY, tmp_path, mode), tmp_path)
@@ -149,6 +150,7 @@ def test_assembly_product_stored_once(tmp_path: Path) -> None:
     assert int((p.ref[p.kind == product.INSTANCE] == bolt).sum()) == 3
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("mode", sorted(MODES))
 def test_placements_exact_in_every_mode(tmp_path: Path, mode: str) -> None:
     src = read_cad(ASSEMBLY, product=True).product
@@ -161,6 +163,7 @@ def test_assembly_to_iges_keeps_colours(tmp_path: Path) -> None:
     assert_same_product(ASSEMBLY, _compress(ASSEMBLY, tmp_path, "lossless"), tmp_path, ".igs")
 
 
+@pytest.mark.slow
 def test_generated_assembly_with_cadquery_export(tmp_path: Path) -> None:
     """An assembly written by cadquery's own exporter (not the sample's writer)."""
     import cadquery as cq
@@ -181,6 +184,7 @@ def test_generated_assembly_with_cadquery_export(tmp_path: Path) -> None:
     assert "pin a" in got["instances"] and got["parts"]
 
 
+@pytest.mark.slow
 def test_generated_bspline_assembly_mirrored(tmp_path: Path) -> None:
     """B-spline parts (a loft, a filleted box) that tolerance mode recodes,
     placed twice with one placement mirrored, a coloured face among them:
@@ -260,6 +264,7 @@ def _ap203_assembly(path: Path) -> None:
         w.Write(str(path))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "variant",
     [
@@ -330,6 +335,7 @@ def test_an_older_container_has_no_product(tmp_path: Path) -> None:
     assert json.loads(r.output)["product"] is None
 
 
+@pytest.mark.slow
 @pytest.mark.corpus
 def test_compress_warning_names_what_is_dropped(tmp_path: Path) -> None:
     src = CORPUS / "occt__trj5_k1-pe-214.stp"

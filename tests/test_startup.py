@@ -54,6 +54,7 @@ def test_info_and_test_on_damaged_import_no_ocp(args: list[str]) -> None:
     assert "OCP" not in names and "scipy" not in names
 
 
+@pytest.mark.slow
 def test_compress_of_a_small_part_imports_no_scipy(tmp_path: Path) -> None:
     """Compress finds close points, clusters and nearest faces with numpy
     (``joins.close_pairs``, ``first_of_components``, ``nearest``): importing

@@ -51,6 +51,7 @@ def test_the_corpus_is_large_varied_and_named_uniquely() -> None:
     assert {name for name, _, _ in CASES} <= set(ENTRIES)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "name, fmt, tol",
     [(n, f, t) for n, f, tols in CASES for t in tols],

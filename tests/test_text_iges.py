@@ -65,6 +65,7 @@ def _small_iges() -> bytes:
     return ("\n".join(lines) + "\n").encode()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("path", IGES, ids=lambda p: p.name)
 def test_corpus_byte_exact_and_smaller_than_xz(path):
     data = path.read_bytes()
@@ -73,6 +74,7 @@ def test_corpus_byte_exact_and_smaller_than_xz(path):
     assert 1.2 * len(payload) <= _xz(data), (len(payload), _xz(data))
 
 
+@pytest.mark.slow
 @pytest.mark.corpus
 def test_corpus_total_ratio():
     total = sum(len(p.read_bytes()) and _xz(p.read_bytes()) for p in IGES)
@@ -140,6 +142,7 @@ def _mutate(data: bytes, rng: random.Random) -> bytes:
     return b"\n".join(lines)
 
 
+@pytest.mark.slow
 def test_mutations_byte_exact_or_none():
     rng = random.Random(29)
     sources = [_small_iges()] + [p.read_bytes()[:20000] for p in IGES]

@@ -183,6 +183,7 @@ def test_corpus_byte_exact_and_smaller(path):
     assert len(payload) * 1.2 <= xz, (len(payload), xz)
 
 
+@pytest.mark.slow
 def test_short_fuzz():
     """A few hundred mutated sources (tests/fuzz_text.py), in this process."""
     pool = seeds()

@@ -165,6 +165,7 @@ def _walk_round_trip(m: BRepModel) -> bool:
     return True
 
 
+@pytest.mark.slow
 def test_random_trees_round_trip() -> None:
     """Random DAGs numbered in depth-first post-order from the root: whatever
     mode the writer picks, the tables come back; most go through the walk
@@ -204,6 +205,7 @@ def test_wire_reuses_its_new_edge_far_back() -> None:
     assert _walk_round_trip(m)
 
 
+@pytest.mark.slow
 def test_tiny_model_written_the_smaller_way() -> None:
     """Under 512 coded bytes the writer keeps the arrays when they compress
     smaller: no tiny model is larger than in the 1.x layout."""
@@ -276,6 +278,7 @@ def test_old_revisions_read_the_arrays() -> None:
         serialize._read_shapes(raw, BRepModel(), 3, None)
 
 
+@pytest.mark.slow
 def test_hostile_bytes_fail_with_format_errors() -> None:
     m, _ = fuzz.decoded((GOLDEN / "bracket.lossless.nzc").read_bytes())
     good = serialize._write_shapes(m)
