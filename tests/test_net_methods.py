@@ -23,7 +23,7 @@ from nurbscomp.errors import SectionError
 from nurbscomp.model import BSplineSurface
 
 from .golden.make_golden import _arrays, _replace, _write_arrays, pack_raw
-from .independent import reader
+from .independent import nets, reader
 from .independent.container import ReadError
 from .test_independent_reader import same_floats
 
@@ -143,3 +143,34 @@ def test_writer_never_writes_quantizer_1() -> None:
     for g in nets:
         code, _ = encode_nets._code_one(g, 0.01, codec.SURFACE_METHODS, True, None, 0.01)
         assert code.quant == codec.Quant.TOL
+
+
+def test_copies_across_placements() -> None:
+    """Method 9 copies between curves of two parts placed apart (docs/format.md
+    §2.4, placements): a cadquery assembly of two parts that meet along a
+    spline edge, each built in a frame of its own and located into the
+    model, compressed at 0.01 mm.  The independent reader moves the copied
+    poles by inv(P_row)·P_leader and gets nurbscomp's poles bit for bit."""
+    cq = pytest.importorskip("cadquery")
+    import nurbscomp
+
+    pts = [(0.0, 0.0), (3.0, 1.5), (6.0, -1.0), (10.0, 0.0)]
+
+    def region(side: float) -> object:
+        w = cq.Workplane("XY").moveTo(0, 0).spline(pts[1:], includeCurrent=True)
+        return w.lineTo(10, 5 * side).lineTo(0, 5 * side).close().extrude(2)
+
+    loc = cq.Location(cq.Vector(4, -3, 1), cq.Vector(0, 0, 1), 30)
+    assy = cq.Assembly(name="top")
+    assy.add(region(-1.0), name="a")
+    assy.add(cq.Workplane().add(region(1.0).val().moved(loc.inverse)), name="b", loc=loc)
+    data = nurbscomp.compress(assy, tol=0.01)
+    m = reader.read(data)
+    assert len(m.copies) >= 2
+    where = nets.curve_placements(m)
+    for row, leader in m.copies:
+        assert row in where and leader in where
+        assert not np.array_equal(where[row], where[leader])
+        a, b = m.curves3d[row].poles, m.curves3d[leader].poles  # type: ignore[union-attr]
+        assert not (np.array_equal(a, b) or np.array_equal(a, b[::-1]))
+    assert same_floats(data, m.floats()) == []

@@ -557,31 +557,98 @@ def decode(m: Model) -> None:
         g = m.curves3d[row]
         assert isinstance(g, Spline) and g.poles is not None
         g.poles[end] = points[v]
-    # ---- copies
-    if copies and located(m):
-        # §2.4 method 9 moves the copied poles by inv(P_row)·P_leader where the two
-        # rows sit in different frames; no golden file or corpus container has a
-        # located sub-shape, so this reader does not implement it (untested).
-        raise ReadError("CNET: copies in a located model are not implemented by this reader")
+    # ---- copies (§2.4, method 9: moved by inv(P_row)·P_leader where placed apart)
+    where = curve_placements(m) if copies else {}
+    m.copies = [(row, row - back) for row, back, _ in copies]
+    eye = np.eye(4)
     for row, back, rev in copies:
         g, lead = m.curves3d[row], m.curves3d[row - back]
         assert isinstance(g, Spline)
         if not isinstance(lead, Spline) or lead.poles is None:
             raise ReadError("CNET: copy of a row without poles")
         p = lead.poles.copy()
-        g.poles = p[::-1].copy() if rev else p
+        p = p[::-1].copy() if rev else p
+        a, b = where.get(row, eye), where.get(row - back, eye)
+        if not np.array_equal(a, b):
+            t = np.linalg.inv(a) @ b
+            p = p @ t[:3, :3].T + t[:3, 3]
+        g.poles = p
 
 
-def located(m: Model) -> bool:
-    """Whether any placement can differ from the identity: a located root,
-    sub-shape reference or 3-D curve representation."""
+def matrix_power(t: np.ndarray, p: int) -> np.ndarray:
+    """§2.4 placements: T^p (p ≠ 0), the inverse first for p < 0; p ≥ 4 by
+    binary powering from the lowest bit."""
+    if p < 0:
+        t, p = np.linalg.inv(t), -p
+    if p == 1:
+        return t
+    if p == 2:
+        return t @ t
+    if p == 3:
+        return (t @ t) @ t
+    z = out = None
+    while p > 0:
+        z = t if z is None else z @ z
+        p, bit = divmod(p, 2)
+        if bit:
+            out = z if out is None else out @ z
+    assert out is not None
+    return out
+
+
+def location_matrix(m: Model, loc: int) -> np.ndarray:
+    """§2.4 placements: a location's 4 x 4 matrix, its factors multiplied first first."""
+    out = np.eye(4)
+    datums, powers = m.locations[loc]
+    for d, p in zip(datums, powers, strict=True):
+        t = np.eye(4)
+        t[:3] = m.datums[d]
+        out = out @ matrix_power(t, p)
+    return out
+
+
+def curve_placements(m: Model) -> dict[int, np.ndarray]:
+    """§2.4 placements: per CRV3 row, the one matrix every kind-0 representation
+    reached from the root gives it; rows placed two ways, or not reached, have none."""
     sh = m.shapes
-    kind0 = m.edges.reps[m.edges.reps[:, 1] == 0]
-    return bool(
-        sh.root[2] != 0
-        or any(loc != 0 for cs in sh.children for _, _, loc in cs)
-        or (kind0[:, 6] != 0).any()
-    )
+    mats = [location_matrix(m, k) for k in range(len(m.locations))]
+    n = len(sh.type)
+    place: list[np.ndarray | None] = [None] * n
+    many = [False] * n
+    reached = [False] * n
+    root, _, root_loc = sh.root
+    place[root], reached[root] = mats[root_loc], True
+    edge_at: dict[int, np.ndarray | None] = {}
+    for s in range(n - 1, -1, -1):
+        if not reached[s]:
+            continue
+        t = None if many[s] else place[s]
+        if sh.type[s] == 6:
+            edge_at[sh.row_of[s]] = t
+            continue
+        for c, _, loc in sh.children[s]:
+            if sh.type[c] == 7:
+                continue
+            tc = None if t is None else t @ mats[loc]
+            if not reached[c]:
+                reached[c], place[c], many[c] = True, tc, tc is None
+            elif not many[c] and (tc is None or not np.array_equal(place[c], tc)):
+                many[c] = True
+    at: dict[int, list[np.ndarray | None]] = {}
+    reps = m.edges.reps
+    for q in range(len(reps)):
+        if int(reps[q, 1]) != 0:
+            continue
+        c, e = int(reps[q, 2]), int(reps[q, 0])
+        if e in edge_at:
+            t = edge_at[e]
+            at.setdefault(c, []).append(None if t is None else t @ mats[int(reps[q, 6])])
+    out = {}
+    for c, ts in at.items():
+        first = ts[0]
+        if first is not None and all(x is not None and np.array_equal(x, first) for x in ts):
+            out[c] = first
+    return out
 
 
 def _rep_candidates(m: Model, rows: set[int]):
