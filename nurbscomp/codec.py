@@ -27,6 +27,9 @@ Methods, weighed against each other on every face by :func:`encode_net`:
 
 Two quantizers: the paper's ``(1+k+l)·D00/2^a`` (eq. 10, 27; D00 sent as a
 float) and a tolerance-driven ``(1+slope·(k+l))·Δ`` with Δ = tol·2^(e/4).
+The format holds the second only: the paper's (``Quant.PAPER``) is reserved
+(no writer ever wrote it; docs/format.md §2.4), and stays here for the
+codec's own experiments (``encode_net(paper=True)``).
 
 Knots, degrees and weights are kept exactly, so the decoded surface is the
 same convex combination of the decoded poles, and max |S - S'| ≤ max_i
@@ -103,7 +106,7 @@ CURVE_COPIES = (*CURVE_METHODS, Method.ISO, Method.COPY)
 
 class Quant(IntEnum):
     TOL = 0  # (1 + slope·(k+l))·Δ, Δ = tol·2^(e/4)
-    PAPER = 1  # (1+k+l)·D00/2^a, eq. 10 and 27
+    PAPER = 1  # (1+k+l)·D00/2^a, eq. 10 and 27; reserved by the format: never in a container
 
 
 #: Largest integer a code may hold (keeps every product exact in float64).

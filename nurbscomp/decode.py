@@ -327,8 +327,10 @@ def _check_headers(t: NetTable, tag: str, tol: float, revision: int = container.
     n = len(t.method)
     if n and not 0 < tol < MAX_COORD:
         raise SectionError(f"{tag}: coded nets need a positive, finite tolerance")
-    if (t.quant < 0).any() or (t.quant > 1).any():
-        raise SectionError(f"{tag}: bad net header")
+    if (t.quant != codec.Quant.TOL).any():
+        # quantizer 1 (the paper's, eq. 10 and 27) is reserved: no writer ever
+        # wrote it (docs/format.md §2.4), and no reader decodes it
+        raise SectionError(f"{tag}: quantizer {int(t.quant[t.quant != 0][0])} is reserved")
     if (t.slope < 0).any() or (t.slope >= len(codec.SLOPES)).any():
         raise SectionError(f"{tag}: bad quantizer slope")
     if n and np.abs(t.level).max() > MAX_LEVEL:

@@ -102,3 +102,79 @@ def test_every_reference_exists() -> None:
 @pytest.mark.parametrize("bad", ["codec.no_such_name", "serialize.NO_SUCH_*", "nosuchmodule.x"])
 def test_a_missing_name_is_found(bad: str) -> None:
     assert not resolves(bad)
+
+
+#: Phrases that define by pointing at code.  The normative sections of
+#: docs/format.md (§1, the file, and §2, the sections) define every step in
+#: their text; a function may be named only as what implements it ("implemented
+#: by `x.y`", a heading's names, a parenthesis after the definition).
+DEFINED_BY_CODE = [
+    r"\bas `[\w.]+`(?:'s)? (?:does|says|gives|computes|writes|reads|returns)\b",
+    r"\bsee `[A-Za-z_]+\.[\w.]+`",
+    r"\border of `[\w.]+`",
+    r"`[\w.]+`'s (?:order|rule|layout|definition)",
+    r"\bindex into `[a-z_]+\.[A-Z_]+`",
+    r"\b(?:is|are) `[a-z_]+\.[a-z_][\w.]*`",
+    r"\b(?:decoded|defined|specified|given|evaluated|applied) by `[a-z_]+\.[\w.]+`",
+    r"\bthe (?:arithmetic|steps|rules?) of `[a-z_]+\.[\w.]+`",
+]
+
+
+def normative(text: str) -> list[tuple[int, str]]:
+    """(line number, line) of docs/format.md's §1 and §2, headings left out."""
+    out, inside = [], False
+    for n, line in enumerate(text.splitlines(), 1):
+        if line.startswith("## "):
+            inside = line.startswith(("## 1.", "## 2."))
+        elif inside and not line.startswith("#"):
+            out.append((n, line))
+    return out
+
+
+def test_format_defines_nothing_by_reference_to_code() -> None:
+    lines = normative((ROOT / "docs" / "format.md").read_text())
+    assert len(lines) > 500
+    # a phrase may wrap: look at each line joined with the next
+    joined = [(n, a + " " + b) for (n, a), (_, b) in zip(lines, [*lines[1:], (0, "")])]
+    bad = [
+        f"line {n}: {m.group(0)!r}"
+        for n, text in joined
+        for pattern in DEFINED_BY_CODE
+        for m in [re.search(pattern, text)]
+        if m
+    ]
+    assert bad == []
+
+
+@pytest.mark.parametrize(
+    "text",
+    [
+        "the integer layout per method is the order of `codec._code`:",
+        "each pole moves along the normal (`x`), as `dmap.apply` does",
+        "the slope, an index into `codec.SLOPES`",
+        "the steps are `decode.apply`, in order",
+        "Each code is decoded by `codec.decode_net` with the row's shape",
+    ],
+)
+def test_defined_by_code_is_caught(text: str) -> None:
+    assert any(re.search(p, text) for p in DEFINED_BY_CODE)
+
+
+def test_implemented_by_is_allowed() -> None:
+    text = "(Implemented by `joins.boundary` and `joins.joined_sides`.) decoded as §2.4.1 defines"
+    assert not any(re.search(p, text) for p in DEFINED_BY_CODE)
+
+
+#: The functions issue 31 found standing in for definitions: in §1 and §2 they
+#: may only be named as what implements a rule the text defines.
+CITED = ["codec._code", "dmap.apply", "coons.periodic_flat", "joins.boundary", "joins.anchors",
+         "joins.copy_matrix", "codec.SLOPES"]  # fmt: skip
+
+
+def test_cited_functions_only_as_implementations() -> None:
+    lines = normative((ROOT / "docs" / "format.md").read_text())
+    text = " ".join(line for _, line in lines)
+    for name in CITED:
+        for m in re.finditer(re.escape(f"`{name}`"), text):
+            before = text[max(0, m.start() - 120) : m.start()]
+            assert "mplemented by" in before, f"{name}: ...{before[-80:]}"

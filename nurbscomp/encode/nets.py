@@ -137,7 +137,11 @@ def _code_one(
     origin: np.ndarray | None,
     limit: float,
 ) -> tuple[codec.NetCode, Geometry]:
-    """One record's code (:func:`codec.encode_net`) and the record as decoded."""
+    """One record's code (:func:`codec.encode_net`) and the record as decoded.
+
+    ``paper`` widens the surface search to every method of the paper (the
+    caller's ``methods``); the paper's quantizer is never used: the format
+    reserves it (docs/format.md §2.4), so ``encode_net`` is never asked for it."""
     s, t = net_abscissae(g)
     basis = net_basis(g)
     code = codec.encode_net(
@@ -146,7 +150,7 @@ def _code_one(
         t,
         tol,
         methods,
-        paper=paper,
+        paper=False,
         origin=origin,
         basis=basis,
         limit=limit,
@@ -279,7 +283,8 @@ def code_model(
     curves exact (:func:`_lonely_curves`).
 
     Surface nets are searched with ``codec.SURFACE_SEARCH``, or with every
-    method of the paper and its quantizer when ``paper`` is set.
+    method of the paper when ``paper`` is set (methods 5 and 7 too; never the
+    paper's quantizer, which the format reserves).
     """
     eps = min(joins.TWIN_EPS, tol / 64)
     srec, crec = records(m.surfaces, Table.SURFACE), records(m.curves3d, Table.CURVE3D)

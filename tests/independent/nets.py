@@ -108,12 +108,9 @@ class Code:
 class Net:
     def __init__(self, code: Code, method: int, quant: int, level: int, slope: int, tol: float):
         self.code, self.method, self.quant, self.level = code, method, quant, level
-        if quant == 0:
-            self.h = tol * 2.0 ** (level / 4)
-        elif quant == 1:
-            self.h = tol
-        else:
-            raise ReadError(f"quantizer {quant}")
+        if quant != 0:  # §2.4: quantizer 1 is reserved
+            raise ReadError(f"quantizer {quant} is reserved")
+        self.h = tol * 2.0 ** (level / 4)
         if slope not in (0, 1):
             raise ReadError(f"slope {slope}")
         self.S = SLOPES[slope]
@@ -130,29 +127,13 @@ class Net:
         return q * self.h
 
     def coeffs(self, shape: tuple[int, ...], c: int) -> np.ndarray:
-        if self.quant == 0:
-            if len(shape) == 1:
-                steps = (1 + self.S * np.arange(shape[0])) * self.h
-            else:
-                kk, ll = np.meshgrid(np.arange(shape[0]), np.arange(shape[1]), indexing="ij")
-                steps = (1 + self.S * (kk + ll)) * self.h
-            v = self.code.take(int(np.prod(shape)) * c).reshape(*shape, c)
-            return v * steps[..., None]
-        dc = self.code.dcs(c)
-        a = 2.0**self.level
         if len(shape) == 1:
-            steps = (1 + np.arange(shape[0]))[:, None] * np.abs(dc)[None, :] / a
+            steps = (1 + self.S * np.arange(shape[0])) * self.h
         else:
             kk, ll = np.meshgrid(np.arange(shape[0]), np.arange(shape[1]), indexing="ij")
-            steps = (1 + kk + ll)[..., None] * np.abs(dc) / a
-        v = np.zeros((*shape, c))
-        flat = v.reshape(-1, c)
-        rest = self.code.take(int(np.prod(shape)) * c - c).reshape(-1, c)
-        flat[0] = dc
-        flat[1:] = rest
-        out = flat.reshape(*shape, c) * steps
-        out.reshape(-1, c)[0] = dc
-        return out
+            steps = (1 + self.S * (kk + ll)) * self.h
+        v = self.code.take(int(np.prod(shape)) * c).reshape(*shape, c)
+        return v * steps[..., None]
 
     def curve(self, count: int, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         n = count - 1
@@ -213,7 +194,58 @@ def coons_bicubic(u0, u1, v0, v1, s, t) -> np.ndarray:
     return tt(v0, v1, dv0, dv1) + s2 - tt(g0, g1, dv0, dv1)
 
 
-def decode_surface(net: Net, shape: tuple[int, int], o: np.ndarray, s, t) -> np.ndarray:
+def dmap_flat(g: Spline, axis: int, n: int) -> tuple[np.ndarray, int]:
+    """§2.4.1 D-map, step 1: the flat knot vector and degree along ``axis``."""
+    if g.bezier:
+        return np.array([0.0] * n + [1.0] * n), n - 1
+    flat = np.repeat(np.asarray(g.knots[axis], float), np.asarray(g.mults[axis], int))
+    return flat, g.degrees[axis]
+
+
+def dmap_basis(flat: np.ndarray, p: int, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """§2.4.1 D-map, steps 2-3: B-spline basis values and first derivatives at the
+    Greville abscissae, (n, n) each: row k is abscissa k, column i basis i."""
+    if p == 0:
+        x = flat[:n].copy()
+    else:
+        c = np.concatenate([[0.0], np.cumsum(flat)])
+        i = np.arange(n)
+        x = (c[i + p + 1] - c[i + 1]) / p
+    x = np.clip(x, flat[p], flat[n])
+    from scipy.interpolate import BSpline
+
+    spline = BSpline(flat, np.eye(n), p, extrapolate=True)
+    der = spline.derivative()(x) if p > 0 else np.zeros((n, n))
+    return spline(x), der
+
+
+def dmap_normals(net: np.ndarray, g: Spline) -> np.ndarray:
+    """§2.4.1 D-map, steps 4-5: unit normals (nu, nv, 3) of the surface of
+    ``net`` (with the row's knots, degrees and weights) at its Greville points."""
+    nu, nv = net.shape[:2]
+    fu, pu = dmap_flat(g, 0, nu)
+    fv, pv = dmap_flat(g, 1, nv)
+    bu, du = dmap_basis(fu, pu, nu)
+    bv, dv = dmap_basis(fv, pv, nv)
+    w = np.ones((nu, nv)) if g.weights is None else np.asarray(g.weights).reshape(nu, nv)
+    hw = net * w[..., None]
+    S = np.einsum("ki,ijc,lj->klc", bu, hw, bv)
+    Su = np.einsum("ki,ijc,lj->klc", du, hw, bv)
+    Sv = np.einsum("ki,ijc,lj->klc", bu, hw, dv)
+    W = np.einsum("ki,ij,lj->kl", bu, w, bv)[..., None]
+    Wu = np.einsum("ki,ij,lj->kl", du, w, bv)[..., None]
+    Wv = np.einsum("ki,ij,lj->kl", bu, w, dv)[..., None]
+    P = S / W
+    xu = (Su - Wu * P) / W
+    xv = (Sv - Wv * P) / W
+    n = np.cross(xu, xv)
+    length = np.sqrt((n**2).sum(-1, keepdims=True))
+    return np.divide(n, length, out=np.zeros_like(n), where=length > 1e-300)
+
+
+def decode_surface(
+    net: Net, shape: tuple[int, int], o: np.ndarray, s, t, g: Spline | None = None
+) -> np.ndarray:
     nu, nv = shape
     m = net.method
     if m == 0:
@@ -243,7 +275,12 @@ def decode_surface(net: Net, shape: tuple[int, int], o: np.ndarray, s, t) -> np.
             w = net.coeffs((nu - 2, nv - 2), 3)
             p[1:-1, 1:-1] = p[1:-1, 1:-1] + idct2(w)
         if m == 5:
-            raise ReadError("D-map (method 5): not implemented by this reader")
+            if g is None or not clamped(g) or nu < 3 or nv < 3:
+                raise ReadError("D-map (method 5): not a clamped net with an interior")
+            w = net.coeffs((nu - 2, nv - 2), 1)
+            d = idct2(w)[..., 0]
+            n = dmap_normals(p, g)
+            p[1:-1, 1:-1] = p[1:-1, 1:-1] + d[..., None] * n[1:-1, 1:-1]
         return p
     raise ReadError(f"SNET method {m}")
 
@@ -285,6 +322,8 @@ class Table:
         for k in range(self.n):
             if self.method[k] not in allowed:
                 raise ReadError(f"{tag}: method {self.method[k]}")
+            if self.quant[k] != 0:
+                raise ReadError(f"{tag}: quantizer {self.quant[k]} is reserved")
             if tag == "SNET" and self.method[k] == 10 and revision < 3:
                 raise ReadError("SNET: method 10 before 2.0")
 
@@ -293,7 +332,7 @@ class Table:
         if self.counts is not None:
             return Code(self.ints(self.counts[k]), self.dcs)
         pts, res, cco, mco, refs = self.streams
-        m, q1 = self.method[k], self.quant[k] == 1
+        m = self.method[k]
         size = int(np.prod(shape))
         c = 3
         parts: list[np.ndarray] = []
@@ -303,17 +342,17 @@ class Table:
             n = shape[0]
             parts.append(pts(2 * c))
             if n > 2:
-                parts.append(cco((n - 2) * c - (c if q1 else 0)))
+                parts.append(cco((n - 2) * c))
         elif m in (1, 2, 5, 7, 8):
             nu, nv = shape[0], shape[1]
             parts.append(pts(12))
             for kk in (nv, nv, nu, nu):
                 if kk > 2:
-                    parts.append(cco((kk - 2) * 3 - (3 if q1 else 0)))
+                    parts.append(cco((kk - 2) * 3))
             if m in (2, 8) and nu > 2 and nv > 2:
-                parts.append(mco((nu - 2) * (nv - 2) * 3 - (3 if q1 else 0)))
+                parts.append(mco((nu - 2) * (nv - 2) * 3))
             if m == 5:
-                parts.append(mco((nu - 2) * (nv - 2) - (1 if q1 else 0)))
+                parts.append(mco((nu - 2) * (nv - 2)))
         elif m == 6:
             r = refs(3).copy()
             r[0] += self.last_iso
@@ -419,7 +458,7 @@ def decode(m: Model) -> None:
         t = abscissae(g.knots[1], g.mults[1], g.degrees[1], g.periodic[1], nv)
         net = Net(snet.code(k, (nu, nv, 3)), snet.method[k], snet.quant[k], snet.level[k],
                   snet.slope[k], tol)  # fmt: skip
-        p = decode_surface(net, (nu, nv), o, s, t)
+        p = decode_surface(net, (nu, nv), o, s, t, g)
         net.code.ints.end()
         g.poles = p
         origin = p[0, 0][None].copy()
@@ -440,11 +479,11 @@ def decode(m: Model) -> None:
             or not clamped(g)
         ):
             continue
-        quant, e = level[r]
+        _, e = level[r]
         if m.revision < 2:
             rho = tol
         else:
-            rho = min(tol, tol * 2.0 ** (e / 4)) if quant == 0 else tol
+            rho = min(tol, tol * 2.0 ** (e / 4))
         assert g.poles is not None
         nu, nv = g.shape
         got = []
@@ -518,31 +557,98 @@ def decode(m: Model) -> None:
         g = m.curves3d[row]
         assert isinstance(g, Spline) and g.poles is not None
         g.poles[end] = points[v]
-    # ---- copies
-    if copies and located(m):
-        # §2.4 method 9 moves the copied poles by inv(P_row)·P_leader where the two
-        # rows sit in different frames; no golden file or corpus container has a
-        # located sub-shape, so this reader does not implement it (untested).
-        raise ReadError("CNET: copies in a located model are not implemented by this reader")
+    # ---- copies (§2.4, method 9: moved by inv(P_row)·P_leader where placed apart)
+    where = curve_placements(m) if copies else {}
+    m.copies = [(row, row - back) for row, back, _ in copies]
+    eye = np.eye(4)
     for row, back, rev in copies:
         g, lead = m.curves3d[row], m.curves3d[row - back]
         assert isinstance(g, Spline)
         if not isinstance(lead, Spline) or lead.poles is None:
             raise ReadError("CNET: copy of a row without poles")
         p = lead.poles.copy()
-        g.poles = p[::-1].copy() if rev else p
+        p = p[::-1].copy() if rev else p
+        a, b = where.get(row, eye), where.get(row - back, eye)
+        if not np.array_equal(a, b):
+            t = np.linalg.inv(a) @ b
+            p = p @ t[:3, :3].T + t[:3, 3]
+        g.poles = p
 
 
-def located(m: Model) -> bool:
-    """Whether any placement can differ from the identity: a located root,
-    sub-shape reference or 3-D curve representation."""
+def matrix_power(t: np.ndarray, p: int) -> np.ndarray:
+    """§2.4 placements: T^p (p ≠ 0), the inverse first for p < 0; p ≥ 4 by
+    binary powering from the lowest bit."""
+    if p < 0:
+        t, p = np.linalg.inv(t), -p
+    if p == 1:
+        return t
+    if p == 2:
+        return t @ t
+    if p == 3:
+        return (t @ t) @ t
+    z = out = None
+    while p > 0:
+        z = t if z is None else z @ z
+        p, bit = divmod(p, 2)
+        if bit:
+            out = z if out is None else out @ z
+    assert out is not None
+    return out
+
+
+def location_matrix(m: Model, loc: int) -> np.ndarray:
+    """§2.4 placements: a location's 4 x 4 matrix, its factors multiplied first first."""
+    out = np.eye(4)
+    datums, powers = m.locations[loc]
+    for d, p in zip(datums, powers, strict=True):
+        t = np.eye(4)
+        t[:3] = m.datums[d]
+        out = out @ matrix_power(t, p)
+    return out
+
+
+def curve_placements(m: Model) -> dict[int, np.ndarray]:
+    """§2.4 placements: per CRV3 row, the one matrix every kind-0 representation
+    reached from the root gives it; rows placed two ways, or not reached, have none."""
     sh = m.shapes
-    kind0 = m.edges.reps[m.edges.reps[:, 1] == 0]
-    return bool(
-        sh.root[2] != 0
-        or any(loc != 0 for cs in sh.children for _, _, loc in cs)
-        or (kind0[:, 6] != 0).any()
-    )
+    mats = [location_matrix(m, k) for k in range(len(m.locations))]
+    n = len(sh.type)
+    place: list[np.ndarray | None] = [None] * n
+    many = [False] * n
+    reached = [False] * n
+    root, _, root_loc = sh.root
+    place[root], reached[root] = mats[root_loc], True
+    edge_at: dict[int, np.ndarray | None] = {}
+    for s in range(n - 1, -1, -1):
+        if not reached[s]:
+            continue
+        t = None if many[s] else place[s]
+        if sh.type[s] == 6:
+            edge_at[sh.row_of[s]] = t
+            continue
+        for c, _, loc in sh.children[s]:
+            if sh.type[c] == 7:
+                continue
+            tc = None if t is None else t @ mats[loc]
+            if not reached[c]:
+                reached[c], place[c], many[c] = True, tc, tc is None
+            elif not many[c] and (tc is None or not np.array_equal(place[c], tc)):
+                many[c] = True
+    at: dict[int, list[np.ndarray | None]] = {}
+    reps = m.edges.reps
+    for q in range(len(reps)):
+        if int(reps[q, 1]) != 0:
+            continue
+        c, e = int(reps[q, 2]), int(reps[q, 0])
+        if e in edge_at:
+            t = edge_at[e]
+            at.setdefault(c, []).append(None if t is None else t @ mats[int(reps[q, 6])])
+    out = {}
+    for c, ts in at.items():
+        first = ts[0]
+        if first is not None and all(x is not None and np.array_equal(x, first) for x in ts):
+            out[c] = first
+    return out
 
 
 def _rep_candidates(m: Model, rows: set[int]):

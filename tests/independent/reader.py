@@ -7,7 +7,7 @@ from __future__ import annotations
 import hashlib
 import math
 import struct
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -54,6 +54,8 @@ class Model:
     cnet: bytes
     surf_copies: list[bool]
     crv3_copies: list[bool]
+    #: CNET copies (method 9) as decoded: (row, leader row), filled by nets.decode
+    copies: list[tuple[int, int]] = field(default_factory=list)
 
     def int_arrays(self) -> dict[str, np.ndarray]:
         """Every integer, as make_golden.int_arrays lays them out."""
