@@ -23,7 +23,6 @@ from typing import Any, cast
 import numpy as np
 
 from .. import codec, joins, serialize
-from ..decode import net_abscissae, net_basis
 from ..model import (
     EC,
     BRepModel,
@@ -40,6 +39,7 @@ from ..model import (
     first_row,
     records,
 )
+from ..rules.nets import net_abscissae, net_basis
 from ..serialize import SWEPT
 
 

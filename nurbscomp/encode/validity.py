@@ -48,7 +48,7 @@ from typing import Any, cast
 
 import numpy as np
 
-from .. import decode, joins, occ
+from .. import joins, occ, writer
 from ..errors import InputError, NurbscompError, RebuildError
 from ..model import (
     EC,
@@ -433,7 +433,7 @@ class _Plan:
             made[grid] = self._candidate()
             cand, codes, _ = made[grid][0]
             tags = ("SURF", "CRV3", "VERT", "EDGE")
-            secs = dict(decode.model_to_sections(cand, {"tolerance_mm": self.tol}, codes, tags))
+            secs = dict(writer.model_to_sections(cand, {"tolerance_mm": self.tol}, codes, tags))
             raw = b"".join(secs[t] for t in tags)
             sizes.append(len(lzma.compress(raw, preset=6)))
         log.debug("analytic grid: %d -> %d bytes", *sizes)
