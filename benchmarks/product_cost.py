@@ -15,7 +15,7 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from nurbscomp import container, decode, occ, product
+from nurbscomp import container, occ, product, writer
 
 ROOT = Path(__file__).resolve().parent.parent
 CORPUS = ROOT.parent / "shared" / "corpus"
@@ -34,7 +34,7 @@ def sections(cad: occ.CadFile, path: Path, with_product: bool) -> list[tuple[str
         "source_bytes": path.stat().st_size,
         "writer": "product_cost",
     }
-    return decode.model_to_sections(m, meta)
+    return writer.model_to_sections(m, meta)
 
 
 def main() -> None:

@@ -348,7 +348,7 @@ def curve_samples(table: list[Geometry], row: int) -> int:
     a B-spline (or a trimmed curve on one), (degree + 1) per knot interval
     that meets the edge's range, rounded up to 23 + 22k.  Every interval is
     counted: the ranges are not all known before the nets are decoded
-    (``decode.resolve_ranges``), and the corpus's edges mostly run over
+    (``rules.ranges.resolve_ranges``), and the corpus's edges mostly run over
     their whole curve.  Each point is one inversion onto the surface: a
     Newton step from the point before, or a search over the whole surface
     where that fails."""

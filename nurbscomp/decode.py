@@ -6,7 +6,7 @@ does no geometry.  This module does what those tables mean (docs/format.md
 
 0. every location's matrix checked (finite, within ``MAX_COORD``);
 1. edge ranges the EDGE section left to rules (the curve's own range, the
-   edge's 3-D curve's, the projections of its vertices: :func:`range_kinds`);
+   edge's 3-D curve's, the projections of its vertices: ``rules.ranges``);
 2. SNET: every coded surface net, each first pole against the previous net's
    (:func:`codec.decode_net`, the one closed-loop function the encoder uses);
 3. net corners pinned to their vertices (:func:`joins.surface_corner_pins`;
@@ -15,271 +15,36 @@ does no geometry.  This module does what those tables mean (docs/format.md
 5. CNET: every coded curve, anchored at its vertices (:func:`joins.anchors`),
    its ends then pinned to them, and the copies of other curves last.
 
-:func:`tables` is the writer's side of the same steps: the range rules that
-predict each range bit for bit, and the net codes in the order and on the
-origins these steps will use (:func:`codec.reorigin`).
+:mod:`nurbscomp.writer` is the writer's side of the same steps: the range
+rules that predict each range bit for bit, and the net codes in the order and
+on the origins these steps will use (:func:`codec.reorigin`).  The rules
+both take are in :mod:`nurbscomp.rules`.
 """
 
 from __future__ import annotations
 
-from collections.abc import Collection
 from typing import Any, cast
 
 import numpy as np
 
-from . import budget, codec, container, coons, dmap, joins, serialize, spatial
-from .errors import BadReferenceError, SectionError
+from . import budget, codec, container, joins, serialize
+from .errors import SectionError
 from .model import (
-    EC,
     BRepModel,
     BSplineCurve,
     BSplineSurface,
-    Derived,
     Geometry,
-    Kind,
-    Rec,
-    RepKind,
-    Table,
-    first_row,
 )
+from .rules.nets import net_abscissae, net_basis
+from .rules.ranges import resolve_ranges
 from .serialize import (
     MAX_COORD,
     MAX_LEVEL,
-    RANGE_NATURAL,
-    RANGE_OF_3D,
-    RANGE_STORED,
-    RANGE_VERTICES,
-    RANGE_ZERO,
     NetTable,
     Tables,
     coded_rows,
     finite,
 )
-
-# ---------------------------------------------------------------- net geometry
-
-
-def net_basis(g: Geometry) -> dmap.Basis | None:
-    """What the D-map needs of a surface record: clamped, non-periodic B-splines only."""
-    if not joins.clamped_surface(g):
-        return None
-    assert isinstance(g, BSplineSurface)
-    if g.bezier:
-        nu, nv = g.poles.shape[:2]
-        ends = np.array([0.0, 1.0])
-        nus, nvs = np.array([nu, nu]), np.array([nv, nv])
-        return dmap.Basis.of(ends, nus, ends, nvs, nu - 1, nv - 1, g.weights)
-    return dmap.Basis.of(g.uknots, g.umults, g.vknots, g.vmults, g.udegree, g.vdegree, g.weights)
-
-
-def net_abscissae(g: Geometry) -> tuple[np.ndarray | None, np.ndarray | None]:
-    """Normalised Greville abscissae of a surface's net (Coons blending); None for curves."""
-    if not isinstance(g, BSplineSurface):
-        return None, None
-    nu, nv = g.poles.shape[:2]
-    s = coons.unit_abscissae(coons.greville(g.uknots, g.umults, g.udegree, nu))
-    t = coons.unit_abscissae(coons.greville(g.vknots, g.vmults, g.vdegree, nv))
-    return s, t
-
-
-# ---------------------------------------------------------------- edge ranges
-
-
-def _natural_range(g: Geometry | None) -> tuple[float, float] | None:
-    """The parameter range a curve record carries in itself, if any."""
-    if isinstance(g, BSplineCurve):
-        return (0.0, 1.0) if g.bezier else (float(g.knots[0]), float(g.knots[-1]))
-    if isinstance(g, Derived) and g.kind == Kind.TRIMMED_CURVE:
-        return float(g.params[0]), float(g.params[1])
-    return None
-
-
-def _curve_of(m: BRepModel, q: int) -> Geometry | None:
-    kind, c = int(m.edge_reps[q, EC.KIND]), int(m.edge_reps[q, EC.CURVE])
-    table = m.curves3d if kind == RepKind.CURVE3D else m.curves2d
-    return table[c] if 0 <= c < len(table) else None
-
-
-def _range_of_3d(m: BRepModel) -> dict[int, int]:
-    """Per edge, its first 3-D curve representation's row."""
-    out: dict[int, int] = {}
-    for q in np.flatnonzero(m.edge_reps[:, EC.KIND] == RepKind.CURVE3D).tolist():
-        out.setdefault(int(m.edge_reps[q, EC.EDGE]), q)
-    return out
-
-
-def range_kinds(m: BRepModel) -> np.ndarray:
-    """Per representation, how its range is stored: the curve's own range
-    (``RANGE_NATURAL``), the same as the edge's 3-D curve (``RANGE_OF_3D``),
-    zeros (a pcurve the decoder computes), the projections of its vertices
-    on its line or circle (``RANGE_VERTICES``, :func:`joins.vertex_ranges`), or the two
-    floats.  Only a bit for bit equal prediction is used, so the format stays
-    lossless."""
-    reps = m.edge_reps
-
-    def words(pair: Any) -> list[int]:  # a range's two floats as integers, bit for bit
-        return np.asarray(pair, np.float64).view(np.int64).tolist()
-
-    of3d = _range_of_3d(m)
-    by_vertices = joins.vertex_ranges(m)
-    out = np.full(len(reps), RANGE_STORED, np.int64)
-    two, c3d = int(RepKind.ON_TWO_SURFACES), int(RepKind.CURVE3D)
-    stored = words(m.edge_rep_range)
-    for q, (edge, kind) in enumerate(reps[:, :2].tolist()):
-        if kind == two:
-            continue
-        mine = stored[q]
-        if mine == [0, 0]:
-            out[q] = RANGE_ZERO
-            continue
-        nat = _natural_range(_curve_of(m, q))
-        if nat is not None and words(nat) == mine:
-            out[q] = RANGE_NATURAL
-            continue
-        r3 = of3d.get(edge)
-        if kind != c3d and r3 is not None and stored[r3] == mine:
-            out[q] = RANGE_OF_3D
-        elif q in by_vertices and words(by_vertices[q]) == mine:
-            out[q] = RANGE_VERTICES
-    return out
-
-
-def resolve_ranges(m: BRepModel, how: np.ndarray) -> None:
-    """Fill the ranges :func:`range_kinds` left out (needs the curve tables)."""
-    for q in np.flatnonzero(how == RANGE_NATURAL).tolist():
-        nat = _natural_range(_curve_of(m, q))
-        if nat is None:
-            raise SectionError(f"EDGE: representation {q} has a curve without a range of its own")
-        m.edge_rep_range[q] = nat
-    by_vertices = joins.vertex_ranges(m) if (how == RANGE_VERTICES).any() else {}
-    for q in np.flatnonzero(how == RANGE_VERTICES).tolist():
-        if q not in by_vertices:
-            raise BadReferenceError("EDGE: a range from vertices on an edge on no line or circle")
-        m.edge_rep_range[q] = by_vertices[q]
-    finite(m.edge_rep_range[how == RANGE_VERTICES], "EDGE: ranges from vertices", MAX_COORD)
-    of3d = _range_of_3d(m)
-    for q in np.flatnonzero(how == RANGE_OF_3D).tolist():
-        r3 = of3d.get(int(m.edge_reps[q, EC.EDGE]))
-        if r3 is None or how[r3] == RANGE_OF_3D:
-            raise BadReferenceError(
-                f"EDGE: representation {q}'s range refers to a missing 3-D curve"
-            )
-        m.edge_rep_range[q] = m.edge_rep_range[r3]
-
-
-# ---------------------------------------------------------------- the writer's side
-
-
-def _net_table(
-    records: list[Geometry],
-    which: Table,
-    codes: dict[Rec, codec.NetCode],
-    tol: float,
-    anchors: dict[int, np.ndarray] | None = None,
-    choices: dict[int, np.ndarray] | None = None,
-) -> NetTable:
-    """The codes of the coded records of a table (the model's ``which`` table),
-    in the order of their first rows.
-
-    Each code is re-based on the origin the decoder will use: the previous
-    coded row's decoded first pole (:func:`codec.reorigin`), or the row's
-    anchor point where it has one (:func:`joins.anchors`).  With ``choices``
-    (``SNET`` from format 2.1: per row, the points of
-    :func:`joins.surface_anchor_candidates`), a row is coded against the one
-    of them, or the previous pole, whose first integers cost the fewest
-    bits (:func:`_anchor_choice`), and the table gets an anchor column.
-    """
-    anchors = anchors or {}
-    order = []
-    picked = []
-    origin = None
-    for row, first in enumerate(first_row(records)):
-        if row == first and Rec(which, row) in codes:
-            g = records[row]
-            code = codes[Rec(which, row)]
-            if code.method == codec.Method.COPY:  # filled last: not on the origin chain
-                order.append(code)
-                picked.append(0)
-                continue
-            k = 0
-            if code.method != codec.Method.ISO:  # an ISO code holds references, no point
-                code = codec.reorigin(code, anchors.get(row, origin), tol)
-                if choices is not None and len(choices.get(row, ())):
-                    k = _anchor_choice(code, choices[row], tol)
-                    if k:
-                        code = codec.reorigin(code, choices[row][k - 1], tol)
-            order.append(code)
-            picked.append(k)
-            poles = cast(BSplineCurve | BSplineSurface, g).poles
-            origin = poles.reshape(-1, poles.shape[-1])[0] if code.first is None else code.first
-
-    def col(name: str) -> np.ndarray:
-        return np.array([int(getattr(c, name)) for c in order], np.int64)
-
-    return NetTable(
-        col("method"),
-        col("quant"),
-        col("level"),
-        col("slope"),
-        [c.ints for c in order],
-        np.concatenate([c.dcs for c in order]) if order else np.zeros(0),
-        None if choices is None else np.array(picked, np.int64),
-    )
-
-
-def _anchor_choice(code: codec.NetCode, points: np.ndarray, tol: float) -> int:
-    """0, or k > 0 for the k-th of ``points`` (k, 3): the origin that costs
-    ``code``'s first pole the fewest bits (:func:`codec.cost_bits` of its
-    first three integers, plus the anchor's own: the previous net's first
-    pole on a tie)."""
-    h = tol * code.grid
-    old = np.zeros(3) if code.origin is None else code.origin
-    head = code.ints[:3] + spatial.snap(old, h)
-    best, pick = codec.cost_bits(code.ints[:3]) + 1, 0
-    for k, pt in enumerate(points, 1):
-        bits = codec.cost_bits(head - spatial.snap(pt, h)) + codec.cost_bits(np.array([k]))
-        if bits < best:
-            best, pick = bits, k
-    return pick
-
-
-def _surface_choices(m: BRepModel, codes: dict[Rec, codec.NetCode]) -> dict[int, np.ndarray]:
-    """Per coded surface row, the points of its anchor candidates (format 2.1)."""
-    rows = [k.row for k in codes if k.table == Table.SURFACE]
-    cands = joins.surface_anchor_candidates(m, rows)
-    return {r: m.vertex_point[v] for r, v in cands.items()}
-
-
-def _curve_anchors(m: BRepModel, codes: dict[Rec, codec.NetCode]) -> dict[int, np.ndarray]:
-    rows = {k.row for k in codes if k.table == Table.CURVE3D}
-    return joins.anchors(m, m.curves3d, rows)
-
-
-def tables(m: BRepModel, codes: dict[Rec, codec.NetCode] | None, tol: float) -> Tables:
-    """What the writer stores besides ``m``'s own tables so that :func:`apply`
-    rebuilds ``m``: the range rules, and the net codes (``codes`` maps
-    B-spline records, :class:`model.Rec`, to their codes; ``m`` holds their
-    *decoded* poles)."""
-    codes = codes or {}
-    return Tables(
-        _net_table(m.surfaces, Table.SURFACE, codes, tol, None, _surface_choices(m, codes)),
-        _net_table(m.curves3d, Table.CURVE3D, codes, tol, _curve_anchors(m, codes)),
-        range_kinds(m),
-        frozenset(codes),
-    )
-
-
-def model_to_sections(
-    m: BRepModel,
-    meta: dict[str, Any],
-    codes: dict[Rec, codec.NetCode] | None = None,
-    only: Collection[str] | None = None,
-) -> list[tuple[str, bytes]]:
-    """The sections of a container holding ``m`` (:func:`serialize.model_to_sections`
-    of ``m`` and its :func:`tables`; ``only``: just the sections of these tags)."""
-    tol = float(meta.get("tolerance_mm") or 0.0)
-    return serialize.model_to_sections(m, meta, tables(m, codes, tol), only)
-
 
 # ---------------------------------------------------------------- the reader's side
 

@@ -334,7 +334,7 @@ class BRepModel:
     side_joins : ndarray of int64, shape (J, 5)
         Tolerance mode: rows (surface, side, leader surface, leader side,
         reversed), applied in order after the nets are decoded: that side of
-        the surface's net becomes the leader's side (``joins.twin_sides``).
+        the surface's net becomes the leader's side (``encode.coincide.twin_sides``).
     root_shape, root_orient, root_loc : int
     unit : str
         The source file's length unit name (``"MM"``, ``"CM"``, ``"INCH"``...).

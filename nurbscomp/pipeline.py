@@ -25,7 +25,7 @@ from threadpoolctl import threadpool_limits
 
 from . import budget, container, passthrough, product, serialize, units
 from ._version import version
-from .decode import model_to_sections, sections_to_model
+from .decode import sections_to_model
 from .errors import (
     CorruptError,
     InputError,
@@ -51,6 +51,7 @@ from .model import (
 )
 from .paths import atomic_output, check_output, read_container, read_input
 from .report import verdict
+from .writer import model_to_sections
 
 if TYPE_CHECKING:
     from . import occ

@@ -1039,7 +1039,8 @@ def _picks(values: np.ndarray, edges: np.ndarray, cands: list[list[int]]) -> np.
 
 
 def _write_edges(m: BRepModel, how: np.ndarray) -> bytes:
-    """EDGE (format 2.0); ``how`` is each representation's range kind (``decode.range_kinds``)."""
+    """EDGE (format 2.0); ``how`` is each representation's range kind
+    (``rules.ranges.range_kinds``)."""
     w = BlockWriter()
     _write_tolerances(w, m.edge_tol)
     w.ints(m.edge_flags)
@@ -1087,8 +1088,8 @@ class _Picks:
 
 
 def _read_edges(data: bytes, m: BRepModel, revision: int = 3) -> tuple[np.ndarray, _Picks | None]:
-    """Fill ``m``'s edge tables; return the range kinds (``decode.range_kinds``:
-    ranges of any kind but ``RANGE_STORED`` are left for ``decode.resolve_ranges``)
+    """Fill ``m``'s edge tables; return the range kinds (``rules.ranges.range_kinds``:
+    ranges of any kind but ``RANGE_STORED`` are left for ``rules.ranges.resolve_ranges``)
     and, from revision 3, the surface picks (:func:`_resolve_picks`; the
     surfaces are 0 until then)."""
     r = BlockReader(data, "EDGE")
@@ -1367,7 +1368,7 @@ def model_to_sections(
     m: BRepModel, meta: dict[str, Any], t: Tables, only: Collection[str] | None = None
 ) -> list[tuple[str, bytes]]:
     """The sections of a container holding ``m`` and the tables ``t`` (made by
-    ``decode.tables``: in tolerance mode, ``m`` holds the *decoded* poles of
+    ``writer.tables``: in tolerance mode, ``m`` holds the *decoded* poles of
     the nets ``t`` codes, so that what the decoder rebuilds is ``m``).
 
     ``only``: the tags wanted (the others are not written; a measure of some

@@ -43,7 +43,7 @@ from typing import Any
 import numpy as np
 import zstandard
 
-from nurbscomp import container, decode, entropy, pipeline
+from nurbscomp import container, entropy, pipeline, writer
 from nurbscomp.errors import FormatError, UndiagnosedError
 from nurbscomp.model import (
     REBUILD,
@@ -320,7 +320,7 @@ def pack_model(m: BRepModel, meta: dict[str, Any]) -> bytes:
     """``m`` as a lossless container (its decoded poles stored as floats)."""
     m.side_joins = np.zeros((0, 5), np.int64)
     meta = {**meta, "mode": "lossless", "tolerance_mm": None}
-    return pack_fast(decode.model_to_sections(m, meta), container.FLAG_LOSSLESS)
+    return pack_fast(writer.model_to_sections(m, meta), container.FLAG_LOSSLESS)
 
 
 def add_shapes(m: BRepModel, types: list[int], kids: list[list[tuple[int, int, int]]]) -> int:

@@ -45,7 +45,7 @@ def _assert_iges_keeps(src: Path, tmp_path: Path, mode: str, made=None) -> dict[
     if mode == "lossless":
         assert got == want, said
     else:
-        # coded boundaries that coincide are joined (joins.twin_sides): a
+        # coded boundaries that coincide are joined (coincide.twin_sides): a
         # surface model's gaps may close (bearing at 0.01 mm: 25 free edges
         # where the source and OCCT's round trip have 29), never open
         assert {**got, "free_edges": 0} == {**want, "free_edges": 0}, said

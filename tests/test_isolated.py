@@ -13,9 +13,9 @@ from typing import Any, cast
 import pytest
 
 from nurbscomp import container, occ, pipeline
-from nurbscomp.decode import model_to_sections
 from nurbscomp.encode import validity
 from nurbscomp.errors import InputError
+from nurbscomp.writer import model_to_sections
 
 from .conftest import SAMPLES
 

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from nurbscomp import codec, container, decode, joins, occ, pipeline, serialize
+from nurbscomp.encode import coincide
 from nurbscomp.errors import BadReferenceError, SectionError
 from nurbscomp.model import BSplineCurve, BSplineSurface
 
@@ -23,8 +24,8 @@ def _curve(poles: np.ndarray, knots=(0.0, 1.0), mults=None, degree: int = 3) -> 
 
 def test_vertex_clusters_link_chains_within_eps() -> None:
     p = np.array([[0, 0, 0], [5e-8, 0, 0], [1e-7, 0, 0], [1, 0, 0], [1, 5e-8, 0]], float)
-    assert joins.vertex_clusters(p, 1e-7).tolist() == [0, 0, 0, 3, 3]
-    assert joins.vertex_clusters(np.zeros((0, 3)), 1e-7).tolist() == []
+    assert coincide.vertex_clusters(p, 1e-7).tolist() == [0, 0, 0, 3, 3]
+    assert coincide.vertex_clusters(np.zeros((0, 3)), 1e-7).tolist() == []
 
 
 def test_twin_curves_reversed_same_and_not() -> None:
@@ -37,7 +38,7 @@ def test_twin_curves_reversed_same_and_not() -> None:
         _curve(a.copy(), knots=(0.0, 0.3, 1.0), mults=[3, 1, 3], degree=2),  # other knots
         _curve(a.copy()),  # an ISO row: leads, never follows
     ]
-    got = joins.twin_curves(curves, {0, 1, 2, 3, 4}, 1e-6, iso={4})
+    got = coincide.twin_curves(curves, {0, 1, 2, 3, 4}, 1e-6, iso={4})
     assert set(got) == {0, 1}  # 4 leads 0 (same order) and 1 (reversed)
     assert got[0][:2] == (4, 0) and got[1][:2] == (4, 1)
     assert got[1][2] < 1e-7
@@ -57,7 +58,7 @@ def test_twin_sides_of_two_patches_and_join() -> None:
         )  # fmt: skip
 
     sa, sb = surf(a), surf(b.copy())
-    got = joins.twin_sides([sa, sb], [0, 1], 1e-6)
+    got = coincide.twin_sides([sa, sb], [0, 1], 1e-6)
     assert got == {(1, 1): ((0, 0), 1, 0.0)}
     moved = replace(sa, poles=a + 1e-3)
     joined = joins.joined_sides(sb, moved, np.array([1, 1, 0, 0, 1]))
@@ -205,7 +206,7 @@ def test_corner_pins_follow_the_format_minor(
 
 
 def test_close_pairs_finds_what_the_tree_finds() -> None:
-    """joins.close_pairs: every pair cKDTree.query_pairs finds, sorted, and
+    """coincide.close_pairs: every pair cKDTree.query_pairs finds, sorted, and
     nothing beyond r but by the slack; None where points pile up."""
     from scipy.spatial import cKDTree
 
@@ -215,7 +216,7 @@ def test_close_pairs_finds_what_the_tree_finds() -> None:
         if n > 100:  # exact duplicates and points a hair apart
             pts[::50] = pts[1::50]
             pts[2::50] = pts[3::50] + r * (1 - 1e-12)
-        got = joins.close_pairs(pts, r)
+        got = coincide.close_pairs(pts, r)
         assert got is not None
         want = cKDTree(pts).query_pairs(r) if n else set()
         assert got.tolist() == sorted(map(list, {tuple(p) for p in got.tolist()}))
@@ -223,14 +224,14 @@ def test_close_pairs_finds_what_the_tree_finds() -> None:
         for i, j in got.tolist():
             assert np.sqrt(((pts[i] - pts[j]) ** 2).sum()) <= r * (1 + 1e-8)
     # points in one place: swept while few (every pair), a tree's job beyond
-    assert len(joins.close_pairs(np.zeros((300, 3)), 1.0)) == 300 * 299 // 2
-    assert joins.close_pairs(np.zeros((joins._SWEEP_RUN + 2, 3)), 1.0) is None
-    assert joins.close_pairs(np.array([[0.0, 0, 0], [np.nan, 0, 0]]), 1.0) is None
+    assert len(coincide.close_pairs(np.zeros((300, 3)), 1.0)) == 300 * 299 // 2
+    assert coincide.close_pairs(np.zeros((coincide._SWEEP_RUN + 2, 3)), 1.0) is None
+    assert coincide.close_pairs(np.array([[0.0, 0, 0], [np.nan, 0, 0]]), 1.0) is None
 
 
 def test_pairs_components_and_nearest_match_scipy() -> None:
-    """joins.within + first_of_components give scipy's connected components
-    (each labelled by its first point), and joins.nearest cKDTree's nearest
+    """coincide.within + first_of_components give scipy's connected components
+    (each labelled by its first point), and coincide.nearest cKDTree's nearest
     points (of duplicates, the first), on random clouds with duplicates and chains."""
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
@@ -246,19 +247,19 @@ def test_pairs_components_and_nearest_match_scipy() -> None:
         _, label = connected_components(graph, directed=False)
         first = np.full(label.max() + 1, n)
         np.minimum.at(first, label, np.arange(n))
-        got = joins.close_pairs(pts, r)
+        got = coincide.close_pairs(pts, r)
         assert got is not None
-        assert joins.within(pts, got, r).tolist() == sorted(pairs.tolist())
-        assert joins.vertex_clusters(pts, r).tolist() == first[label].tolist()
+        assert coincide.within(pts, got, r).tolist() == sorted(pairs.tolist())
+        assert coincide.vertex_clusters(pts, r).tolist() == first[label].tolist()
         queries = rng.random((97, 3))
-        d, i = joins.nearest(pts, queries)
+        d, i = coincide.nearest(pts, queries)
         dt, it = cKDTree(pts).query(queries)
         assert np.allclose(d, dt, rtol=1e-12, atol=0)
         assert (pts[i] == pts[it]).all() and (i <= it).all()  # ties: the first of equals
     # a large cloud goes to the tree: the same distances
     big, queries = rng.random((3000, 3)), rng.random((2000, 3))
-    assert len(big) * len(queries) > joins._NEAREST_MAX
-    d, i = joins.nearest(big, queries)
+    assert len(big) * len(queries) > coincide._NEAREST_MAX
+    d, i = coincide.nearest(big, queries)
     assert np.array_equal(i, cKDTree(big).query(queries)[1])
 
 
@@ -333,7 +334,7 @@ def test_edges_that_meet_in_part_keep_meeting(tmp_path: Path) -> None:
     pairs = occ.sewn_edge_pairs(source)
     m, _ = occ.shape_to_model(source)
     points = occ.edge_points(source, list(range(len(m.edge_tol))))
-    whole = set(joins.coincident_edges(points, 1e-6))
+    whole = set(coincide.coincident_edges(points, 1e-6))
     assert len(set(pairs) - whole) > 20  # meeting in part: only the sewing sees them
     nzc = tmp_path / "thick.nzc"
     pipeline.compress_file(src, nzc, tol=0.01)

@@ -341,6 +341,7 @@ def test_iso_boundary_curves_are_their_surfaces_boundaries(name: str, tmp_path: 
     import numpy as np
 
     from nurbscomp import joins
+    from nurbscomp.encode import coincide
     from nurbscomp.model import BSplineCurve, BSplineSurface
 
     from .conftest import SAMPLES
@@ -352,7 +353,7 @@ def test_iso_boundary_curves_are_their_surfaces_boundaries(name: str, tmp_path: 
     src, _ = occ.shape_to_model(occ.read_cad(SAMPLES / name).shape)
     crows = {i for i, g in enumerate(src.curves3d) if isinstance(g, BSplineCurve)}
     srows = {i for i, g in enumerate(src.surfaces) if isinstance(g, BSplineSurface)}
-    iso = joins.iso_sources(src, crows, srows)
+    iso = coincide.iso_sources(src, crows, srows)
     moved = [
         c
         for c, (r, _, _) in iso.items()

@@ -3,7 +3,7 @@
 For random ``BSplineSurface`` records (periodic in u, v, both or neither;
 degrees 1-5; random interior multiplicities; rational or not; nets from 2 x N
 up to 12 x 12) and random ``BSplineCurve`` records, ``nets._code_one`` (what
-the encoder runs on every record: ``decode.net_abscissae`` and
+the encoder runs on every record: ``rules.nets.net_abscissae`` and
 ``net_basis``, ``codec.encode_net``, then ``codec.decode_net``) must not
 raise, and no decoded pole may be further than tol from its original.
 

@@ -11,9 +11,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from nurbscomp import container, decode, occ, pipeline, serialize
+from nurbscomp import container, decode, occ, pipeline, serialize, writer
 from nurbscomp.errors import CorruptError
 from nurbscomp.model import differences
+from nurbscomp.rules import ranges
 
 from .conftest import assert_step_keeps_floor, corpus_files, sample_files
 
@@ -41,7 +42,7 @@ def test_model_round_trip_is_exact(path: Path) -> None:
 @pytest.mark.parametrize("path", sample_files(), ids=lambda p: p.name)
 def test_container_round_trip_of_model_is_exact(path: Path) -> None:
     _, m = _model(path)
-    data = container.pack(decode.model_to_sections(m, {"x": 1, "mode": "lossless"}))
+    data = container.pack(writer.model_to_sections(m, {"x": 1, "mode": "lossless"}))
     back, meta = decode.sections_to_model(container.unpack(data).get)
     assert differences(m, back) == []
     assert meta["x"] == 1
@@ -105,12 +106,12 @@ def test_ranges_from_vertices_are_exact_and_checked() -> None:
     """Edges on lines and circles whose ranges are what their vertices give, bit
     for bit, store no floats (RANGE_VERTICES); the rule is refused elsewhere."""
     cad, m = _model(next(p for p in sample_files() if p.name == "bracket.step"))
-    how = decode.range_kinds(m)
+    how = ranges.range_kinds(m)
     assert (how == serialize.RANGE_VERTICES).sum() > 0
-    sections = dict(decode.model_to_sections(m, {"mode": "lossless"}))
+    sections = dict(writer.model_to_sections(m, {"mode": "lossless"}))
     back, _ = decode.sections_to_model(sections.__getitem__)
     assert not differences(m, back)
     # a "from vertices" range on a curve that is no line does not decode
     assert (how == serialize.RANGE_NATURAL).any() or (how == serialize.RANGE_STORED).any()
     with pytest.raises(CorruptError, match="no line or circle"):
-        decode.resolve_ranges(back, np.full(len(how), serialize.RANGE_VERTICES))
+        ranges.resolve_ranges(back, np.full(len(how), serialize.RANGE_VERTICES))

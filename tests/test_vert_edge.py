@@ -207,9 +207,9 @@ def test_vertices_beside_exact_lines_and_circles_snap(
     moved = np.sqrt(((m.vertex_point - src_m.vertex_point) ** 2).sum(-1))
     assert moved.max() <= tol / 2
     assert (m.vertex_tol[moved > 0] >= moved[moved > 0]).all()
-    from nurbscomp import decode
+    from nurbscomp.rules import ranges
 
-    assert (decode.range_kinds(m) == serialize.RANGE_VERTICES).any()
+    assert (ranges.range_kinds(m) == serialize.RANGE_VERTICES).any()
     shape = pipeline.decode_file(tmp_path / "moved.nzc")[0]
     assert occ.is_valid(shape)
     assert occ.deviation(occ.read_cad(src).shape, shape, n=5, tol=tol).max() <= tol
@@ -232,13 +232,13 @@ def test_grid_vertices_by_prediction_round_trip() -> None:
 def test_lossy_vertices_round_trip_bit_for_bit(name: str) -> None:
     """A 1.x lossy golden file, its vertices snapped to the 2.0 grid and packed as
     2.0: the same points back, bit for bit, the grid ones as residuals."""
-    from nurbscomp import decode
+    from nurbscomp import writer
 
     m, meta = fuzz.decoded((GOLDEN / name).read_bytes())
     h = serialize.vertex_grid(float(meta["tolerance_mm"]))
     m.vertex_point = np.rint(m.vertex_point / h).astype(np.int64) * h
     m.side_joins = np.zeros((0, 5), np.int64)
-    data = fuzz.pack_fast(decode.model_to_sections(m, meta), 0)
+    data = fuzz.pack_fast(writer.model_to_sections(m, meta), 0)
     c = container.unpack(data)
     kind = serialize.BlockReader(c.get("VERT"), "VERT").ints()
     assert kind.all()
@@ -251,7 +251,7 @@ def test_hostile_grid_residuals_wrap_harmlessly(monkeypatch) -> None:
     neither raises nor warns, and every point is a finite grid point."""
     import warnings
 
-    from nurbscomp import decode
+    from nurbscomp import writer
 
     m, meta = fuzz.decoded((GOLDEN / "loft.tol0.01.nzc").read_bytes())
     h = serialize.vertex_grid(float(meta["tolerance_mm"]))
@@ -259,7 +259,7 @@ def test_hostile_grid_residuals_wrap_harmlessly(monkeypatch) -> None:
     m.side_joins = np.zeros((0, 5), np.int64)
     big = np.full((len(m.vertex_point), 3), 2**62, np.int64)
     monkeypatch.setattr(serialize, "_grid_predictions", lambda nbr, rows, q: q - big[: len(q)])
-    data = fuzz.pack_fast(decode.model_to_sections(m, meta), 0)
+    data = fuzz.pack_fast(writer.model_to_sections(m, meta), 0)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         back = _decode(data)

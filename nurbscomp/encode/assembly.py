@@ -424,7 +424,7 @@ def _copy_twins(
     exact: set[Rec | None],
 ) -> None:
     """Curves coincident with a coded curve become copies of its final (decoded
-    and pinned) poles (``Method.COPY``; :func:`joins.twin_curves`), as the
+    and pinned) poles (``Method.COPY``; :func:`coincide.twin_curves`), as the
     decoder makes them after the pins.  A copy is not pinned itself: it
     coincides with its leader, ends included.  A copy that would move further
     than its limit (a leader that is a coded surface's boundary, coded to the

@@ -23,7 +23,6 @@ from typing import Any, cast
 import numpy as np
 
 from .. import codec, joins, serialize
-from ..decode import net_abscissae, net_basis
 from ..model import (
     EC,
     BRepModel,
@@ -40,7 +39,9 @@ from ..model import (
     first_row,
     records,
 )
+from ..rules.nets import net_abscissae, net_basis
 from ..serialize import SWEPT
+from . import coincide
 
 
 def resolve_row(table: list[Geometry], i: int, through: tuple[Kind, ...]) -> int:
@@ -81,19 +82,19 @@ class Coded:
     curves: dict[Rec, tuple[codec.NetCode, Geometry]]
     tol: float
     #: curve record -> (surface row, side, reversed): copied from a decoded surface
-    iso: dict[Rec, joins.IsoSource] = field(default_factory=dict)
+    iso: dict[Rec, coincide.IsoSource] = field(default_factory=dict)
     #: every vertex snapped to the vertex grid (used where all its edges' curves are
-    #: coded): its cluster's first vertex's grid point (:func:`joins.vertex_clusters`)
+    #: coded): its cluster's first vertex's grid point (:func:`coincide.vertex_clusters`)
     vgrid: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     #: coded records held to a limit below tol (:func:`feature_limit`, :func:`tighten`)
     fine: set[Rec] = field(default_factory=set)
     #: records coded again, tighter, and how many times (:func:`tighten`)
     tight: dict[Rec, int] = field(default_factory=dict)
     #: curve record -> (leader row, reversed): a copy of a coincident curve
-    #: (:func:`joins.twin_curves`), not coded itself
+    #: (:func:`coincide.twin_curves`), not coded itself
     twins: dict[Rec, tuple[int, int]] = field(default_factory=dict)
     #: (surface row, side) -> ((leader row, side), reversed): a side set to the
-    #: leader's decoded side (:func:`joins.twin_sides`)
+    #: leader's decoded side (:func:`coincide.twin_sides`)
     sides: dict[tuple[int, int], tuple[tuple[int, int], int]] = field(default_factory=dict)
     #: curve row -> its placement in the model's frame (:func:`joins.curve_placements`)
     where: dict[int, np.ndarray] = field(default_factory=dict)
@@ -270,10 +271,10 @@ def code_model(
     A curve whose ends the decoder would pin to vertices too far from the
     original ends (:func:`joins.overreaching`) is left exact.
 
-    Boundaries that coincide within ``joins.TWIN_EPS`` (or tol/64) are coded
+    Boundaries that coincide within ``coincide.TWIN_EPS`` (or tol/64) are coded
     once: a side of a net shared with an earlier net's side
-    (:func:`joins.twin_sides`) becomes that side after decoding, and a curve
-    that is an earlier curve (:func:`joins.twin_curves`) a copy of it.  The
+    (:func:`coincide.twin_sides`) becomes that side after decoding, and a curve
+    that is an earlier curve (:func:`coincide.twin_curves`) a copy of it.  The
     first of each is coded to a limit that leaves its copies within theirs.
     ``points`` (edges sampled along their ranges, :func:`occ.edge_points`)
     finds coincident edges, and ``sewn`` (pairs of edges the free-edge
@@ -286,13 +287,13 @@ def code_model(
     method of the paper when ``paper`` is set (methods 5 and 7 too; never the
     paper's quantizer, which the format reserves).
     """
-    eps = min(joins.TWIN_EPS, tol / 64)
+    eps = min(coincide.TWIN_EPS, tol / 64)
     srec, crec = records(m.surfaces, Table.SURFACE), records(m.curves3d, Table.CURVE3D)
     keep_s = _offset_bases(m.surfaces, Table.SURFACE, Kind.OFFSET_SURFACE, TRIM_S)
     srows0 = first_rows(
         {k for k, g in zip(srec, m.surfaces) if isinstance(g, BSplineSurface)} - keep_s
     )
-    sides = _affordable(m.surfaces, joins.twin_sides(m.surfaces, sorted(srows0), eps), tol)
+    sides = _affordable(m.surfaces, coincide.twin_sides(m.surfaces, sorted(srows0), eps), tol)
     # where faces share an edge, its tolerance covers their coding errors: no
     # side needs joining there (joining would only move them off their other edges)
     on = _edges_by_surface(m)
@@ -311,7 +312,7 @@ def code_model(
     )
     h = serialize.vertex_grid(tol)
     # vertices at one point (within TWIN_VERTEX) snap as one: to their first's grid point
-    lead = joins.vertex_clusters(m.vertex_point, joins.TWIN_VERTEX)
+    lead = coincide.vertex_clusters(m.vertex_point, coincide.TWIN_VERTEX)
     vgrid = np.rint(m.vertex_point[lead] / h).astype(np.int64) * h  # as the decoder reads it
     snapped: Any = replace(m)
     snapped.vertex_point = vgrid
@@ -330,10 +331,10 @@ def code_model(
     keep_c = _offset_bases(m.curves3d, Table.CURVE3D, Kind.OFFSET_CURVE, TRIM_C)
     candidates = {k for k, g in zip(crec, m.curves3d) if isinstance(g, BSplineCurve)}
     crows = first_rows(candidates - keep_c)
-    iso = joins.iso_sources(m, crows, first_rows(surfaces))
+    iso = coincide.iso_sources(m, crows, first_rows(surfaces))
     iso_recs = {crec[c]: src for c, src in iso.items()}
     where = joins.curve_placements(m)
-    twins = joins.twin_curves(m.curves3d, crows, eps, set(iso), where)
+    twins = coincide.twin_curves(m.curves3d, crows, eps, set(iso), where)
     twins = _affordable(m.curves3d, twins, tol)
     if points is not None:  # coincident edges no copy covers: their curves stay exact
         lonely = _lonely_curves(m, points, twins, iso, sides, sewn)
@@ -400,12 +401,12 @@ COINCIDENT = 1e-6
 def _lonely_curves(
     m: BRepModel,
     points: np.ndarray,
-    twins: dict[int, joins.Twin],
-    iso: dict[int, joins.IsoSource],
-    sides: dict[tuple[int, int], joins.Twin],
+    twins: dict[int, coincide.Twin],
+    iso: dict[int, coincide.IsoSource],
+    sides: dict[tuple[int, int], coincide.Twin],
     sewn: Sequence[tuple[int, int]] = (),
 ) -> set[int]:
-    """3-D curve rows of coincident edges (:func:`joins.coincident_edges`) and
+    """3-D curve rows of coincident edges (:func:`coincide.coincident_edges`) and
     of edges that meet in part (``sewn``: pairs of model edges) that would be
     coded apart: neither one curve, nor a copy and its leader (or two copies
     of one), nor the iso-boundaries of two joined sides.  Kept exact, they
@@ -430,7 +431,7 @@ def _lonely_curves(
         return ("curve", c)
 
     out: set[int] = set()
-    for e1, e2 in sorted({*joins.coincident_edges(points, COINCIDENT), *sewn}):
+    for e1, e2 in sorted({*coincide.coincident_edges(points, COINCIDENT), *sewn}):
         r1, r2 = curve_of.get(e1, -1), curve_of.get(e2, -1)
         if r1 < 0 or r2 < 0 or r1 == r2:
             continue
@@ -453,8 +454,8 @@ def _edges_by_surface(m: BRepModel) -> dict[int, set[int]]:
 
 
 def _affordable(
-    table: list[Geometry], pairs: dict[Any, joins.Twin], tol: float
-) -> dict[Any, joins.Twin]:
+    table: list[Geometry], pairs: dict[Any, coincide.Twin], tol: float
+) -> dict[Any, coincide.Twin]:
     """The twin pairs (``{member: (leader, reversed, distance)}``, keys a row or
     (row, side)) whose distance is at most half the member's limit: the
     leader is coded to the rest (:func:`_leader_limits`)."""
@@ -466,7 +467,7 @@ def _affordable(
 
 
 def _leader_limits(
-    table: list[Geometry], recs: list[Rec], pairs: dict[Any, joins.Twin], tol: float
+    table: list[Geometry], recs: list[Rec], pairs: dict[Any, coincide.Twin], tol: float
 ) -> dict[Rec, float]:
     """``{leader record: limit}``: a leader coded to this leaves each copy of it,
     which moves by the leader's bound plus their distance, within the copy's limit.

@@ -48,7 +48,7 @@ from typing import Any, cast
 
 import numpy as np
 
-from .. import decode, joins, occ
+from .. import occ, writer
 from ..errors import InputError, NurbscompError, RebuildError
 from ..model import (
     EC,
@@ -62,7 +62,7 @@ from ..model import (
     faces_around,
     records,
 )
-from . import assembly, nets, pcurves
+from . import assembly, coincide, nets, pcurves
 
 log = logging.getLogger(__name__)
 
@@ -433,7 +433,7 @@ class _Plan:
             made[grid] = self._candidate()
             cand, codes, _ = made[grid][0]
             tags = ("SURF", "CRV3", "VERT", "EDGE")
-            secs = dict(decode.model_to_sections(cand, {"tolerance_mm": self.tol}, codes, tags))
+            secs = dict(writer.model_to_sections(cand, {"tolerance_mm": self.tol}, codes, tags))
             raw = b"".join(secs[t] for t in tags)
             sizes.append(len(lzma.compress(raw, preset=6)))
         log.debug("analytic grid: %d -> %d bytes", *sizes)
@@ -797,7 +797,7 @@ def vertex_neighbours(m: BRepModel, tol: float) -> list[set[int]]:
     faces only as far as the order carries them).
     """
     around = faces_around(m, ShapeType.VERTEX)
-    for a, b in joins.pairs_within(m.vertex_point, tol).tolist():  # pairs to merge, in order
+    for a, b in coincide.pairs_within(m.vertex_point, tol).tolist():  # pairs to merge, in order
         around[a] = around[b] = sorted({*around[a], *around[b]})
     out: list[set[int]] = [set() for _ in range(len(m.face_surface))]
     for fs in around:
@@ -849,12 +849,12 @@ def step_losses(
     idx = np.arange(len(src))
     same_order = False
     # per face of back, the nearest source face (and how near)
-    near, back_src = joins.nearest(src[:, 1:4], back[:, 1:4])
+    near, back_src = coincide.nearest(src[:, 1:4], back[:, 1:4])
     if len(back) == len(src):
         # in order where face i of back is (one of) the nearest to source face i
         here = np.sqrt(((back[:, 1:4] - src[:, 1:4]) ** 2).sum(-1))
         same_order = bool((here <= near + 3 * tol).mean() >= 0.9)
-    in_back = idx if same_order else joins.nearest(back[:, 1:4], src[:, 1:4])[1]
+    in_back = idx if same_order else coincide.nearest(back[:, 1:4], src[:, 1:4])[1]
     ok = (back[in_back, topo] == src[:, topo]).all(-1)
     floor_extra = np.zeros((0, back.shape[1]))
     loose = free[2][in_back] > free[0] if free is not None else np.zeros(len(src), bool)
@@ -862,7 +862,7 @@ def step_losses(
         if len(floor) == len(src) and same_order:  # the order holds there too
             in_floor = idx
         else:
-            in_floor = joins.nearest(floor[:, 1:4], src[:, 1:4])[1]
+            in_floor = coincide.nearest(floor[:, 1:4], src[:, 1:4])[1]
         ok |= (back[in_back, topo] == floor[in_floor, topo]).all(-1)
         floor_extra = floor[np.setdiff1d(np.arange(len(floor)), in_floor)]
         if free is not None:
@@ -877,7 +877,7 @@ def step_losses(
     extra = np.setdiff1d(np.arange(len(back)), in_back)
     like = np.zeros(len(extra), bool)  # like an extra face of the floor
     if len(extra) and len(floor_extra):
-        k = joins.nearest(floor_extra[:, 1:4], back[extra, 1:4])[1]
+        k = coincide.nearest(floor_extra[:, 1:4], back[extra, 1:4])[1]
         like = (floor_extra[k, topo] == back[extra, topo]).all(-1)
     lost |= {source_face(j) for j in extra[~like].tolist()}
     return lost

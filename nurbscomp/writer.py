@@ -1,0 +1,131 @@
+"""Model and net codes -> container sections: the writer's side of
+:mod:`nurbscomp.decode`'s steps.
+
+Besides the model's own tables the writer stores what the decoder's steps
+need to rebuild it: the range rules (:mod:`nurbscomp.rules.ranges`), and the
+net codes in the order and on the origins the decoder will use
+(:func:`codec.reorigin`, the anchors of :mod:`nurbscomp.joins`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Collection
+from typing import Any, cast
+
+import numpy as np
+
+from . import codec, joins, serialize, spatial
+from .model import BRepModel, BSplineCurve, BSplineSurface, Geometry, Rec, Table, first_row
+from .rules.ranges import range_kinds
+from .serialize import NetTable, Tables
+
+
+def _net_table(
+    records: list[Geometry],
+    which: Table,
+    codes: dict[Rec, codec.NetCode],
+    tol: float,
+    anchors: dict[int, np.ndarray] | None = None,
+    choices: dict[int, np.ndarray] | None = None,
+) -> NetTable:
+    """The codes of the coded records of a table (the model's ``which`` table),
+    in the order of their first rows.
+
+    Each code is re-based on the origin the decoder will use: the previous
+    coded row's decoded first pole (:func:`codec.reorigin`), or the row's
+    anchor point where it has one (:func:`joins.anchors`).  With ``choices``
+    (``SNET`` from format 2.1: per row, the points of
+    :func:`joins.surface_anchor_candidates`), a row is coded against the one
+    of them, or the previous pole, whose first integers cost the fewest
+    bits (:func:`_anchor_choice`), and the table gets an anchor column.
+    """
+    anchors = anchors or {}
+    order = []
+    picked = []
+    origin = None
+    for row, first in enumerate(first_row(records)):
+        if row == first and Rec(which, row) in codes:
+            g = records[row]
+            code = codes[Rec(which, row)]
+            if code.method == codec.Method.COPY:  # filled last: not on the origin chain
+                order.append(code)
+                picked.append(0)
+                continue
+            k = 0
+            if code.method != codec.Method.ISO:  # an ISO code holds references, no point
+                code = codec.reorigin(code, anchors.get(row, origin), tol)
+                if choices is not None and len(choices.get(row, ())):
+                    k = _anchor_choice(code, choices[row], tol)
+                    if k:
+                        code = codec.reorigin(code, choices[row][k - 1], tol)
+            order.append(code)
+            picked.append(k)
+            poles = cast(BSplineCurve | BSplineSurface, g).poles
+            origin = poles.reshape(-1, poles.shape[-1])[0] if code.first is None else code.first
+
+    def col(name: str) -> np.ndarray:
+        return np.array([int(getattr(c, name)) for c in order], np.int64)
+
+    return NetTable(
+        col("method"),
+        col("quant"),
+        col("level"),
+        col("slope"),
+        [c.ints for c in order],
+        np.concatenate([c.dcs for c in order]) if order else np.zeros(0),
+        None if choices is None else np.array(picked, np.int64),
+    )
+
+
+def _anchor_choice(code: codec.NetCode, points: np.ndarray, tol: float) -> int:
+    """0, or k > 0 for the k-th of ``points`` (k, 3): the origin that costs
+    ``code``'s first pole the fewest bits (:func:`codec.cost_bits` of its
+    first three integers, plus the anchor's own: the previous net's first
+    pole on a tie)."""
+    h = tol * code.grid
+    old = np.zeros(3) if code.origin is None else code.origin
+    head = code.ints[:3] + spatial.snap(old, h)
+    best, pick = codec.cost_bits(code.ints[:3]) + 1, 0
+    for k, pt in enumerate(points, 1):
+        bits = codec.cost_bits(head - spatial.snap(pt, h)) + codec.cost_bits(np.array([k]))
+        if bits < best:
+            best, pick = bits, k
+    return pick
+
+
+def _surface_choices(m: BRepModel, codes: dict[Rec, codec.NetCode]) -> dict[int, np.ndarray]:
+    """Per coded surface row, the points of its anchor candidates (format 2.1)."""
+    rows = [k.row for k in codes if k.table == Table.SURFACE]
+    cands = joins.surface_anchor_candidates(m, rows)
+    return {r: m.vertex_point[v] for r, v in cands.items()}
+
+
+def _curve_anchors(m: BRepModel, codes: dict[Rec, codec.NetCode]) -> dict[int, np.ndarray]:
+    rows = {k.row for k in codes if k.table == Table.CURVE3D}
+    return joins.anchors(m, m.curves3d, rows)
+
+
+def tables(m: BRepModel, codes: dict[Rec, codec.NetCode] | None, tol: float) -> Tables:
+    """What the writer stores besides ``m``'s own tables so that ``decode.apply``
+    rebuilds ``m``: the range rules, and the net codes (``codes`` maps
+    B-spline records, :class:`model.Rec`, to their codes; ``m`` holds their
+    *decoded* poles)."""
+    codes = codes or {}
+    return Tables(
+        _net_table(m.surfaces, Table.SURFACE, codes, tol, None, _surface_choices(m, codes)),
+        _net_table(m.curves3d, Table.CURVE3D, codes, tol, _curve_anchors(m, codes)),
+        range_kinds(m),
+        frozenset(codes),
+    )
+
+
+def model_to_sections(
+    m: BRepModel,
+    meta: dict[str, Any],
+    codes: dict[Rec, codec.NetCode] | None = None,
+    only: Collection[str] | None = None,
+) -> list[tuple[str, bytes]]:
+    """The sections of a container holding ``m`` (:func:`serialize.model_to_sections`
+    of ``m`` and its :func:`tables`; ``only``: just the sections of these tags)."""
+    tol = float(meta.get("tolerance_mm") or 0.0)
+    return serialize.model_to_sections(m, meta, tables(m, codes, tol), only)
