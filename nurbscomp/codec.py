@@ -165,7 +165,7 @@ class NetCode:
     first : ndarray or None
         The decoded first pole, the origin of the next net in its table.  Set
         by the caller; the decoded net may change afterwards (curve ends are
-        pinned to vertices, :mod:`nurbscomp.joins`) but the chain uses this.
+        pinned to vertices, :mod:`nurbscomp.rules.joins`) but the chain uses this.
     """
 
     method: Method

@@ -27,7 +27,7 @@ from typing import Any, cast
 
 import numpy as np
 
-from . import budget, codec, container, joins, serialize
+from . import budget, codec, container, serialize
 from .errors import SectionError
 from .model import (
     BRepModel,
@@ -35,6 +35,7 @@ from .model import (
     BSplineSurface,
     Geometry,
 )
+from .rules import joins
 from .rules.nets import net_abscissae, net_basis
 from .rules.ranges import resolve_ranges
 from .serialize import (

@@ -4,7 +4,7 @@
 Besides the model's own tables the writer stores what the decoder's steps
 need to rebuild it: the range rules (:mod:`nurbscomp.rules.ranges`), and the
 net codes in the order and on the origins the decoder will use
-(:func:`codec.reorigin`, the anchors of :mod:`nurbscomp.joins`).
+(:func:`codec.reorigin`, the anchors of :mod:`nurbscomp.rules.joins`).
 """
 
 from __future__ import annotations
@@ -14,8 +14,9 @@ from typing import Any, cast
 
 import numpy as np
 
-from . import codec, joins, serialize, spatial
+from . import codec, serialize, spatial
 from .model import BRepModel, BSplineCurve, BSplineSurface, Geometry, Rec, Table, first_row
+from .rules import joins
 from .rules.ranges import range_kinds
 from .serialize import NetTable, Tables
 

@@ -29,6 +29,7 @@ FOLDERS = (
     "",
     "nurbscomp",
     "nurbscomp/encode",
+    "nurbscomp/rules",
     "nurbscomp/occ",
     "nurbscomp/text",
     "docs",

@@ -115,7 +115,7 @@ def test_shape_the_step_writer_refuses(tmp_path: Path, monkeypatch) -> None:
     shape.  That is a RebuildError (a FormatError), not an OutputError.  (The
     bracket's ranges are now all rules from the vertices; they are stored as
     floats here, as the writer did when the fuzzer found this.)"""
-    from nurbscomp import joins
+    from nurbscomp.rules import joins
 
     from .golden.make_golden import _arrays, _replace, _write_arrays
 

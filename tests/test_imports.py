@@ -16,7 +16,7 @@ PKG = Path(__file__).resolve().parent.parent / "nurbscomp"
 #: Layers, lowest first; a module may import its own layer and those below.
 #: ``decode``, ``encode`` and ``occ`` are side by side: none imports another,
 #: but for :data:`SIDEWAYS` (what both sides run lives below them, in
-#: ``codec``, ``joins`` and the format layer; the wiring sees all three).
+#: ``codec``, ``rules`` and the format layer; the wiring sees all three).
 LAYERS: list[tuple[str, set[str]]] = [
     (
         "base",
@@ -26,7 +26,7 @@ LAYERS: list[tuple[str, set[str]]] = [
             "topocode", "product", "heatmap",
         },
     ),
-    ("codec", {"codec", "joins"}),
+    ("codec", {"codec", "rules.joins"}),
     ("format", {"container", "serialize", "text", "text.coding", "text.step", "text.iges",
                 "rules", "rules.nets", "rules.ranges", "writer"}),
     ("sides", {"decode", "encode", "encode.analytic", "encode.assembly", "encode.nets",

@@ -9,10 +9,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from nurbscomp import codec, container, decode, joins, occ, pipeline, serialize
+from nurbscomp import codec, container, decode, occ, pipeline, serialize
 from nurbscomp.encode import coincide
 from nurbscomp.errors import BadReferenceError, SectionError
 from nurbscomp.model import BSplineCurve, BSplineSurface
+from nurbscomp.rules import joins
 
 GOLDEN = Path(__file__).resolve().parent / "golden"
 

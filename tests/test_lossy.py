@@ -310,8 +310,9 @@ def test_coded_curve_ends_meet_their_vertices(name: str, tmp_path: Path) -> None
     """Decoded neighbours meet exactly: pinned ends sit on their vertices, bit for bit."""
     import numpy as np
 
-    from nurbscomp import joins, serialize
+    from nurbscomp import serialize
     from nurbscomp.model import BSplineCurve
+    from nurbscomp.rules import joins
 
     from .conftest import SAMPLES
 
@@ -340,9 +341,9 @@ def test_iso_boundary_curves_are_their_surfaces_boundaries(name: str, tmp_path: 
     and the decoded surface corners sit on the face's vertices."""
     import numpy as np
 
-    from nurbscomp import joins
     from nurbscomp.encode import coincide
     from nurbscomp.model import BSplineCurve, BSplineSurface
+    from nurbscomp.rules import joins
 
     from .conftest import SAMPLES
 

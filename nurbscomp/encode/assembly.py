@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from .. import codec, joins
+from .. import codec
 from ..model import (
     EC,
     BRepModel,
@@ -31,6 +31,7 @@ from ..model import (
     first_row,
     records,
 )
+from ..rules import joins
 from ..serialize import SWEPT
 from . import analytic
 from .nets import TRIM_C, TRIM_S, Coded, feature_limit, first_rows, poles_of, resolve_row

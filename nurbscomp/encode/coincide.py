@@ -6,7 +6,7 @@ curves and net sides that are another's up to ``eps`` (:func:`twin_curves`,
 :func:`coincident_edges`).  These are heuristics of the encoder: the format
 stores what they chose (ISO and COPY codes, SIDE rows), so changing them
 changes only what new containers hold, never what old ones decode to.  The
-rules both sides run on what they chose are in :mod:`nurbscomp.joins`.
+rules both sides run on what they chose are in :mod:`nurbscomp.rules.joins`.
 """
 
 from __future__ import annotations
@@ -17,13 +17,6 @@ from typing import Any, NamedTuple, cast
 import numpy as np
 
 from .. import bspline
-from ..joins import (
-    SIDES,
-    boundary,
-    clamped_curve,
-    clamped_surface,
-    placed,
-)
 from ..model import (
     EC,
     BRepModel,
@@ -33,6 +26,13 @@ from ..model import (
     RepKind,
     ShapeType,
     faces_around,
+)
+from ..rules.joins import (
+    SIDES,
+    boundary,
+    clamped_curve,
+    clamped_surface,
+    placed,
 )
 
 

@@ -3,7 +3,7 @@
 :func:`code_model` runs the per-net search of :mod:`nurbscomp.codec`
 (:func:`codec.encode_net`, the paper's §6) once on each distinct B-spline
 surface and 3-D B-spline curve, each held to its :func:`feature_limit`.
-Coincident curves and surface sides are found first (:mod:`nurbscomp.joins`):
+Coincident curves and surface sides are found first (:mod:`nurbscomp.rules.joins`):
 a copy is not coded, it follows its leader.  :func:`tighten` codes records
 again below their limit, for the validity stage.  :func:`face_records`,
 :func:`edge_records` and :func:`kinked_records` name the records a face or an
@@ -22,7 +22,7 @@ from typing import Any, cast
 
 import numpy as np
 
-from .. import codec, joins, serialize
+from .. import codec, serialize
 from ..model import (
     EC,
     BRepModel,
@@ -39,6 +39,7 @@ from ..model import (
     first_row,
     records,
 )
+from ..rules import joins
 from ..rules.nets import net_abscissae, net_basis
 from ..serialize import SWEPT
 from . import coincide

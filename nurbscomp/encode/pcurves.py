@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from .. import budget, joins
+from .. import budget
 from ..model import (
     EC,
     REBUILD,
@@ -33,6 +33,7 @@ from ..model import (
     below,
     first_row,
 )
+from ..rules import joins
 from ..serialize import SWEPT
 from . import analytic
 

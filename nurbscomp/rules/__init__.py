@@ -7,8 +7,8 @@ to.  So nothing here is an encoder's heuristic (those live in
 
 * :mod:`.nets`: what a net's coding needs of its surface (the Greville
   abscissae of the Coons blend, the D-map's basis);
-* :mod:`.ranges`: the edge-range rules (docs/format.md §2.7).
-
-The pins, joins and anchors of docs/format.md §2.9-§2.10 are in
-:mod:`nurbscomp.joins`.
+* :mod:`.ranges`: the edge-range rules (docs/format.md §2.7);
+* :mod:`.joins`: where decoded neighbours must meet: corners and curve ends
+  pinned to vertices, curves anchored at them, sides joined, copies placed
+  (docs/format.md §2.4, §2.9, §2.10).
 """

@@ -6,8 +6,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .. import coons, dmap, joins
+from .. import coons, dmap
 from ..model import BSplineSurface, Geometry
+from . import joins
 
 
 def net_basis(g: Geometry) -> dmap.Basis | None:

@@ -9,7 +9,6 @@ from typing import Any
 
 import numpy as np
 
-from .. import joins
 from ..errors import BadReferenceError, SectionError
 from ..model import EC, BRepModel, BSplineCurve, Derived, Geometry, Kind, RepKind
 from ..serialize import (
@@ -21,6 +20,7 @@ from ..serialize import (
     RANGE_ZERO,
     finite,
 )
+from . import joins
 
 
 def _natural_range(g: Geometry | None) -> tuple[float, float] | None:

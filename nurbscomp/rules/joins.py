@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from .model import (
+from ..model import (
     EC,
     Analytic,
     BRepModel,
