@@ -18,7 +18,6 @@ from nurbscomp import (
     budget,
     container,
     entropy,
-    joins,
     model,
     occ,
     passthrough,
@@ -39,6 +38,7 @@ from nurbscomp.errors import (
 )
 from nurbscomp.model import BRepModel, RepKind, ShapeType
 from nurbscomp.occ import files
+from nurbscomp.rules import joins
 
 from . import fuzz
 from .conftest import SAMPLES
