@@ -22,10 +22,10 @@ $(VENV)/bin/nurbscomp: pyproject.toml
 # minutes on 2 cores.
 TEST_JOBS ?= auto
 test: install
-	$(PY) -m pytest -q -n $(TEST_JOBS)
+	$(PY) -m pytest -q -n $(TEST_JOBS) --dist worksteal
 
 test-fast: install
-	$(PY) -m pytest -q -n $(TEST_JOBS) -m "not slow"
+	$(PY) -m pytest -q -n $(TEST_JOBS) --dist worksteal -m "not slow"
 
 lint: install
 	$(VENV)/bin/ruff check nurbscomp tests samples benchmarks

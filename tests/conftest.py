@@ -44,7 +44,10 @@ def in_corpus(name: str):
 
 
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    """Without the corpus, skip what needs it."""
+    """The tests marked slow first (each worker starts on a long one and the
+    run ends on short ones, not with one worker alone on a long test); without
+    the corpus, skip what needs it."""
+    items.sort(key=lambda item: item.get_closest_marker("slow") is None)  # stable
     if have_corpus():
         return
     skip = pytest.mark.skip(reason="needs the corpus (NURBSCOMP_CORPUS; see the last line)")
