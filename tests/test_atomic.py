@@ -79,7 +79,9 @@ def test_ctrl_c_during_compress_verification(
     def interrupted(*a: Any, **k: Any) -> Any:
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(pipeline, "decode", interrupted)
+    from nurbscomp.stages import compress
+
+    monkeypatch.setattr(compress, "decode", interrupted)  # what verify_encoded decodes with
     with pytest.raises(KeyboardInterrupt):
         pipeline.compress_file(tmp_path / "loft.step", lossless=True)
     assert _names(tmp_path) == ["loft.step"]

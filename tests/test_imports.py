@@ -34,7 +34,9 @@ LAYERS: list[tuple[str, set[str]]] = [
                "occ.exchange",
                "occ.files", "occ.geometry", "occ.isolated", "occ.lists", "occ.measure",
                "occ.mesh", "occ.topology", "occ.xcaf", "occ.bintools"}),
-    ("wiring", {"paths", "passthrough", "pipeline", "_api", "batch", "", "cli", "__main__"}),
+    ("wiring", {"paths", "passthrough", "stages", "stages.common", "stages.decompress",
+                "stages.compress", "stages.evaluate", "pipeline", "_api", "batch", "", "cli",
+                "__main__"}),
 ]  # fmt: skip
 #: Imports across the sides that stay allowed: the validity stage builds and
 #: checks shapes with OCCT.

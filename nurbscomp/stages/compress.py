@@ -1,0 +1,274 @@
+"""Compress's stages: read the source (``read_source``, ``shape_source``),
+code it (``encode_cad``: tolerance or lossless mode, the validity stage),
+check what was coded (``verify_encoded``), and the report
+(``compress_report``)."""
+
+from __future__ import annotations
+
+import dataclasses
+from concurrent.futures import ThreadPoolExecutor
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from .. import budget, container, product, serialize
+from .._version import version
+from ..errors import (
+    InputError,
+    LimitError,
+    NoBRepError,
+    UnsupportedError,
+    VerifyError,
+)
+from ..lazy import lazy_module
+from ..model import (
+    BRepModel,
+    BSplineCurve,
+    BSplineSurface,
+    differences,
+    nonfinite,
+)
+from ..writer import model_to_sections
+
+if TYPE_CHECKING:
+    from .. import occ
+else:  # OCP takes seconds to import: only what builds or reads shapes pays for it
+    occ = lazy_module("nurbscomp.occ")
+from .common import DEFAULT_TOL_MM, TOL_WARN_FRACTION, faces_by_type, one_blas_thread
+from .decompress import build, decode
+
+
+@dataclasses.dataclass
+class Encoded:
+    """A model coded into container bytes, with what the report and the check need
+    (:func:`encode_cad`)."""
+
+    data: bytes
+    model: BRepModel  # the model read from the source
+    target: BRepModel  # what the container holds
+    cad: Any  # the occ.CadFile read (or made from a shape)
+    meta: dict[str, Any]
+    lossless: bool
+    tol: float | None
+    step_safe: bool
+    lossy_report: Any  # encode.assembly.LossyReport, tolerance mode only
+    pcurves_rebuilt: int
+    built: Any  # the shape built from ``target`` (validity stage, or lossless for verify)
+    validity: Any  # encode.validity.ValidityReport, tolerance mode only
+    warnings: list[str]
+
+
+def shape_source(shape: Any, unit: str = "MM") -> Any:
+    """An ``occ.CadFile`` for an in-memory ``TopoDS_Shape`` (in millimetres):
+    source format ``"BREP"``, no product data.
+
+    Raises
+    ------
+    NoBRepError
+        The shape is null or has no faces.
+    """
+    if shape.IsNull() or occ.counts(shape)["faces"] == 0:
+        raise NoBRepError("the shape holds no B-rep faces")
+    return occ.CadFile(shape, unit, "BREP")
+
+
+@one_blas_thread
+def encode_cad(
+    cad: Any,
+    name: str,
+    source_bytes: int,
+    *,
+    tol: float | None = DEFAULT_TOL_MM,
+    lossless: bool = False,
+    step_safe: bool = True,
+    for_verify: bool = True,
+) -> Encoded:
+    """Code the shape of ``cad`` (an ``occ.CadFile``) into container bytes;
+    ``name`` and ``source_bytes`` go to META (see :func:`compress_file`).
+
+    ``for_verify``: the caller will run :func:`verify_encoded`.  In lossless
+    mode the shape it checks is then built here, from the model, while the
+    entropy stage packs the container in another thread (LZMA releases the
+    GIL): the decoded model must be this model bit for bit, so it builds this
+    shape.  In tolerance mode the validity stage builds it anyway."""
+    m, warnings = occ.shape_to_model(cad.shape)
+    bad = nonfinite(m, serialize.MAX_COORD)
+    if bad is not None:  # an invalid B-rep OCCT still reads: refused in both modes alike
+        raise InputError(f"{bad}: a value is not finite or out of range")
+    try:  # what no reader decodes by default, even as declared, is not written
+        budget.check_structure(m, budget.ADMITTED)
+    except LimitError as e:
+        raise UnsupportedError(f"{e}; not compressed") from None
+    m.unit, m.source_format, m.product = cad.unit, cad.source_format, cad.product
+    meta = {
+        "mode": "lossless" if lossless else "tolerance",
+        "tolerance_mm": None if lossless else tol,
+        "source_name": serialize.meta_text(name),
+        "source_bytes": source_bytes,
+        "writer": f"nurbscomp {version()}",
+    }
+    flags = container.FLAG_LOSSLESS if lossless else 0
+
+    def pack(target: BRepModel, codes: dict[Any, Any]) -> bytes:
+        target.product = m.product  # exact in every mode, placements included
+        # what it decodes into, for a reader to admit (budget.Limits.admit)
+        declared = budget.declare(target)
+        sections = model_to_sections(
+            target, {**meta, "decoded": declared} if declared else meta, codes
+        )
+        # lossless is the fast mode: a quick entropy search (entropy.compress)
+        return container.pack(sections, flags, thorough=not lossless)
+
+    rebuilt, built, vreport = 0, None, None
+    codes: dict[Any, Any] = {}
+    if lossless:
+        target, lossy_report = m, None
+        if for_verify:  # beside the build of the shape verify_encoded checks
+            with ThreadPoolExecutor(1) as pool:
+                packing = pool.submit(pack, target, codes)
+                built = build(target)
+                data = packing.result()
+        else:
+            data = pack(target, codes)
+    else:
+        assert tol is not None and tol > 0
+        from .encode import validity
+
+        size = occ.diagonal(cad.shape)
+        if tol > size * TOL_WARN_FRACTION:
+            warnings.append(
+                f"tolerance {tol:g} mm is more than {TOL_WARN_FRACTION:.0%} of the part's size "
+                f"({size:.3g} mm across its bounding box): its shape may not be kept"
+            )
+        for i, bound in occ.thin_solids(cad.shape, tol):
+            change = f"up to {bound:.0%} of it" if bound <= 1 else "more than all of it"
+            warnings.append(
+                f"solid {i + 1} is thin against the tolerance: faces moving by {tol:g} mm "
+                f"could change its volume by {change}; a wall thinner than twice the "
+                "tolerance may cross itself (a smaller --tol keeps it)"
+            )
+
+        t = validity.lossy_target(m, cad.shape, tol, step_safe, pack)
+        target, codes, lossy_report, rebuilt = t.model, t.codes, t.report, t.pcurves_rebuilt
+        built, vreport = t.shape, t.validity
+        if vreport.step_skipped:
+            warnings.append(f"no STEP check: {vreport.step_skipped}")
+        # packed while the STEP check of its last round ran, if it had one
+        data = t.early if t.early is not None else pack(target, codes)
+    return Encoded(
+        data,
+        m,
+        target,
+        cad,
+        meta,
+        lossless,
+        tol,
+        step_safe,
+        lossy_report,
+        rebuilt,
+        built,
+        vreport,
+        warnings,
+    )
+
+
+@one_blas_thread
+def verify_encoded(enc: Encoded, data: bytes) -> None:
+    """Decode ``data`` (the container as written) and check it against what was
+    encoded: the same model bit for bit, product data, the certified bound,
+    the topology counts.
+
+    It is decoded under the limits ``decompress`` applies by default (with
+    what the container declares it decodes into admitted, ``budget.Limits.admit``),
+    and its output in the source's format estimated: every container
+    ``compress`` writes is restored by the default command.  The pcurves the
+    container leaves to compute must be within the default limits whatever
+    its size (``budget.DEFAULT.pcurves`` and ``.projection``): how many it
+    leaves is the writer's choice (``encode.pcurves.drop_pcurves``).
+
+    Raises
+    ------
+    VerifyError
+        Any difference (a bug), a limit the container is refused by, or more
+        pcurves to compute than the default limits allow.
+    """
+    try:
+        back, _ = decode(container.unpack(data), budget.DEFAULT, enc.model.source_format)
+    except LimitError as e:
+        raise VerifyError(f"the container is past a reader's default limits: {e}") from None
+    count, work = budget.pcurves_to_compute(back)
+    if count > budget.DEFAULT.pcurves or work > budget.DEFAULT.projection:
+        raise VerifyError(
+            f"the container leaves {count:,} pcurves ({work:,} units of work) to compute, "
+            "past a reader's default limits"
+        )
+    diff = differences(enc.target, back)
+    if enc.target.product is not None and not (
+        back.product is not None and back.product.same(enc.target.product)
+    ):
+        diff.append("product data")
+    if diff:
+        raise VerifyError(f"decoded container differs from the input: {', '.join(diff)}")
+    worst = max_net_displacement(enc.model, back)
+    if enc.tol is not None and not enc.lossless and worst > enc.tol:
+        raise VerifyError(f"a decoded control net moved {worst:g} mm > tol {enc.tol:g} mm")
+    # the decoded model is the target bit for bit, so it builds the
+    # shape built from it (by the validity stage, or beside the lossless packing)
+    built = build(back) if enc.built is None else enc.built
+    if occ.counts(built) != occ.counts(enc.cad.shape):
+        raise VerifyError("decoded shape has other topology counts than the input")
+
+
+def compress_report(enc: Encoded, verified: bool) -> dict[str, Any]:
+    """The report of a compression, less ``command``, ``input``, ``output`` and times."""
+    m, lossy_report, src_bytes = enc.model, enc.lossy_report, enc.meta["source_bytes"]
+    return {
+        "input_bytes": src_bytes,
+        "output_bytes": len(enc.data),
+        "ratio": src_bytes / len(enc.data) if src_bytes else None,
+        "mode": enc.meta["mode"],
+        "tolerance_mm": enc.meta["tolerance_mm"],
+        "geometry": "exact"
+        if enc.lossless
+        else "B-spline surfaces and 3-D curves coded, vertices on them snapped; "
+        + (
+            "analytic geometry on grids where that is smaller; pcurves exact"
+            if lossy_report and "analytic" in lossy_report.face_method
+            else "pcurves and analytic geometry exact"
+        ),
+        "faces_by_method": lossy_report.method_counts() if lossy_report else {},
+        "face_method_list": lossy_report.face_method if lossy_report else [],
+        "max_bound_mm": float(lossy_report.face_bound.max(initial=0.0)) if lossy_report else 0.0,
+        "max_curve_bound_mm": float(lossy_report.edge_bound.max(initial=0.0))
+        if lossy_report
+        else 0.0,
+        "certified_faces": int((lossy_report.face_bound > 0).sum()) if lossy_report else 0,
+        "sampled_faces": 0,
+        "pcurves_rebuilt": enc.pcurves_rebuilt,
+        "validity": dataclasses.asdict(enc.validity) if enc.validity else {},
+        "step_safe": enc.step_safe and not enc.lossless,
+        "unit": m.unit,
+        "source_format": m.source_format,
+        "counts": occ.counts(enc.cad.shape),
+        "faces_by_type": faces_by_type(m),
+        "product": product.summary(m.product) if m.product is not None else None,
+        "product_bytes": len(product.write(m.product)) if m.product is not None else 0,
+        "verified": verified,
+        "warnings": [*enc.cad.warnings, *enc.warnings],
+    }
+
+
+def max_net_displacement(a: BRepModel, b: BRepModel) -> float:
+    """Largest pole displacement between the B-spline surfaces and 3-D curves of two models.
+
+    The certified bound of docs/design.md §4: knots, degrees and weights are equal, so
+    no point of a surface or curve moves further than its farthest pole.
+    """
+    worst = 0.0
+    pairs = [*zip(a.surfaces, b.surfaces), *zip(a.curves3d, b.curves3d)]
+    for x, y in pairs:
+        if isinstance(x, (BSplineSurface, BSplineCurve)) and type(x) is type(y):
+            if x.poles.shape != y.poles.shape:
+                return float("inf")
+            worst = max(worst, float(np.sqrt(((x.poles - y.poles) ** 2).sum(-1)).max()))
+    return worst
