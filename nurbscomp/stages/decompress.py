@@ -86,7 +86,7 @@ def decode(
 def build(m: BRepModel) -> Any:
     """The shape of a decoded model (``encode.validity.build``, imported on first use:
     commands that build no shape start without OCP)."""
-    from .encode import validity
+    from ..encode import validity
 
     return validity.build(m)
 
