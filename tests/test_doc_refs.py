@@ -30,6 +30,8 @@ FOLDERS = (
     "nurbscomp",
     "nurbscomp/encode",
     "nurbscomp/rules",
+    "nurbscomp/serialize",
+    "nurbscomp/stages",
     "nurbscomp/occ",
     "nurbscomp/text",
     "docs",

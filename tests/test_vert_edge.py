@@ -62,7 +62,7 @@ def test_every_pcurve_surface_is_a_face_surface_of_its_edge() -> None:
 )
 def test_hostile_picks_are_refused(monkeypatch, pick: int, error: type, match: str) -> None:
     m, meta = fuzz.decoded((GOLDEN / "bracket.lossless.nzc").read_bytes())
-    monkeypatch.setattr(serialize, "_picks", lambda v, e, c: np.full(len(v), pick, np.int64))
+    monkeypatch.setattr(serialize.edges, "_picks", lambda v, e, c: np.full(len(v), pick, np.int64))
     data = fuzz.pack_model(m, meta)
     with pytest.raises(error, match=match):
         _decode(data)
@@ -72,7 +72,7 @@ def test_hostile_picks_are_refused(monkeypatch, pick: int, error: type, match: s
 def test_escaped_surfaces_round_trip(monkeypatch) -> None:
     """Every surface escaped (a writer that predicts nothing) decodes the same."""
     m, meta = fuzz.decoded((GOLDEN / "loft.lossless.nzc").read_bytes())
-    monkeypatch.setattr(serialize, "_picks", lambda v, e, c: np.full(len(v), -1, np.int64))
+    monkeypatch.setattr(serialize.edges, "_picks", lambda v, e, c: np.full(len(v), -1, np.int64))
     back = _decode(fuzz.pack_model(m, meta))
     np.testing.assert_array_equal(back.edge_reps, m.edge_reps)
 
@@ -258,7 +258,9 @@ def test_hostile_grid_residuals_wrap_harmlessly(monkeypatch) -> None:
     m.vertex_point = np.rint(m.vertex_point / h).astype(np.int64) * h
     m.side_joins = np.zeros((0, 5), np.int64)
     big = np.full((len(m.vertex_point), 3), 2**62, np.int64)
-    monkeypatch.setattr(serialize, "_grid_predictions", lambda nbr, rows, q: q - big[: len(q)])
+    monkeypatch.setattr(
+        serialize.vertices, "_grid_predictions", lambda nbr, rows, q: q - big[: len(q)]
+    )
     data = fuzz.pack_fast(writer.model_to_sections(m, meta), 0)
     with warnings.catch_warnings():
         warnings.simplefilter("error")

@@ -1,0 +1,169 @@
+"""`VERT` (§2.6): vertex points (exact, or on the vertex grid predicted from
+their neighbours), tolerances on a quarter-power scale, point representations."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import SectionError
+from ..model import (
+    VC,
+    BRepModel,
+    ShapeType,
+)
+from ..streams import BlockReader, BlockWriter
+from .limits import MAX_COORD, _counts, _tolerances, finite
+
+QUARTERS = tuple(
+    float.fromhex(x)
+    for x in ("0x1p+0", "0x1.306fe0a31b715p+0", "0x1.6a09e667f3bcdp+0", "0x1.ae89f995ad3adp+0")
+)
+#: Largest |c| of a tolerance code.
+MAX_QUARTER = 4000
+
+
+def quarter_power(c: np.ndarray) -> np.ndarray:
+    """2^(c/4) as format 2.0 computes it: ``ldexp(QUARTERS[c mod 4], floor(c/4))``."""
+    c = np.asarray(c, np.int64)
+    return np.ldexp(np.array(QUARTERS)[c % 4], c // 4)
+
+
+def _write_tolerances(w: BlockWriter, tol: np.ndarray) -> None:
+    """Format 2.0: tolerances that are 2^(c/4) bit for bit (0 < |c| <= MAX_QUARTER)
+    as their codes c, the others (code 0) as floats."""
+    codes = np.zeros(len(tol), np.int64)
+    pos = tol > 0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        guess = np.where(pos, np.rint(4 * np.log2(np.where(pos, tol, 1.0))), 0).astype(np.int64)
+    guess = np.clip(guess, -MAX_QUARTER, MAX_QUARTER)
+    exact = pos & (guess != 0) & (quarter_power(guess).view(np.int64) == tol.view(np.int64))
+    codes[exact] = guess[exact]
+    w.ints(codes)
+    w.floats(tol[~exact])
+
+
+def _read_tolerances(r: BlockReader, n: int | None, where: str) -> np.ndarray:
+    codes = r.ints() if n is None else r.ints(n)
+    if len(codes) and np.abs(codes).max() > MAX_QUARTER:
+        raise SectionError(f"{where}: a tolerance code is out of range")
+    out = quarter_power(codes)
+    plain = codes == 0
+    out[plain] = r.floats(int(plain.sum()))
+    return out
+
+
+def vertex_grid(tol: float) -> float:
+    """Step of the grid lossy vertices are snapped to: every coordinate moves by
+    at most h/2, so a vertex by at most tol/2 (``h = tol/√3``)."""
+    return tol / np.sqrt(3.0)
+
+
+def vertex_neighbours(m: BRepModel) -> list[list[int]]:
+    """Format 2.0: per vertex row, the vertex rows that are direct children of
+    an ``EDGE`` shape it is a direct child of (docs/format.md §2.6)."""
+    nv = int((m.shape_type == ShapeType.VERTEX).sum())
+    out: list[set[int]] = [set() for _ in range(nv)]
+    tidx = m.type_index()
+    types, children, start = m.shape_type, m.child_shape, m.child_start
+    vertex = int(ShapeType.VERTEX)
+    for s in np.flatnonzero(types == ShapeType.EDGE).tolist():
+        kids = children[start[s] : start[s + 1]]
+        vs = sorted({int(tidx[c]) for c in kids[types[kids] == vertex].tolist()})
+        for a in vs:
+            out[a].update(b for b in vs if b != a)
+    return [sorted(x) for x in out]
+
+
+def _grid_predictions(nbr: list[list[int]], rows: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Per grid vertex (``rows``, ascending, with grid integers ``q``), its
+    prediction: the grid integers of its highest-row grid neighbour before it,
+    else of the grid vertex before it (zeros for the first)."""
+    pred = np.zeros_like(q)
+    done: dict[int, int] = {}  # row -> k
+    for k, v in enumerate(rows.tolist()):
+        before = [done[u] for u in (nbr[v] if v < len(nbr) else ()) if u in done]
+        if before:
+            pred[k] = q[max(before)]
+        elif k:
+            pred[k] = q[k - 1]
+        done[v] = k
+    return pred
+
+
+def _grid_from_residuals(nbr: list[list[int]], rows: np.ndarray, res: np.ndarray) -> np.ndarray:
+    """The inverse of :func:`_grid_predictions`: grid integers from residuals."""
+    q = np.zeros_like(res)
+    done: dict[int, int] = {}
+    with np.errstate(over="ignore"):
+        for k, v in enumerate(rows.tolist()):
+            before = [done[u] for u in (nbr[v] if v < len(nbr) else ()) if u in done]
+            if before:
+                q[k] = q[max(before)] + res[k]
+            elif k:
+                q[k] = q[k - 1] + res[k]
+            else:
+                q[k] = res[k]
+            done[v] = k
+    return q
+
+
+def _write_vertices(m: BRepModel, tol: float = 0.0) -> bytes:
+    """Vertices whose point is a grid point (``vertex_grid``) bit for bit are
+    stored as grid integers; the others as floats."""
+    w = BlockWriter()
+    pts = m.vertex_point
+    on_grid = np.zeros(len(pts), bool)
+    q = np.zeros_like(pts, dtype=np.int64)
+    if tol > 0 and len(pts):
+        h = vertex_grid(tol)
+        small = (np.abs(pts) < 2.0**50 * h).all(-1)
+        q[small] = np.rint(pts[small] / h).astype(np.int64)
+        on_grid = small & ((q * h).view(np.int64) == pts.view(np.int64)).all(-1)  # bit for bit
+    w.ints(on_grid.astype(np.int64))
+    w.floats(pts[~on_grid].reshape(-1))
+    rows = np.flatnonzero(on_grid)
+    pred = _grid_predictions(vertex_neighbours(m), rows, q[rows]) if len(rows) else q[rows]
+    for axis in range(3):
+        w.ints(q[rows, axis] - pred[:, axis])
+    _write_tolerances(w, m.vertex_tol)
+    reps = m.vertex_reps
+    w.ints(np.bincount(reps[:, VC.VERTEX], minlength=len(m.vertex_tol)) if len(reps) else [])
+    for col in range(1, 5):
+        w.ints(reps[:, col])
+    w.floats(m.vertex_rep_params.reshape(-1))
+    return bytes(w)
+
+
+def _read_vertices(data: bytes, m: BRepModel, tol: float = 0.0, revision: int = 3) -> None:
+    r = BlockReader(data, "VERT")
+    kind = r.ints()
+    if len(kind) and (kind.min() < 0 or kind.max() > 1):
+        raise SectionError("VERT: unknown vertex kind")
+    on_grid = kind.astype(bool)
+    nv, ng = len(on_grid), int(on_grid.sum())
+    pts = np.zeros((nv, 3))
+    pts[~on_grid] = r.floats(3 * (nv - ng)).reshape(-1, 3)
+    if revision >= 3:
+        res = np.stack([r.ints(ng) for _ in range(3)], axis=1)
+        q = _grid_from_residuals(vertex_neighbours(m), np.flatnonzero(on_grid), res) if ng else res
+    else:
+        q = np.stack([r.deltas(ng) for _ in range(3)], axis=1)
+    if ng and not tol > 0:
+        raise SectionError("VERT: grid vertices need a positive tolerance")
+    if ng:
+        with np.errstate(over="ignore"):
+            pts[on_grid] = q * vertex_grid(tol)
+    finite(pts, "VERT points", MAX_COORD)
+    m.vertex_point = pts
+    m.vertex_tol = _read_tolerances(r, nv, "VERT") if revision >= 3 else r.floats(nv)
+    _tolerances(m.vertex_tol, "VERT tolerances")
+    per = r.ints()
+    if len(per) not in (0, nv):
+        raise SectionError("VERT: bad representation counts")
+    nrep = _counts(per, r, "VERT representation counts")
+    cols = [r.ints(nrep) for _ in range(4)]
+    m.vertex_rep_params = r.floats(2 * nrep).reshape(-1, 2)
+    r.done()
+    finite(m.vertex_rep_params, "VERT parameters", MAX_COORD)
+    cols.insert(0, np.repeat(np.arange(len(per)), per))
+    m.vertex_reps = np.stack(cols, axis=1).astype(np.int64).reshape(-1, 5)
