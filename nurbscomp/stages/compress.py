@@ -29,13 +29,13 @@ from ..model import (
     nonfinite,
 )
 from ..writer import model_to_sections
+from .common import DEFAULT_TOL_MM, TOL_WARN_FRACTION, faces_by_type, one_blas_thread
+from .decompress import build, decode
 
 if TYPE_CHECKING:
     from .. import occ
 else:  # OCP takes seconds to import: only what builds or reads shapes pays for it
     occ = lazy_module("nurbscomp.occ")
-from .common import DEFAULT_TOL_MM, TOL_WARN_FRACTION, faces_by_type, one_blas_thread
-from .decompress import build, decode
 
 
 @dataclasses.dataclass

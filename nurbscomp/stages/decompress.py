@@ -25,12 +25,12 @@ from ..model import (
     BRepModel,
 )
 from ..paths import read_container
+from .common import SUFFIX, one_blas_thread, read_source
 
 if TYPE_CHECKING:
     from .. import occ
 else:  # OCP takes seconds to import: only what builds or reads shapes pays for it
     occ = lazy_module("nurbscomp.occ")
-from .common import SUFFIX, one_blas_thread, read_source
 
 
 @one_blas_thread

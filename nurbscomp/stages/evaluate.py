@@ -16,13 +16,13 @@ from ..errors import (
 from ..lazy import lazy_module
 from ..paths import atomic_output
 from ..report import verdict
+from .common import SUFFIX
+from .decompress import decode_file
 
 if TYPE_CHECKING:
     from .. import occ
 else:  # OCP takes seconds to import: only what builds or reads shapes pays for it
     occ = lazy_module("nurbscomp.occ")
-from .common import SUFFIX
-from .decompress import decode_file
 
 
 def load_shape(path: str | os.PathLike[str]) -> tuple[Any, float | None]:
