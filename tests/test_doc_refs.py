@@ -170,8 +170,8 @@ def test_implemented_by_is_allowed() -> None:
 
 #: The functions issue 31 found standing in for definitions: in §1 and §2 they
 #: may only be named as what implements a rule the text defines.
-CITED = ["codec._code", "dmap.apply", "coons.periodic_flat", "joins.boundary", "joins.anchors",
-         "joins.copy_matrix", "codec.SLOPES"]  # fmt: skip
+CITED = ["codec._code", "dmap.apply", "coons.periodic_flat", "rules.joins.boundary",
+         "rules.joins.anchors", "rules.joins.copy_matrix", "codec.SLOPES"]  # fmt: skip
 
 
 def test_cited_functions_only_as_implementations() -> None:
@@ -181,3 +181,48 @@ def test_cited_functions_only_as_implementations() -> None:
         for m in re.finditer(re.escape(f"`{name}`"), text):
             before = text[max(0, m.start() - 120) : m.start()]
             assert "mplemented by" in before, f"{name}: ...{before[-80:]}"
+
+
+def _module_refs_outside_implementations(lines: list[tuple[int, str]]) -> list[str]:
+    """Backticked ``module.name`` references of the package in ``lines`` that
+    are neither inside a parenthesis nor in a table row nor within 150
+    characters after "implemented by": a name standing in a sentence where a
+    definition should be."""
+    tops = {m.split(".")[0] for m in MODULES}
+    out = []
+    paragraphs: list[list[tuple[int, str]]] = [[]]
+    for n, line in lines:
+        if not line.strip():
+            paragraphs.append([])
+        else:
+            paragraphs[-1].append((n, line))
+    for para in paragraphs:
+        # a table's cells name what implements each row: left out
+        text = " ".join(line for _, line in para if not line.lstrip().startswith("|"))
+        first = para[0][0] if para else 0
+        for m in re.finditer(r"`(?:nurbscomp\.)?([a-z_]+)\.[\w.*]+`", text):
+            if m.group(1) not in tops:
+                continue
+            before = text[: m.start()]
+            depth = 0
+            for ch in before:
+                depth += (ch == "(") - (ch == ")")
+            if depth > 0 or "mplemented by" in before[-150:]:
+                continue
+            out.append(f"paragraph at line {first}: {text[max(0, m.start() - 60) : m.end()]}")
+    return out
+
+
+def test_normative_sections_name_modules_only_as_implementations() -> None:
+    """docs/format.md §1 and §2 name a module's function or constant only in
+    a parenthesis, a table, or after "implemented by" (issue 31's "a test
+    greps for module names inside the normative sections")."""
+    lines = normative((ROOT / "docs" / "format.md").read_text())
+    assert _module_refs_outside_implementations(lines) == []
+
+
+def test_a_module_standing_for_a_definition_is_found() -> None:
+    bad = [(1, "The steps are `decode.apply`, in order."), (2, "")]
+    good = [(3, "The steps, in order (`decode.apply`)."), (4, "Implemented by `decode.apply`.")]
+    assert len(_module_refs_outside_implementations(bad)) == 1
+    assert _module_refs_outside_implementations(good) == []
