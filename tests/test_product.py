@@ -435,3 +435,31 @@ def test_corpus_product_matches_occt_round_trip(
 ) -> None:
     nzc = made(path, 0.01) if mode == "tol0.01" else _compress(path, tmp_path, mode)
     assert_same_product(path, nzc, tmp_path)
+
+
+def test_a_cadquery_assembly_saved_before_changes_no_container(tmp_path: Path) -> None:
+    """cadquery's assembly export turns XDE's auto-naming off for the whole
+    process; an IGES file compressed after it in the same process lost the
+    names of its parts (``SOLID``, ``COMPOUND``), and its container changed
+    with what the process had done before.  The transfers now run with it on,
+    and the caller's setting is left as it was."""
+    import cadquery as cq
+    from OCP.XCAFDoc import XCAFDoc_ShapeTool
+
+    from .stress import files
+
+    igs = tmp_path / "part.igs"  # OCCT's plain IGES writer: no names of its own
+    files.write_iges(cq.Workplane().box(4, 3, 2).edges().fillet(0.5).val().wrapped, igs, 1)
+    before = pipeline.compress_file(igs, tmp_path / "before.nzc", tol=0.01)
+    asm = cq.Assembly().add(cq.Workplane().box(1, 2, 3), name="box")
+    from nurbscomp import occ
+
+    occ.cq.write_assembly(asm, tmp_path / "asm.step")
+    assert not XCAFDoc_ShapeTool.AutoNaming_s()  # what cadquery left behind
+    try:
+        after = pipeline.compress_file(igs, tmp_path / "after.nzc", tol=0.01)
+        assert not XCAFDoc_ShapeTool.AutoNaming_s()  # the caller's setting kept
+    finally:
+        XCAFDoc_ShapeTool.SetAutoNaming_s(True)
+    assert before["product"] == after["product"] and before["product"]["named"]
+    assert (tmp_path / "before.nzc").read_bytes() == (tmp_path / "after.nzc").read_bytes()

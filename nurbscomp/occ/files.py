@@ -201,7 +201,8 @@ def read_cad(path: str | os.PathLike[str], product: bool = False, own: bool = Fa
         from . import xcaf
 
         doc = xcaf.new_document()
-        caf.Transfer(doc)
+        with xcaf.auto_naming():
+            caf.Transfer(doc)
     else:
         reader.TransferRoots()
     if reader.NbShapes() == 0:

@@ -21,6 +21,7 @@ from __future__ import annotations
 import contextlib
 import os
 from collections import Counter
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -101,6 +102,22 @@ _SCHEMAS = (
 def new_document() -> Any:
     """An empty XDE document."""
     return TDocStd_Document(TCollection_ExtendedString("XmlXCAF"))
+
+
+@contextlib.contextmanager
+def auto_naming() -> Iterator[None]:
+    """XDE's naming of unnamed shapes by their type (``SOLID``, ``COMPOUND``),
+    on as OCCT has it by default, for the time of a transfer; the caller's
+    setting back after.  It is one flag for the whole process, and cadquery's
+    assembly export turns it off for good: without this, an IGES file read
+    after a cadquery assembly was saved in the same process lost the names
+    of its parts, and its container changed."""
+    old = XCAFDoc_ShapeTool.AutoNaming_s()
+    XCAFDoc_ShapeTool.SetAutoNaming_s(True)
+    try:
+        yield
+    finally:
+        XCAFDoc_ShapeTool.SetAutoNaming_s(old)
 
 
 def caf_reader(fmt: str) -> tuple[Any, Any]:
@@ -411,6 +428,11 @@ def _rgba(c: np.ndarray) -> Any:
 def to_document(p: ProductData, shapes: list[Any]) -> Any:
     """A new XDE document holding ``p`` over the decoded shapes (``shapes[row]``
     is the key shape of ``SHAP`` row ``row``, as :func:`shape_rows` gives)."""
+    with auto_naming():
+        return _to_document(p, shapes)
+
+
+def _to_document(p: ProductData, shapes: list[Any]) -> Any:
     doc = new_document()
     main = doc.Main()
     st = XCAFDoc_DocumentTool.ShapeTool_s(main)
@@ -641,8 +663,9 @@ def read_document(path: str | os.PathLike[str]) -> Any:
     if caf.ReadFile(str(p)) != IFSelect_ReturnStatus.IFSelect_RetDone:
         raise RebuildError(f"cannot read {p.name}")
     doc = new_document()
-    if not caf.Transfer(doc):
-        raise RebuildError(f"nothing transfers from {p.name}")
+    with auto_naming():
+        if not caf.Transfer(doc):
+            raise RebuildError(f"nothing transfers from {p.name}")
     return doc
 
 
@@ -654,7 +677,8 @@ def round_trip(src: str | os.PathLike[str], dst: str | os.PathLike[str]) -> None
     caf, plain = caf_reader(fmt)
     caf.ReadFile(str(s))
     doc = new_document()
-    caf.Transfer(doc)
+    with auto_naming():
+        caf.Transfer(doc)
     if Path(dst).suffix.lower() in (".igs", ".iges"):
         with _static(*IGES_BREP_MODE):
             w: Any = IGESCAFControl_Writer()
