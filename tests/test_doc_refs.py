@@ -30,6 +30,7 @@ FOLDERS = (
     "nurbscomp",
     "nurbscomp/encode",
     "nurbscomp/rules",
+    "nurbscomp/codec",
     "nurbscomp/serialize",
     "nurbscomp/stages",
     "nurbscomp/occ",

@@ -26,7 +26,7 @@ LAYERS: list[tuple[str, set[str]]] = [
             "topocode", "product", "heatmap",
         },
     ),
-    ("codec", {"codec", "rules.joins"}),
+    ("codec", {"codec", "codec.coder", "codec.search", "rules.joins"}),
     ("format", {"container", "serialize", "serialize.limits", "serialize.geometry",
                 "serialize.topology", "serialize.vertices", "serialize.edges", "serialize.nets",
                 "serialize.meta", "serialize.sections", "text", "text.coding", "text.step",
