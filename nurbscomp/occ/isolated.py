@@ -121,20 +121,26 @@ def _others_running() -> int:
     leaves the load average to say), but for niced ones, which yield the
     core (the validity stage's speculative round trip).  About 1 ms for 80
     processes."""
-    me, n = os.getpid(), 0
+    me = os.getpid()
     try:
-        pids = [p for p in os.listdir("/proc") if p.isdigit() and int(p) != me]
+        pids = [int(p) for p in os.listdir("/proc") if p.isdigit() and int(p) != me]
     except OSError:
         return 0
-    for pid in pids:
-        try:
-            for tid in os.listdir(f"/proc/{pid}/task"):
-                with open(f"/proc/{pid}/task/{tid}/stat", "rb") as f:
-                    st = f.read()
-                f3 = st[st.rindex(b")") + 2 :].split()  # fields 3 (state) on
-                n += f3[0] == b"R" and int(f3[16]) <= 0  # field 19: niceness
-        except (OSError, ValueError, IndexError):  # gone meanwhile
-            continue
+    return sum(_running(pid) for pid in pids)
+
+
+def _running(pid: int) -> int:
+    """Threads of process ``pid`` running or runnable now and not niced (0 for
+    a process gone meanwhile)."""
+    n = 0
+    try:
+        for tid in os.listdir(f"/proc/{pid}/task"):
+            with open(f"/proc/{pid}/task/{tid}/stat", "rb") as f:
+                st = f.read()
+            f3 = st[st.rindex(b")") + 2 :].split()  # fields 3 (state) on
+            n += f3[0] == b"R" and int(f3[16]) <= 0  # field 19: niceness
+    except (OSError, ValueError, IndexError):  # gone meanwhile
+        return n
     return n
 
 
