@@ -4,6 +4,7 @@ give the same bytes."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -44,26 +45,68 @@ def fix_iges_dates(model: Any) -> None:
     model.SetGlobalSection(gs)
 
 
-def settle_model(model: Any) -> None:
+def settle_model(model: Any) -> Callable[[], None]:
     """Make a STEP model's bytes depend on nothing but the shape: number its
     assembly occurrences 1, 2 … in entity order (OCCT's own ids count what
     was written before in the same process), and date its dates and times
     ``STEP_TIME_STAMP`` (OCCT's AP203 writer dates its approvals and
-    security classification with the wall clock)."""
+    security classification with the wall clock).
+
+    Returns what puts the dates and times back: OCCT's AP203 writer shares
+    its date and time entities between all the files a process writes, so
+    call it once the file is written, or every AP203 file the process writes
+    afterwards, by OCCT or by its user, is dated 1970 too."""
     occurrences = 0
     year, month, day = (int(x) for x in STEP_TIME_STAMP[:10].split("-"))
+    undo: list[Callable[[], None]] = []
     for i in range(1, model.NbEntities() + 1):
         e = model.Value(i)
         if isinstance(e, StepRepr_NextAssemblyUsageOccurrence):
             occurrences += 1
             e.SetId(TCollection_HAsciiString(str(occurrences)))
         elif isinstance(e, StepBasic_CalendarDate):
+            undo.append(_date_undo(e))
             e.SetYearComponent(year)
             e.SetMonthComponent(month)
             e.SetDayComponent(day)
         elif isinstance(e, StepBasic_LocalTime):
+            undo.append(_time_undo(e))
             e.SetHourComponent(0)
             if e.HasMinuteComponent():
                 e.SetMinuteComponent(0)
             if e.HasSecondComponent():
                 e.SetSecondComponent(0.0)
+
+    def restore() -> None:
+        for f in reversed(undo):
+            f()
+
+    return restore
+
+
+def _date_undo(e: Any) -> Callable[[], None]:
+    """What sets a calendar date back to its values of now."""
+    y, m, d = e.YearComponent(), e.MonthComponent(), e.DayComponent()
+
+    def back() -> None:
+        e.SetYearComponent(y)
+        e.SetMonthComponent(m)
+        e.SetDayComponent(d)
+
+    return back
+
+
+def _time_undo(e: Any) -> Callable[[], None]:
+    """What sets a local time back to its values of now."""
+    h = e.HourComponent()
+    mi = e.MinuteComponent() if e.HasMinuteComponent() else None
+    s = e.SecondComponent() if e.HasSecondComponent() else None
+
+    def back() -> None:
+        e.SetHourComponent(h)
+        if mi is not None:
+            e.SetMinuteComponent(mi)
+        if s is not None:
+            e.SetSecondComponent(s)
+
+    return back

@@ -308,20 +308,25 @@ def write_shape(
     status = sw.Transfer(shape, STEPControl_AsIs)
     if status != IFSelect_ReturnStatus.IFSelect_RetDone:
         raise RebuildError(f"the STEP writer refused the shape ({status.name})")
+    restore = None
     if products:
         _name_products(sw.Model(), Path(name).stem or "shape")
+        restore = settle_model(sw.Model())
     header = APIHeaderSection_MakeHeader(sw.Model())
     header.SetName(TCollection_HAsciiString(name))
     header.SetTimeStamp(TCollection_HAsciiString(STEP_TIME_STAMP))
     header.SetOriginatingSystem(TCollection_HAsciiString(system))
-    status = sw.Write(str(p))
+    try:
+        status = sw.Write(str(p))
+    finally:
+        if restore is not None:
+            restore()
     if status != IFSelect_ReturnStatus.IFSelect_RetDone:
         raise OutputError(f"cannot write STEP ({status.name})")
 
 
 def _name_products(model: Any, name: str) -> None:
-    """Name the PRODUCTs of a STEP model after ``name`` (``name``, ``name 2`` …)
-    and settle the rest (:func:`settle_model`)."""
+    """Name the PRODUCTs of a STEP model after ``name`` (``name``, ``name 2`` …)."""
     products = 0
     for i in range(1, model.NbEntities() + 1):
         e = model.Value(i)
@@ -330,7 +335,6 @@ def _name_products(model: Any, name: str) -> None:
             label = TCollection_HAsciiString(name if products == 1 else f"{name} {products}")
             e.SetName(label)
             e.SetId(label)
-    settle_model(model)
 
 
 def bintools_bytes(shape: Any) -> bytes:

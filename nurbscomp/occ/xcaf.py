@@ -606,15 +606,19 @@ def write(
         if not sw.Transfer(doc, STEPControl_AsIs):
             raise RebuildError("the STEP writer refused the product")
         model = sw.ChangeWriter().Model()
-        if schema == "AP203" or (p.kind == INSTANCE).any():  # dates, occurrences
-            settle_model(model)
+        restore = (  # dates, occurrences
+            settle_model(model) if schema == "AP203" or (p.kind == INSTANCE).any() else _nothing
+        )
         default = {
             "name": [name],
             "time_stamp": [STEP_TIME_STAMP],
             "originating_system": [system],
         }
         _set_header(model, {**default, **p.header})
-        status = sw.Write(str(path))
+        try:
+            status = sw.Write(str(path))
+        finally:
+            restore()
     if status != IFSelect_ReturnStatus.IFSelect_RetDone:
         # XDE's Transfer only collects; the shapes are translated on Write, so
         # a shape OCCT cannot write fails here (the folder was checked before)
@@ -691,6 +695,10 @@ def round_trip(src: str | os.PathLike[str], dst: str | os.PathLike[str]) -> None
         sw = STEPCAFControl_Writer()
         sw.Transfer(doc, STEPControl_AsIs)
         sw.Write(str(dst))
+
+
+def _nothing() -> None:
+    """Nothing to put back (a model :func:`settle_model` did not touch)."""
 
 
 def _r(x: float) -> float:
