@@ -38,7 +38,7 @@ class _Typed:
 
     def to_dict(self) -> dict[str, Any]:
         """The fields, nested reports as dicts, arrays as lists."""
-        return {f.name: _plain(_asdict(getattr(self, f.name))) for f in _fields(self)}
+        return {k: _plain(_asdict(getattr(self, k))) for k in self.keys()}
 
     def to_json(self, indent: int | None = 2) -> str:
         """:meth:`to_dict` as JSON text."""
@@ -51,17 +51,13 @@ class _Typed:
 
     def keys(self) -> list[str]:
         """The field names (with ``r[key]``: ``dict(r)``, ``{**r}``)."""
-        return [f.name for f in _fields(self)]
+        return [f.name for f in dataclasses.fields(self)]  # type: ignore[arg-type]
 
     @classmethod
     def from_dict(cls, r: dict[str, Any]) -> Any:
         """From the pipeline's report dict: the keys that are fields."""
         names = {f.name for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
         return cls(**{k: v for k, v in r.items() if k in names})
-
-
-def _fields(obj: Any) -> tuple[dataclasses.Field[Any], ...]:
-    return dataclasses.fields(obj)
 
 
 def _asdict(v: Any) -> Any:

@@ -430,8 +430,7 @@ class _Plan:
         made = {}
         for grid in (False, True):
             self.grid = grid
-            made[grid] = self._candidate()
-            cand, codes, _ = made[grid][0]
+            made[grid] = cand, codes, _ = self._candidate()
             tags = ("SURF", "CRV3", "VERT", "EDGE")
             secs = dict(writer.model_to_sections(cand, {"tolerance_mm": self.tol}, codes, tags))
             raw = b"".join(secs[t] for t in tags)
@@ -459,18 +458,13 @@ class _Plan:
         The first round's is the one :meth:`_grid_pays` made for the grid it
         chose, when nothing has changed since (the plan's state and grid)."""
         made, self._made = self._made, None
-        if made is not None and made[:2] == (self.state(), self.grid):
-            out, self.gridded, self.loose_v = made[2]
-            return out
-        out, self.gridded, self.loose_v = self._candidate()
+        fresh = made is None or made[:2] != (self.state(), self.grid)
+        out = self._candidate() if fresh else made[2]  # type: ignore[index]
+        self.gridded, self.loose_v = out[2].gridded, out[2].loose_v
         return out
 
-    def _candidate(
-        self,
-    ) -> tuple[
-        tuple[BRepModel, dict[Rec, Any], assembly.LossyReport], frozenset[Rec], frozenset[int]
-    ]:
-        """:meth:`candidate` made now, with its ``gridded`` and ``loose_v``."""
+    def _candidate(self) -> tuple[BRepModel, dict[Rec, Any], assembly.LossyReport]:
+        """:meth:`candidate` made now (``gridded`` and ``loose_v`` left as they are)."""
         target, codes, report = assembly.assemble(
             self.m, self.coded, self.exact, self.still_v, self.grid
         )
@@ -478,7 +472,7 @@ class _Plan:
         ranged = pcurves.vertex_ranges(
             pcurves.unit_curves(cand, self.knot_memo), self.tol, self.as_read_e, self.m.vertex_point
         )
-        return (ranged, codes, report), report.gridded, report.loose_v
+        return ranged, codes, report
 
     def with_leaders(self, recs: set[Rec | None]) -> set[Rec | None]:
         """``recs`` with the records their copies follow: a copied curve's leader

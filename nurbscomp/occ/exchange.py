@@ -4,7 +4,8 @@ give the same bytes."""
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import contextlib
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -45,6 +46,17 @@ def fix_iges_dates(model: Any) -> None:
     model.SetGlobalSection(gs)
 
 
+@contextlib.contextmanager
+def settled(model: Any) -> Iterator[None]:
+    """A STEP model settled (:func:`settle_model`) while the block writes it,
+    its dates and times put back after."""
+    restore = settle_model(model)
+    try:
+        yield
+    finally:
+        restore()
+
+
 def settle_model(model: Any) -> Callable[[], None]:
     """Make a STEP model's bytes depend on nothing but the shape: number its
     assembly occurrences 1, 2 … in entity order (OCCT's own ids count what
@@ -54,8 +66,9 @@ def settle_model(model: Any) -> Callable[[], None]:
 
     Returns what puts the dates and times back: OCCT's AP203 writer shares
     its date and time entities between all the files a process writes, so
-    call it once the file is written, or every AP203 file the process writes
-    afterwards, by OCCT or by its user, is dated 1970 too."""
+    call it once the file is written (:func:`settled` does), or every AP203
+    file the process writes afterwards, by OCCT or by its user, is dated 1970
+    too."""
     occurrences = 0
     year, month, day = (int(x) for x in STEP_TIME_STAMP[:10].split("-"))
     undo: list[Callable[[], None]] = []

@@ -44,6 +44,7 @@ from .exchange import (  # noqa: F401 (re-exported: they were defined here)
     check_readable,
     fix_iges_dates,
     settle_model,
+    settled,
 )
 
 # OCCT prints progress and statistics to stdout; the CLI owns stdout.
@@ -308,19 +309,14 @@ def write_shape(
     status = sw.Transfer(shape, STEPControl_AsIs)
     if status != IFSelect_ReturnStatus.IFSelect_RetDone:
         raise RebuildError(f"the STEP writer refused the shape ({status.name})")
-    restore = None
     if products:
         _name_products(sw.Model(), Path(name).stem or "shape")
-        restore = settle_model(sw.Model())
     header = APIHeaderSection_MakeHeader(sw.Model())
     header.SetName(TCollection_HAsciiString(name))
     header.SetTimeStamp(TCollection_HAsciiString(STEP_TIME_STAMP))
     header.SetOriginatingSystem(TCollection_HAsciiString(system))
-    try:
+    with settled(sw.Model()) if products else contextlib.nullcontext():
         status = sw.Write(str(p))
-    finally:
-        if restore is not None:
-            restore()
     if status != IFSelect_ReturnStatus.IFSelect_RetDone:
         raise OutputError(f"cannot write STEP ({status.name})")
 

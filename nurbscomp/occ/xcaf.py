@@ -66,7 +66,7 @@ from OCP.XCAFDoc import (
 from ..errors import OutputError, RebuildError
 from ..formats import sniff_format
 from ..product import HEADER_FIELDS, HIDDEN, INSTANCE, NAMED, PRODUCT, SUBSHAPE, ProductData
-from .exchange import STEP_TIME_STAMP, check_readable, fix_iges_dates, settle_model
+from .exchange import STEP_TIME_STAMP, check_readable, fix_iges_dates, settled
 from .measure import faces as faces_of
 from .mesh import face_meshes
 from .topology import _trsf, _trsf_rows
@@ -606,19 +606,15 @@ def write(
         if not sw.Transfer(doc, STEPControl_AsIs):
             raise RebuildError("the STEP writer refused the product")
         model = sw.ChangeWriter().Model()
-        restore = (  # dates, occurrences
-            settle_model(model) if schema == "AP203" or (p.kind == INSTANCE).any() else _nothing
-        )
         default = {
             "name": [name],
             "time_stamp": [STEP_TIME_STAMP],
             "originating_system": [system],
         }
         _set_header(model, {**default, **p.header})
-        try:
+        settle = schema == "AP203" or (p.kind == INSTANCE).any()  # dates, occurrences
+        with settled(model) if settle else contextlib.nullcontext():
             status = sw.Write(str(path))
-        finally:
-            restore()
     if status != IFSelect_ReturnStatus.IFSelect_RetDone:
         # XDE's Transfer only collects; the shapes are translated on Write, so
         # a shape OCCT cannot write fails here (the folder was checked before)
@@ -695,10 +691,6 @@ def round_trip(src: str | os.PathLike[str], dst: str | os.PathLike[str]) -> None
         sw = STEPCAFControl_Writer()
         sw.Transfer(doc, STEPControl_AsIs)
         sw.Write(str(dst))
-
-
-def _nothing() -> None:
-    """Nothing to put back (a model :func:`settle_model` did not touch)."""
 
 
 def _r(x: float) -> float:
