@@ -33,7 +33,7 @@ from ..model import (
 )
 from ..rules import joins
 from ..serialize import SWEPT
-from . import analytic
+from . import analytic, weights
 from .nets import TRIM_C, TRIM_S, Coded, feature_limit, first_rows, poles_of, resolve_row
 
 
@@ -346,10 +346,6 @@ class _Rows:
             self.table[i] = new
 
 
-def _moved(a: np.ndarray, b: np.ndarray) -> float:
-    return float(np.sqrt(((a - b) ** 2).sum(-1)).max())
-
-
 def _pin_surfaces(
     m: BRepModel, surfaces: list[Geometry], codes: dict[Rec, codec.NetCode], tol: float
 ) -> None:
@@ -364,7 +360,7 @@ def _pin_surfaces(
         assert isinstance(old, BSplineSurface) and isinstance(original, BSplineSurface)
         new = replace(old, poles=joins.pinned_corners(m, old, pins))
         code = codes.pop(recs[r])
-        codes[recs[r]] = replace(code, bound=max(code.bound, _moved(new.poles, original.poles)))
+        codes[recs[r]] = replace(code, bound=max(code.bound, weights.moved(new, original)))
         rows.replace(r, new)
 
 
@@ -387,13 +383,35 @@ def _copy_iso(
         if srec[r] not in codes:
             continue  # the surface is exact, and so is its boundary: the curve as it is
         assert isinstance(g, BSplineCurve)
-        poles = joins.boundary(surfaces[r].poles, side, bool(rev)).copy()  # type: ignore[union-attr]
-        new = replace(g, poles=poles)
+        lead = surfaces[r]
+        assert isinstance(lead, BSplineSurface)
+        poles = joins.boundary(lead.poles, side, bool(rev)).copy()
+        w = (
+            None
+            if lead.weights is None
+            else joins.boundary(lead.weights[..., None], side, bool(rev))
+        )
+        new, bound = _follow(g, poles, None if w is None else w[:, 0], coded.tol)
         ints = np.array([r, side, rev], np.int64)
-        bound = _moved(poles, g.poles)
         code = codec.NetCode(codec.Method.ISO, codec.Quant.TOL, 0, 0, ints, np.zeros(0), bound, 0.0)
         codes[crec[c]] = replace(code, first=poles[0].copy())
         rows.replace(c, new)
+
+
+def _follow(
+    g: BSplineCurve, poles: np.ndarray, w: np.ndarray | None, tol: float
+) -> tuple[BSplineCurve, float]:
+    """Curve ``g`` (the source's) with ``poles`` copied from what it follows, and
+    the weights of what it follows, ``w``, when they are ``g``'s rounded
+    (:mod:`.weights`) and leave it within its limit, so that the two stay one
+    curve; else its own weights.  With its certified bound."""
+    if w is not None and g.weights is not None and w.shape == g.weights.shape:
+        new = replace(g, poles=poles, weights=w.copy())
+        bound = weights.moved(new, g)
+        if bound <= feature_limit(g.poles, tol):
+            return new, bound
+    new = replace(g, poles=poles)
+    return new, weights.moved(new, g)
 
 
 def _join_sides(
@@ -411,7 +429,7 @@ def _join_sides(
         row = np.array([b, j, a, i, rev], np.int64)
         new = replace(old, poles=joins.joined_sides(old, surfaces[a], row))  # type: ignore[arg-type]
         code = codes.pop(recs[b])
-        codes[recs[b]] = replace(code, bound=max(code.bound, _moved(new.poles, original.poles)))
+        codes[recs[b]] = replace(code, bound=max(code.bound, weights.moved(new, original)))
         table.replace(b, new)
         rows.append(row)
     return np.array(rows, np.int64).reshape(-1, 5)
@@ -440,19 +458,20 @@ def _copy_twins(
         if crec[r] not in codes:
             continue  # the leader is exact: so is this curve, as it is
         assert isinstance(g, BSplineCurve)
-        lead = poles_of(curves[r])
-        poles = (lead[::-1] if rev else lead).copy()
+        leader = curves[r]
+        assert isinstance(leader, BSplineCurve)
+        poles = (leader.poles[::-1] if rev else leader.poles).copy()
         t = joins.copy_matrix(coded.where, c, r)
         if t is not None:  # the two edges sit in frames of their own
             poles = joins.placed(poles, t)
-        bound = _moved(poles, g.poles)
+        w = None if leader.weights is None else leader.weights[::-1] if rev else leader.weights
+        new, bound = _follow(g, poles, w, coded.tol)
         if bound > feature_limit(g.poles, coded.tol):
             continue
         ints = np.array([c - r, rev], np.int64)  # the leader as an offset from this row
         code = codec.NetCode(
             codec.Method.COPY, codec.Quant.TOL, 0, 0, ints, np.zeros(0), bound, 0.0
         )
-        new = replace(g, poles=poles)
         codes[crec[c]] = code
         rows.replace(c, new)
 
@@ -470,9 +489,8 @@ def _pin_curves(
         new = replace(old, poles=joins.pinned_poles(m, old, places))
         original = m.curves3d[c]
         assert isinstance(original, BSplineCurve)
-        moved = float(np.sqrt(((new.poles - original.poles) ** 2).sum(-1)).max())
         code = codes.pop(recs[c])
-        codes[recs[c]] = replace(code, bound=max(code.bound, moved))
+        codes[recs[c]] = replace(code, bound=max(code.bound, weights.moved(new, original)))
         rows.replace(c, new)
 
 

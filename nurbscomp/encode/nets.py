@@ -42,7 +42,7 @@ from ..model import (
 from ..rules import joins
 from ..rules.nets import net_abscissae, net_basis
 from ..serialize import SWEPT
-from . import coincide
+from . import coincide, weights
 
 
 def resolve_row(table: list[Geometry], i: int, through: tuple[Kind, ...]) -> int:
@@ -103,6 +103,9 @@ class Coded:
     vlead: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     #: records no code is within tol for (``codec.NoCodeError``): kept exact
     uncodable: set[Rec] = field(default_factory=set)
+    #: the precision rational rows' weights are rounded to (:func:`weights.file_bits`),
+    #: None: exact
+    wbits: int | None = None
 
 
 #: A coded net moves by at most this fraction of its size (:func:`feature_limit`).
@@ -138,12 +141,20 @@ def _code_one(
     paper: bool,
     origin: np.ndarray | None,
     limit: float,
+    wbits: int | None = None,
 ) -> tuple[codec.NetCode, Geometry]:
     """One record's code (:func:`codec.encode_net`) and the record as decoded.
 
     ``paper`` widens the surface search to every method of the paper (the
     caller's ``methods``); the paper's quantizer is never used: the format
-    reserves it (docs/format.md §2.4), so ``encode_net`` is never asked for it."""
+    reserves it (docs/format.md §2.4), so ``encode_net`` is never asked for it.
+
+    With ``wbits``, a rational record's weights are rounded to that precision
+    (:func:`weights.rounded`) where their term of the bound
+    (:func:`weights.weight_bound`) fits between the code's bound and
+    ``limit``: the poles are coded as they would be with exact weights, and the
+    code's bound is the sum.  Not under a D-map, whose basis holds the weights
+    (eq. 18)."""
     s, t = net_abscissae(g)
     basis = net_basis(g)
     code = codec.encode_net(
@@ -158,7 +169,13 @@ def _code_one(
         limit=limit,
     )
     net, _ = codec.decode_net(code, g.poles.shape, s, t, tol, origin, basis)
-    return replace(code, first=net.reshape(-1, net.shape[-1])[0]), replace(g, poles=net)
+    code = replace(code, first=net.reshape(-1, net.shape[-1])[0])
+    if wbits is not None and g.weights is not None and code.method != codec.Method.DMAP:
+        w = weights.rounded(g.weights, wbits)
+        wterm = weights.weight_bound(g, w)  # of the source's poles
+        if code.bound + wterm <= limit:
+            return replace(code, bound=code.bound + wterm), replace(g, poles=net, weights=w)
+    return code, replace(g, poles=net)
 
 
 def _code_table(
@@ -171,6 +188,7 @@ def _code_table(
     anchors: dict[Rec, np.ndarray] | None = None,
     limits: dict[Rec, float] | None = None,
     uncodable: set[Rec] | None = None,
+    wbits: int | None = None,
 ) -> dict[Rec, tuple[codec.NetCode, Geometry]]:
     """Code each distinct B-spline record of ``table`` (see :func:`code_model`);
     ``anchors`` maps records to :func:`joins.anchors` points, ``limits``
@@ -185,7 +203,7 @@ def _code_table(
         limit = feature_limit(g.poles, tol)
         limit = min(limit, (limits or {}).get(k, limit))
         try:
-            out[k] = _code_one(g, tol, methods, paper, at, limit)
+            out[k] = _code_one(g, tol, methods, paper, at, limit, wbits)
         except codec.NoCodeError:  # doubles too coarse for the steps here: exact
             if uncodable is not None:
                 uncodable.add(k)
@@ -220,7 +238,7 @@ def tighten(coded: Coded, m: BRepModel, recs: Iterable[Rec], level: int = 1) -> 
             floor = max(code.bound, coded.tol / 1024)
             limit = min(feature_limit(g.poles, coded.tol) / TIGHTER**level, floor)
             try:
-                done[k] = _code_one(g, coded.tol, methods, False, code.origin, limit)
+                done[k] = _code_one(g, coded.tol, methods, False, code.origin, limit, coded.wbits)
             except codec.NoCodeError:  # as tight as doubles allow here: the code it has
                 continue
             coded.fine.add(k)
@@ -247,7 +265,7 @@ def plain(coded: Coded, m: BRepModel, recs: Iterable[Rec]) -> set[Rec]:
         limit = feature_limit(g.poles, coded.tol) / TIGHTER ** coded.tight.get(k, 0)
         try:
             coded.surfaces[k] = _code_one(
-                g, coded.tol, codec.TIGHT_SEARCH, False, code.origin, limit
+                g, coded.tol, codec.TIGHT_SEARCH, False, code.origin, limit, coded.wbits
             )
         except codec.NoCodeError:
             continue
@@ -299,6 +317,14 @@ def code_model(
     # side needs joining there (joining would only move them off their other edges)
     on = _edges_by_surface(m)
     sides = {k: v for k, v in sides.items() if not on[k[0]] & on[v.leader[0]]}
+    keep_c = _offset_bases(m.curves3d, Table.CURVE3D, Kind.OFFSET_CURVE, TRIM_C)
+    candidates = {k for k, g in zip(crec, m.curves3d) if isinstance(g, BSplineCurve)}
+    crows = first_rows(candidates - keep_c)
+    wbits = weights.file_bits(
+        (g, feature_limit(g.poles, tol))
+        for table, rows in ((m.surfaces, srows0), (m.curves3d, crows))
+        for g in (cast(BSplineSurface | BSplineCurve, table[r]) for r in sorted(rows))
+    )
     searched = codec.SURFACE_METHODS if paper else codec.SURFACE_SEARCH
     uncodable: set[Rec] = set()
     surfaces = _code_table(
@@ -310,6 +336,7 @@ def code_model(
         paper,
         limits=_leader_limits(m.surfaces, srec, sides, tol),
         uncodable=uncodable,
+        wbits=wbits,
     )
     h = serialize.vertex_grid(tol)
     # vertices at one point (within TWIN_VERTEX) snap as one: to their first's grid point
@@ -329,9 +356,6 @@ def code_model(
                 for k, v in pins
             ):
                 surfaces.pop(srec[r], None)
-    keep_c = _offset_bases(m.curves3d, Table.CURVE3D, Kind.OFFSET_CURVE, TRIM_C)
-    candidates = {k for k, g in zip(crec, m.curves3d) if isinstance(g, BSplineCurve)}
-    crows = first_rows(candidates - keep_c)
     iso = coincide.iso_sources(m, crows, first_rows(surfaces))
     iso_recs = {crec[c]: src for c, src in iso.items()}
     where = joins.curve_placements(m)
@@ -354,7 +378,7 @@ def code_model(
             if code is not None and code.bound > need:
                 assert isinstance(sg, BSplineSurface)
                 try:
-                    surfaces[sk] = _code_one(sg, tol, searched, paper, code.origin, need)
+                    surfaces[sk] = _code_one(sg, tol, searched, paper, code.origin, need, wbits)
                 except codec.NoCodeError:
                     del surfaces[sk]
                     uncodable.add(sk)
@@ -371,6 +395,7 @@ def code_model(
             {crec[r]: a for r, a in at.items()},
             limits,
             uncodable,
+            wbits,
         ),
         tol,
         iso_recs,
@@ -380,6 +405,7 @@ def code_model(
         vlead=lead,
         sides={k: (lead_side, rev) for k, (lead_side, rev, _) in sides.items()},
         uncodable=uncodable,
+        wbits=wbits,
     )
     decoded = [coded.curves[k][1] if k in coded.curves else g for k, g in zip(crec, m.curves3d)]
     rows = {i for i, k in enumerate(crec) if k in coded.curves}
