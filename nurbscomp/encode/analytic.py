@@ -3,7 +3,7 @@
 A record's origin and lengths (radii, focal length; not a cone's semi-angle)
 are snapped to a grid of step 2^(g - 64), a power of two at most
 ``SHARE`` x tol, and at most ``FEATURE`` x the smallest length, so that a
-small fillet keeps its shape; its directions stay as they are.  Every point
+small fillet keeps its shape.  Every point
 of the surface or curve then moves by at most the origin's move plus the
 lengths' moves (a translation, then radii changed by that much: the
 certified bound, whatever the extent of the face or edge), which
@@ -12,17 +12,35 @@ edge and vertex tolerances are widened by it, and the validity ladder leaves
 the record exact where the moved record fails a check.  A grid shared by
 every record of a file (the world's axes) keeps coplanar and coaxial records
 that the source has equal equal.
+
+Directions are straightened (:func:`straighten`): a component within
+``NOISE`` of 0 (an axis-aligned frame written with 1e-13 of noise) is set to
+0, the bound coming from how far the record's points in use are from its
+origin (:func:`reaches`).
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import replace
 
 import numpy as np
 
-from ..model import Analytic, Geometry, Kind
+from ..model import (
+    EC,
+    Analytic,
+    BRepModel,
+    BSplineCurve,
+    Derived,
+    Geometry,
+    Kind,
+    RepKind,
+    ShapeType,
+)
+from ..rules import joins
 from ..serialize import GRID_LENGTHS, GRID_MAX, GRID_MIN, MAX_GRID_INT
+from ..serialize import SWEPT as SWEPT_KINDS
 
 #: The grid step is at most this share of tol.
 SHARE = 0.5
@@ -94,3 +112,182 @@ def quantize(
     # that moved (a tolerance of its own per edge costs EDGE more than the
     # grid saves); none for one already on it
     return out, grid_bound(out) if moved > 0 else 0.0
+
+
+# ------------------------------------------------------------ directions
+
+#: A direction's component at most this large is noise (the sine of an angle of
+#: 1e-10 rad or less to a coordinate plane): it is set to 0 (:func:`straighten`).
+NOISE = 1e-10
+#: ... where the record moves by at most this share of tol.
+STRAIGHT_SHARE = 1 / 64
+#: The kinds whose directions are straightened: every point's distance to the
+#: frame's origin is bounded (:func:`reaches`), and their frames are 3-D.
+STRAIGHT_KINDS = frozenset(
+    {
+        Kind.PLANE,
+        Kind.CYLINDER,
+        Kind.CONE,
+        Kind.SPHERE,
+        Kind.TORUS,
+        Kind.LINE,
+        Kind.CIRCLE,
+        Kind.ELLIPSE,
+    }
+)
+
+
+def straighten(g: Geometry, reach: float, tol: float) -> tuple[Analytic, float] | None:
+    """``g`` with the components of its directions (every frame row but the
+    origin) of magnitude at most ``NOISE`` set to 0 and each direction scaled
+    back to unit length, and the bound of that move; None where nothing
+    changes or the bound passes ``STRAIGHT_SHARE`` x tol.
+
+    A point of the record is o + Σ c_k d_k with |c_k| ≤ |p − o| (the d_k
+    orthonormal), so it moves by at most |p − o| · Σ |Δd_k| for fixed
+    parameters; OCCT rebuilds a frame's Y direction from its main and X
+    directions, which moves it by at most their two moves: twice the sum of
+    the stored rows' moves covers it.  ``reach`` bounds |p − o| over the
+    faces or edges the record bounds (:func:`reaches`)."""
+    if not isinstance(g, Analytic) or g.kind not in STRAIGHT_KINDS or g.frame.shape[1] != 3:
+        return None
+    d = g.frame[1:]
+    s = np.where(np.abs(d) <= NOISE, 0.0, d)
+    norm = np.sqrt((s**2).sum(-1, keepdims=True))
+    if not (norm > 0).all():
+        return None
+    s = np.where(norm == 1.0, s, s / norm)
+    if np.array_equal(s, d):
+        return None
+    bound = 2.0 * reach * float(np.sqrt(((s - d) ** 2).sum(-1)).sum())
+    if not bound <= STRAIGHT_SHARE * tol:
+        return None
+    frame = g.frame.copy()
+    frame[1:] = s + 0.0  # never -0.0
+    return replace(g, frame=frame), bound
+
+
+def _far_curve(g: Geometry, o: np.ndarray, t: np.ndarray, curves: list[Geometry]) -> float:
+    """The largest distance from ``o`` of a point of 3-D curve ``g`` over the
+    parameters ``t`` = (first, last) (inf where unknown)."""
+    if isinstance(g, Derived) and g.kind == Kind.TRIMMED_CURVE:
+        return _far_curve(curves[g.basis], o, t, curves)
+    if isinstance(g, BSplineCurve) and g.poles.shape[1] == 3:
+        return float(np.sqrt(((g.poles - o) ** 2).sum(-1)).max())  # in the poles' hull
+    if isinstance(g, Analytic) and g.frame.shape[1] == 3:
+        if g.kind == Kind.LINE:
+            ends = g.frame[0] + np.outer(t, g.frame[1])
+            return float(np.sqrt(((ends - o) ** 2).sum(-1)).max())
+        if g.kind in (Kind.CIRCLE, Kind.ELLIPSE):
+            return float(np.sqrt(((g.frame[0] - o) ** 2).sum()) + g.params[0])
+    return math.inf
+
+
+def _boundary_reach(
+    m: BRepModel,
+    s: int,
+    mat: Callable[[int], np.ndarray],
+    o: np.ndarray,
+    curve_of: dict[int, tuple[int, np.ndarray, int]],
+) -> float:
+    """The largest distance from ``o`` (homogeneous, in face shape ``s``'s own
+    frame) of a point of the face's boundary (inf where unknown)."""
+    tidx = m.type_index()
+    start, child, loc = m.child_start, m.child_shape, m.child_loc
+    far = 0.0
+    for i in range(start[s], start[s + 1]):
+        w = int(child[i])
+        if m.shape_type[w] != ShapeType.WIRE:
+            continue
+        for j in range(start[w], start[w + 1]):
+            e, k = int(child[j]), int(tidx[child[j]])
+            if m.shape_type[e] != ShapeType.EDGE:
+                continue
+            place = mat(int(loc[i])) @ mat(int(loc[j]))  # the edge in the face
+            hit = curve_of.get(k)
+            if hit is not None and hit[0] >= 0:  # o where the curve's points are
+                at = np.linalg.solve(place @ mat(hit[2]), o)[:3]
+                far = max(far, _far_curve(m.curves3d[hit[0]], at, hit[1], m.curves3d))
+            elif hit is not None and m.edge_flags[k] & 1:  # degenerated: its vertices
+                for a in range(start[e], start[e + 1]):
+                    v = int(child[a])
+                    at = np.linalg.solve(place @ mat(int(loc[a])), o)[:3]
+                    far = max(far, float(np.sqrt(((m.vertex_point[tidx[v]] - at) ** 2).sum())))
+            else:
+                return math.inf
+    return far
+
+
+def reaches(m: BRepModel) -> tuple[dict[int, float], dict[int, float]]:
+    """Per analytic surface row and 3-D curve row of ``m`` that
+    :func:`straighten` may move, a bound of |p − o| over its points in use (o
+    its origin): ``(surface rows, curve rows)``.
+
+    A circle's or ellipse's is its (major) radius.  A line's is the largest
+    |t| over the edge ranges that use it.  A surface's is three times the
+    largest distance from o of its faces' boundaries (each edge's 3-D curve:
+    a line's segment, a conic's circle around its centre, a B-spline's poles):
+    a plane face lies in the hull of its boundary; on a cylinder, cone, sphere
+    or torus a face's points are at most two radii further out than its
+    boundary's, and a radius there is at most the boundary's distance from o.
+    A face's edges are measured in its surface's frame (through the locations
+    of the face and of the curves; none may lie between the face and its
+    edges).  Rows used in any other way (a basis of a derived record, an edge
+    without a 3-D curve) are left out.
+    """
+    kinds = STRAIGHT_KINDS
+    used_s = {
+        g.basis for g in m.surfaces if isinstance(g, Derived) and g.kind != Kind.TRIMMED_SURFACE
+    }
+    used_c = {g.basis for g in m.surfaces if isinstance(g, Derived) and g.kind in SWEPT_KINDS}
+    lines: dict[int, float] = {}
+    for g in m.curves3d:
+        if isinstance(g, Derived) and g.kind == Kind.TRIMMED_CURVE:  # points of its basis
+            lines[g.basis] = max(lines.get(g.basis, 0.0), float(np.abs(g.params[:2]).max()))
+        elif isinstance(g, Derived):
+            used_c.add(g.basis)
+    reps = m.edge_reps
+    curve_of: dict[int, tuple[int, np.ndarray, int]] = {}
+    for q in np.flatnonzero(reps[:, EC.KIND] == RepKind.CURVE3D).tolist():
+        c, e = int(reps[q, EC.CURVE]), int(reps[q, EC.EDGE])
+        t = m.edge_rep_range[q]
+        curve_of[e] = (c, t, int(reps[q, EC.LOC]))
+        if c >= 0:  # a line's points are |t| from its origin, wherever it is placed
+            lines[c] = max(lines.get(c, 0.0), float(np.abs(t).max()))
+    curves: dict[int, float] = {}
+    for c, g in enumerate(m.curves3d):
+        if c in used_c or not isinstance(g, Analytic) or g.kind not in kinds:
+            continue
+        if g.kind == Kind.LINE:
+            if c in lines:
+                curves[c] = lines[c]
+        else:
+            curves[c] = float(g.params[0])
+    far_s: dict[int, float] = {}
+    mats: dict[int, np.ndarray] = {}
+
+    def mat(i: int) -> np.ndarray:
+        if i not in mats:
+            mats[i] = joins.location_matrix(m, i)
+        return mats[i]
+
+    for f, s in enumerate(np.flatnonzero(m.shape_type == ShapeType.FACE).tolist()):
+        r = int(m.face_surface[f])
+        base = m.surfaces[r]
+        if isinstance(base, Derived) and base.kind == Kind.TRIMMED_SURFACE:
+            r, base = base.basis, m.surfaces[base.basis]
+        if not isinstance(base, Analytic) or base.kind not in kinds or r in used_s:
+            continue
+        if base.kind == Kind.SPHERE:  # every point is one radius from the centre
+            far = float(base.params[0])
+        else:
+            far = 3.0 * _boundary_reach(
+                m,
+                s,
+                mat,
+                np.linalg.inv(mat(int(m.face_loc[f]))) @ np.r_[base.frame[0], 1.0],
+                curve_of,
+            )
+        far_s[r] = max(far_s.get(r, 0.0), far)
+    surfaces = {r: x for r, x in far_s.items() if math.isfinite(x)}
+    return surfaces, curves

@@ -10,6 +10,7 @@ edge and vertex tolerances widened by the coding error around them.
 from __future__ import annotations
 
 import collections
+import math
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -123,11 +124,14 @@ def assemble(
         exact = exact | more
     surfaces = swap(m.surfaces, srec, coded.surfaces)
     curves = swap(m.curves3d, crec, coded.curves)
-    snapped: dict[Rec, float] = {}
-    if grid:
-        at_vertex = frozenset(m.vertex_point.reshape(-1).tolist())
-        snapped = _snap_analytic(surfaces, srec, exact, coded.tol, at_vertex)
-        snapped.update(_snap_analytic(curves, crec, exact, coded.tol, at_vertex))
+    at_vertex = frozenset(m.vertex_point.reshape(-1).tolist()) if grid else None
+    if coded.reach is None:
+        coded.reach = analytic.reaches(m)
+    reach_s, reach_c = coded.reach
+    snapped, gridded = _snap_analytic(surfaces, srec, exact, coded.tol, at_vertex, reach_s)
+    curve_moves, curves_gridded = _snap_analytic(curves, crec, exact, coded.tol, at_vertex, reach_c)
+    snapped.update(curve_moves)
+    gridded |= curves_gridded
     m, moved_v, loose_v = _snap_vertices(m, coded, surfaces, curves, codes, exact, still)
     _pin_surfaces(m, surfaces, codes, coded.tol)
     side_joins = _join_sides(m, coded, surfaces, codes)
@@ -179,7 +183,7 @@ def assemble(
         sum(int(np.prod(poles_of(g).shape[:-1])) for k, g in zip(srec, surfaces) if k in codes),
         sum(c.bits for c in cc),
         sum(len(poles_of(g)) for k, g in zip(crec, curves) if k in codes),
-        frozenset(snapped),
+        frozenset(gridded),
         frozenset(np.flatnonzero(loose_v & (moved_v > 0)).tolist()),
     )
     return out, codes, report
@@ -190,27 +194,43 @@ def _snap_analytic(
     recs: list[Rec],
     exact: set[Rec | None],
     tol: float,
-    at_vertex: frozenset[float],
-) -> dict[Rec, float]:
-    """Put every analytic record of ``table`` but ``exact`` on its grid
-    (:func:`.analytic.quantize`), in place at every row of it; per record
-    moved, its bound.  An origin coordinate that is a vertex's coordinate,
-    bit for bit, stays as it is: the container holds that value anyway
-    (VERT), and its entropy coder finds the repeat (on featuretype at
-    0.01 mm, 413 of the 438 coordinates of line origins are; snapping them
-    cost 270 bytes)."""
+    at_vertex: frozenset[float] | None,
+    reach: dict[int, float],
+) -> tuple[dict[Rec, float], set[Rec]]:
+    """Straighten every analytic record of ``table`` but ``exact`` whose rows
+    all have a ``reach`` (:func:`.analytic.straighten`), and with
+    ``at_vertex`` put it on its grid (:func:`.analytic.quantize`), in place
+    at every row of it; per record moved, its bound (the sum), and the records
+    put on a grid.  Straightening alone does not make a record gridded (the
+    validity ladder's first rung takes gridded records off their grids;
+    straightened ones go exact only with their faces).  An origin
+    coordinate in ``at_vertex`` (a vertex's coordinate, bit for bit) stays
+    as it is: the container holds that value anyway (VERT), and its entropy
+    coder finds the repeat (on featuretype at 0.01 mm, 413 of the 438
+    coordinates of line origins are; snapping them cost 270 bytes)."""
     out: dict[Rec, float] = {}
+    gridded: set[Rec] = set()
     if tol <= 0:
-        return out
+        return out, gridded
     rows = _Rows(table)
+    far: dict[Rec, float] = {}
+    for i, k in enumerate(recs):
+        far[k] = max(far.get(k, 0.0), reach.get(i, math.inf))
     for i, k in enumerate(recs):
         if k.row != i or k in exact:
             continue
-        hit = analytic.quantize(table[i], tol, at_vertex)
+        g, bound = table[i], 0.0
+        line = analytic.straighten(g, far[k], tol) if math.isfinite(far[k]) else None
+        if line is not None:
+            g, bound = line
+        hit = None if at_vertex is None else analytic.quantize(g, tol, at_vertex)
         if hit is not None:
-            rows.replace(i, hit[0])
-            out[k] = hit[1]
-    return out
+            g, bound = hit[0], bound + hit[1]
+            gridded.add(k)
+        if g is not table[i]:
+            rows.replace(i, g)
+            out[k] = bound
+    return out, gridded
 
 
 #: Vertices on exact curves (lines, circles, B-splines kept exact) snap too:

@@ -106,6 +106,8 @@ class Coded:
     #: the precision rational rows' weights are rounded to (:func:`weights.file_bits`),
     #: None: exact
     wbits: int | None = None
+    #: the reaches of the source's analytic rows (:func:`analytic.reaches`), once made
+    reach: tuple[dict[int, float], dict[int, float]] | None = None
 
 
 #: A coded net moves by at most this fraction of its size (:func:`feature_limit`).
