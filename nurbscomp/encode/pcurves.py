@@ -9,6 +9,7 @@ on lines and circles as the rule "what the vertices give".
 from __future__ import annotations
 
 import collections
+import math
 from collections.abc import Set
 from dataclasses import replace
 from typing import Any
@@ -33,9 +34,10 @@ from ..model import (
     below,
     first_row,
 )
-from ..rules import joins
+from ..rules import joins, ranges
 from ..serialize import SWEPT
 from . import analytic
+from .assembly import MARGIN, round_up
 
 
 def drop_pcurves(m: BRepModel, keep_edges: set[int], keep_faces: set[int]) -> BRepModel:
@@ -352,3 +354,116 @@ def vertex_ranges(
     out: Any = replace(m)
     out.edge_rep_range = out_rng
     return out
+
+
+#: A stored 3-D range's end this close to its curve's own end (along the
+#: curve, as a fraction of tol) goes to that end (:func:`natural_ends`).
+RANGE_ROUND = 1 / 64
+
+
+def curve_speed(g: Geometry) -> float:
+    """An upper bound of |C'(t)| over 3-D curve ``g`` (inf where none is known):
+    a line's 1, a circle's radius, an ellipse's major radius; for a
+    non-rational, non-periodic B-spline the largest derivative control point
+    p·(P[i+1] − P[i]) / (t[i+p+1] − t[i+1]) (C' is the B-spline of those, and
+    lies in their hull)."""
+    if isinstance(g, Analytic) and g.frame.shape[1] == 3:
+        if g.kind == Kind.LINE:
+            return float(np.sqrt((g.frame[1] ** 2).sum()))
+        if g.kind in (Kind.CIRCLE, Kind.ELLIPSE):
+            return float(g.params[0])
+    if (
+        isinstance(g, BSplineCurve)
+        and g.weights is None
+        and not g.periodic
+        and g.poles.shape[1] == 3
+    ):
+        p = g.degree
+        n = len(g.poles)
+        t = np.repeat(np.array([0.0, 1.0]), n) if g.bezier else np.repeat(g.knots, g.mults)
+        if p < 1 or len(t) != n + p + 1:
+            return math.inf
+        span = t[p + 1 : n + p] - t[1:n]
+        d = np.sqrt((np.diff(g.poles, axis=0) ** 2).sum(-1))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            q = np.where(d > 0, p * d / span, 0.0)
+        return float(q.max(initial=0.0)) if np.isfinite(q).all() else math.inf
+    return math.inf
+
+
+def natural_ends(m: BRepModel, tol: float) -> BRepModel:
+    """``m`` with each stored 3-D range end that lies within
+    ``RANGE_ROUND``·tol (along the curve, :func:`curve_speed`) of its curve's
+    own end set to that end, and the edge's pcurve ranges that were the same
+    with it (where their curves reach that far); the edge's vertices get that
+    much more tolerance.  A CAD system often trims an edge 1e-7 of its length
+    short of its curve's end (trj7: 379 of 415 stored ranges): at the end, the
+    range is a rule and the curve's end is pinned to its vertex, which costs
+    less than two floats and an end coded apart."""
+    kinds = ranges.range_kinds(m)
+    reps = m.edge_reps
+    rng = m.edge_rep_range
+    out_rng = rng.copy()
+    shift = np.zeros(len(m.edge_tol))
+    stored = (reps[:, EC.KIND] == RepKind.CURVE3D) & (kinds == ranges.RANGE_STORED)
+    by_edge = collections.defaultdict(list)
+    for q in range(len(reps)):
+        by_edge[int(reps[q, EC.EDGE])].append(q)
+    for q in np.flatnonzero(stored).tolist():
+        e, c = int(reps[q, EC.EDGE]), int(reps[q, EC.CURVE])
+        if not 0 <= c < len(m.curves3d):
+            continue
+        g = m.curves3d[c]
+        nat, speed = ranges._natural_range(g), curve_speed(g)
+        if nat is None or not 0 < speed < math.inf:
+            continue
+        t = rng[q].copy()
+        near = (t != nat) & (np.abs(t - nat) * speed <= RANGE_ROUND * tol)
+        if not near.any():
+            continue
+        t[near] = np.array(nat)[near]
+        same = [p for p in by_edge[e] if p != q and np.array_equal(rng[p], rng[q])]
+        if not all(_reaches(m, p, t) for p in same):
+            continue
+        out_rng[q] = t
+        out_rng[same] = t
+        shift[e] = float(np.abs(t - rng[q]).max()) * speed
+    if not shift.any():
+        return m
+    out: Any = replace(m)
+    out.edge_rep_range = out_rng
+    tidx = m.type_index()
+    extra = np.zeros(len(m.vertex_tol))
+    for e, s in enumerate(np.flatnonzero(m.shape_type == ShapeType.EDGE).tolist()):
+        if shift[e] > 0:
+            for v in below(m, s, ShapeType.VERTEX):
+                extra[tidx[v]] = max(extra[tidx[v]], shift[e])
+    out.vertex_tol = np.where(extra > 0, round_up(m.vertex_tol + MARGIN * extra), m.vertex_tol)
+    return out
+
+
+def _reaches(m: BRepModel, q: int, t: np.ndarray) -> bool:
+    """Whether representation ``q``'s curve (a pcurve, or any) is defined over ``t``."""
+    kind, c = int(m.edge_reps[q, EC.KIND]), int(m.edge_reps[q, EC.CURVE])
+    if kind not in (RepKind.ON_SURFACE, RepKind.ON_CLOSED_SURFACE, RepKind.CURVE3D):
+        return False
+    table = m.curves3d if kind == RepKind.CURVE3D else m.curves2d
+    if not 0 <= c < len(table) or (
+        kind == RepKind.ON_CLOSED_SURFACE and m.edge_reps[q, EC.CURVE2] < 0
+    ):
+        return False
+    for i in (c, int(m.edge_reps[q, EC.CURVE2])) if kind == RepKind.ON_CLOSED_SURFACE else (c,):
+        g = table[i]
+        nat = ranges._natural_range(g)
+        if isinstance(g, BSplineCurve) and g.periodic:
+            continue
+        slack = REACH_SLACK * (nat[1] - nat[0]) if nat is not None else 0.0
+        if nat is not None and (t[0] < nat[0] - slack or t[1] > nat[1] + slack):
+            return False
+    return True
+
+
+#: A pcurve may be used this fraction of its own range past its ends (OCCT
+#: evaluates a B-spline past its ends by its end span; STEP files carry such
+#: pcurves, cut 1e-7 short like their edges' curves).
+REACH_SLACK = 1e-6

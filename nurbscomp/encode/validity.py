@@ -676,7 +676,7 @@ def _search(
     meanwhile: Meanwhile | None,
 ) -> Target:
     """The rounds and the fallbacks of :func:`lossy_target`."""
-    plan = _Plan(m, tol, source)
+    plan = _Plan(pcurves.natural_ends(m, tol), tol, source)
     old_e, old_f = occ.failures(source)
     cache = occ.PcurveCache()  # the candidates differ from round to round in a few records
     for _ in range(MAX_ROUNDS):
@@ -703,11 +703,13 @@ def _search(
         elif blamed:
             plan.step(blamed)
         else:  # split or merged with no face to blame: C0 knots stay exact
-            plan.make_exact(nets.kinked_records(m), "kinked")
+            plan.make_exact(nets.kinked_records(plan.m), "kinked")
         if plan.state() == before:
             break  # nothing left to try here: the fallbacks
     # coded geometry with every pcurve stored, if that passes
-    target, codes, report = assembly.assemble(m, plan.coded, plan.exact, plan.still_v, plan.grid)
+    target, codes, report = assembly.assemble(
+        plan.m, plan.coded, plan.exact, plan.still_v, plan.grid
+    )
     shape = build(target, cache)
     vr.rounds += 1
     new_e, new_f, blamed, early = _check(
