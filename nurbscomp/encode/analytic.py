@@ -194,7 +194,7 @@ def _boundary_reach(
     frame) of a point of the face's boundary (inf where unknown)."""
     tidx = m.type_index()
     start, child, loc = m.child_start, m.child_shape, m.child_loc
-    far = 0.0
+    far, seen = 0.0, False
     for i in range(start[s], start[s + 1]):
         w = int(child[i])
         if m.shape_type[w] != ShapeType.WIRE:
@@ -203,6 +203,7 @@ def _boundary_reach(
             e, k = int(child[j]), int(tidx[child[j]])
             if m.shape_type[e] != ShapeType.EDGE:
                 continue
+            seen = True
             place = mat(int(loc[i])) @ mat(int(loc[j]))  # the edge in the face
             hit = curve_of.get(k)
             if hit is not None and hit[0] >= 0:  # o where the curve's points are
@@ -215,7 +216,7 @@ def _boundary_reach(
                     far = max(far, float(np.sqrt(((m.vertex_point[tidx[v]] - at) ** 2).sum())))
             else:
                 return math.inf
-    return far
+    return far if seen else math.inf  # no boundary: nothing bounds the face
 
 
 def reaches(m: BRepModel) -> tuple[dict[int, float], dict[int, float]]:
@@ -236,16 +237,29 @@ def reaches(m: BRepModel) -> tuple[dict[int, float], dict[int, float]]:
     without a 3-D curve) are left out.
     """
     kinds = STRAIGHT_KINDS
-    used_s = {
-        g.basis for g in m.surfaces if isinstance(g, Derived) and g.kind != Kind.TRIMMED_SURFACE
-    }
-    used_c = {g.basis for g in m.surfaces if isinstance(g, Derived) and g.kind in SWEPT_KINDS}
+
+    def through_trims(table: list[Geometry], r: int, trim: Kind) -> list[int]:
+        out = [r]
+        while isinstance(table[out[-1]], Derived) and table[out[-1]].kind == trim:
+            nxt = table[out[-1]].basis  # type: ignore[union-attr]
+            if nxt in out or not 0 <= nxt < len(table):
+                break
+            out.append(nxt)
+        return out
+
+    used_s: set[int] = set()
+    used_c: set[int] = set()
     lines: dict[int, float] = {}
+    for g in m.surfaces:
+        if isinstance(g, Derived) and g.kind == Kind.OFFSET_SURFACE:
+            used_s.update(through_trims(m.surfaces, g.basis, Kind.TRIMMED_SURFACE))
+        elif isinstance(g, Derived) and g.kind in SWEPT_KINDS:
+            used_c.update(through_trims(m.curves3d, g.basis, Kind.TRIMMED_CURVE))
     for g in m.curves3d:
         if isinstance(g, Derived) and g.kind == Kind.TRIMMED_CURVE:  # points of its basis
             lines[g.basis] = max(lines.get(g.basis, 0.0), float(np.abs(g.params[:2]).max()))
         elif isinstance(g, Derived):
-            used_c.add(g.basis)
+            used_c.update(through_trims(m.curves3d, g.basis, Kind.TRIMMED_CURVE))
     reps = m.edge_reps
     curve_of: dict[int, tuple[int, np.ndarray, int]] = {}
     for q in np.flatnonzero(reps[:, EC.KIND] == RepKind.CURVE3D).tolist():
@@ -285,7 +299,7 @@ def reaches(m: BRepModel) -> tuple[dict[int, float], dict[int, float]]:
                 m,
                 s,
                 mat,
-                np.linalg.inv(mat(int(m.face_loc[f]))) @ np.r_[base.frame[0], 1.0],
+                mat(int(m.face_loc[f])) @ np.r_[base.frame[0], 1.0],  # o in the face's frame
                 curve_of,
             )
         far_s[r] = max(far_s.get(r, 0.0), far)

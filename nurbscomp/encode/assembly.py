@@ -378,9 +378,11 @@ def _pin_surfaces(
     ).items():
         old, original = surfaces[r], m.surfaces[r]
         assert isinstance(old, BSplineSurface) and isinstance(original, BSplineSurface)
-        new = replace(old, poles=joins.pinned_corners(m, old, pins))
+        new, moved = _certified(
+            replace(old, poles=joins.pinned_corners(m, old, pins)), original, tol
+        )
         code = codes.pop(recs[r])
-        codes[recs[r]] = replace(code, bound=max(code.bound, weights.moved(new, original)))
+        codes[recs[r]] = replace(code, bound=max(code.bound, moved))
         rows.replace(r, new)
 
 
@@ -418,6 +420,18 @@ def _copy_iso(
         rows.replace(c, new)
 
 
+def _certified(new: Any, original: Any, tol: float) -> tuple[Any, float]:
+    """``new`` (a row of ``original``, its poles moved) and its certified bound
+    (:func:`weights.moved`); with ``original``'s weights back where its rounded
+    ones would take it past its limit (a pin or a joined side moved its
+    poles further than its code did)."""
+    bound = weights.moved(new, original)
+    if bound > feature_limit(original.poles, tol) and original.weights is not None:
+        new = replace(new, weights=original.weights)
+        bound = weights.moved(new, original)
+    return new, bound
+
+
 def _follow(
     g: BSplineCurve, poles: np.ndarray, w: np.ndarray | None, tol: float
 ) -> tuple[BSplineCurve, float]:
@@ -447,9 +461,10 @@ def _join_sides(
             continue  # exact: its leader is exact too (see assemble)
         assert isinstance(old, BSplineSurface) and isinstance(original, BSplineSurface)
         row = np.array([b, j, a, i, rev], np.int64)
-        new = replace(old, poles=joins.joined_sides(old, surfaces[a], row))  # type: ignore[arg-type]
+        joined = replace(old, poles=joins.joined_sides(old, surfaces[a], row))  # type: ignore[arg-type]
+        new, moved = _certified(joined, original, coded.tol)
         code = codes.pop(recs[b])
-        codes[recs[b]] = replace(code, bound=max(code.bound, weights.moved(new, original)))
+        codes[recs[b]] = replace(code, bound=max(code.bound, moved))
         table.replace(b, new)
         rows.append(row)
     return np.array(rows, np.int64).reshape(-1, 5)
@@ -506,11 +521,13 @@ def _pin_curves(
     for c, places in pins.items():
         old = curves[c]
         assert isinstance(old, BSplineCurve)
-        new = replace(old, poles=joins.pinned_poles(m, old, places))
         original = m.curves3d[c]
         assert isinstance(original, BSplineCurve)
+        new, moved = _certified(
+            replace(old, poles=joins.pinned_poles(m, old, places)), original, tol
+        )
         code = codes.pop(recs[c])
-        codes[recs[c]] = replace(code, bound=max(code.bound, weights.moved(new, original)))
+        codes[recs[c]] = replace(code, bound=max(code.bound, moved))
         rows.replace(c, new)
 
 

@@ -423,8 +423,9 @@ def natural_ends(m: BRepModel, tol: float) -> BRepModel:
             continue
         t[near] = np.array(nat)[near]
         same = [p for p in by_edge[e] if p != q and np.array_equal(rng[p], rng[q])]
-        if not all(_reaches(m, p, t) for p in same):
-            continue
+        onsurf = [p for p in by_edge[e] if reps[p, EC.KIND] in PCURVE_KINDS]
+        if not set(onsurf) <= set(same) or not all(_reaches(m, p, t) for p in same):
+            continue  # every pcurve follows, or none moves (BRepCheck compares them)
         out_rng[q] = t
         out_rng[same] = t
         shift[e] = float(np.abs(t - rng[q]).max()) * speed
@@ -440,6 +441,9 @@ def natural_ends(m: BRepModel, tol: float) -> BRepModel:
                 extra[tidx[v]] = max(extra[tidx[v]], shift[e])
     out.vertex_tol = np.where(extra > 0, round_up(m.vertex_tol + MARGIN * extra), m.vertex_tol)
     return out
+
+
+PCURVE_KINDS = (RepKind.ON_SURFACE, RepKind.ON_CLOSED_SURFACE)
 
 
 def _reaches(m: BRepModel, q: int, t: np.ndarray) -> bool:

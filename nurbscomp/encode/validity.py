@@ -721,7 +721,11 @@ def _search(
         vr.pcurves_kept = len(m.face_surface)
         vr.tightened = plan.tightened()
         return Target(target, codes, report, shape, vr, 0, early)
-    everything: set[Rec | None] = {*plan.coded.surfaces, *plan.coded.curves}
+    # every record: coded ones, and analytic ones (straightened otherwise)
+    everything: set[Rec | None] = {
+        *records(m.surfaces, Table.SURFACE),
+        *records(m.curves3d, Table.CURVE3D),
+    }
     target, codes, report = assembly.assemble(m, plan.coded, everything, grid=False)
     vr.fallback = "exact"
     vr.exact_faces = {"fallback": sum(1 for x in report.face_method if x == "exact")}

@@ -84,7 +84,11 @@ def support_diameter(g: Net) -> float:
 def weight_bound(g: Net, w: np.ndarray | None) -> float:
     """How far the rational row ``g`` moves when its weights become ``w``, its
     poles unchanged: ε / (1 − ε) · D (module docstring)."""
-    if w is None or g.weights is None or np.array_equal(w, g.weights):
+    if g.weights is None and w is None:
+        return 0.0
+    if w is None or g.weights is None or w.shape != g.weights.shape:
+        return float("inf")  # rational to non-rational, or the other way: no bound here
+    if np.array_equal(w, g.weights):
         return 0.0
     eps = float(np.abs(w / g.weights - 1.0).max())
     if eps >= 0.5:
