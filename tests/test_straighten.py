@@ -100,3 +100,29 @@ def test_a_part_turned_by_noise_comes_back_on_its_axes(angle: float, straight: b
     if straight:  # the lossless container keeps the noise
         axes, total = _axes(nurbscomp.compress(part, lossless="brep"))
         assert axes < total
+
+
+def test_a_located_face_is_measured_in_its_own_frame() -> None:
+    """A plane placed 100 mm along x by its face's location, the face's
+    boundary 200 mm from where the placed plane's origin lands: the reach is at
+    least that distance (measuring from the unplaced origin gave 4.2)."""
+    from OCP.BRep import BRep_Builder
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeFace
+    from OCP.Geom import Geom_Plane
+    from OCP.gp import gp_Dir, gp_Pln, gp_Pnt, gp_Trsf, gp_Vec
+    from OCP.TopLoc import TopLoc_Location
+
+    from nurbscomp import occ
+
+    face = BRepBuilderAPI_MakeFace(
+        gp_Pln(gp_Pnt(0, 0, 0), gp_Dir(0, 0, 1)), -101.0, -99.0, -1.0, 1.0
+    ).Face()
+    move = gp_Trsf()
+    move.SetTranslation(gp_Vec(100, 0, 0))
+    plane = Geom_Plane(gp_Pnt(0, 0, 0), gp_Dir(0, 0, 1))
+    BRep_Builder().UpdateFace(face, plane, TopLoc_Location(move), 1e-7)
+    m, _ = occ.shape_to_model(face)
+    (row,) = [i for i in range(len(m.surfaces)) if m.face_surface[0] == i]
+    reach, _ = analytic.reaches(m)
+    true = math.hypot(201.0, 1.0)  # the boundary's far corner from the origin, placed
+    assert true <= reach[row] <= 3 * true
