@@ -41,6 +41,7 @@ from ..model import (
 from ..rules import joins
 from ..serialize import GRID_LENGTHS, GRID_MAX, GRID_MIN, MAX_GRID_INT
 from ..serialize import SWEPT as SWEPT_KINDS
+from .nets import resolve_row
 
 #: The grid step is at most this share of tol.
 SHARE = 0.5
@@ -238,28 +239,23 @@ def reaches(m: BRepModel) -> tuple[dict[int, float], dict[int, float]]:
     """
     kinds = STRAIGHT_KINDS
 
-    def through_trims(table: list[Geometry], r: int, trim: Kind) -> list[int]:
-        out = [r]
-        while isinstance(table[out[-1]], Derived) and table[out[-1]].kind == trim:
-            nxt = table[out[-1]].basis  # type: ignore[union-attr]
-            if nxt in out or not 0 <= nxt < len(table):
-                break
-            out.append(nxt)
-        return out
-
+    # the analytic rows under offsets and sweeps, through trims (an offset's
+    # basis may be an offset too)
+    under_s = (Kind.TRIMMED_SURFACE, Kind.OFFSET_SURFACE)
+    under_c = (Kind.TRIMMED_CURVE, Kind.OFFSET_CURVE)
     used_s: set[int] = set()
     used_c: set[int] = set()
     lines: dict[int, float] = {}
     for g in m.surfaces:
         if isinstance(g, Derived) and g.kind == Kind.OFFSET_SURFACE:
-            used_s.update(through_trims(m.surfaces, g.basis, Kind.TRIMMED_SURFACE))
+            used_s.add(resolve_row(m.surfaces, g.basis, under_s))
         elif isinstance(g, Derived) and g.kind in SWEPT_KINDS:
-            used_c.update(through_trims(m.curves3d, g.basis, Kind.TRIMMED_CURVE))
+            used_c.add(resolve_row(m.curves3d, g.basis, under_c))
     for g in m.curves3d:
         if isinstance(g, Derived) and g.kind == Kind.TRIMMED_CURVE:  # points of its basis
             lines[g.basis] = max(lines.get(g.basis, 0.0), float(np.abs(g.params[:2]).max()))
         elif isinstance(g, Derived):
-            used_c.update(through_trims(m.curves3d, g.basis, Kind.TRIMMED_CURVE))
+            used_c.add(resolve_row(m.curves3d, g.basis, under_c))
     reps = m.edge_reps
     curve_of: dict[int, tuple[int, np.ndarray, int]] = {}
     for q in np.flatnonzero(reps[:, EC.KIND] == RepKind.CURVE3D).tolist():
@@ -286,10 +282,8 @@ def reaches(m: BRepModel) -> tuple[dict[int, float], dict[int, float]]:
         return mats[i]
 
     for f, s in enumerate(np.flatnonzero(m.shape_type == ShapeType.FACE).tolist()):
-        r = int(m.face_surface[f])
+        r = resolve_row(m.surfaces, int(m.face_surface[f]), (Kind.TRIMMED_SURFACE,))
         base = m.surfaces[r]
-        if isinstance(base, Derived) and base.kind == Kind.TRIMMED_SURFACE:
-            r, base = base.basis, m.surfaces[base.basis]
         if not isinstance(base, Analytic) or base.kind not in kinds or r in used_s:
             continue
         if base.kind == Kind.SPHERE:  # every point is one radius from the centre

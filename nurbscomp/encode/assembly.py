@@ -438,14 +438,11 @@ def _follow(
     """Curve ``g`` (the source's) with ``poles`` copied from what it follows, and
     the weights of what it follows, ``w``, when they are ``g``'s rounded
     (:mod:`.weights`) and leave it within its limit, so that the two stay one
-    curve; else its own weights.  With its certified bound."""
-    if w is not None and g.weights is not None and w.shape == g.weights.shape:
-        new = replace(g, poles=poles, weights=w.copy())
-        bound = weights.moved(new, g)
-        if bound <= feature_limit(g.poles, tol):
-            return new, bound
+    curve; else its own weights (:func:`_certified`).  With its certified bound."""
     new = replace(g, poles=poles)
-    return new, weights.moved(new, g)
+    if w is not None and g.weights is not None and w.shape == g.weights.shape:
+        new = replace(new, weights=w.copy())
+    return _certified(new, g, tol)
 
 
 def _join_sides(

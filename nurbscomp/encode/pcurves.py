@@ -356,6 +356,8 @@ def vertex_ranges(
     return out
 
 
+PCURVE_KINDS = (RepKind.ON_SURFACE, RepKind.ON_CLOSED_SURFACE)
+
 #: A stored 3-D range's end this close to its curve's own end (along the
 #: curve, as a fraction of tol) goes to that end (:func:`natural_ends`).
 RANGE_ROUND = 1 / 64
@@ -414,7 +416,7 @@ def natural_ends(m: BRepModel, tol: float) -> BRepModel:
         if not 0 <= c < len(m.curves3d):
             continue
         g = m.curves3d[c]
-        nat, speed = ranges._natural_range(g), curve_speed(g)
+        nat, speed = ranges.natural_range(g), curve_speed(g)
         if nat is None or not 0 < speed < math.inf:
             continue
         t = rng[q].copy()
@@ -443,13 +445,10 @@ def natural_ends(m: BRepModel, tol: float) -> BRepModel:
     return out
 
 
-PCURVE_KINDS = (RepKind.ON_SURFACE, RepKind.ON_CLOSED_SURFACE)
-
-
 def _reaches(m: BRepModel, q: int, t: np.ndarray) -> bool:
     """Whether representation ``q``'s curve (a pcurve, or any) is defined over ``t``."""
     kind, c = int(m.edge_reps[q, EC.KIND]), int(m.edge_reps[q, EC.CURVE])
-    if kind not in (RepKind.ON_SURFACE, RepKind.ON_CLOSED_SURFACE, RepKind.CURVE3D):
+    if kind not in (*PCURVE_KINDS, RepKind.CURVE3D):
         return False
     table = m.curves3d if kind == RepKind.CURVE3D else m.curves2d
     if not 0 <= c < len(table) or (
@@ -458,7 +457,7 @@ def _reaches(m: BRepModel, q: int, t: np.ndarray) -> bool:
         return False
     for i in (c, int(m.edge_reps[q, EC.CURVE2])) if kind == RepKind.ON_CLOSED_SURFACE else (c,):
         g = table[i]
-        nat = ranges._natural_range(g)
+        nat = ranges.natural_range(g)
         if isinstance(g, BSplineCurve) and g.periodic:
             continue
         slack = REACH_SLACK * (nat[1] - nat[0]) if nat is not None else 0.0

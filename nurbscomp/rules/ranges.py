@@ -23,7 +23,7 @@ from ..serialize import (
 from . import joins
 
 
-def _natural_range(g: Geometry | None) -> tuple[float, float] | None:
+def natural_range(g: Geometry | None) -> tuple[float, float] | None:
     """The parameter range a curve record carries in itself, if any."""
     if isinstance(g, BSplineCurve):
         return (0.0, 1.0) if g.bezier else (float(g.knots[0]), float(g.knots[-1]))
@@ -70,7 +70,7 @@ def range_kinds(m: BRepModel) -> np.ndarray:
         if mine == [0, 0]:
             out[q] = RANGE_ZERO
             continue
-        nat = _natural_range(_curve_of(m, q))
+        nat = natural_range(_curve_of(m, q))
         if nat is not None and words(nat) == mine:
             out[q] = RANGE_NATURAL
             continue
@@ -85,7 +85,7 @@ def range_kinds(m: BRepModel) -> np.ndarray:
 def resolve_ranges(m: BRepModel, how: np.ndarray) -> None:
     """Fill the ranges :func:`range_kinds` left out (needs the curve tables)."""
     for q in np.flatnonzero(how == RANGE_NATURAL).tolist():
-        nat = _natural_range(_curve_of(m, q))
+        nat = natural_range(_curve_of(m, q))
         if nat is None:
             raise SectionError(f"EDGE: representation {q} has a curve without a range of its own")
         m.edge_rep_range[q] = nat
