@@ -11,7 +11,7 @@ import pytest
 
 from nurbscomp import text
 from nurbscomp.errors import CorruptError, FormatError, LimitError
-from nurbscomp.text import coding, step
+from nurbscomp.text import coding, numbers, step
 
 from .conftest import corpus_files
 from .fuzz_text import SNIPPETS, case, check, seeds
@@ -58,21 +58,52 @@ def test_numbers_keep_their_text():
     assert _round(data) == data
 
 
+def _header(streams: list[bytes]) -> dict[str, list[int]]:
+    """The varints of a version 4 payload's header, by field."""
+    vals, pos = [], 0
+    while pos < len(streams[0]):
+        v, pos = coding.read_varint(streams[0], pos)
+        vals.append(v)
+    nr, nn = vals[3], vals[4]
+    at = 5 + (nr + 1) + 2 * nr + 2 * nn
+    return {"version": vals[:1], "num_modes": vals[at : at + nn + 1], "counts": [nr, nn]}
+
+
+def _number_streams(streams: list[bytes], counts: list[int]) -> list[list[bytes]]:
+    """The number texts of each number stream of a version 4 payload, whether
+    it was coded as text or as numbers; ``counts``: numbers per stream."""
+    head = _header(streams)
+    nr, nn = head["counts"]
+    first = 10 + nr
+    residuals = iter(streams[first + nn + 1 :])
+    out = []
+    for s, mode in enumerate(head["num_modes"]):
+        raw = streams[first + s]
+        out.append(numbers.decode(raw, next(residuals), counts[s]) if mode else raw.split(b","))
+    return out
+
+
 def test_context_streams():
     """Coordinates of CARTESIAN_POINT go to three streams of their own (x, y, z)
     once each context has step.MIN_STREAM values, so the streams hold the
-    numbers' texts in file order."""
+    numbers in file order; x, on a line, is coded as numbers (second
+    differences all zero)."""
     n = step.MIN_STREAM + 100
     rows = [(i * 0.5, -i * 1.25, 7.0) for i in range(n)]
     data = b"ISO-10303-21;\nDATA;\n" + b"".join(
         b"#%d=CARTESIAN_POINT('',(" % (i + 10) + b",".join(repr(v).encode() for v in r) + b"));\n"
         for i, r in enumerate(rows)
     )
-    streams = coding.unpack(step.encode(data), 10 * len(data))
-    xs = b",".join(repr(r[0]).encode() for r in rows)
-    zs = b",".join(repr(r[2]).encode() for r in rows)
-    assert xs in streams and zs in streams
-    ids = step._read_int_stream(streams[4], n, "ids")
+    payload = step.encode(data)
+    assert payload is not None
+    streams = coding.unpack(payload, 10 * len(data))
+    head = _header(streams)
+    assert head["version"] == [step.VERSION] and head["counts"] == [0, 3]
+    got = _number_streams(streams, [2, n, n, n])  # stream 0: 10303 and -21 of the magic
+    for k in range(3):
+        assert got[k + 1] == [repr(r[k]).encode() for r in rows]
+    assert head["num_modes"][1] == 1
+    ids = coding.read_int_stream(streams[4], n, "ids")
     assert ids.tolist() == [9] + [0] * (n - 1)  # ids: #10, then +1 each
     assert streams[4] == bytes([1, 18]) + bytes(n - 1)  # one byte each, zigzag
 
@@ -89,15 +120,15 @@ def test_group_copies():
     data += b"#9=DIRECTION('',(1.5,2.,3.));\n#10=A('x',7);\n#11=A('y',7);\n"
     assert _round(data) == data
     streams = coding.unpack(step.encode(data), 10 * len(data))
-    copies = step._read_int_stream(streams[8], 9, "copies").tolist()
+    copies = coding.read_int_stream(streams[8], 9, "copies").tolist()
     assert copies == [0, 0, 0, 2, 2, 1, 0, 0, 1]  # the first: 10303 and -21 of the magic
     assert b"4.,4." not in b"".join(streams[9:])
-    ok = step._int_stream(np.array(copies))
+    ok = coding.int_stream(np.array(copies))
     assert ok == streams[8]
     bad_copies = (
-        step._int_stream(np.array([0, 0, 0, 3, 2, 1, 0, 0, 1])),
-        step._int_stream(np.array([0, 0, 0, 2, 2, 1, 0, 0, -1])),
-        step._int_stream(np.array([0, 0, 0, 2, 2, 1, 0, 0])),
+        coding.int_stream(np.array([0, 0, 0, 3, 2, 1, 0, 0, 1])),
+        coding.int_stream(np.array([0, 0, 0, 2, 2, 1, 0, 0, -1])),
+        coding.int_stream(np.array([0, 0, 0, 2, 2, 1, 0, 0])),
         bytes([3]) + ok[1:],
         ok + b"\x00",
     )
@@ -215,9 +246,10 @@ def test_statements():
             step.decode(coding.pack([*streams[:3], bad, *streams[4:]]), len(data))
 
 
-def test_version_2_still_decodes():
-    """A version 2 payload (the skeleton as one stream, integers as decimal
-    text) decodes as before."""
+def test_versions_2_and_3_still_decode():
+    """A version 3 payload (no number modes: every number stream is text) and
+    a version 2 payload (the skeleton as one stream, integers as decimal
+    text) decode as before."""
     data = SNIPPETS[0] * 3
     streams = coding.unpack(step.encode(data), 10 * len(data))
     head, pos = streams[0], 0
@@ -225,12 +257,16 @@ def test_version_2_still_decodes():
     for _ in range(5):  # version, size, crc, nr, nn
         v, pos = coding.read_varint(head, pos)
         fields.append(v)
-    assert fields[0] == 3
-    nr = fields[3]
+    assert fields[0] == 4
+    nr, nn = fields[3], fields[4]
+    assert head.endswith(bytes(nn + 1))  # a small file: every number stream is text
+    head = head[: -(nn + 1)]
+    v3 = [coding.varint(3) + head[1:], *streams[1:]]
+    assert step.decode(coding.pack(v3), len(data)) == data
 
     def text(raw: bytes) -> bytes:
         n = (len(raw) - 1) // raw[0] if raw else 0
-        return b",".join(b"%d" % v for v in step._read_int_stream(raw, n, "x").tolist())
+        return b",".join(b"%d" % v for v in coding.read_int_stream(raw, n, "x").tolist())
 
     v2 = [*streams]
     for i in [4, 5, 8, *range(9, 10 + nr)]:
@@ -246,12 +282,12 @@ def test_int_streams():
     """Version 3 integer streams: a width byte and zigzag byte planes, the
     narrowest width that holds them; empty for no values."""
     for vals in ([0], [1, -1, 2, -2], [300, -5], [2**40, -(2**40)], [2**62, -(2**62)]):
-        raw = step._int_stream(np.array(vals, dtype=np.int64))
-        assert step._read_int_stream(raw, len(vals), "x").tolist() == vals
-    assert step._int_stream(np.array([1, -1, 127])) == bytes([1, 2, 1, 254])
-    assert step._int_stream(np.array([128]))[0] == 2
-    assert step._int_stream(np.zeros(0, dtype=np.int64)) == b""
+        raw = coding.int_stream(np.array(vals, dtype=np.int64))
+        assert coding.read_int_stream(raw, len(vals), "x").tolist() == vals
+    assert coding.int_stream(np.array([1, -1, 127])) == bytes([1, 2, 1, 254])
+    assert coding.int_stream(np.array([128]))[0] == 2
+    assert coding.int_stream(np.zeros(0, dtype=np.int64)) == b""
     with pytest.raises(CorruptError):
-        step._read_int_stream(b"\x01\x00", 2, "x")
+        coding.read_int_stream(b"\x01\x00", 2, "x")
     with pytest.raises(CorruptError):
-        step._read_int_stream(b"", 1, "x")
+        coding.read_int_stream(b"", 1, "x")

@@ -62,13 +62,17 @@ import zlib
 
 import numpy as np
 
+from ..entropy import Coder
 from ..errors import CorruptError, FormatError, LimitError
-from . import coding
+from . import coding, numbers
 
 #: Payload version (the header's first varint): 3 stores the skeleton as
 #: statements (:func:`_statements`); 2, the skeleton whole, is still read.
-VERSION = 3
-_VERSIONS = (2, 3)
+VERSION = 4
+_VERSIONS = (2, 3, 4)
+#: Number streams of at least this many numbers are also tried as numbers
+#: (:mod:`.numbers`, version 4); the smaller coding is kept.
+NUMERIC_MIN = 64
 #: Placeholder bytes of the skeleton.
 ID, REF, NUM, STR, RAW = 1, 2, 3, 4, 5
 #: Ranks per entity name that get a context of their own (the last collects the rest).
@@ -239,36 +243,6 @@ def _ints(values: list[int]) -> bytes:
     return b",".join(b"%d" % v for v in values)
 
 
-def _int_stream(values: np.ndarray) -> bytes:
-    """Integers as a stream of version 3: nothing for none; else one byte
-    ``w`` (1, 2, 4 or 8), then each value zigzag-mapped (``2v`` for ``v`` ≥ 0,
-    ``-2v - 1`` below) as a ``w``-byte little-endian integer, one byte plane
-    after another (every value's lowest byte first).  On the corpus this
-    codes the reference, copy, id and length streams 9% smaller than decimal
-    text."""
-    if not len(values):
-        return b""
-    z = (values.astype(np.int64) << 1) ^ (values.astype(np.int64) >> 63)
-    top = int(z.astype(np.uint64).max())
-    w = 1 if top < 1 << 8 else 2 if top < 1 << 16 else 4 if top < 1 << 32 else 8
-    planes = z.astype(f"<u{w}").view(np.uint8).reshape(-1, w).T
-    return bytes([w]) + planes.tobytes()
-
-
-def _read_int_stream(raw: bytes, n: int, what: str) -> np.ndarray:
-    """Invert :func:`_int_stream` of ``n`` values."""
-    if n == 0:
-        if raw:
-            raise CorruptError(f"STEP model: {what} stream should be empty")
-        return np.zeros(0, dtype=np.int64)
-    w = raw[0] if raw else 0
-    if w not in (1, 2, 4, 8) or len(raw) != 1 + w * n:
-        raise CorruptError(f"STEP model: {what} stream does not hold {n} values")
-    planes = np.frombuffer(raw, np.uint8, offset=1).reshape(w, n)
-    z = np.ascontiguousarray(planes.T).view(f"<u{w}").ravel().astype(np.uint64)
-    return ((z >> np.uint64(1)).astype(np.int64)) ^ -((z & np.uint64(1)).astype(np.int64))
-
-
 def _read_ints(raw: bytes, n: int, what: str) -> np.ndarray:
     if n == 0:
         if raw:
@@ -358,7 +332,7 @@ def encode(data: bytes) -> bytes | None:
         sel = r_stream == s
         own = refs[sel] - owner[sel]
         chain = np.diff(np.r_[np.int64(0), refs[sel]])
-        a, b = _int_stream(own), _int_stream(chain)
+        a, b = coding.int_stream(own), coding.int_stream(chain)
         if _cost(b) < _cost(a):
             modes.append(1)
             ref_streams.append(b)
@@ -378,24 +352,51 @@ def encode(data: bytes) -> bytes | None:
     for s, t in zip(n_stream.tolist(), (t for t, f in zip(nums_t, fresh.tolist()) if f)):
         num_streams[s].append(t)
 
+    texts = [b",".join(x) for x in num_streams]
+    alts: dict[int, tuple[bytes, bytes]] = {}
+    for s, items in enumerate(num_streams):
+        pair = numbers.encode(items) if len(items) >= NUMERIC_MIN else None
+        if pair is not None:
+            alts[s] = pair
+    body = [
+        *_statements(table, index),
+        coding.int_stream(id_deltas),
+        coding.int_stream(np.asarray([len(t) for t in strs_t], dtype=np.int64)),
+        b"".join(strs_t),
+        b"".join(raws_t),
+        coding.int_stream(np.asarray(copy, dtype=np.int64)),
+        *ref_streams,
+        *texts,
+    ]
+    first = len(body) - len(texts)
+    extra = [x for s in sorted(alts) for x in alts[s]]
+    coded = coding.code(body + extra, brotli_budget=len(data) // BROTLI_SHARE)
+    alt_coded = dict(zip(sorted(alts), zip(coded[len(body) :: 2], coded[len(body) + 1 :: 2])))
+    num_modes: list[int] = []
+    residuals: list[tuple[Coder, bytes, bytes]] = []
+    for s in range(len(texts)):
+        alt = alt_coded.get(s)
+        if alt is not None and _stored(alt[0]) + _stored(alt[1]) < _stored(coded[first + s]):
+            num_modes.append(1)
+            coded[first + s] = alt[0]
+            residuals.append(alt[1])
+        else:
+            num_modes.append(0)
+
     head = [VERSION, len(data), zlib.crc32(data), len(r_map), len(n_map)]
     head += modes
     for cmap in (r_map, n_map):
         for k, s in cmap:
             head += [k, s]
+    head += num_modes
     header = b"".join(coding.varint(v) for v in head)
-    streams = [
-        header,
-        *_statements(table, index),
-        _int_stream(id_deltas),
-        _int_stream(np.asarray([len(t) for t in strs_t], dtype=np.int64)),
-        b"".join(strs_t),
-        b"".join(raws_t),
-        _int_stream(np.asarray(copy, dtype=np.int64)),
-        *ref_streams,
-        *(b",".join(x) for x in num_streams),
-    ]
-    return coding.pack(streams, brotli_budget=len(data) // BROTLI_SHARE)
+    return coding.pack_coded(coding.code([header]) + coded[: len(body)] + residuals)
+
+
+def _stored(c: tuple[object, bytes, bytes]) -> int:
+    """The bytes a coded stream takes in :func:`coding.pack_coded`'s layout,
+    less its two length varints (the smaller of payload and raw)."""
+    return min(len(c[1]), len(c[2]))
 
 
 def _units(skel: bytes) -> tuple[list[bytes], np.ndarray]:
@@ -555,13 +556,17 @@ def _decode(payload: bytes, limit: int) -> bytes:
         streams = [streams[0], b"".join(_pick(table, index)), *streams[4:]]
     else:
         table, index = _units(streams[1])
-    if len(streams) != 9 + nr + nn:
-        raise CorruptError(f"STEP model: {len(streams)} streams, header says {9 + nr + nn}")
     modes = [next_int() for _ in range(nr + 1)]
     if any(m > 1 for m in modes):
         raise CorruptError("STEP model: unknown reference mode")
     r_map = [(next_int(), next_int()) for _ in range(nr)]
     n_map = [(next_int(), next_int()) for _ in range(nn)]
+    num_modes = [next_int() for _ in range(nn + 1)] if version >= 4 else [0] * (nn + 1)
+    if any(m > 1 for m in num_modes):
+        raise CorruptError("STEP model: unknown number mode")
+    if len(streams) != 9 + nr + nn + sum(num_modes):
+        want = 9 + nr + nn + sum(num_modes)
+        raise CorruptError(f"STEP model: {len(streams)} streams, header says {want}")
     if pos != len(header):
         raise CorruptError("STEP model: bytes after the header")
     for cmap, count in ((r_map, nr), (n_map, nn)):
@@ -569,7 +574,8 @@ def _decode(payload: bytes, limit: int) -> bytes:
             raise CorruptError("STEP model: bad context map")
     skel, id_raw, slen_raw, str_raw, raw_raw, copy_raw = streams[1:7]
     ref_raw = streams[7 : 8 + nr]
-    num_raw = streams[8 + nr :]
+    num_raw = streams[8 + nr : 9 + nr + nn]
+    res_raw = iter(streams[9 + nr + nn :])
 
     arr = np.frombuffer(skel, dtype=np.uint8)
     ph_mask = (arr >= ID) & (arr <= RAW)
@@ -580,7 +586,7 @@ def _decode(payload: bytes, limit: int) -> bytes:
         raise CorruptError("STEP model: skeleton longer than the text")
 
     # ids
-    read = _read_int_stream if version >= 3 else _read_ints
+    read = coding.read_int_stream if version >= 3 else _read_ints
     ids = np.cumsum(read(id_raw, int(counts[ID]), "ids") + 1)
     id_t = [b"#%d" % v for v in ids.tolist()]
 
@@ -607,7 +613,10 @@ def _decode(payload: bytes, limit: int) -> bytes:
     per = np.bincount(n_stream, minlength=nn + 1) if len(n_stream) else np.zeros(nn + 1, int)
     pieces: list[bytes] = []
     for s in range(nn + 1):
-        pieces += _split_texts(num_raw[s], int(per[s]), "numbers")
+        if num_modes[s]:
+            pieces += numbers.decode(num_raw[s], next(res_raw), int(per[s]))
+        else:
+            pieces += _split_texts(num_raw[s], int(per[s]), "numbers")
     order = np.argsort(n_stream, kind="stable")
     inv = np.empty_like(order)
     inv[order] = np.arange(len(order))
