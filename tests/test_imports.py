@@ -30,7 +30,7 @@ LAYERS: list[tuple[str, set[str]]] = [
     ("format", {"container", "serialize", "serialize.limits", "serialize.geometry",
                 "serialize.topology", "serialize.vertices", "serialize.edges", "serialize.nets",
                 "serialize.meta", "serialize.sections", "text", "text.coding", "text.step",
-                "text.iges", "text.numbers",
+                "text.iges", "text.numbers", "text.columns",
                 "rules", "rules.nets", "rules.ranges", "writer"}),
     ("sides", {"decode", "encode", "encode.analytic", "encode.assembly", "encode.nets",
                "encode.pcurves", "encode.validity", "encode.coincide", "encode.weights",

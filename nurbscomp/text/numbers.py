@@ -59,7 +59,7 @@ import re
 import numpy as np
 
 from ..errors import CorruptError
-from . import coding
+from . import coding, columns
 
 #: Digits of a regular number on the stream's grid: ``|W| < 10**18 < 2**60``,
 #: so second differences stay within an int64.
@@ -300,7 +300,13 @@ def _read_format(raw: bytes, n: int) -> tuple[_Fields, int, int]:
 
 
 def decode(fmt: bytes, res: bytes, n: int) -> list[bytes]:
-    """The ``n`` number texts of :func:`encode`'s two streams.
+    """The ``n`` number texts of :func:`encode`'s two streams (raises as
+    :func:`decode_column`)."""
+    return decode_column(fmt, res, n).items()
+
+
+def decode_column(fmt: bytes, res: bytes, n: int) -> columns.Column:
+    """The ``n`` number texts of :func:`encode`'s two streams, as a column.
 
     Raises
     ------
@@ -323,7 +329,7 @@ def decode(fmt: bytes, res: bytes, n: int) -> list[bytes]:
     return _print(f, mant)
 
 
-def _print(f: _Fields, mant: np.ndarray) -> list[bytes]:
+def _print(f: _Fields, mant: np.ndarray) -> columns.Column:
     """The texts of values ``mant`` with formats ``f``, laid out in one byte
     buffer with numpy (sign, digits, point, exponent) and cut into numbers."""
     if (
@@ -350,22 +356,26 @@ def _print(f: _Fields, mant: np.ndarray) -> list[bytes]:
     buf[start[signed]] = np.where(
         mant[signed] < 0, ord("-"), np.where(f.sign[signed] == 1, ord("+"), ord("-"))
     )
-    # digits, left to right: digit k of a number of D digits is v // 10**(D-1-k) % 10
-    who = np.repeat(np.arange(n), ndig)
-    k = np.arange(len(who)) - np.repeat(np.cumsum(ndig) - ndig, ndig)
-    place = ndig[who] - 1 - k
-    digit = np.where(place < 20, v[who] // _UPOW[np.minimum(place, 19)] % np.uint64(10), 0)
-    at = start[who] + signed[who] + k + (point[who] & (k >= f.nint[who]))
-    buf[at] = digit.astype(np.uint8) + ord("0")
-    buf[(start + signed + f.nint)[point]] = ord(".")
-    # tails
-    tail_buf = np.frombuffer(b"".join(tails), np.uint8)
-    tail_at = np.cumsum([0, *map(len, tails)])[:-1]
-    who = np.repeat(np.arange(n), tail_len)
-    j = np.arange(len(who)) - np.repeat(np.cumsum(tail_len) - tail_len, tail_len)
-    buf[end[who] - tail_len[who] + j] = tail_buf[tail_at[tail_of[who]] + j]
-    text = buf.tobytes()
-    return [text[a:b] for a, b in zip(start.tolist(), end.tolist())]
+    # digits, by place from the right: one pass per place (at most MAX_DIGITS)
+    first = start + signed
+    q = v.copy()
+    for place in range(int(ndig.max()) if n else 0):
+        has = ndig > place
+        k = ndig - 1 - place  # the digit's position from the left
+        at = first + k + (point & (k >= f.nint))
+        digit = (q % np.uint64(10)).astype(np.uint8) + ord("0")
+        buf[at[has]] = digit[has]
+        q //= np.uint64(10)
+    buf[(first + f.nint)[point]] = ord(".")
+    # tails, by position within the tail
+    width = max(map(len, tails))
+    table = np.frombuffer(b"".join(t.ljust(width) for t in tails), np.uint8).reshape(
+        len(tails), width
+    )
+    for j in range(width):
+        has = tail_len > j
+        buf[(end - tail_len + j)[has]] = table[tail_of[has], j]
+    return columns.Column(buf.tobytes(), start, size)
 
 
 def _tail(ecode: int, magnitude: int) -> bytes:

@@ -64,7 +64,7 @@ import numpy as np
 
 from ..entropy import Coder
 from ..errors import CorruptError, FormatError, LimitError
-from . import coding, numbers
+from . import coding, columns, numbers
 
 #: Payload version (the header's first varint): 3 stores the skeleton as
 #: statements (:func:`_statements`); 2, the skeleton whole, is still read.
@@ -271,17 +271,6 @@ def _read_ints(raw: bytes, n: int, what: str) -> np.ndarray:
         raise CorruptError(f"STEP model: a {what} value is not an int64") from None
 
 
-def _split_texts(raw: bytes, n: int, what: str) -> list[bytes]:
-    if n == 0:
-        if raw:
-            raise CorruptError(f"STEP model: {what} stream should be empty")
-        return []
-    parts = raw.split(b",")
-    if len(parts) != n:
-        raise CorruptError(f"STEP model: {len(parts)} {what}, the skeleton has {n}")
-    return parts
-
-
 _ENTITY = re.compile(rb"#[0-9]++[ \t\r\n]*+=")
 
 
@@ -474,16 +463,16 @@ def _unit_names(table: list[bytes], index: np.ndarray) -> tuple[np.ndarray, np.n
 
 
 def _assemble(
-    table: list[bytes], index: np.ndarray, values: list[bytes], place: np.ndarray
+    table: list[bytes], index: np.ndarray, values: columns.Column, place: np.ndarray
 ) -> bytes:
     """The text: the statements picked by ``index``, the k-th placeholder
-    replaced by ``values[place[k]]``."""
-    pieces: list[bytes] = []
+    replaced by item ``place[k]`` of ``values``."""
+    parts: list[bytes] = []
     count = np.zeros(len(table), dtype=np.int64)
     for u, unit in enumerate(table):
-        parts = _PLACE.split(unit)
-        pieces += parts
-        count[u] = len(parts)  # one more than the unit's placeholders
+        cut = _PLACE.split(unit)
+        parts += cut
+        count[u] = len(cut)  # one more than the unit's placeholders
     first = np.cumsum(count) - count
     k = count[index]
     total = int(k.sum()) + len(place)
@@ -493,8 +482,9 @@ def _assemble(
     local = np.arange(total, dtype=np.int64) - np.repeat(np.cumsum(slots) - slots, slots)
     is_piece = local % 2 == 0
     piece = np.repeat(first[index], slots) + local // 2
-    value = place[np.maximum(np.cumsum(~is_piece) - 1, 0)] + len(pieces) if len(place) else piece
-    return b"".join(_pick(pieces + values, np.where(is_piece, piece, value)))
+    value = place[np.maximum(np.cumsum(~is_piece) - 1, 0)] + len(parts) if len(place) else piece
+    both = columns.concat([columns.of_items(parts), values])
+    return columns.join(columns.take(both, np.where(is_piece, piece, value)))
 
 
 def _index_width(n: int) -> int:
@@ -607,7 +597,7 @@ def _decode(payload: bytes, limit: int) -> bytes:
     # ids
     read = coding.read_int_stream if version >= 3 else _read_ints
     ids = np.cumsum(read(id_raw, int(counts[ID]), "ids") + 1)
-    id_t = [b"#%d" % v for v in ids.tolist()]
+    id_t = columns.ints(ids, b"#")
 
     # references
     named = _unit_names(table, index)
@@ -619,7 +609,7 @@ def _decode(payload: bytes, limit: int) -> bytes:
         sel = r_stream == s
         d = read(ref_raw[s], int(sel.sum()), "references")
         refs[sel] = (owner[sel] + d) if modes[s] == 0 else np.cumsum(d)
-    ref_t = [b"#%d" % v for v in refs.tolist()]
+    ref_t = columns.ints(refs, b"#")
 
     # numbers: the new groups' from the streams, the copies' from their source
     g_start, g_count = _groups(skel)
@@ -630,12 +620,14 @@ def _decode(payload: bytes, limit: int) -> bytes:
     fresh = np.repeat(copy == 0, g_count)
     n_stream = _apply_map(n_ctx[fresh], n_map)
     per = np.bincount(n_stream, minlength=nn + 1) if len(n_stream) else np.zeros(nn + 1, int)
-    pieces: list[bytes] = []
-    for s in range(nn + 1):
-        if num_modes[s]:
-            pieces += numbers.decode(num_raw[s], next(res_raw), int(per[s]))
-        else:
-            pieces += _split_texts(num_raw[s], int(per[s]), "numbers")
+    pieces = columns.concat(
+        [
+            numbers.decode_column(num_raw[s], next(res_raw), int(per[s]))
+            if num_modes[s]
+            else columns.split(num_raw[s], int(per[s]), "numbers")
+            for s in range(nn + 1)
+        ]
+    )
     order = np.argsort(n_stream, kind="stable")
     inv = np.empty_like(order)
     inv[order] = np.arange(len(order))
@@ -644,30 +636,26 @@ def _decode(payload: bytes, limit: int) -> bytes:
     fresh_rank = np.cumsum(fresh) - 1
     within = np.arange(len(fresh), dtype=np.int64) - np.repeat(g_start, g_count)
     source = np.repeat(g_start[src], g_count) + within
-    num_t = _pick(pieces, inv[fresh_rank[source]]) if len(source) else []
+    num_t = columns.take(pieces, inv[fresh_rank[source]] if len(source) else source)
 
     # strings and raw bytes
     slen = read(slen_raw, int(counts[STR]), "string lengths")
     if len(slen) and (slen.min() < 2 or int(slen.sum()) != len(str_raw)):
         raise CorruptError("STEP model: string lengths do not add up")
-    ends = np.cumsum(slen).tolist()
-    starts = [0, *ends[:-1]]
-    str_t = [str_raw[a:b] for a, b in zip(starts, ends)]
+    str_t = columns.Column(str_raw, np.cumsum(slen) - slen, slen)
     if len(raw_raw) != counts[RAW]:
         raise CorruptError("STEP model: raw bytes do not match the skeleton")
-    raw_t = [raw_raw[i : i + 1] for i in range(len(raw_raw))]
+    raw_t = columns.Column(raw_raw, np.arange(len(raw_raw)), np.ones(len(raw_raw), np.int64))
 
     # every placeholder's value, in skeleton order
-    by_kind: list[list[bytes]] = [[], id_t, ref_t, num_t, str_t, raw_t]
-    allv: list[bytes] = [v for lst in by_kind for v in lst]
+    allv = columns.concat([id_t, ref_t, num_t, str_t, raw_t])
     place = np.empty(n, dtype=np.int64)
     offset = 0
     for k in range(ID, RAW + 1):
         sel = kinds == k
         place[sel] = np.arange(offset, offset + int(counts[k]))
         offset += int(counts[k])
-    vlen = np.fromiter(map(len, allv), dtype=np.int64, count=len(allv))
-    total = len(skel) - n + int(vlen[place].sum())
+    total = len(skel) - n + int(allv.size[place].sum())
     if total != size:
         raise CorruptError(f"STEP model decodes to {total} bytes, header says {size}")
     out = _assemble(table, index, allv, place)

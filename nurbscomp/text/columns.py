@@ -1,0 +1,117 @@
+"""Columns of byte strings held as one buffer and offsets (issue 29's decoders).
+
+A text model's decoder makes hundreds of thousands of short values (ids,
+references, numbers) and lays them out between the pieces of a skeleton.
+Made one ``bytes`` object each and joined, they cost more than the rest of
+the decode; a :class:`Column` keeps them in one buffer with each item's start
+and size, so that printing, picking and joining are numpy operations.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from ..errors import CorruptError
+
+_UPOW = np.array([10**k for k in range(20)], dtype=np.uint64)
+
+
+class Column(NamedTuple):
+    """Items ``buf[start[i] : start[i] + size[i]]``."""
+
+    buf: bytes
+    start: np.ndarray
+    size: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.start)
+
+    def items(self) -> list[bytes]:
+        """The items as ``bytes`` objects."""
+        b = self.buf
+        return [b[a : a + n] for a, n in zip(self.start.tolist(), self.size.tolist())]
+
+
+def of_items(items: list[bytes]) -> Column:
+    """A column of ``items``."""
+    size = np.fromiter(map(len, items), np.int64, len(items))
+    return Column(b"".join(items), np.cumsum(size) - size, size)
+
+
+def split(buf: bytes, n: int, what: str, sep: int = ord(",")) -> Column:
+    """The ``n`` items of ``buf`` cut at ``sep`` (none for ``n`` = 0: an empty buffer).
+
+    Raises
+    ------
+    CorruptError
+        ``buf`` does not hold exactly ``n`` items.
+    """
+    if n == 0:
+        if buf:
+            raise CorruptError(f"{what} stream should be empty")
+        return Column(b"", np.zeros(0, np.int64), np.zeros(0, np.int64))
+    cuts = np.flatnonzero(np.frombuffer(buf, np.uint8) == sep)
+    if len(cuts) != n - 1:
+        raise CorruptError(f"{len(cuts) + 1} {what}, the skeleton has {n}")
+    start = np.r_[np.int64(0), cuts + 1]
+    end = np.r_[cuts, np.int64(len(buf))]
+    return Column(buf, start, end - start)
+
+
+def ints(values: np.ndarray, prefix: bytes) -> Column:
+    """``prefix`` and the decimal digits of each value (≥ 0, below 10**19).
+
+    Raises
+    ------
+    CorruptError
+        A negative value.
+    """
+    n = len(values)
+    if n and int(values.min()) < 0:
+        raise CorruptError("a negative entity number")
+    v = values.astype(np.uint64)
+    ndig = np.maximum(np.searchsorted(_UPOW, v, side="right"), 1).astype(np.int64)
+    p = len(prefix)
+    size = ndig + p
+    end = np.cumsum(size)
+    start = end - size
+    buf = np.empty(int(end[-1]) if n else 0, np.uint8)
+    for j, c in enumerate(prefix):
+        buf[start + j] = c
+    who = np.repeat(np.arange(n), ndig)
+    k = np.arange(len(who)) - np.repeat(np.cumsum(ndig) - ndig, ndig)
+    place = ndig[who] - 1 - k
+    buf[start[who] + p + k] = (v[who] // _UPOW[place] % np.uint64(10)).astype(np.uint8) + ord("0")
+    return Column(buf.tobytes(), start, size)
+
+
+def concat(cols: list[Column]) -> Column:
+    """The items of ``cols``, one column after the other."""
+    offsets = np.cumsum([0, *(len(c.buf) for c in cols)])
+    return Column(
+        b"".join(c.buf for c in cols),
+        np.concatenate(
+            [c.start + o for c, o in zip(cols, offsets.tolist())] or [np.zeros(0, np.int64)]
+        ),
+        np.concatenate([c.size for c in cols] or [np.zeros(0, np.int64)]),
+    )
+
+
+def take(col: Column, index: np.ndarray) -> Column:
+    """The items ``index`` of ``col``, in that order."""
+    return Column(col.buf, col.start[index], col.size[index])
+
+
+def join(col: Column) -> bytes:
+    """The items of ``col`` one after the other, as one ``bytes``."""
+    size = col.size
+    total = int(size.sum())
+    if not total:
+        return b""
+    # int32 offsets where they fit: a fifth faster than int64 on a 1 MB text
+    kind = np.int32 if max(total, len(col.buf)) < 1 << 31 else np.int64
+    at = np.repeat((col.start - (np.cumsum(size) - size)).astype(kind), size)
+    at += np.arange(total, dtype=kind)
+    return np.frombuffer(col.buf, np.uint8)[at].tobytes()
