@@ -163,13 +163,23 @@ def code(
     coders: tuple[Coder, ...] = tuple(Coder),
     quick: bool = False,
     brotli_budget: int | None = None,
+    binary: frozenset[int] = frozenset(),
 ) -> list[tuple[Coder, bytes, bytes]]:
     """What :func:`pack` lays out: (coder, raw, payload) per stream, coded
-    in a pool of threads when there is enough to code."""
-    trial = set() if quick else brotli_set(streams, brotli_budget)
+    in a pool of threads when there is enough to code.  The streams numbered
+    in ``binary`` get one trial only, LZMA2 with no literal context bits
+    (byte planes of integers: a trial costs a millisecond even on a small
+    stream)."""
+    trial = (
+        set()
+        if quick
+        else brotli_set([b"" if i in binary else s for i, s in enumerate(streams)], brotli_budget)
+    )
 
     def one(i: int) -> tuple[Coder, bytes]:
         s = streams[i]
+        if i in binary and s:
+            return (Coder.LZMA, _lzma(s, 0, 0, 0))
         if quick and s:
             return (Coder.LZMA, quick_lzma(s))
         return _smallest(s, coders, i in trial)

@@ -44,7 +44,7 @@ from bisect import bisect_right
 import numpy as np
 
 from ..errors import CorruptError, FormatError, LimitError, TruncatedError
-from . import coding
+from . import coding, columns
 
 #: Payload version: 2 adds the second-difference pole predictor (lane flag 2);
 #: 1 is still read.
@@ -684,9 +684,8 @@ def _numbers_decode(streams: list[bytes], pd: int, ph: int, version: int) -> byt
     if len(fids) % 2 or len(zres) % 8:
         raise CorruptError("IGES model: number streams have the wrong size")
     n = len(fids) // 2
-    hole = bytes([ph])
-    parts = skel.split(hole)
-    if len(parts) != n + 1:
+    holes_at = np.flatnonzero(np.frombuffer(skel, np.uint8) == ph)
+    if len(holes_at) != n:
         raise CorruptError("IGES model: number count does not match the skeleton")
     if not n:
         return skel
@@ -752,16 +751,26 @@ def _numbers_decode(streams: list[bytes], pd: int, ph: int, version: int) -> byt
         mat = (a[:, None] // p10[None, :]) % np.uint64(10)
         take = np.arange(LANE_DIGITS)[None, :] >= (LANE_DIGITS - w)[:, None]
         out[pslot] = (mat[take] + np.uint64(48)).astype(np.uint8)
-    texts = np.frombuffer(b"\x00".join([fmts[i] for i in ids.tolist()]), np.uint8).copy()
+    # the numbers' texts: their formats one after the other, digits in the slots
+    words = columns.take(columns.of_items(fmts), ids)
+    texts = np.frombuffer(columns.join(words), np.uint8).copy()
     holes = texts == _SLOT
     if int(holes.sum()) != slots:
         raise CorruptError("IGES model: digit slots do not match")
     texts[holes] = out
-    words = texts.tobytes().split(b"\x00")
-    joined: list[bytes] = [b""] * (2 * n + 1)
-    joined[0::2] = parts
-    joined[1::2] = words
-    return b"".join(joined)
+    # the skeleton's pieces between the holes, and the numbers, interleaved
+    cut_start = np.r_[np.int64(0), holes_at + 1]
+    cut_end = np.r_[holes_at, np.int64(len(skel))]
+    both = columns.concat(
+        [
+            columns.Column(skel, cut_start, cut_end - cut_start),
+            columns.Column(texts.tobytes(), np.cumsum(words.size) - words.size, words.size),
+        ]
+    )
+    order = np.empty(2 * n + 1, np.int64)
+    order[0::2] = np.arange(n + 1)
+    order[1::2] = np.arange(n + 1, 2 * n + 1)
+    return columns.join(columns.take(both, order))
 
 
 # ---------------------------------------------------------------- decode

@@ -364,7 +364,11 @@ def encode(data: bytes) -> bytes | None:
     ]
     first = len(body) - len(texts)
     extra = [x for s in sorted(alts) for x in alts[s]]
-    coded = coding.code(body + extra, brotli_budget=len(data) // BROTLI_SHARE)
+    coded = coding.code(
+        body + extra,
+        brotli_budget=len(data) // BROTLI_SHARE,
+        binary=frozenset(range(len(body), len(body) + len(extra))),
+    )
     alt_coded = dict(zip(sorted(alts), zip(coded[len(body) :: 2], coded[len(body) + 1 :: 2])))
     num_modes: list[int] = []
     residuals: list[tuple[Coder, bytes, bytes]] = []
@@ -384,7 +388,8 @@ def encode(data: bytes) -> bytes | None:
             head += [k, s]
     head += num_modes
     header = b"".join(coding.varint(v) for v in head)
-    return coding.pack_coded(coding.code([header]) + coded[: len(body)] + residuals)
+    head_coded = coding.code([header], (Coder.LZMA,), binary=frozenset({0}))
+    return coding.pack_coded(head_coded + coded[: len(body)] + residuals)
 
 
 def _worth_trying(text: bytes, pair: tuple[bytes, bytes]) -> bool:
