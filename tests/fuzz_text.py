@@ -74,9 +74,31 @@ SNIPPETS: list[bytes] = [
 ]
 
 
+def _smooth_points(n: int = 1050) -> bytes:
+    """A STEP file of ``n`` poles along a smooth curve, 13 significant digits,
+    with noise-sized numbers near zero among them: each coordinate gets a
+    stream of its own (``step.MIN_STREAM``) coded as numbers
+    (``text.numbers``), so mutations reach that decoder."""
+    import math
+
+    rows = []
+    for i in range(n):
+        t = i / n
+        xyz = (
+            40 + 25 * math.sin(3 * t),
+            -7.5 + 12 * t * t,
+            1e-14 * math.cos(40 * t) if i % 9 else 0,
+        )
+        rows.append(
+            b"#%d=CARTESIAN_POINT('',(%s));\n" % (i + 1, b",".join(b"%.13G" % v for v in xyz))
+        )
+    return b"ISO-10303-21;\nDATA;\n" + b"".join(rows) + b"ENDSEC;\nEND-ISO-10303-21;\n"
+
+
 def seeds() -> list[tuple[str, bytes]]:
-    """(format, bytes) of every seed: the snippets and the corpus pieces."""
-    out = [("STEP", s) for s in SNIPPETS]
+    """(format, bytes) of every seed: the snippets, a file of smooth poles
+    and the corpus pieces."""
+    out = [("STEP", s) for s in SNIPPETS] + [("STEP", _smooth_points())]
     if CORPUS.is_dir():
         for p in sorted(CORPUS.iterdir()):
             suffix = p.suffix.lower()
