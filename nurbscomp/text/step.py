@@ -49,8 +49,14 @@ instead of giving wrong bytes.  The layout is written out in
 docs/text-model.md, section "STEP".
 
 Decoding is bulk work: placeholders are found with numpy, the contexts with one
-``re.finditer`` over the entity names, and the text is joined with one
-``bytes.join``; nothing loops over characters in Python.
+``re.finditer`` over the entity names, and the values are laid out as
+:mod:`.columns` (one buffer and offsets: ids and references printed with numpy,
+number streams cut at their commas) and joined with the skeleton's pieces by
+one gather; nothing loops over values or characters in Python.
+
+Number streams may also be coded as numbers (:mod:`.numbers`, version 4):
+their values predicted from the previous ones, kept where that packs smaller
+than the text.
 """
 
 from __future__ import annotations
@@ -110,7 +116,6 @@ NAME = re.compile(rb"(?<![A-Za-z0-9_])[A-Za-z_][A-Za-z0-9_]*+(?=[ \t\r\n]*+\()")
 _NAME_SPLIT = re.compile(rb"(?<![A-Za-z0-9_])([A-Za-z_][A-Za-z0-9_]*+)(?=[ \t\r\n]*+\()")
 #: Where the skeleton is cut into *statements* (version 3): after each ``;``.
 _STATEMENT = re.compile(rb"(?<=;)")
-_PLACE = re.compile(rb"[\x01-\x05]")
 _PH = [b"", b"\x01", b"\x02", b"\x03", b"\x04", b"\x05"]
 
 
@@ -439,17 +444,18 @@ def _unit_names(table: list[bytes], index: np.ndarray) -> tuple[np.ndarray, np.n
     distinct statement once (a name never crosses a statement: each ends
     with ``;``)."""
     lens = np.fromiter(map(len, table), dtype=np.int64, count=len(table))
-    pos: list[int] = []
-    local: list[int] = []
-    count = np.zeros(len(table), dtype=np.int64)
+    # one pass over the statements joined (a name's look-behind sees the
+    # previous statement's closing ";", as it would see nothing alone)
     seen: dict[bytes, int] = {}
-    for u, unit in enumerate(table):
-        parts = _NAME_SPLIT.split(unit)
-        if len(parts) > 1:
-            ends = np.cumsum(np.fromiter(map(len, parts), dtype=np.int64, count=len(parts)))
-            pos += ends[0:-1:2].tolist()
-            local += [seen.setdefault(m, len(seen)) for m in parts[1::2]]
-            count[u] = len(parts) // 2
+    found = [
+        (m.start(), seen.setdefault(m.group(), len(seen))) for m in NAME.finditer(b"".join(table))
+    ]
+    at_all = np.asarray([a for a, _ in found], dtype=np.int64)
+    unit_start = np.cumsum(lens) - lens
+    owner = np.searchsorted(unit_start + lens, at_all, side="right")
+    count = np.bincount(owner, minlength=len(table)).astype(np.int64)
+    pos = (at_all - unit_start[owner]).tolist()
+    local = [v for _, v in found]
     if not len(index) or not pos:
         return np.zeros(0, dtype=np.int64), np.zeros(1, dtype=np.int64)
     first = np.cumsum(count) - count
@@ -472,12 +478,19 @@ def _assemble(
 ) -> bytes:
     """The text: the statements picked by ``index``, the k-th placeholder
     replaced by item ``place[k]`` of ``values``."""
-    parts: list[bytes] = []
-    count = np.zeros(len(table), dtype=np.int64)
-    for u, unit in enumerate(table):
-        cut = _PLACE.split(unit)
-        parts += cut
-        count[u] = len(cut)  # one more than the unit's placeholders
+    # the statements' pieces between placeholders, found in them joined
+    joined = b"".join(table)
+    arr = np.frombuffer(joined, np.uint8)
+    holes = np.flatnonzero((arr >= ID) & (arr <= RAW))
+    lens = np.fromiter(map(len, table), dtype=np.int64, count=len(table))
+    unit_end = np.cumsum(lens)
+    unit_start = unit_end - lens
+    count = np.searchsorted(holes, unit_end) - np.searchsorted(holes, unit_start) + 1
+    # pieces in order: each statement's start and every hole's end open one,
+    # every hole and each statement's end close one
+    p_start = np.sort(np.r_[unit_start, holes + 1])
+    p_end = np.sort(np.r_[holes, unit_end])
+    parts = columns.Column(joined, p_start, p_end - p_start)
     first = np.cumsum(count) - count
     k = count[index]
     total = int(k.sum()) + len(place)
@@ -488,7 +501,7 @@ def _assemble(
     is_piece = local % 2 == 0
     piece = np.repeat(first[index], slots) + local // 2
     value = place[np.maximum(np.cumsum(~is_piece) - 1, 0)] + len(parts) if len(place) else piece
-    both = columns.concat([columns.of_items(parts), values])
+    both = columns.concat([parts, values])
     return columns.join(columns.take(both, np.where(is_piece, piece, value)))
 
 
