@@ -2,14 +2,17 @@
 
 from __future__ import annotations
 
+import hashlib
 import lzma
 import random
+from pathlib import Path
 
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from nurbscomp import text
 from nurbscomp.errors import CorruptError
 from nurbscomp.text import coding, numbers
 
@@ -170,3 +173,23 @@ def test_damaged_streams_raise_format_errors():
         assert len(out) == len(texts)
     with pytest.raises(CorruptError):
         numbers.decode(fmt, res, len(texts) + 1)
+
+
+#: A STEP model payload of version 4 written on 2026-12-03 by ``text.encode``
+#: of ``tests.fuzz_text._smooth_points()`` (1,050 poles; x, y and z coded as
+#: numbers): the text it must give back, forever.
+GOLDEN = Path(__file__).resolve().parent / "golden" / "text" / "poles.step.v4.blob"
+GOLDEN_SHA256 = "94c221e059d0c07c37e17052a9ca30af3b429af35b6df6439f6b6401f3832502"
+
+
+def test_a_version_4_payload_still_decodes():
+    blob = GOLDEN.read_bytes()
+    assert blob[0] == text.STEP
+    streams = coding.unpack(blob[1:], 10**6)
+    head, pos = [], 0
+    while pos < len(streams[0]):
+        v, pos = coding.read_varint(streams[0], pos)
+        head.append(v)
+    assert head[0] == 4 and head[-3:] == [1, 1, 1]  # x, y, z as numbers
+    out = text.decode(blob, 79524)
+    assert hashlib.sha256(out).hexdigest() == GOLDEN_SHA256
