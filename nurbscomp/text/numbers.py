@@ -24,8 +24,9 @@ other number (finer than the grid, or too long for it) is an *exception*: its
 ``M`` less the value of the last regular number before it, rounded to the
 exception's own scale (see :func:`_exception_prediction`).  Which numbers are
 regular follows from the formats alone, so the decoder knows it before it
-reads a residual, and nothing loops over the numbers in Python but the
-parsing of the encoder and the printing of the decoder.
+reads a residual.  Nothing loops over the numbers in Python: the encoder
+parses a stream with one regular expression and numpy, and the decoder
+prints it place by place into one buffer (a :class:`.columns.Column`).
 
 Streams (each through :func:`nurbscomp.text.coding.pack` on its own):
 
