@@ -1,0 +1,53 @@
+"""Vertices that stay off the vertex grid are rounded to a fine binary grid
+(issue 28 §2; encode.assembly._fine_points): within the grid's bound, in
+floats with trailing zero bits, never onto another vertex, twins untouched."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from nurbscomp.encode import assembly
+
+
+def _points(n: int, seed: int) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    return rng.uniform(-150.0, 150.0, (n, 3))
+
+
+def test_rounded_within_the_bound_and_short():
+    p = _points(200, 1)
+    lead = np.arange(len(p))
+    fine, at, bound = assembly._fine_points(p, lead, np.ones(len(p), bool), 0.01)
+    assert fine.all()
+    step = 2.0 ** (np.floor(np.log2(0.01)) - assembly.FINE_BITS)
+    assert bound == step * np.sqrt(3) / 2 < 0.01 / 1000
+    moved = np.linalg.norm(at - p, axis=1)
+    assert moved.max() <= bound
+    assert np.array_equal(at / step, np.rint(at / step))  # on the grid, exactly
+    # the floats end in zero bits: at least 52 - (7 + 17) of them here
+    low = at.view(np.int64) & ((1 << 20) - 1)
+    assert not low.any()
+
+
+def test_twins_merges_and_few_stay():
+    p = _points(40, 2)
+    p[1] = p[0] + 1e-9  # a twin of vertex 0
+    lead = np.arange(len(p))
+    lead[1] = 0
+    step = 2.0 ** (np.floor(np.log2(0.1)) - assembly.FINE_BITS)
+    p[3] = np.rint(p[2] / step) * step + step * 0.3  # lands where vertex 2 lands
+    may = np.ones(len(p), bool)
+    may[5] = False  # kept by the caller (exact curve faults, ladder)
+    fine, at, _ = assembly._fine_points(p, lead, may, 0.1)
+    assert not fine[[0, 1, 2, 3, 5]].any()
+    assert fine[6:].all()
+    assert np.array_equal(at[6:] / step, np.rint(at[6:] / step))
+    # fewer than MIN_FINE to move: none move
+    few = np.zeros(len(p), bool)
+    few[6 : 6 + assembly.MIN_FINE - 1] = True
+    assert not assembly._fine_points(p, lead, few, 0.1)[0].any()
+    # most vertices twins (a surface model with edges of its own per face): none move
+    twins = np.repeat(np.arange(0, len(p), 2), 2)
+    assert not assembly._fine_points(p, twins, may, 0.1)[0].any()
+    # lossless: nothing
+    assert not assembly._fine_points(p, lead, may, 0.0)[0].any()
