@@ -74,10 +74,11 @@ SNIPPETS: list[bytes] = [
 ]
 
 
-def _smooth_points(n: int = 1050) -> bytes:
+def _smooth_points(n: int = 1300) -> bytes:
     """A STEP file of ``n`` poles along a smooth curve, 13 significant digits,
     with noise-sized numbers near zero among them: each coordinate gets a
-    stream of its own (``step.MIN_STREAM``) coded as numbers
+    stream of its own (``step.MIN_STREAM``) of more than ``step.NUMERIC_QUICK``
+    bytes, coded as numbers
     (``text.numbers``), so mutations reach that decoder."""
     import math
 

@@ -176,7 +176,7 @@ def test_damaged_streams_raise_format_errors():
 
 
 #: A STEP model payload of version 4 written on 2026-12-03 by ``text.encode``
-#: of ``tests.fuzz_text._smooth_points()`` (1,050 poles; x, y and z coded as
+#: of ``tests.fuzz_text._smooth_points(1050)`` (1,050 poles; x, y and z coded as
 #: numbers): the text it must give back, forever.
 GOLDEN = Path(__file__).resolve().parent / "golden" / "text" / "poles.step.v4.blob"
 GOLDEN_SHA256 = "94c221e059d0c07c37e17052a9ca30af3b429af35b6df6439f6b6401f3832502"

@@ -88,7 +88,7 @@ def test_context_streams():
     once each context has step.MIN_STREAM values, so the streams hold the
     numbers in file order; x, on a line, is coded as numbers (second
     differences all zero)."""
-    n = step.MIN_STREAM + 100
+    n = 3000  # x's text over step.NUMERIC_QUICK, so that it is tried as numbers
     rows = [(i * 0.5, -i * 1.25, 7.0) for i in range(n)]
     data = b"ISO-10303-21;\nDATA;\n" + b"".join(
         b"#%d=CARTESIAN_POINT('',(" % (i + 10) + b",".join(repr(v).encode() for v in r) + b"));\n"

@@ -76,15 +76,13 @@ from . import coding, columns, numbers
 #: statements (:func:`_statements`); 2, the skeleton whole, is still read.
 VERSION = 4
 _VERSIONS = (2, 3, 4)
-#: Number streams of at least this many numbers are also tried as numbers
-#: (:mod:`.numbers`, version 4); the smaller coding is kept.  Below, the trial
-#: costs more time than it saves bytes: on the corpus, streams of 64-200
-#: numbers saved 9-36 bytes each, and on a 60 kB file written by OCCT the
-#: trials took the encode from 0.85x to 1.2x the time of ``xz -9e`` for 3 bytes.
-NUMERIC_MIN = 512
-#: Number streams of this many bytes of text or more are tried as numbers
-#: only when a zlib estimate puts them under :data:`NUMERIC_GATE` of the
-#: text (:func:`_worth_trying`).
+#: Number streams of at least this many bytes of text are also tried as
+#: numbers (:mod:`.numbers`, version 4), where a zlib estimate puts them under
+#: :data:`NUMERIC_GATE` of the text (:func:`_worth_trying`); the smaller coding
+#: is kept.  Below, the trial costs more time than it saves bytes: on the
+#: corpus, streams under 16 kB saved 9-36 bytes each, and on a 60 kB file
+#: written by OCCT the trial (two more LZMA2 calls, about 2 ms each) took the
+#: encode from 0.85x to 1.2x the time of ``xz -9e`` for 3 bytes.
 NUMERIC_QUICK = 16 * 1024
 NUMERIC_GATE = 0.72
 #: Placeholder bytes of the skeleton.
@@ -357,7 +355,7 @@ def encode(data: bytes) -> bytes | None:
     texts = [b",".join(x) for x in num_streams]
     alts: dict[int, tuple[bytes, bytes]] = {}
     for s, items in enumerate(num_streams):
-        pair = numbers.encode(items) if len(items) >= NUMERIC_MIN else None
+        pair = numbers.encode(items) if len(texts[s]) >= NUMERIC_QUICK else None
         if pair is not None and _worth_trying(texts[s], pair):
             alts[s] = pair
     body = [
@@ -374,7 +372,8 @@ def encode(data: bytes) -> bytes | None:
     extra = [x for s in sorted(alts) for x in alts[s]]
     coded = coding.code(
         body + extra,
-        brotli_budget=len(data) // BROTLI_SHARE,
+        # less one call: the header's share of the budget (it is coded apart)
+        brotli_budget=len(data) // BROTLI_SHARE - coding.BROTLI_CALL,
         binary=frozenset(range(len(body), len(body) + len(extra))),
     )
     alt_coded = dict(zip(sorted(alts), zip(coded[len(body) :: 2], coded[len(body) + 1 :: 2])))
@@ -402,14 +401,11 @@ def encode(data: bytes) -> bytes | None:
 
 def _worth_trying(text: bytes, pair: tuple[bytes, bytes]) -> bool:
     """Whether a number stream's coding as numbers is worth coding with LZMA
-    next to its text: always below :data:`NUMERIC_QUICK` bytes of text; above,
-    only where zlib level 1 makes it at most :data:`NUMERIC_GATE` of the
-    text's (LZMA codes the text's repeats better than zlib does: on the
+    next to its text: only where zlib level 1 makes it at most
+    :data:`NUMERIC_GATE` of the text's (LZMA codes the text's repeats better than zlib does: on the
     corpus every stream that came out smaller as numbers was under 0.70 by
     this estimate, and the LZMA trials of the others were a third of the
     encode time)."""
-    if len(text) < NUMERIC_QUICK:
-        return True
     quick = sum(len(zlib.compress(x, 1)) for x in pair)
     return quick < NUMERIC_GATE * len(zlib.compress(text, 1))
 
