@@ -298,16 +298,16 @@ def _snap_vertices(
         if srec[resolve_row(m.surfaces, int(m.face_surface[f]), TRIM_S)] in coded.fine:
             for v in below(m, s, ShapeType.VERTEX):
                 ok[tidx[v]] = False
-    ok[sorted(still)] = False
+    held = np.zeros(len(ok), bool)  # kept where they are by the validity ladder
+    held[sorted(still)] = True
+    ok &= ~held
     ok &= ~(loose & _short(m.vertex_point))
     if (ok & loose).sum() < MIN_LOOSE:  # too few to pay for their grid integers
         ok &= ~loose
     lead = coded.vlead if len(coded.vlead) == len(ok) else np.arange(len(ok))
     ok &= ~_merging(m.vertex_point[lead], coded.vgrid)
     ok &= ~np.isin(lead, lead[~ok])  # a cluster moves as one or stays
-    fine, at_fine, fine_bound = _fine_points(
-        m.vertex_point, lead, ~ok & ~loose & ~_still(len(ok), still), coded.tol
-    )
+    fine, at_fine, fine_bound = _fine_points(m.vertex_point, lead, ~ok & ~loose & ~held, coded.tol)
     out: Any = replace(m)
     out.vertex_point = np.where(
         ok[:, None], coded.vgrid, np.where(fine[:, None], at_fine, m.vertex_point)
@@ -325,12 +325,6 @@ FINE_BITS = 10
 #: cost as much (bearing.iges, 5 of them: 0.1 mm came out 2 bytes above
 #: 0.01 mm).
 MIN_FINE = 16
-
-
-def _still(n: int, still: set[int]) -> np.ndarray:
-    out = np.zeros(n, bool)
-    out[sorted(still)] = True
-    return out
 
 
 def _fine_points(

@@ -15,7 +15,8 @@ import numpy as np
 
 from ..errors import CorruptError
 
-_UPOW = np.array([10**k for k in range(20)], dtype=np.uint64)
+#: 10**k for k = 0 ... 19, as uint64 (every power of ten that one holds).
+POW10 = np.array([10**k for k in range(20)], dtype=np.uint64)
 
 
 class Column(NamedTuple):
@@ -72,7 +73,7 @@ def ints(values: np.ndarray, prefix: bytes) -> Column:
     if n and int(values.min()) < 0:
         raise CorruptError("a negative entity number")
     v = values.astype(np.uint64)
-    ndig = np.maximum(np.searchsorted(_UPOW, v, side="right"), 1).astype(np.int64)
+    ndig = np.maximum(np.searchsorted(POW10, v, side="right"), 1).astype(np.int64)
     p = len(prefix)
     size = ndig + p
     end = np.cumsum(size)
@@ -80,11 +81,29 @@ def ints(values: np.ndarray, prefix: bytes) -> Column:
     buf = np.empty(int(end[-1]) if n else 0, np.uint8)
     for j, c in enumerate(prefix):
         buf[start + j] = c
-    who = np.repeat(np.arange(n), ndig)
-    k = np.arange(len(who)) - np.repeat(np.cumsum(ndig) - ndig, ndig)
-    place = ndig[who] - 1 - k
-    buf[start[who] + p + k] = (v[who] // _UPOW[place] % np.uint64(10)).astype(np.uint8) + ord("0")
+    put_digits(buf, start + p, v, ndig)
     return Column(buf.tobytes(), start, size)
+
+
+def put_digits(
+    buf: np.ndarray,
+    first: np.ndarray,
+    v: np.ndarray,
+    ndig: np.ndarray,
+    point: np.ndarray | None = None,
+) -> None:
+    """Write the ``ndig[i]`` decimal digits of ``v[i]`` (uint64, zero-padded
+    on the left; places past 10**19 are zeros) into ``buf`` from ``first[i]``,
+    one pass per place; where ``point[i]`` ≥ 0, one byte is left out after
+    the first ``point[i]`` digits (a decimal point's place)."""
+    q = v.astype(np.uint64)
+    for place in range(int(ndig.max()) if len(v) else 0):
+        has = ndig > place
+        k = ndig - 1 - place  # the digit's position from the left
+        at = first + k if point is None else first + k + ((point >= 0) & (k >= point))
+        digit = (q % np.uint64(10)).astype(np.uint8) + ord("0")
+        buf[at[has]] = digit[has]
+        q = q // np.uint64(10)
 
 
 def concat(cols: list[Column]) -> Column:

@@ -80,7 +80,6 @@ _ONE = rb"[+-]?[0-9]++(?:\.[0-9]*+)?(?:[eE][+-]?[0-9]++)?"
 #: A stream of numbers joined by ``,`` (the STEP tokenizer's number grammar).
 _ALL = re.compile(_ONE + rb"(?:," + _ONE + rb")*+")
 _POW = np.array([10**k for k in range(DIGITS + 1)], dtype=np.int64)
-_UPOW = np.array([10**k for k in range(20)], dtype=np.uint64)
 
 
 #: Powers of ten as doubles, ``10.0**k`` for ``|k|`` ≤ :data:`_SPAN`: the
@@ -108,9 +107,8 @@ class _Fields:
     ) -> None:
         self.sign, self.nint, self.frac, self.ecode, self.emag = sign, nint, frac, ecode, emag
         esign = np.where(ecode > 0, ((ecode - 1) // 2) % 3, 0)
-        self.exponent = np.where(esign == 2, -emag, emag)
         self.digits = nint + np.maximum(frac - 1, 0)
-        self.scale = self.exponent - np.maximum(frac - 1, 0)
+        self.scale = np.where(esign == 2, -emag, emag) - np.maximum(frac - 1, 0)
 
 
 def _parse(texts: list[bytes]) -> tuple[_Fields, np.ndarray] | None:
@@ -193,7 +191,7 @@ def _digits_value(
     digit = (buf[at] - ord("0")).astype(np.uint64)
     if np.any(digit[place >= 19]):
         return None
-    term = digit * _UPOW[np.minimum(place, 19)] * (place < 19)
+    term = digit * columns.POW10[np.minimum(place, 19)] * (place < 19)
     heads = (np.cumsum(count) - count)[has]
     out[has] = np.add.reduceat(term, heads)
     if np.any(out >= np.uint64(M_LIMIT)):
@@ -342,7 +340,7 @@ def _print(f: _Fields, mant: np.ndarray) -> columns.Column:
     n = len(mant)
     v = np.abs(mant).astype(np.uint64)
     ndig = f.digits
-    if np.any(v >= _UPOW[np.minimum(ndig, 19)]):
+    if np.any(v >= columns.POW10[np.minimum(ndig, 19)]):
         raise CorruptError("number stream: a value longer than its format")
     signed = (f.sign > 0) | (mant < 0)
     point = f.frac > 0
@@ -357,16 +355,8 @@ def _print(f: _Fields, mant: np.ndarray) -> columns.Column:
     buf[start[signed]] = np.where(
         mant[signed] < 0, ord("-"), np.where(f.sign[signed] == 1, ord("+"), ord("-"))
     )
-    # digits, by place from the right: one pass per place (at most MAX_DIGITS)
     first = start + signed
-    q = v.copy()
-    for place in range(int(ndig.max()) if n else 0):
-        has = ndig > place
-        k = ndig - 1 - place  # the digit's position from the left
-        at = first + k + (point & (k >= f.nint))
-        digit = (q % np.uint64(10)).astype(np.uint8) + ord("0")
-        buf[at[has]] = digit[has]
-        q //= np.uint64(10)
+    columns.put_digits(buf, first, v, ndig, np.where(point, f.nint, -1))
     buf[(first + f.nint)[point]] = ord(".")
     # tails, by position within the tail
     width = max(map(len, tails))

@@ -402,10 +402,10 @@ def encode(data: bytes) -> bytes | None:
 def _worth_trying(text: bytes, pair: tuple[bytes, bytes]) -> bool:
     """Whether a number stream's coding as numbers is worth coding with LZMA
     next to its text: only where zlib level 1 makes it at most
-    :data:`NUMERIC_GATE` of the text's (LZMA codes the text's repeats better than zlib does: on the
-    corpus every stream that came out smaller as numbers was under 0.70 by
-    this estimate, and the LZMA trials of the others were a third of the
-    encode time)."""
+    :data:`NUMERIC_GATE` of the text's (LZMA codes the text's repeats better
+    than zlib does: on the corpus every stream that came out smaller as
+    numbers was under 0.70 by this estimate, and the LZMA trials of the
+    others were a third of the encode time)."""
     quick = sum(len(zlib.compress(x, 1)) for x in pair)
     return quick < NUMERIC_GATE * len(zlib.compress(text, 1))
 
