@@ -193,8 +193,10 @@ def test_a_reader_that_loops_on_the_source_too_leaves_no_check(
     assert occ.counts(pipeline.decode_file(tmp_path / "o.nzc")[0])["faces"] == 1
 
 
-def _pack(model: object, codes: dict) -> tuple[int, bytes]:
-    meta = {"mode": "tolerance", "tolerance_mm": 0.01}
+def _pack(model: object, codes: dict, step_pcurves: bool = True) -> tuple[int, bytes]:
+    meta: dict = {"mode": "tolerance", "tolerance_mm": 0.01}
+    if not step_pcurves:
+        meta["step_pcurves"] = False
     return id(model), container.pack(model_to_sections(model, meta, codes), 0, thorough=False)
 
 
@@ -215,7 +217,7 @@ def test_what_is_packed_meanwhile_is_the_target(
         assert t.early is None
         return
     assert t.early is not None and t.early[0] == id(t.model)
-    assert t.early[1] == _pack(t.model, t.codes)[1]
+    assert t.early[1] == _pack(t.model, t.codes, t.validity.step_pcurves)[1]
 
 
 @pytest.mark.slow
@@ -245,8 +247,11 @@ def test_a_busy_machine_makes_no_round_trip_for_a_faulty_candidate(
     class Floor:
         product = None
         broken = ""
+        pcurves = True
 
-        def trip(self, shape: object, stack: object, product: object = None) -> object:
+        def trip(
+            self, shape: object, stack: object, product: object = None, pcurves: bool = True
+        ) -> object:
             trips.append(shape)
             return object()
 

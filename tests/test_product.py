@@ -23,7 +23,7 @@ from click.testing import CliRunner
 
 from nurbscomp import errors, pipeline, product
 from nurbscomp.cli import cli
-from nurbscomp.occ import xcaf
+from nurbscomp.occ import exchange, xcaf
 from nurbscomp.occ.files import read_cad
 
 from .conftest import CORPUS, SAMPLES, corpus_files
@@ -256,7 +256,7 @@ def _ap203_assembly(path: Path) -> None:
     )
     made = toCAF(top)
     doc = made[1] if isinstance(made, tuple) else made
-    with xcaf._static("write.step.schema", "AP203"):
+    with exchange.static("write.step.schema", "AP203"):
         w = STEPCAFControl_Writer()
         w.SetColorMode(True)
         w.SetNameMode(True)

@@ -13,7 +13,9 @@ it falls short, cheapest first.  Two checks:
    neighbours' (the faces of a curve, the curves of a surface).
 2. **The STEP reader** (``step_check``): the candidate is written to STEP as
    ``decompress`` writes it (through OCCT's XDE writer when the model has
-   product data) and read back once per round, and must keep what OCCT's own round trip of the
+   product data; without pcurves while the source STEP had none and that
+   keeps what is kept, ``ValidityReport.step_pcurves``) and read back once
+   per round, and must keep what OCCT's own round trip of the
    source keeps (:func:`step_keeps`), and have no more free edges (sewn at
    1e-7) than the source or that round trip.  OCCT's round trip of the source (the
    *floor*) is only made when the candidate's re-read differs from the source
@@ -76,8 +78,10 @@ MAX_ROUNDS = 20
 #: The niceness the floor's round trip gets when begun that way.
 SPECULATIVE_NICE = 10
 
-#: What :func:`lossy_target` may run on a candidate while its STEP round trip runs.
-Meanwhile = Callable[[BRepModel, dict[Rec, Any]], Any]
+#: What :func:`lossy_target` may run on a candidate while its STEP round trip
+#: runs: called with the model, its codes, and whether its STEP output gets
+#: pcurves (``ValidityReport.step_pcurves`` if it passes).
+Meanwhile = Callable[[BRepModel, dict[Rec, Any], bool], Any]
 
 
 class Rung(IntEnum):
@@ -116,6 +120,10 @@ class ValidityReport:
         ``""``, ``"pcurves"`` (every pcurve stored) or ``"exact"``.
     step_skipped : str
         Why the STEP check was not made (:func:`step_reader_hangs`), or ``""``.
+    step_pcurves : bool
+        Whether the STEP output is written with pcurves.  False only where the
+        source STEP had none and the STEP check passed on the model kept with
+        the candidate written without them (``occ.write_shape``'s ``pcurves``).
     """
 
     rounds: int = 0
@@ -125,6 +133,7 @@ class ValidityReport:
     tightened: int = 0
     fallback: str = ""
     step_skipped: str = ""
+    step_pcurves: bool = True
 
 
 @dataclass
@@ -175,13 +184,15 @@ def step_time_limit(m: BRepModel) -> float | None:
     return HANG_SECONDS + HANG_PER_FACE * len(m.face_surface)
 
 
-def build(m: BRepModel, cache: occ.PcurveCache | None = None) -> Any:
+def build(m: BRepModel, cache: occ.PcurveCache | None = None, pcurves: bool = True) -> Any:
     """The OCCT shape of a model, turning any OCCT failure into a ``RebuildError``.
 
     ``cache``: pcurves projected by earlier builds, reused where unchanged
-    (:class:`occ.PcurveCache`; the shape is the same without it)."""
+    (:class:`occ.PcurveCache`; the shape is the same without it).  Without
+    ``pcurves``, those the model leaves to compute are not (a shape only
+    written to STEP without pcurves: ``occ.model_to_shape``)."""
     try:
-        return occ.model_to_shape(m, cache)
+        return occ.model_to_shape(m, cache, pcurves)
     except NurbscompError:
         raise
     except Exception as e:  # OCCT raises Standard_Failure subclasses on bad data
@@ -213,8 +224,13 @@ class _Floor:
         report: ValidityReport,
         product: Any = None,
         limit: float | None = None,
+        pcurves: bool = True,
     ) -> None:
         self.source, self.unit, self.report = source, unit, report
+        #: Whether the candidates are written with pcurves (the floor always is:
+        #: OCCT's own round trip is made with its defaults).  Once a candidate
+        #: written without them loses a face, they are written with them.
+        self.pcurves = pcurves
         self.limit = limit  # seconds a round trip may take (step_time_limit)
         self.product = product  # the candidates are written as decompress writes them
         self.counts = occ.counts(source)
@@ -227,13 +243,18 @@ class _Floor:
         self.broken = ""
 
     def trip(
-        self, shape: Any, stack: contextlib.ExitStack, product: Any = None, nice: int = 0
+        self,
+        shape: Any,
+        stack: contextlib.ExitStack,
+        product: Any = None,
+        nice: int = 0,
+        pcurves: bool = True,
     ) -> occ.RoundTrip:
         """A round trip of ``shape``, begun now in a child (``nice``: its
         niceness increment) and held by ``stack`` (with the folder its STEP
-        file is written to)."""
+        file is written to), written with or without ``pcurves``."""
         folder = Path(stack.enter_context(tempfile.TemporaryDirectory(prefix="nurbscomp-")))
-        make = functools.partial(occ.step_round_trip, shape, self.unit, product, folder)
+        make = functools.partial(occ.step_round_trip, shape, self.unit, product, folder, pcurves)
         return stack.enter_context(occ.RoundTrip(make, nice, self.limit))
 
     def begin(self, speculative: bool = False) -> None:
@@ -636,6 +657,7 @@ def lossy_target(
     tol: float,
     step_check: bool = True,
     meanwhile: Meanwhile | None = None,
+    step_pcurves: bool = True,
 ) -> Target:
     """The cheapest decodable model that is as valid as the source (module docstring).
 
@@ -652,9 +674,16 @@ def lossy_target(
         Called with a candidate model and its codes while its STEP round trip
         runs in a child (the container is packed then, in case the candidate
         passes); the result for the model returned is ``Target.early``.
+    step_pcurves : bool
+        False: write the candidates to STEP without pcurves (a source STEP
+        file that had none, ``occ.CadFile.pcurves``) for as long as that keeps
+        what OCCT's own round trip of the source keeps; the report's
+        ``step_pcurves`` says whether it did.
     """
     vr = ValidityReport()
-    floor = _Floor(source, m.unit, vr, m.product, step_time_limit(m)) if step_check else None
+    floor = None
+    if step_check:
+        floor = _Floor(source, m.unit, vr, m.product, step_time_limit(m), step_pcurves)
     try:
         if floor is not None and floor.limit is not None:
             floor.begin()  # beside the candidates': a loop costs one limit, not two
@@ -665,6 +694,8 @@ def lossy_target(
         if floor is not None:
             floor.close()
             vr.step_skipped = vr.step_skipped or floor.broken
+            # only a candidate checked as written without them goes without
+            vr.step_pcurves = floor.pcurves or bool(floor.broken) or vr.fallback == "exact"
 
 
 def _search(
@@ -750,7 +781,7 @@ def _done(
 
 def _bind(
     meanwhile: Meanwhile | None, model: BRepModel, codes: dict[Rec, Any]
-) -> Callable[[], Any] | None:
+) -> Callable[[bool], Any] | None:
     return None if meanwhile is None else functools.partial(meanwhile, model, codes)
 
 
@@ -760,7 +791,7 @@ def _check(
     old_f: set[int],
     floor: _Floor | None,
     tol: float,
-    meanwhile: Callable[[], Any] | None = None,
+    meanwhile: Callable[[bool], Any] | None = None,
 ) -> tuple[set[int], set[int], set[int] | None, Any]:
     """A candidate's BRepCheck faults the source lacks (edges, faces) and, when
     it has none and there is a floor, the faces its STEP re-read loses
@@ -774,22 +805,38 @@ def _check(
     passed.  Then, with that core to spare, ``meanwhile`` runs, on a
     candidate BRepCheck passes, before the round trip's answers are waited
     for (on a busy machine the work it would do for candidates the round trip
-    then fails is other jobs' time: trj7 makes seven round trips)."""
+    then fails is other jobs' time: trj7 makes seven round trips).
+
+    ``meanwhile`` is given whether the candidate's STEP output gets pcurves
+    (:attr:`_Floor.pcurves`).  A candidate written without them whose re-read
+    loses a face is written with them and checked again, and so are the
+    candidates after it; what ``meanwhile`` made of it is then dropped."""
     spare = occ.spare_core()
     if floor is not None and floor.broken:
         floor = None  # the source's own round trip cannot be had: nothing to hold to
     with contextlib.ExitStack() as stack:
-        back = floor.trip(shape, stack, floor.product) if floor is not None and spare else None
+        back = None
+        if floor is not None and spare:
+            back = floor.trip(shape, stack, floor.product, pcurves=floor.pcurves)
         bad_e, bad_f = occ.failures(shape)
         new_e, new_f = bad_e - old_e, bad_f - old_f
         if new_e or new_f:
             return new_e, new_f, None, None
         if floor is None:
-            return new_e, new_f, None, meanwhile() if meanwhile is not None else None
+            return new_e, new_f, None, meanwhile(True) if meanwhile is not None else None
         if back is None:
-            back = floor.trip(shape, stack, floor.product)
-        early = meanwhile() if meanwhile is not None and spare else None
-        return new_e, new_f, floor.candidate_losses(back, tol), early
+            back = floor.trip(shape, stack, floor.product, pcurves=floor.pcurves)
+        early = meanwhile(floor.pcurves) if meanwhile is not None and spare else None
+        losses = floor.candidate_losses(back, tol)
+        if not floor.pcurves and (losses is not None or floor.broken):
+            # without pcurves the reader makes another shape of it (OCCT's own
+            # round trip of bug32596 written so gets 101 faces of 99)
+            log.debug("STEP check: candidates are written with pcurves from now on")
+            floor.pcurves, early = True, None
+            if losses is not None:
+                back = floor.trip(shape, stack, floor.product)
+                losses = floor.candidate_losses(back, tol)
+        return new_e, new_f, losses, early
 
 
 def vertex_neighbours(m: BRepModel, tol: float) -> list[set[int]]:

@@ -9,6 +9,7 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
+from OCP.Interface import Interface_Static
 from OCP.StepBasic import StepBasic_CalendarDate, StepBasic_LocalTime
 from OCP.StepRepr import StepRepr_NextAssemblyUsageOccurrence
 from OCP.TCollection import TCollection_HAsciiString
@@ -19,6 +20,26 @@ from ..errors import InputError
 STEP_TIME_STAMP = "1970-01-01T00:00:00"
 #: The IGES global section's dates, for the same reason.
 IGES_DATE = "19700101.000000"
+
+
+@contextlib.contextmanager
+def static(name: str, value: str) -> Iterator[None]:
+    """Set one of OCCT's ``Interface_Static`` parameters for the duration.
+
+    Set it once the reader or writer that reads it exists: a data exchange
+    controller's first set-up (in the first reader's or writer's constructor of
+    a process) resets them to their defaults."""
+    old = Interface_Static.CVal_s(name)
+    Interface_Static.SetCVal_s(name, value)
+    try:
+        yield
+    finally:
+        Interface_Static.SetCVal_s(name, old)
+
+
+#: ``write.surfacecurve.mode``'s values: pcurves written or not (the latter:
+#: each edge's 3-D curve alone, as a STEP file that held no pcurve had it).
+SURFACE_CURVES = {True: "1", False: "0"}
 
 
 def check_readable(path: Path) -> bytes:

@@ -41,10 +41,12 @@ from ..units import UNITS_MM
 from .exchange import (  # noqa: F401 (re-exported: they were defined here)
     IGES_DATE,
     STEP_TIME_STAMP,
+    SURFACE_CURVES,
     check_readable,
     fix_iges_dates,
     settle_model,
     settled,
+    static,
 )
 
 # OCCT prints progress and statistics to stdout; the CLI owns stdout.
@@ -106,6 +108,10 @@ class CadFile:
     #: Product data (names, tree, colours, layers, header) when read with
     #: ``product=True``: a ``nurbscomp.product.ProductData``.
     product: Any = None
+    #: False for a STEP file that holds no pcurve (no ``PCURVE`` entity): its
+    #: edges have 3-D curves only, and OCCT's reader computed the pcurves
+    #: (:func:`step_has_pcurves`).
+    pcurves: bool = True
 
 
 #: Deepest nesting of parentheses a STEP file may have (real files: under 10).
@@ -148,6 +154,15 @@ def screen_step(path: Path) -> None:
             depth = int(level[-1]) if len(level) else depth
             quoted = bool((int(q[-1]) + quoted) % 2) if len(q) else quoted
             at += len(chunk)
+
+
+_PCURVE = re.compile(rb"PCURVE\s*\(")
+
+
+def step_has_pcurves(data: bytes) -> bool:
+    """Whether a STEP file's text holds a ``PCURVE`` (or ``BOUNDED_PCURVE``)
+    instance, upper or lower case; a ``.PCURVE_S1.`` enumeration is no pcurve."""
+    return _PCURVE.search(data.upper()) is not None
 
 
 def read_cad(path: str | os.PathLike[str], product: bool = False, own: bool = False) -> CadFile:
@@ -212,23 +227,24 @@ def read_cad(path: str | os.PathLike[str], product: bool = False, own: bool = Fa
     # XDE's transfer of nothing is an empty compound
     if shape.IsNull() or (shape.ShapeType() == TopAbs_COMPOUND and shape.NbChildren() == 0):
         raise NoBRepError(f"nothing in the {fmt} file transfers to a B-rep")
+    text = p.read_bytes() if fmt == "STEP" and not own else b""
+    pcurves = not text or step_has_pcurves(text)
     if doc is not None:
         data = xcaf.product_data(doc, shape, fmt, reader)
         warnings = [f"not stored: {', '.join(data.dropped)}"] if data.dropped else []
-        return CadFile(shape, unit, fmt, warnings, data)
+        return CadFile(shape, unit, fmt, warnings, data, pcurves)
     warnings = []
     if own:
         pass
     elif fmt == "STEP":
-        warnings = _step_losses(p)
+        warnings = _step_losses(text)
     else:
         warnings = ["IGES colours, levels and names are not stored"]
-    return CadFile(shape, unit, fmt, warnings)
+    return CadFile(shape, unit, fmt, warnings, pcurves=pcurves)
 
 
-def _step_losses(path: Path) -> list[str]:
-    """Name what the STEP file holds that the container does not keep."""
-    data = path.read_bytes()
+def _step_losses(data: bytes) -> list[str]:
+    """Name what a STEP file's text holds that the container does not keep."""
     found = sorted({what for marker, what in _STEP_MARKERS.items() if marker in data})
     if re.search(rb"PRODUCT\s*\(\s*'[^']", data):
         found.append("names")
@@ -246,6 +262,7 @@ def write_shape(
     system: str = "",
     products: bool = True,
     product: Any = None,
+    pcurves: bool = True,
 ) -> None:
     """Write a shape to STEP, IGES or BREP.
 
@@ -273,6 +290,11 @@ def write_shape(
     products : bool
         STEP only: name the PRODUCTs after ``name`` (off for a file only read
         back, by the STEP check: it walks every entity of the model).
+    pcurves : bool
+        STEP only: write each edge's pcurves (``SURFACE_CURVE``s), or its 3-D
+        curve alone (``write.surfacecurve.mode`` 0): what a STEP source without
+        pcurves had.  The file is then smaller and quicker to write, and
+        independent of the pcurves the shape has.
 
     Raises
     ------
@@ -288,7 +310,7 @@ def write_shape(
     if product is not None and fmt != "BREP":
         from . import xcaf
 
-        xcaf.write(product, shape, p, fmt, unit, name, system)
+        xcaf.write(product, shape, p, fmt, unit, name, system, pcurves)
         return
     if fmt == "BREP":
         if not BRepTools.Write_s(shape, str(p)):
@@ -306,7 +328,9 @@ def write_shape(
     Interface_Static.SetCVal_s("write.step.unit", unit)
     Interface_Static.SetCVal_s("write.step.schema", "AP214IS")
     sw = STEPControl_Writer()
-    status = sw.Transfer(shape, STEPControl_AsIs)
+    # set once the writer exists (its constructor may reset it)
+    with static("write.surfacecurve.mode", SURFACE_CURVES[pcurves]):
+        status = sw.Transfer(shape, STEPControl_AsIs)
     if status != IFSelect_ReturnStatus.IFSelect_RetDone:
         raise RebuildError(f"the STEP writer refused the shape ({status.name})")
     if products:
@@ -344,7 +368,11 @@ def bintools_bytes(shape: Any) -> bytes:
 
 
 def step_round_trip(
-    shape: Any, unit: str = "MM", product: Any = None, folder: Path | None = None
+    shape: Any,
+    unit: str = "MM",
+    product: Any = None,
+    folder: Path | None = None,
+    pcurves: bool = True,
 ) -> Any:
     """The shape as OCCT reads it back after writing it to STEP (in a temporary
     file, in ``folder`` if given: the caller removes that).
@@ -352,12 +380,12 @@ def step_round_trip(
     With ``product`` (a ``product.ProductData`` of the shape's model) the file
     is written as ``decompress`` writes it, through OCCT's XDE writer
     (``xcaf.write``): its STEP differs from the plain writer's, and so may
-    what the reader makes of it.
+    what the reader makes of it.  ``pcurves``: as :func:`write_shape`'s.
     """
     import tempfile
 
     with contextlib.ExitStack() as stack:
         d = folder or stack.enter_context(tempfile.TemporaryDirectory())
         f = Path(d) / "rt.step"
-        write_shape(shape, f, "STEP", unit, products=False, product=product)
+        write_shape(shape, f, "STEP", unit, products=False, product=product, pcurves=pcurves)
         return read_cad(f, own=True).shape

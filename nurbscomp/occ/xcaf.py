@@ -66,7 +66,14 @@ from OCP.XCAFDoc import (
 from ..errors import OutputError, RebuildError
 from ..formats import sniff_format
 from ..product import HEADER_FIELDS, HIDDEN, INSTANCE, NAMED, PRODUCT, SUBSHAPE, ProductData
-from .exchange import STEP_TIME_STAMP, check_readable, fix_iges_dates, settled
+from .exchange import (
+    STEP_TIME_STAMP,
+    SURFACE_CURVES,
+    check_readable,
+    fix_iges_dates,
+    settled,
+    static,
+)
 from .measure import faces as faces_of
 from .mesh import face_meshes
 from .topology import _trsf, _trsf_rows
@@ -539,16 +546,6 @@ def step_schema(header: dict[str, list[str]]) -> str:
     return "AP214IS"
 
 
-@contextlib.contextmanager
-def _static(name: str, value: str) -> Any:
-    old = Interface_Static.CVal_s(name)
-    Interface_Static.SetCVal_s(name, value)
-    try:
-        yield
-    finally:
-        Interface_Static.SetCVal_s(name, old)
-
-
 def write(
     p: ProductData,
     root: Any,
@@ -557,6 +554,7 @@ def write(
     unit: str,
     name: str = "",
     system: str = "",
+    pcurves: bool = True,
 ) -> None:
     """Write a decoded shape with its product data to STEP or IGES.
 
@@ -567,6 +565,7 @@ def write(
     Header fields the source did not have (an IGES source's) are ``name``,
     ``system`` as originating system and ``exchange.STEP_TIME_STAMP``, as
     ``files.write_shape`` writes them, so the output depends on nothing else.
+    Without ``pcurves``, STEP edges get their 3-D curves only.
 
     Raises
     ------
@@ -579,8 +578,8 @@ def write(
     doc = to_document(p, shape_rows(root)[2])
     if fmt == "IGES":
         with (
-            _static("write.iges.unit", "IN" if unit == "INCH" else unit),
-            _static(*IGES_BREP_MODE),
+            static("write.iges.unit", "IN" if unit == "INCH" else unit),
+            static(*IGES_BREP_MODE),
         ):
             w = IGESCAFControl_Writer()
             w.SetColorMode(True)
@@ -595,26 +594,29 @@ def write(
         return
     schema = step_schema(p.header)
     with (
-        _static("write.step.unit", unit),
-        _static("write.step.schema", schema),
-        _static("write.stepcaf.subshapes.name", "1"),
+        static("write.step.unit", unit),
+        static("write.step.schema", schema),
+        static("write.stepcaf.subshapes.name", "1"),
     ):
         sw: Any = STEPCAFControl_Writer()
         sw.SetColorMode(True)
         sw.SetNameMode(True)
         sw.SetLayerMode(True)
-        if not sw.Transfer(doc, STEPControl_AsIs):
-            raise RebuildError("the STEP writer refused the product")
-        model = sw.ChangeWriter().Model()
-        default = {
-            "name": [name],
-            "time_stamp": [STEP_TIME_STAMP],
-            "originating_system": [system],
-        }
-        _set_header(model, {**default, **p.header})
-        settle = schema == "AP203" or (p.kind == INSTANCE).any()  # dates, occurrences
-        with settled(model) if settle else contextlib.nullcontext():
-            status = sw.Write(str(path))
+        # set once the writer exists (its constructor may reset it), for the
+        # transfer and the write (which translates the shapes)
+        with static("write.surfacecurve.mode", SURFACE_CURVES[pcurves]):
+            if not sw.Transfer(doc, STEPControl_AsIs):
+                raise RebuildError("the STEP writer refused the product")
+            model = sw.ChangeWriter().Model()
+            default = {
+                "name": [name],
+                "time_stamp": [STEP_TIME_STAMP],
+                "originating_system": [system],
+            }
+            _set_header(model, {**default, **p.header})
+            settle = schema == "AP203" or (p.kind == INSTANCE).any()  # dates, occurrences
+            with settled(model) if settle else contextlib.nullcontext():
+                status = sw.Write(str(path))
     if status != IFSelect_ReturnStatus.IFSelect_RetDone:
         # XDE's Transfer only collects; the shapes are translated on Write, so
         # a shape OCCT cannot write fails here (the folder was checked before)
@@ -680,14 +682,14 @@ def round_trip(src: str | os.PathLike[str], dst: str | os.PathLike[str]) -> None
     with auto_naming():
         caf.Transfer(doc)
     if Path(dst).suffix.lower() in (".igs", ".iges"):
-        with _static(*IGES_BREP_MODE):
+        with static(*IGES_BREP_MODE):
             w: Any = IGESCAFControl_Writer()
             w.Transfer(doc)
             w.ComputeModel()
             w.Write(str(dst))
         return
     schema = step_schema(step_header(plain) if fmt == "STEP" else {})
-    with _static("write.step.schema", schema), _static("write.stepcaf.subshapes.name", "1"):
+    with static("write.step.schema", schema), static("write.stepcaf.subshapes.name", "1"):
         sw = STEPCAFControl_Writer()
         sw.Transfer(doc, STEPControl_AsIs)
         sw.Write(str(dst))

@@ -90,6 +90,8 @@ def read_meta(raw: bytes) -> dict[str, Any]:
     size = meta.get("source_bytes", 0)
     if not (_number(size) and 0 <= size <= MAX_SOURCE_BYTES):
         raise SectionError(f"META: source_bytes is not a number from 0 to {MAX_SOURCE_BYTES}")
+    if not isinstance(meta.get("step_pcurves", True), bool):
+        raise SectionError("META: step_pcurves is not true or false")
     return meta
 
 

@@ -108,13 +108,14 @@ def encode_cad(
     }
     flags = container.FLAG_LOSSLESS if lossless else 0
 
-    def pack(target: BRepModel, codes: dict[Any, Any]) -> bytes:
+    def pack(target: BRepModel, codes: dict[Any, Any], step_pcurves: bool = True) -> bytes:
         target.product = m.product  # exact in every mode, placements included
         # what it decodes into, for a reader to admit (budget.Limits.admit)
         declared = budget.declare(target)
-        sections = model_to_sections(
-            target, {**meta, "decoded": declared} if declared else meta, codes
-        )
+        more: dict[str, Any] = {"decoded": declared} if declared else {}
+        if not step_pcurves:  # STEP output without pcurves (validity.ValidityReport)
+            more["step_pcurves"] = False
+        sections = model_to_sections(target, {**meta, **more}, codes)
         # lossless is the fast mode: a quick entropy search (entropy.compress)
         return container.pack(sections, flags, thorough=not lossless)
 
@@ -147,13 +148,13 @@ def encode_cad(
                 "tolerance may cross itself (a smaller --tol keeps it)"
             )
 
-        t = validity.lossy_target(m, cad.shape, tol, step_safe, pack)
+        t = validity.lossy_target(m, cad.shape, tol, step_safe, pack, cad.pcurves)
         target, codes, lossy_report, rebuilt = t.model, t.codes, t.report, t.pcurves_rebuilt
         built, vreport = t.shape, t.validity
         if vreport.step_skipped:
             warnings.append(f"no STEP check: {vreport.step_skipped}")
         # packed while the STEP check of its last round ran, if it had one
-        data = t.early if t.early is not None else pack(target, codes)
+        data = t.early if t.early is not None else pack(target, codes, vreport.step_pcurves)
     return Encoded(
         data,
         m,

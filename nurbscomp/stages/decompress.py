@@ -83,12 +83,20 @@ def decode(
     return m, meta
 
 
-def build(m: BRepModel) -> Any:
+def build(m: BRepModel, pcurves: bool = True) -> Any:
     """The shape of a decoded model (``encode.validity.build``, imported on first use:
-    commands that build no shape start without OCP)."""
+    commands that build no shape start without OCP); without ``pcurves``, those
+    the model leaves to compute are not (:func:`step_pcurves`)."""
     from ..encode import validity
 
-    return validity.build(m)
+    return validity.build(m, pcurves=pcurves)
+
+
+def step_pcurves(meta: dict[str, Any]) -> bool:
+    """Whether STEP output of a container gets pcurves: not where META's
+    ``step_pcurves`` is false (the source STEP had none, and the encoder's STEP
+    check read its candidate back written without them)."""
+    return meta.get("step_pcurves") is not False
 
 
 def write(
@@ -119,7 +127,14 @@ def write(
     name = name[: -len(SUFFIX)] if name.endswith(SUFFIX) else name
     try:
         occ.write_shape(
-            shape, path, fmt, unit, name=name, system=meta.get("writer") or "", product=product_data
+            shape,
+            path,
+            fmt,
+            unit,
+            name=name,
+            system=meta.get("writer") or "",
+            product=product_data,
+            pcurves=step_pcurves(meta),
         )
     except NurbscompError:
         raise
@@ -137,7 +152,10 @@ def decode_file(
     fmt: str | None = None,
 ) -> tuple[Any, BRepModel, dict[str, Any]]:
     """Decode a ``.nzc`` file into an in-memory shape (millimetres), within
-    ``limits`` (and the output size of ``fmt``, if given)."""
+    ``limits`` (and the output size of ``fmt``, if given).  For ``fmt``
+    ``"STEP"`` and a container whose STEP gets no pcurves (:func:`step_pcurves`)
+    the shape is only fit to be written so: the pcurves the container leaves
+    out are not computed."""
     return _decode_shape(read_container(Path(path)), limits, fmt)
 
 
@@ -159,7 +177,8 @@ def _decode_shape(
         cad, meta = _verbatim_cad(c)
         return cad.shape, _cad_model(cad), meta
     m, meta = decode(c, limits, fmt)
-    return build(m), m, meta
+    # a shape for a STEP file without pcurves needs none (write: the same file)
+    return build(m, fmt != "STEP" or step_pcurves(meta)), m, meta
 
 
 def _verbatim_cad(c: container.Container) -> tuple[Any, dict[str, Any]]:

@@ -47,7 +47,7 @@ from OCP.TopLoc import TopLoc_Location
 from OCP.TopoDS import TopoDS_Compound
 from OCP.XCAFDoc import XCAFDoc_DocumentTool
 
-from nurbscomp.occ import read_cad, xcaf
+from nurbscomp.occ import exchange, read_cad
 
 from . import shapes
 from .files import WriteError, write_step
@@ -84,7 +84,7 @@ def write_assembly(
         for loc in places:
             st.AddComponent(top, label, loc)
     st.UpdateAssemblies()
-    with xcaf._static("write.step.schema", schema), xcaf._static("write.step.unit", "MM"):
+    with exchange.static("write.step.schema", schema), exchange.static("write.step.unit", "MM"):
         w = STEPCAFControl_Writer()
         w.SetNameMode(True)
         if not w.Transfer(doc, STEPControl_AsIs):
