@@ -759,6 +759,7 @@ def _info_lines(r: dict[str, Any]) -> list[str]:
         f"{r['source_bytes']} bytes, unit {r['unit']})",
         f"ratio:       {r['source_bytes'] / r['file_bytes']:.1f}x",
         f"shapes:      {_fmt_counts(r['shapes'])}",
+        *([] if r.get("step_pcurves", True) else ["STEP output: no pcurves, as in the source"]),
         f"faces:       {_by_kind(r['faces_by_type'])}",
         f"geometry:    {_geometry_counts(r['geometry'])}",
         "sections:    "

@@ -51,6 +51,7 @@ from .stages.decompress import (
     decode_data,
     decode_file,
     read_text,
+    step_pcurves,
     write,
 )
 from .stages.evaluate import evaluate_shapes, load_shape, write_heatmap
@@ -90,6 +91,7 @@ __all__ = [
     "read_container",
     "read_source",
     "read_text",
+    "step_pcurves",
     "shape_source",
     "source_format",
     "test_file",
@@ -255,6 +257,7 @@ def info_data(
         "source_name": meta.get("source_name"),
         "source_bytes": meta.get("source_bytes"),
         "writer": meta.get("writer"),
+        "step_pcurves": step_pcurves(meta),
         "file_bytes": len(data),
         "coder": container.entropy.Coder(c.coder).name.lower()
         if c.coder in {int(x) for x in container.entropy.Coder}

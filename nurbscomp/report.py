@@ -323,6 +323,9 @@ class InfoReport(_Typed):
         Passthrough: why the file was stored verbatim.
     sha256, model : str or None
         Byte-for-byte containers: the file's SHA-256, the text model.
+    step_pcurves : bool
+        Whether ``decompress`` writes pcurves into STEP output (False: the
+        source STEP had none, docs/format.md §3.1).
     """
 
     input: str
@@ -348,3 +351,4 @@ class InfoReport(_Typed):
     reason: str = ""
     sha256: str | None = None
     model: str | None = None
+    step_pcurves: bool = True

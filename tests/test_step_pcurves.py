@@ -15,6 +15,7 @@ from pathlib import Path
 import cadquery as cq
 import pytest
 
+import nurbscomp
 from nurbscomp import container, occ, pipeline, serialize
 from nurbscomp.encode import validity
 from nurbscomp.errors import SectionError
@@ -90,6 +91,8 @@ def test_decompressed_step_has_pcurves_where_the_source_had(
     rep = pipeline.compress_file(src, nzc, tol=0.01)
     assert rep["validity"]["step_pcurves"] is pcurves
     assert ("step_pcurves" in _meta(nzc)) is not pcurves
+    assert pipeline.info(nzc)["step_pcurves"] is pcurves
+    assert nurbscomp.info(nzc).step_pcurves is pcurves
     back = assert_step_keeps_floor(occ.read_cad(src, product=True), nzc, tmp_path)
     out = (tmp_path / "out.step").read_bytes()
     assert occ.files.step_has_pcurves(out) is pcurves
@@ -116,29 +119,61 @@ def test_a_shape_without_its_computed_pcurves_writes_the_same_step(
     assert occ.counts(bare) == occ.counts(whole)
 
 
-def test_a_candidate_that_loses_a_face_without_pcurves_is_written_with_them(
+def _losing(monkeypatch: pytest.MonkeyPatch, bare: int, whole: int) -> list[bool]:
+    """Make the first ``bare`` checks of candidates written without pcurves,
+    and the first ``whole`` of those written with them, lose face 0; the
+    modes asked, in order."""
+    asked: list[bool] = []
+    losses, trip = validity._Floor.candidate_losses, validity._Floor.trip
+    made: dict[int, bool] = {}  # id of a round trip: written with pcurves
+
+    def tagged(self, shape, stack, product=None, nice=0, pcurves=True):  # type: ignore[no-untyped-def]
+        back = trip(self, shape, stack, product, nice, pcurves)
+        made[id(back)] = pcurves
+        return back
+
+    def lose(self, back, tol):  # type: ignore[no-untyped-def]
+        pcurves = made[id(back)]
+        asked.append(pcurves)
+        got = losses(self, back, tol)
+        if asked.count(pcurves) <= (whole if pcurves else bare):
+            return {0} | (got or set())
+        return got
+
+    monkeypatch.setattr(validity._Floor, "trip", tagged)
+    monkeypatch.setattr(validity._Floor, "candidate_losses", lose)
+    return asked
+
+
+def test_a_candidate_that_loses_a_face_only_without_pcurves_is_written_with_them(
     sources: dict[bool, Path], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """The check falls back to writing pcurves (one more round trip) rather
     than climbing the ladder for a loss that only the missing pcurves make."""
-    asked: list[bool] = []
-    losses = validity._Floor.candidate_losses
-
-    def lose_without_pcurves(self, back, tol):  # type: ignore[no-untyped-def]
-        asked.append(self.pcurves)
-        got = losses(self, back, tol)
-        return {0} if not self.pcurves else got
-
-    monkeypatch.setattr(validity._Floor, "candidate_losses", lose_without_pcurves)
+    asked = _losing(monkeypatch, bare=1, whole=0)
     nzc = tmp_path / "x.nzc"
     rep = pipeline.compress_file(sources[False], nzc, tol=0.01)
-    assert asked[:2] == [False, True]
+    assert asked == [False, True]
     assert rep["validity"]["step_pcurves"] is True
     assert rep["validity"]["exact_faces"] == {}  # nothing climbed
     assert "step_pcurves" not in _meta(nzc)
     out = tmp_path / "out.step"
     pipeline.decompress_file(nzc, out)
     assert occ.files.step_has_pcurves(out.read_bytes())
+
+
+def test_a_loss_with_and_without_pcurves_keeps_them_out(
+    sources: dict[bool, Path], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A face lost either way is the coding's doing: the ladder climbs, and
+    the candidates are still written without pcurves (compared once only)."""
+    asked = _losing(monkeypatch, bare=2, whole=1)
+    nzc = tmp_path / "x.nzc"
+    rep = pipeline.compress_file(sources[False], nzc, tol=0.01)
+    assert asked[:4] == [False, True, False, False]
+    assert asked.count(True) == 1
+    assert rep["validity"]["step_pcurves"] is False
+    assert _meta(nzc)["step_pcurves"] is False
 
 
 def test_without_the_step_check_pcurves_are_written(

@@ -228,9 +228,11 @@ class _Floor:
     ) -> None:
         self.source, self.unit, self.report = source, unit, report
         #: Whether the candidates are written with pcurves (the floor always is:
-        #: OCCT's own round trip is made with its defaults).  Once a candidate
-        #: written without them loses a face, they are written with them.
+        #: OCCT's own round trip is made with its defaults); see :func:`_check`.
         self.pcurves = pcurves
+        #: Whether a candidate written without pcurves has been compared with
+        #: itself written with them (once: the mode is settled then).
+        self.compared = False
         self.limit = limit  # seconds a round trip may take (step_time_limit)
         self.product = product  # the candidates are written as decompress writes them
         self.counts = occ.counts(source)
@@ -808,9 +810,13 @@ def _check(
     then fails is other jobs' time: trj7 makes seven round trips).
 
     ``meanwhile`` is given whether the candidate's STEP output gets pcurves
-    (:attr:`_Floor.pcurves`).  A candidate written without them whose re-read
-    loses a face is written with them and checked again, and so are the
-    candidates after it; what ``meanwhile`` made of it is then dropped."""
+    (:attr:`_Floor.pcurves`).  The first candidate written without them whose
+    re-read loses a face is checked again written with them (one more round
+    trip).  If that keeps a face the first lost, the missing pcurves lost it:
+    this and every later candidate are written with pcurves.  Else (the same
+    faces or more lost: the coding lost them) they stay without, and the
+    faces lost without pcurves are the ones blamed.  What ``meanwhile`` made
+    of such a candidate is dropped."""
     spare = occ.spare_core()
     if floor is not None and floor.broken:
         floor = None  # the source's own round trip cannot be had: nothing to hold to
@@ -828,14 +834,17 @@ def _check(
             back = floor.trip(shape, stack, floor.product, pcurves=floor.pcurves)
         early = meanwhile(floor.pcurves) if meanwhile is not None and spare else None
         losses = floor.candidate_losses(back, tol)
-        if not floor.pcurves and (losses is not None or floor.broken):
-            # without pcurves the reader makes another shape of it (OCCT's own
-            # round trip of bug32596 written so gets 101 faces of 99)
-            log.debug("STEP check: candidates are written with pcurves from now on")
-            floor.pcurves, early = True, None
-            if losses is not None:
-                back = floor.trip(shape, stack, floor.product)
-                losses = floor.candidate_losses(back, tol)
+        if not floor.pcurves and floor.broken:
+            floor.pcurves, early = True, None  # nothing to hold to: as OCCT writes
+        elif not floor.pcurves and losses is not None and not floor.compared:
+            floor.compared, early = True, None
+            back = floor.trip(shape, stack, floor.product)
+            kept = floor.candidate_losses(back, tol)
+            if kept is None or not losses <= kept:
+                # without pcurves the reader makes another shape of it (OCCT's
+                # own round trip of bug32596 written so gets 101 faces of 99)
+                log.debug("STEP check: candidates are written with pcurves from now on")
+                floor.pcurves, losses = True, kept
         return new_e, new_f, losses, early
 
 
