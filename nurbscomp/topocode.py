@@ -169,46 +169,6 @@ class _Models:
         return x - 1
 
 
-class _DecodingModels(_Models):
-    """:class:`_Models` over a :class:`_Decoder`, its ``bit`` and the decoder's
-    in one function (the same symbols: a decode is a Python call per bit, and
-    NIST's topology has 86,000 of them)."""
-
-    def __init__(self, rc: _Decoder) -> None:
-        super().__init__(rc)
-        self.d = rc
-
-    def bit(self, ctx: Any, b: int = 0) -> int:
-        n = self.p.get(ctx)
-        if n is None:
-            n = self.p[ctx] = [0, 0]
-        n0, n1 = n
-        d = self.d
-        bound = (d.range >> _PROB_BITS) * (((2 * n0 + 1) << _PROB_BITS) // (2 * (n0 + n1) + 2))
-        if d.code < bound:
-            d.range = bound
-            n0 += 1
-            b = 0
-        else:
-            d.code -= bound
-            d.range -= bound
-            n1 += 1
-            b = 1
-        if d.range < _TOP:
-            data, pos, code, rng = d.data, d.pos, d.code, d.range
-            while rng < _TOP:
-                if pos >= len(data):
-                    raise SectionError("SHAP: the coded stream ends early")
-                rng <<= 8
-                code = ((code << 8) | data[pos]) & 0xFFFFFFFF
-                pos += 1
-            d.pos, d.code, d.range = pos, code, rng
-        if n0 + n1 > LIMIT:
-            n0, n1 = (n0 + 1) >> 1, (n1 + 1) >> 1
-        n[0], n[1] = n0, n1
-        return b
-
-
 def _reverse(o: int) -> int:
     return o ^ 1 if o < 2 else o
 
@@ -660,6 +620,6 @@ def decode(data: bytes, n_shapes: int, n_refs: int, depth: int | None = None) ->
     references; a walk deeper than ``depth`` (the budget's, when given: the
     nesting it would refuse later anyway) is a LimitError as soon as it is."""
     rc = _Decoder(data)
-    out = _run(_DecodingModels(rc), None, n_shapes, n_refs, depth)
+    out = _run(_Models(rc), None, n_shapes, n_refs, depth)
     rc.finish()
     return out
