@@ -5,7 +5,10 @@ from __future__ import annotations
 import subprocess
 import sys
 
+import pytest
 
+
+@pytest.mark.slow  # a fresh interpreter
 def test_free_edges_per_face_imports_no_scipy_spatial() -> None:
     """An open box: its four free edges, each counted for its face, all traced
     through the sewing's history, so scipy.spatial (0.1 to 1 s to import) is
