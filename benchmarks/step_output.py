@@ -1,11 +1,12 @@
 """Decompress to STEP with and without pcurves (issue 30 item 3), measured.
 
 For each named corpus file: OCCT's read and STEP write of the source's shape;
-for its 0.01 mm container the tables, the build, and our STEP write as
-decompress does it (pcurves written, ``write.surfacecurve.mode`` 1), then the
-build without the pcurves the container left out and the write with
-``write.surfacecurve.mode`` 0; bytes of both files, and whether the file
-without pcurves reads back with the same topology counts.  Medians of 3.
+for its 0.01 mm container the tables, the build, and our STEP write with
+pcurves, then the build without the pcurves the container left out
+(``model_to_shape(..., pcurves=False)``) and the write without pcurves (as
+``decompress`` writes a container whose META has ``step_pcurves`` false);
+bytes of both files, and whether the file without pcurves reads back with the
+same topology counts.  Medians of 3.
 
     python benchmarks/step_output.py CORPUS_DIR CONTAINER_DIR STEM [STEM ...]
 
@@ -18,14 +19,10 @@ import statistics
 import sys
 import tempfile
 import time
-from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from OCP.Interface import Interface_Static
-
 from nurbscomp import occ, pipeline
-from nurbscomp.model import REBUILD
 from nurbscomp.occ import topology
 
 
@@ -48,17 +45,10 @@ def main() -> None:
         c = pipeline.read_container(containers / f"{stem}.nzc")
         tab_s, (m, meta) = _med(pipeline.decode, c)
         build_s, shape = _med(topology.model_to_shape, m)
-        keep = m.edge_reps[:, 2] != REBUILD
-        bare: Any = replace(m)
-        bare.edge_reps, bare.edge_rep_range = m.edge_reps[keep], m.edge_rep_range[keep]
-        bare.edge_rep_uv, bare.edge_rep_cont = m.edge_rep_uv[keep], m.edge_rep_cont[keep]
-        bare_s, bare_shape = _med(topology.model_to_shape, bare)
-        w1, _ = _med(pipeline.write, shape, d / "a.stp", "STEP", m.unit, meta, m.product)
-        Interface_Static.SetIVal_s("write.surfacecurve.mode", 0)
-        try:
-            w0, _ = _med(pipeline.write, bare_shape, d / "b.stp", "STEP", m.unit, meta, m.product)
-        finally:
-            Interface_Static.SetIVal_s("write.surfacecurve.mode", 1)
+        bare_s, bare_shape = _med(topology.model_to_shape, m, None, False)
+        whole, bare = ({**meta, "step_pcurves": v} for v in (True, False))  # META's say
+        w1, _ = _med(pipeline.write, shape, d / "a.stp", "STEP", m.unit, whole, m.product)
+        w0, _ = _med(pipeline.write, bare_shape, d / "b.stp", "STEP", m.unit, bare, m.product)
         back = occ.read_cad(d / "b.stp")
         same = occ.counts(back.shape) == occ.counts(shape)
         now, bare_ratio = (tab_s + build_s + w1) / occt_w, (tab_s + bare_s + w0) / occt_w
