@@ -1,6 +1,7 @@
 """Vertices that stay off the vertex grid are rounded to a fine binary grid
 (issue 28 §2; encode.assembly._fine_points): within the grid's bound, in
-floats with trailing zero bits, never onto another vertex, twins untouched."""
+floats with trailing zero bits, never onto another vertex, twin clusters
+moved as one."""
 
 from __future__ import annotations
 
@@ -38,16 +39,34 @@ def test_twins_merges_and_few_stay():
     p[3] = np.rint(p[2] / step) * step + step * 0.3  # lands where vertex 2 lands
     may = np.ones(len(p), bool)
     may[5] = False  # kept by the caller (exact curve faults, ladder)
-    fine, at, _ = assembly._fine_points(p, lead, may, 0.1)
-    assert not fine[[0, 1, 2, 3, 5]].any()
+    fine, at, bound = assembly._fine_points(p, lead, may, 0.1)
+    assert not fine[[2, 3, 5]].any()
     assert fine[6:].all()
     assert np.array_equal(at[6:] / step, np.rint(at[6:] / step))
+    # the twins move as one: the first to the grid, the other keeps its offset
+    assert fine[[0, 1]].all()
+    assert np.array_equal(at[0] / step, np.rint(at[0] / step))
+    assert np.abs((at[1] - at[0]) - (p[1] - p[0])).max() <= 2 * np.spacing(np.abs(at[1]).max())
+    assert (np.sqrt(((at[fine] - p[fine]) ** 2).sum(-1)) <= bound).all()
     # fewer than MIN_FINE to move: none move
     few = np.zeros(len(p), bool)
     few[6 : 6 + assembly.MIN_FINE - 1] = True
     assert not assembly._fine_points(p, lead, few, 0.1)[0].any()
-    # most vertices twins (a surface model with edges of its own per face): none move
-    twins = np.repeat(np.arange(0, len(p), 2), 2)
-    assert not assembly._fine_points(p, twins, may, 0.1)[0].any()
+    # a twin cluster with a vertex that may not move stays whole
+    held = may.copy()
+    held[1] = False
+    fine, at, _ = assembly._fine_points(p, lead, held, 0.1)
+    assert not fine[[0, 1]].any() and fine[6:].all()
+    # twins at one point stay at one point; twins apart stay apart
+    q = p.copy()
+    q[1] = q[0]
+    fine, at, _ = assembly._fine_points(q, lead, may, 0.1)
+    assert fine[[0, 1]].all() and np.array_equal(at[0], at[1])
+    # a move that would bring two clusters within TWIN_VERTEX leaves both where they are
+    r = p.copy()
+    r[7] = np.rint(r[6] / step) * step + [step * 0.49, 0, 0]
+    r[6] = np.rint(r[6] / step) * step - [step * 0.49, 0, 0]
+    fine, at, _ = assembly._fine_points(r, lead, may, 0.1)
+    assert not fine[[6, 7]].any()
     # lossless: nothing
     assert not assembly._fine_points(p, lead, may, 0.0)[0].any()

@@ -34,7 +34,7 @@ from ..model import (
 )
 from ..rules import joins
 from ..serialize import SWEPT
-from . import analytic, weights
+from . import analytic, coincide, weights
 from .nets import TRIM_C, TRIM_S, Coded, feature_limit, first_rows, poles_of, resolve_row
 
 
@@ -274,6 +274,7 @@ def _snap_vertices(
         curve_of[int(reps[q, EC.EDGE])] = int(reps[q, EC.CURVE]) if reps[q, EC.LOC] == 0 else -1
     srec, crec = records(m.surfaces, Table.SURFACE), records(m.curves3d, Table.CURVE3D)
     ok = np.ones(len(m.vertex_tol), bool)
+    trails = np.zeros(len(m.vertex_tol), bool)  # beside a curve that stays where it is
     for e, s in enumerate(np.flatnonzero(m.shape_type == ShapeType.EDGE).tolist()):
         c = curve_of.get(e, -1)
         follows = c >= 0 and (
@@ -289,8 +290,13 @@ def _snap_vertices(
         # are finer than tol there), they made bearing grow with tol
         moving = follows or (c >= 0 and SNAP_ON_EXACT and crec[c] not in coded.twins)
         if c >= 0 and not follows:
+            # a copy of a coded coincident curve follows its leader's vertices,
+            # which a twin cluster's fine move takes along
+            twin = coded.twins.get(crec[c])
+            copy = twin is not None and crec[c] not in exact and crec[twin[0]] in codes
             for v in below(m, s, ShapeType.VERTEX):
                 loose[tidx[v]] = True
+                trails[tidx[v]] |= not copy
         if not moving or crec[c] in coded.fine:
             for v in below(m, s, ShapeType.VERTEX):
                 ok[tidx[v]] = False
@@ -307,7 +313,7 @@ def _snap_vertices(
     lead = coded.vlead if len(coded.vlead) == len(ok) else np.arange(len(ok))
     ok &= ~_merging(m.vertex_point[lead], coded.vgrid)
     ok &= ~np.isin(lead, lead[~ok])  # a cluster moves as one or stays
-    fine, at_fine, fine_bound = _fine_points(m.vertex_point, lead, ~ok & ~loose & ~held, coded.tol)
+    fine, at_fine, fine_bound = _fine_points(m.vertex_point, lead, ~ok & ~trails & ~held, coded.tol)
     out: Any = replace(m)
     out.vertex_point = np.where(
         ok[:, None], coded.vgrid, np.where(fine[:, None], at_fine, m.vertex_point)
@@ -331,7 +337,7 @@ def _fine_points(
     p: np.ndarray, lead: np.ndarray, may: np.ndarray, tol: float
 ) -> tuple[np.ndarray, np.ndarray, float]:
     """Which vertices of ``may`` move to a fine binary grid, the points there,
-    and the grid's bound on the move.
+    and the bound on the move.
 
     A vertex that stays off the vertex grid (on a feature finer than tol, or
     beside a neighbour it would land on) still need not keep all 52 bits:
@@ -342,28 +348,55 @@ def _fine_points(
     beside a curve that does not follow, whose tolerance alone would cover the
     gap: a filleted box lost 1.6e-6 mm³ of volume at 0.001 mm), and end
     in zero bits that the entropy stage codes for next to nothing (the reader
-    takes the floats as they are: no format change).  Twin vertices (a
-    cluster of ``lead``: faces-mode IGES gives every face its own) stay where
-    they are: rounded apart they open gaps, rounded together they are one
-    vertex to a STEP reader, and bearing.iges came out a third larger.  So do
-    vertices that would land on one point from different places, a point the
-    grid cannot hold exactly (past 2**52 steps), and all of them where fewer
-    than :data:`MIN_FINE` would move or where most vertices are twins (a
-    surface model with edges of its own per face: on bearing.iges the few
-    that could move came out 160 bytes smaller at 0.001 mm but not at 0.01,
-    so that the file grew with the tolerance).
+    takes the floats as they are: no format change).
+
+    Twin vertices (a cluster of ``lead``: faces-mode IGES gives every face its
+    own) move as one: the cluster's first vertex to the grid, the others by
+    the same translation, so that they keep their offsets (rounded apart they
+    would open gaps; rounded together, a STEP reader takes them for one
+    vertex).  Twins at the first vertex's point stay on it, bit for bit;
+    the others keep a float offset below TWIN_VERTEX, which costs what it
+    did, while the first vertex's point costs less than half (bearing.iges at
+    0.01 mm: 7,918 -> ~4,650 bytes of vertex points).  A cluster moves only
+    if every vertex of it may, it lands on no other cluster's point, the
+    clusters within TWIN_VERTEX of each other stay the same, and its twins
+    stay distinct or equal as they were; none moves where fewer than
+    :data:`MIN_FINE` would, or where a coordinate is past ``2**52`` steps.
     """
+    none = np.zeros(len(p), bool)
     if not (tol > 0) or not may.any():
-        return np.zeros(len(p), bool), p, 0.0
+        return none, p, 0.0
     step = 2.0 ** (np.floor(np.log2(tol)) - FINE_BITS)
-    at = np.rint(p / step) * step
-    fine = may & (np.abs(p) < 2.0**52 * step).all(-1)
-    twin = np.bincount(lead, minlength=len(p))[lead] > 1
-    fine &= ~twin  # twins stay (bearing.iges: a third larger)
-    fine &= ~_merging(p, at)
-    if fine.sum() < MIN_FINE or twin.mean() > 0.5:
-        fine[:] = False
-    return fine, at, float(step * np.sqrt(3.0) / 2)
+    first = p[lead]
+    grid = np.rint(first / step) * step
+    at = grid + (p - first)
+    fine = may & (np.abs(first) < 2.0**52 * step).all(-1)
+    fine &= ~_merging(first, grid)  # clusters that land on one point from different places
+    fine &= ~np.isin(lead, lead[~fine])  # a cluster moves as one or stays
+    # twins equal before are equal after, distinct stay distinct
+    same = (p == first).all(-1)
+    fine &= ~np.isin(lead, lead[same != (at == grid).all(-1)])
+    was = coincide.vertex_clusters(p, coincide.TWIN_VERTEX)
+    for _ in range(3):  # the points within TWIN_VERTEX of each other stay so
+        q = np.where(fine[:, None], at, p)
+        moved_to = coincide.vertex_clusters(q, coincide.TWIN_VERTEX)
+        changed = moved_to != was
+        if not changed.any():
+            break
+        fine &= ~np.isin(lead, lead[changed | np.isin(moved_to, moved_to[changed])])
+    else:
+        return none, p, 0.0
+    if fine.sum() < MIN_FINE or _distinct(p[fine]) != _distinct(at[fine]):
+        return none, p, 0.0
+    # a twin's point is the translation, then one rounding of the sum (an ulp)
+    off = fine & ~same
+    ulp = float(np.spacing(np.abs(at[off]).max())) if off.any() else 0.0
+    return fine, at, float(step * np.sqrt(3.0) / 2 + 2 * ulp)
+
+
+def _distinct(points: np.ndarray) -> int:
+    """The number of distinct rows of ``points``."""
+    return len(np.unique(points, axis=0)) if len(points) else 0
 
 
 #: Fewer vertices than this snapped beside exact curves stay where they are
