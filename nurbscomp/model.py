@@ -165,6 +165,10 @@ class Analytic:
         written as those integers.
     mask : int
         Bit j set: the origin's coordinate j is on the grid (7 when all are).
+    through : bool
+        (Tolerance mode, format 2.2, a 3-D LINE only) the line goes through its
+        edge's vertices: the container holds no value of it, and the decoder
+        makes its frame from the vertices (``rules.joins.lines_through``).
     """
 
     kind: Kind
@@ -172,6 +176,7 @@ class Analytic:
     params: np.ndarray
     grid: int = 0
     mask: int = 0
+    through: bool = False
 
 
 @dataclass(frozen=True, eq=False)

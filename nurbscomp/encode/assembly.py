@@ -19,11 +19,16 @@ import numpy as np
 from .. import codec
 from ..model import (
     EC,
+    REBUILD,
+    VC,
+    Analytic,
     BRepModel,
     BSplineCurve,
     BSplineSurface,
     Derived,
     Geometry,
+    Kind,
+    PointRepKind,
     Rec,
     RepKind,
     ShapeType,
@@ -132,7 +137,11 @@ def assemble(
     curve_moves, curves_gridded = _snap_analytic(curves, crec, exact, coded.tol, at_vertex, reach_c)
     snapped.update(curve_moves)
     gridded |= curves_gridded
+    source = m
     m, moved_v, loose_v, bound_v = _snap_vertices(m, coded, surfaces, curves, codes, exact, still)
+    threaded = _thread_lines(source, m, curves, crec, exact, coded.tol)
+    snapped.update(threaded)  # the line's bound replaces its grid's: it is a new line
+    gridded |= set(threaded)  # the validity ladder's first rung leaves it as it was
     _pin_surfaces(m, surfaces, codes, coded.tol)
     side_joins = _join_sides(m, coded, surfaces, codes)
     _copy_iso(m, coded, surfaces, curves, codes, exact)
@@ -232,6 +241,110 @@ def _snap_analytic(
             rows.replace(i, g)
             out[k] = bound
     return out, gridded
+
+
+def _thread_lines(
+    source: BRepModel,
+    m: BRepModel,
+    curves: list[Geometry],
+    crec: list[Rec],
+    exact: set[Rec | None],
+    tol: float,
+) -> dict[Rec, float]:
+    """Lines that go through their edge's vertices (format 2.2: no values in
+    the container; ``joins.lines_through`` makes them from the decoded
+    vertices), in place in ``curves``, with their edge's range set to what
+    the vertices give on them (a range rule); per record, its bound.
+
+    A line qualifies where it is the one unlocated 3-D curve of one edge,
+    its record has no other row, no other record (a swept surface, a trimmed
+    or offset curve) and no vertex's point representation refers to it, its
+    edge is no seam and has two distinct unlocated vertices, and the new
+    line stays within tol of the source's: its bound is the larger distance,
+    at either end, from the (snapped) vertex to the source line's point at
+    the edge's range end (the segments between match point for point within
+    that).  A pcurve the candidate keeps is parameterized on the source line:
+    :func:`unthread` puts such a line back."""
+    out: dict[Rec, float] = {}
+    if not tol > 0:
+        return out
+    reps = m.edge_reps
+    use: dict[int, list[int]] = {}
+    for q in np.flatnonzero(reps[:, EC.KIND] == RepKind.CURVE3D).tolist():
+        use.setdefault(int(reps[q, EC.CURVE]), []).append(q)
+    based = {g.basis for g in source.curves3d if isinstance(g, Derived)}
+    based |= {g.basis for g in source.surfaces if isinstance(g, Derived) and g.kind in SWEPT}
+    vr = source.vertex_reps
+    based |= set(vr[vr[:, VC.KIND] == PointRepKind.ON_CURVE, VC.CURVE].tolist())
+    seams = set(reps[reps[:, EC.KIND] == RepKind.ON_CLOSED_SURFACE, EC.EDGE].tolist())
+    edge_shapes = np.flatnonzero(m.shape_type == ShapeType.EDGE)
+    rows = _Rows(curves)
+    ranges = None
+    for i, k in enumerate(crec):
+        g, was = curves[i], source.curves3d[i]
+        if k.row != i or k in exact or len(rows.rows[rows.first[i]]) != 1 or i in based:
+            continue
+        if not (isinstance(g, Analytic) and g.kind == Kind.LINE and isinstance(was, Analytic)):
+            continue
+        if was.frame.shape != (2, 3):
+            continue
+        qs = use.get(i, [])
+        if len(qs) != 1 or reps[qs[0], EC.LOC] != 0 or int(reps[qs[0], EC.EDGE]) in seams:
+            continue
+        q = qs[0]
+        ends = joins.edge_ends(m, int(edge_shapes[reps[q, EC.EDGE]]))
+        if len(ends) != 2 or ends[joins.FORWARD] == ends[joins.REVERSED]:
+            continue
+        a, b = (m.vertex_point[ends[o]] for o in (joins.FORWARD, joins.REVERSED))
+        frame = joins.line_through(a, b)
+        if frame is None:
+            continue
+        t = source.edge_rep_range[q]
+        was_ends = was.frame[0] + np.outer(t, was.frame[1])
+        dev = float(np.sqrt(((np.array([a, b]) - was_ends) ** 2).sum(-1)).max())
+        if not dev <= tol:
+            continue
+        new = Analytic(Kind.LINE, frame, np.zeros(0), through=True)
+        rows.replace(i, new)
+        if ranges is None:
+            ranges = m.edge_rep_range = m.edge_rep_range.copy()
+        ranges[q] = (joins.on_line(new, a), joins.on_line(new, b))
+        out[k] = dev
+    return out
+
+
+def unthread(cand: BRepModel, source: BRepModel) -> BRepModel:
+    """``cand`` with the source's line and 3-D range back wherever a line
+    through its vertices (:func:`_thread_lines`) is on an edge that keeps a
+    stored pcurve (parameterized on the source line)."""
+    reps = cand.edge_reps
+    kept = set(
+        reps[
+            (
+                (reps[:, EC.KIND] == RepKind.ON_SURFACE)
+                | (reps[:, EC.KIND] == RepKind.ON_CLOSED_SURFACE)
+            )
+            & (reps[:, EC.CURVE] != REBUILD),
+            EC.EDGE,
+        ].tolist()
+    )
+    back = [
+        q
+        for q in np.flatnonzero(reps[:, EC.KIND] == RepKind.CURVE3D).tolist()
+        if int(reps[q, EC.EDGE]) in kept
+        and isinstance(g := cand.curves3d[int(reps[q, EC.CURVE])], Analytic)
+        and g.through
+    ]
+    if not back:
+        return cand
+    out: Any = replace(cand)
+    out.curves3d = list(cand.curves3d)
+    out.edge_rep_range = cand.edge_rep_range.copy()
+    for q in back:
+        i = int(reps[q, EC.CURVE])
+        out.curves3d[i] = source.curves3d[i]
+        out.edge_rep_range[q] = source.edge_rep_range[q]
+    return out
 
 
 #: Vertices on exact curves (lines, circles, B-splines kept exact) snap too:

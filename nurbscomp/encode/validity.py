@@ -497,7 +497,7 @@ class _Plan:
         target, codes, report = assembly.assemble(
             self.m, self.coded, self.exact, self.still_v, self.grid
         )
-        cand = pcurves.drop_pcurves(target, self.keep_e, self.keep_f)
+        cand = assembly.unthread(pcurves.drop_pcurves(target, self.keep_e, self.keep_f), self.m)
         ranged = pcurves.vertex_ranges(
             pcurves.unit_curves(cand, self.knot_memo), self.tol, self.as_read_e, self.m.vertex_point
         )

@@ -26,6 +26,7 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import BadReferenceError
 from ..model import (
     EC,
     Analytic,
@@ -103,7 +104,8 @@ def _dot(p: np.ndarray, d: np.ndarray) -> float:
     return float((p[0] * d[0] + p[1] * d[1]) + p[2] * d[2])
 
 
-def _on_line(g: Analytic, p: np.ndarray) -> float:
+def on_line(g: Analytic, p: np.ndarray) -> float:
+    """The parameter of the point of line ``g`` nearest ``p``."""
     return _dot(p - g.frame[0], g.frame[1])
 
 
@@ -122,6 +124,71 @@ def _on_circle(g: Analytic, p: np.ndarray) -> float:
     return t
 
 
+def edge_ends(m: BRepModel, edge_shape: int) -> dict[int, int]:
+    """The vertex rows of an edge shape's first FORWARD and first REVERSED
+    direct children with reference location 0 (by orientation, where it has
+    them)."""
+    tidx = m.type_index()
+    ends: dict[int, int] = {}
+    for k in range(m.child_start[edge_shape], m.child_start[edge_shape + 1]):
+        v, o = int(m.child_shape[k]), int(m.child_orient[k])
+        if m.shape_type[v] == ShapeType.VERTEX and m.child_loc[k] == 0 and o in (0, 1):
+            ends.setdefault(o, int(tidx[v]))
+    return ends
+
+
+def line_through(a: np.ndarray, b: np.ndarray) -> np.ndarray | None:
+    """The frame (origin, direction) of the line from point ``a`` to point
+    ``b``, as docs/format.md §2.3 computes it (2.2): None where they coincide
+    or the length is not finite."""
+    ax, ay, az = (float(x) for x in a)
+    dx, dy, dz = float(b[0]) - ax, float(b[1]) - ay, float(b[2]) - az
+    n = math.sqrt((dx * dx + dy * dy) + dz * dz)
+    if not (n > 0 and math.isfinite(n)):
+        return None
+    return np.array([[ax, ay, az], [dx / n, dy / n, dz / n]])
+
+
+def lines_through(m: BRepModel) -> None:
+    """Make the frame of every 3-D line that goes through its edge's
+    vertices (``Analytic.through``, format 2.2, docs/format.md §2.3), in
+    place, from the decoded vertices.
+
+    Raises
+    ------
+    BadReferenceError
+        Such a line that is not the one unlocated 3-D curve of one edge with
+        distinct FORWARD and REVERSED unlocated vertices, or that another row
+        copies.
+    """
+    rows = [i for i, g in enumerate(m.curves3d) if isinstance(g, Analytic) and g.through]
+    if not rows:
+        return
+    reps = m.edge_reps
+    use: dict[int, list[int]] = {}
+    for q in np.flatnonzero(reps[:, EC.KIND] == RepKind.CURVE3D).tolist():
+        use.setdefault(int(reps[q, EC.CURVE]), []).append(q)
+    edge_shapes = np.flatnonzero(m.shape_type == ShapeType.EDGE)
+    for i in rows:
+        g = m.curves3d[i]
+        assert isinstance(g, Analytic)
+        qs = use.get(i, [])
+        if len(qs) != 1 or reps[qs[0], EC.LOC] != 0:
+            raise BadReferenceError(
+                f"CRV3 row {i}: a line through vertices used by {len(qs)} edges"
+            )
+        if sum(h is g for h in m.curves3d) != 1:
+            raise BadReferenceError(f"CRV3 row {i}: a line through vertices is copied")
+        ends = edge_ends(m, int(edge_shapes[reps[qs[0], EC.EDGE]]))
+        if len(ends) != 2:
+            raise BadReferenceError(f"CRV3 row {i}: its edge has no two unlocated vertices")
+        a, b = (m.vertex_point[ends[o]] for o in (FORWARD, REVERSED))
+        frame = line_through(a, b)
+        if frame is None:
+            raise BadReferenceError(f"CRV3 row {i}: a line through two vertices at one point")
+        g.frame[...] = frame
+
+
 def vertex_ranges(m: BRepModel) -> dict[int, tuple[float, float]]:
     """Per 3-D representation of an edge on a line or circle, the range its
     vertices give.
@@ -131,7 +198,6 @@ def vertex_ranges(m: BRepModel) -> dict[int, tuple[float, float]]:
     start (a whole turn when both vertices are one).  Only edges with a
     FORWARD and a REVERSED vertex, both unlocated, on an unlocated curve.
     """
-    tidx = m.type_index()
     edge_shapes = np.flatnonzero(m.shape_type == ShapeType.EDGE)
     reps = m.edge_reps
     out: dict[int, tuple[float, float]] = {}
@@ -142,17 +208,12 @@ def vertex_ranges(m: BRepModel) -> dict[int, tuple[float, float]]:
         g = m.curves3d[c]
         if not isinstance(g, Analytic) or g.kind not in (Kind.LINE, Kind.CIRCLE):
             continue
-        s = int(edge_shapes[reps[q, EC.EDGE]])
-        ends: dict[int, int] = {}
-        for k in range(m.child_start[s], m.child_start[s + 1]):
-            v, o = int(m.child_shape[k]), int(m.child_orient[k])
-            if m.shape_type[v] == ShapeType.VERTEX and m.child_loc[k] == 0 and o in (0, 1):
-                ends.setdefault(o, int(tidx[v]))
+        ends = edge_ends(m, int(edge_shapes[reps[q, EC.EDGE]]))
         if len(ends) != 2:
             continue
         a, b = (m.vertex_point[ends[e]] for e in (FORWARD, REVERSED))
         if g.kind == Kind.LINE:
-            out[q] = (_on_line(g, a), _on_line(g, b))
+            out[q] = (on_line(g, a), on_line(g, b))
             continue
         t0, t1 = _on_circle(g, a), _on_circle(g, b)
         if ends[FORWARD] == ends[REVERSED] or t1 == t0:

@@ -82,6 +82,8 @@ _SIGN = 1 << 63
 REPEAT_MIN = 3
 #: Kind code of an analytic row on a grid: ``GRIDDED + kind`` (2.0, §2.3).
 GRIDDED = 128
+#: Kind code of a 3-D line through its edge's vertices, with no values (2.2, §2.3).
+THROUGH = 176
 
 
 def _keys(x: np.ndarray) -> list[int]:
@@ -193,6 +195,11 @@ def _write_geometry(
         if first[i] != i:
             kinds.append(COPY)
             copies.append(i - first[i])
+            continue
+        if isinstance(r, Analytic) and r.through:
+            if not (revision >= 5 and dim == 3 and r.kind == Kind.LINE):
+                raise ValueError("only a 3-D line of format 2.2 goes through its vertices")
+            kinds.append(THROUGH)
             continue
         if isinstance(r, Analytic) and gridded and r.grid:
             kinds.append(GRIDDED + int(r.kind))
@@ -413,6 +420,10 @@ def _read_geometry(
             if not 0 <= j < i:
                 raise SectionError(f"{where} copies a row that does not exist")
             out.append(out[j])
+            continue
+        if k == THROUGH and revision >= 5 and tag == "CRV3":
+            # its frame comes from its edge's vertices (decode.apply)
+            out.append(Analytic(Kind.LINE, np.zeros((2, 3)), np.zeros(0), through=True))
             continue
         on_grid = gridded and GRIDDED <= k < COPY
         try:

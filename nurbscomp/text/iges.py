@@ -535,7 +535,7 @@ def _pole_lanes(skel: bytes, pd: int, ph: int) -> list[tuple[int, int, int]]:
     rec_start = np.r_[np.int64(0), np.flatnonzero(arr == 10) + 1]
     rec_len = np.r_[rec_start[1:] - 1, np.int64(len(arr))] - rec_start
     # the number of reals before each record
-    base = np.searchsorted(np.flatnonzero(arr == ph), rec_start)
+    base = np.asarray(np.searchsorted(np.flatnonzero(arr == ph), rec_start))
     cand = np.flatnonzero(rec_len >= 4)  # records that start "128" and a delimiter
     for j, c in enumerate(b"128" + bytes([pd])):
         cand = cand[arr[rec_start[cand] + j] == c]

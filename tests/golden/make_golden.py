@@ -69,10 +69,15 @@ GOLDEN = [
     ("blob.step", "v2_1.tol0.1", {"tol": 0.1}),  # bicubic Coons nets, anchors
     ("teapot.step", "v2_1.faces.tol0.01", {"tol": 0.01}),  # ISO rows, copies, SIDE
     ("assembly.step", "v2_1.tol0.001", {"tol": 0.001}),
+    # format 2.2: lines through their edges' vertices (CRV3 kind 176)
+    ("bracket.step", "v2_2.tol0.01", {"tol": 0.01}),
+    ("assembly.step", "v2_2.tol0.1", {"tol": 0.1}),
 ]
 
 
 def _version(sample: str, mode: str) -> str:
+    if mode.startswith("v2_2."):
+        return "2.2"
     if mode.startswith("v2_1."):
         return "2.1"
     if mode.startswith("v2."):

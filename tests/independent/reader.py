@@ -223,11 +223,10 @@ def _angle(p: np.ndarray, g: Analytic) -> float:
     return a
 
 
-def vertex_range(m: Model, r: int) -> tuple[float, float]:
-    """§2.7, range kind 4."""
+def _ends(m: Model, r: int) -> tuple[int, int] | None:
+    """The first FORWARD and REVERSED unlocated vertex children of representation r's edge."""
     sh = m.shapes
     es = sh.of(6)[int(m.edges.reps[r, 0])]
-    g = m.curves3d[int(m.edges.reps[r, 2])]
     fwd = rev = None
     for c, o, loc in sh.children[es]:
         if sh.type[c] != 7 or loc != 0:
@@ -236,8 +235,39 @@ def vertex_range(m: Model, r: int) -> tuple[float, float]:
             fwd = c
         elif o == 1 and rev is None:
             rev = c
-    if fwd is None or rev is None or not isinstance(g, Analytic) or m.edges.reps[r, 6] != 0:
+    return None if fwd is None or rev is None else (fwd, rev)
+
+
+def lines_through(m: Model) -> None:
+    """§2.3 (2.2): the frame of each line through its edge's vertices."""
+    for i, g in enumerate(m.curves3d):
+        if not (isinstance(g, Analytic) and g.through):
+            continue
+        uses = [r for r in range(len(m.edges.reps))
+                if int(m.edges.reps[r, 1]) == 0 and int(m.edges.reps[r, 2]) == i]  # fmt: skip
+        if len(uses) != 1 or int(m.edges.reps[uses[0], 6]) != 0:
+            raise ReadError("CRV3: a line through vertices not on one unlocated edge")
+        if sum(h is g for h in m.curves3d) != 1:
+            raise ReadError("CRV3: a line through vertices is copied")
+        ends = _ends(m, uses[0])
+        if ends is None:
+            raise ReadError("CRV3: a line through vertices without its vertices")
+        a, b = (m.vertices.point[m.shapes.row_of[v]] for v in ends)
+        d = [float(b[j]) - float(a[j]) for j in range(3)]
+        n = math.sqrt((d[0] * d[0] + d[1] * d[1]) + d[2] * d[2])
+        if not (n > 0 and math.isfinite(n)):
+            raise ReadError("CRV3: a line through two vertices at one point")
+        g.frame = np.array([[float(x) for x in a], [x / n for x in d]])
+
+
+def vertex_range(m: Model, r: int) -> tuple[float, float]:
+    """§2.7, range kind 4."""
+    sh = m.shapes
+    g = m.curves3d[int(m.edges.reps[r, 2])]
+    ends = _ends(m, r)
+    if ends is None or not isinstance(g, Analytic) or m.edges.reps[r, 6] != 0:
         raise ReadError("EDGE: range kind 4 without its vertices")
+    fwd, rev = ends
     pa = m.vertices.point[sh.row_of[fwd]]
     pb = m.vertices.point[sh.row_of[rev]]
     if g.kind == 16:
@@ -302,6 +332,7 @@ def read(data: bytes) -> Model:
     m = Model(rev, meta, tol, forms, datums, locs, surfaces, curves3d, curves2d, shapes,
               vertices, edges, faces, sides, c.sections["SNET"], c.sections["CNET"],
               surf_copies, crv3_copies)  # fmt: skip
+    lines_through(m)
     fill_ranges(m)
     nets.decode(m)
     return m

@@ -19,6 +19,7 @@ class Analytic:
     kind: int
     frame: np.ndarray
     params: np.ndarray
+    through: bool = False  # §2.3 (2.2): a line through its edge's vertices
 
 
 @dataclass(eq=False)
@@ -196,6 +197,9 @@ def read_geometry(raw: bytes, tag: str, dim: int, revision: int) -> tuple[list[R
             copies.append(True)
             continue
         copies.append(False)
+        if kind == 176 and revision >= 5 and tag == "CRV3":  # §2.3 (2.2): frame from the vertices
+            rows.append(Analytic(16, np.full((2, 3), np.nan), np.zeros(0), through=True))
+            continue
         on_grid = kind >= 128
         if on_grid:
             kind -= 128

@@ -1,0 +1,171 @@
+"""Lines through their edges' vertices (format 2.2, docs/format.md §2.3;
+encode.assembly._thread_lines, rules.joins.lines_through): a line used by
+one edge is stored with no values and made again from the decoded vertices,
+within its bound of the source's line, its range a rule."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import cadquery as cq
+import numpy as np
+import pytest
+
+from nurbscomp import container, occ, pipeline, serialize
+from nurbscomp.encode import assembly
+from nurbscomp.errors import BadReferenceError, SectionError
+from nurbscomp.model import EC, REBUILD, Analytic, Kind, RepKind, ShapeType
+from nurbscomp.occ import topology
+from nurbscomp.rules import joins
+from nurbscomp.rules.ranges import RANGE_VERTICES
+from nurbscomp.serialize import geometry
+
+from .conftest import assert_step_keeps_floor
+
+
+def _part(path: Path) -> Path:
+    """A plate with a slot and a chamfer, slightly rotated (its lines are no
+    axis lines)."""
+    shape = (
+        cq.Workplane()
+        .box(40, 25, 8)
+        .faces(">Z")
+        .workplane()
+        .slot2D(18, 6, angle=20)
+        .cutThruAll()
+        .edges("|Z")
+        .chamfer(1.5)
+        .rotate((0, 0, 0), (1, 1, 0.3), 17)
+    )
+    cq.exporters.export(shape, str(path))
+    return path
+
+
+def _through(m) -> list[int]:
+    return [i for i, g in enumerate(m.curves3d) if isinstance(g, Analytic) and g.through]
+
+
+@pytest.fixture(scope="module")
+def plate(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path, dict]:
+    d = tmp_path_factory.mktemp("through")
+    src = _part(d / "plate.step")
+    nzc = d / "plate.nzc"
+    rep = pipeline.compress_file(src, nzc, tol=0.01)
+    return src, nzc, rep
+
+
+def test_lines_go_through_their_vertices(plate) -> None:
+    src, nzc, rep = plate
+    assert rep["verified"] and rep["max_bound_mm"] <= 0.01
+    c = container.unpack(nzc.read_bytes())
+    assert (c.major, c.minor) == (2, 2)
+    m, _, tables = serialize.read_sections(c.get, c.revision)
+    rows = _through(m)
+    lines = [g for g in m.curves3d if isinstance(g, Analytic) and g.kind == Kind.LINE]
+    assert len(rows) >= len(lines) // 2 > 0
+    shape = pipeline.decode_file(nzc)[0]
+    back, _ = pipeline.decode(c)  # the decoded model
+    reps = back.edge_reps
+    edge_shapes = np.flatnonzero(back.shape_type == ShapeType.EDGE)
+    for i in rows:
+        (q,) = np.flatnonzero((reps[:, EC.KIND] == RepKind.CURVE3D) & (reps[:, EC.CURVE] == i))
+        assert tables.range_how[q] == RANGE_VERTICES  # a rule, no floats
+        ends = joins.edge_ends(back, int(edge_shapes[reps[q, EC.EDGE]]))
+        a, b = (back.vertex_point[ends[o]] for o in (joins.FORWARD, joins.REVERSED))
+        g = back.curves3d[i]
+        assert np.array_equal(g.frame[0], a)  # the origin is the FORWARD vertex, bit for bit
+        assert np.isclose(np.linalg.norm(g.frame[1]), 1.0, atol=1e-15)
+        assert back.edge_rep_range[q][0] == 0.0
+        assert np.allclose(g.frame[0] + back.edge_rep_range[q][1] * g.frame[1], b, atol=1e-12)
+    cad = occ.read_cad(src)
+    assert occ.counts(shape) == occ.counts(cad.shape)
+    assert occ.deviation(cad.shape, shape, n=5, tol=0.01).max() <= 0.01
+    assert occ.is_valid(shape)
+
+
+def test_the_step_output_keeps_the_floor(plate, tmp_path: Path) -> None:
+    src, nzc, _ = plate
+    assert_step_keeps_floor(occ.read_cad(src), nzc, tmp_path)
+
+
+def test_the_line_moves_within_its_bound(plate) -> None:
+    """Each new line's ends are within its bound of the source line's ends;
+    the edge's tolerance covers that bound."""
+    src, nzc, _ = plate
+    source, _ = topology.shape_to_model(occ.read_cad(src).shape)
+    back, _ = pipeline.decode(container.unpack(nzc.read_bytes()))
+    reps = back.edge_reps
+    for i in _through(back):
+        (q,) = np.flatnonzero((reps[:, EC.KIND] == RepKind.CURVE3D) & (reps[:, EC.CURVE] == i))
+        was, now = source.curves3d[i], back.curves3d[i]
+        t0, t1 = source.edge_rep_range[q]
+        u0, u1 = back.edge_rep_range[q]
+        for t, u in ((t0, u0), (t1, u1), ((t0 + t1) / 2, (u0 + u1) / 2)):
+            d = np.linalg.norm(was.frame[0] + t * was.frame[1] - (now.frame[0] + u * now.frame[1]))
+            assert d <= min(0.01, back.edge_tol[reps[q, EC.EDGE]])
+
+
+def test_a_line_whose_edge_keeps_its_pcurve_stays(plate) -> None:
+    """assembly.unthread: a kept (stored) pcurve is parameterized on the
+    source line, so that line comes back with its range."""
+    src, nzc, _ = plate
+    source, _ = topology.shape_to_model(occ.read_cad(src).shape)
+    back, _ = pipeline.decode(container.unpack(nzc.read_bytes()))
+    (i, *_) = _through(back)
+    reps = back.edge_reps
+    (q,) = np.flatnonzero((reps[:, EC.KIND] == RepKind.CURVE3D) & (reps[:, EC.CURVE] == i))
+    edge = reps[q, EC.EDGE]
+    cand = back
+    # a pcurve on it computed by the decoder changes nothing; a stored one does
+    pcurve = [edge, RepKind.ON_SURFACE, REBUILD, -1, 0, -1, 0, 0]
+    cand.edge_reps = np.vstack([reps, pcurve])
+    assert assembly.unthread(cand, source) is cand
+    cand.edge_reps[-1, EC.CURVE] = 0
+    out = assembly.unthread(cand, source)
+    assert out.curves3d[i] is source.curves3d[i]
+    assert np.array_equal(out.edge_rep_range[q], source.edge_rep_range[q])
+    assert (
+        sum(1 for g in out.curves3d if isinstance(g, Analytic) and g.through)
+        == len(_through(back)) - 1
+    )
+
+
+def test_the_reader_refuses_what_breaks_the_rule(plate) -> None:
+    _, nzc, _ = plate
+    c = container.unpack(nzc.read_bytes())
+    m, _, _ = serialize.read_sections(c.get, c.revision)
+    (i, j, *_) = _through(m)
+    reps = m.edge_reps
+    (q,) = np.flatnonzero((reps[:, EC.KIND] == RepKind.CURVE3D) & (reps[:, EC.CURVE] == i))
+    (r,) = np.flatnonzero((reps[:, EC.KIND] == RepKind.CURVE3D) & (reps[:, EC.CURVE] == j))
+    two = m.edge_reps.copy()
+    two[r, EC.CURVE] = i  # two edges on one line through vertices
+    m.edge_reps = two
+    with pytest.raises(BadReferenceError, match="used by 2 edges"):
+        joins.lines_through(m)
+    m.edge_reps = reps
+    m.curves3d = list(m.curves3d)
+    m.curves3d[j] = m.curves3d[i]  # a copy of it
+    with pytest.raises(BadReferenceError):
+        joins.lines_through(m)
+
+
+def test_the_kind_code_only_in_crv3_of_2_2() -> None:
+    line = Analytic(Kind.LINE, np.zeros((2, 3)), np.zeros(0), through=True)
+    raw = geometry._write_geometry([line], 3, revision=5)
+    (back,) = geometry._read_geometry(raw, "CRV3", 3, revision=5)
+    assert isinstance(back, Analytic) and back.through and back.kind == Kind.LINE
+    with pytest.raises(SectionError, match="unknown geometry kind 176"):
+        geometry._read_geometry(raw, "CRV3", 3, revision=4)
+    with pytest.raises(SectionError, match="unknown geometry kind 176"):
+        geometry._read_geometry(raw, "SURF", 3, revision=5)
+    with pytest.raises(ValueError):
+        geometry._write_geometry([line], 3, revision=4)
+
+
+def test_lossless_has_none(plate, tmp_path: Path) -> None:
+    src, _, _ = plate
+    out = tmp_path / "x.nzc"
+    pipeline.compress_file(src, out, lossless=True)
+    c = container.unpack(out.read_bytes())
+    assert not _through(serialize.read_sections(c.get, c.revision)[0])
