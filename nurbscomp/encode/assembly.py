@@ -34,6 +34,7 @@ from ..model import (
     ShapeType,
     Table,
     below,
+    faces_around,
     first_row,
     records,
 )
@@ -139,7 +140,7 @@ def assemble(
     gridded |= curves_gridded
     source = m
     m, moved_v, loose_v, bound_v = _snap_vertices(m, coded, surfaces, curves, codes, exact, still)
-    threaded = _thread_lines(source, m, curves, crec, exact, coded.tol)
+    threaded = _thread_lines(source, m, curves, crec, exact, coded.tol, coded.vlead)
     snapped.update(threaded)  # the line's bound replaces its grid's: it is a new line
     gridded |= set(threaded)  # the validity ladder's first rung leaves it as it was
     _pin_surfaces(m, surfaces, codes, coded.tol)
@@ -250,6 +251,7 @@ def _thread_lines(
     crec: list[Rec],
     exact: set[Rec | None],
     tol: float,
+    lead: np.ndarray,
 ) -> dict[Rec, float]:
     """Lines that go through their edge's vertices (format 2.2: no values in
     the container; ``joins.lines_through`` makes them from the decoded
@@ -259,7 +261,11 @@ def _thread_lines(
     A line qualifies where it is the one unlocated 3-D curve of one edge,
     its record has no other row, no other record (a swept surface, a trimmed
     or offset curve) and no vertex's point representation refers to it, its
-    edge is no seam and has two distinct unlocated vertices, and the new
+    edge is no seam and has two distinct unlocated vertices, neither of them
+    a twin (a vertex of a cluster ``lead``: a surface model whose faces each
+    have their own edges, where the coincident line of the next face is a
+    record of its own; on bearing.iges such lines opened free edges in the
+    STEP re-read and made the file grow with the tolerance), and the new
     line stays within tol of the source's: its bound is the larger distance,
     at either end, from the (snapped) vertex to the source line's point at
     the edge's range end (the segments between match point for point within
@@ -278,6 +284,17 @@ def _thread_lines(
     based |= set(vr[vr[:, VC.KIND] == PointRepKind.ON_CURVE, VC.CURVE].tolist())
     seams = set(reps[reps[:, EC.KIND] == RepKind.ON_CLOSED_SURFACE, EC.EDGE].tolist())
     edge_shapes = np.flatnonzero(m.shape_type == ShapeType.EDGE)
+    nv = len(m.vertex_tol)
+    twin = np.bincount(lead, minlength=nv)[lead] > 1 if len(lead) == nv else np.zeros(nv, bool)
+    # faces on a plane, quadric or B-spline surface (an offset or swept one
+    # projects the new line's pcurves less well: analytic_offset_cylinder_17 of
+    # the stress corpus faulted in BRepCheck and fell back to exact)
+    plain = {
+        f
+        for f, r in enumerate(m.face_surface.tolist())
+        if isinstance(m.surfaces[r], Analytic | BSplineSurface)
+    }
+    faces_of = faces_around(m, ShapeType.EDGE)
     rows = _Rows(curves)
     ranges = None
     for i, k in enumerate(crec):
@@ -294,6 +311,10 @@ def _thread_lines(
         q = qs[0]
         ends = joins.edge_ends(m, int(edge_shapes[reps[q, EC.EDGE]]))
         if len(ends) != 2 or ends[joins.FORWARD] == ends[joins.REVERSED]:
+            continue
+        if (twin[[ends[joins.FORWARD], ends[joins.REVERSED]]]).any():
+            continue
+        if any(f not in plain for f in faces_of[int(reps[q, EC.EDGE])]):
             continue
         a, b = (m.vertex_point[ends[o]] for o in (joins.FORWARD, joins.REVERSED))
         frame = joins.line_through(a, b)

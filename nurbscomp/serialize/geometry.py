@@ -422,8 +422,8 @@ def _read_geometry(
             out.append(out[j])
             continue
         if k == THROUGH and revision >= 5 and tag == "CRV3":
-            # its frame comes from its edge's vertices (decode.apply)
-            out.append(Analytic(Kind.LINE, np.zeros((2, 3)), np.zeros(0), through=True))
+            # its frame comes from its edge's vertices (decode.apply): NaN until then
+            out.append(Analytic(Kind.LINE, np.full((2, 3), np.nan), np.zeros(0), through=True))
             continue
         on_grid = gridded and GRIDDED <= k < COPY
         try:
