@@ -70,7 +70,7 @@ def test_lines_go_through_their_vertices(plate) -> None:
     for i in rows:
         (q,) = np.flatnonzero((reps[:, EC.KIND] == RepKind.CURVE3D) & (reps[:, EC.CURVE] == i))
         assert tables.range_how[q] == RANGE_VERTICES  # a rule, no floats
-        ends = joins.edge_ends(back, int(edge_shapes[reps[q, EC.EDGE]]))
+        ends = joins.edge_ends(back, int(edge_shapes[reps[q, EC.EDGE]]), back.type_index())
         a, b = (back.vertex_point[ends[o]] for o in (joins.FORWARD, joins.REVERSED))
         g = back.curves3d[i]
         assert np.array_equal(g.frame[0], a)  # the origin is the FORWARD vertex, bit for bit

@@ -295,6 +295,7 @@ def _thread_lines(
         if isinstance(m.surfaces[r], Analytic | BSplineSurface)
     }
     faces_of = faces_around(m, ShapeType.EDGE)
+    tidx = m.type_index()
     rows = _Rows(curves)
     ranges = None
     for i, k in enumerate(crec):
@@ -309,7 +310,7 @@ def _thread_lines(
         if len(qs) != 1 or reps[qs[0], EC.LOC] != 0 or int(reps[qs[0], EC.EDGE]) in seams:
             continue
         q = qs[0]
-        ends = joins.edge_ends(m, int(edge_shapes[reps[q, EC.EDGE]]))
+        ends = joins.edge_ends(m, int(edge_shapes[reps[q, EC.EDGE]]), tidx)
         if len(ends) != 2 or ends[joins.FORWARD] == ends[joins.REVERSED]:
             continue
         if (twin[[ends[joins.FORWARD], ends[joins.REVERSED]]]).any():

@@ -20,6 +20,7 @@ This costs no bits: it is a rule both sides apply to the same tables.
 
 from __future__ import annotations
 
+import collections
 import math
 from collections.abc import Iterable
 from typing import Any
@@ -124,11 +125,10 @@ def _on_circle(g: Analytic, p: np.ndarray) -> float:
     return t
 
 
-def edge_ends(m: BRepModel, edge_shape: int) -> dict[int, int]:
+def edge_ends(m: BRepModel, edge_shape: int, tidx: np.ndarray) -> dict[int, int]:
     """The vertex rows of an edge shape's first FORWARD and first REVERSED
     direct children with reference location 0 (by orientation, where it has
-    them)."""
-    tidx = m.type_index()
+    them); ``tidx`` is ``m.type_index()``."""
     ends: dict[int, int] = {}
     for k in range(m.child_start[edge_shape], m.child_start[edge_shape + 1]):
         v, o = int(m.child_shape[k]), int(m.child_orient[k])
@@ -169,6 +169,8 @@ def lines_through(m: BRepModel) -> None:
     for q in np.flatnonzero(reps[:, EC.KIND] == RepKind.CURVE3D).tolist():
         use.setdefault(int(reps[q, EC.CURVE]), []).append(q)
     edge_shapes = np.flatnonzero(m.shape_type == ShapeType.EDGE)
+    tidx = m.type_index()
+    held = collections.Counter(id(h) for h in m.curves3d)
     for i in rows:
         g = m.curves3d[i]
         assert isinstance(g, Analytic)
@@ -177,9 +179,9 @@ def lines_through(m: BRepModel) -> None:
             raise BadReferenceError(
                 f"CRV3 row {i}: a line through vertices used by {len(qs)} edges"
             )
-        if sum(h is g for h in m.curves3d) != 1:
+        if held[id(g)] != 1:
             raise BadReferenceError(f"CRV3 row {i}: a line through vertices is copied")
-        ends = edge_ends(m, int(edge_shapes[reps[qs[0], EC.EDGE]]))
+        ends = edge_ends(m, int(edge_shapes[reps[qs[0], EC.EDGE]]), tidx)
         if len(ends) != 2:
             raise BadReferenceError(f"CRV3 row {i}: its edge has no two unlocated vertices")
         a, b = (m.vertex_point[ends[o]] for o in (FORWARD, REVERSED))
@@ -199,6 +201,7 @@ def vertex_ranges(m: BRepModel) -> dict[int, tuple[float, float]]:
     FORWARD and a REVERSED vertex, both unlocated, on an unlocated curve.
     """
     edge_shapes = np.flatnonzero(m.shape_type == ShapeType.EDGE)
+    tidx = m.type_index()
     reps = m.edge_reps
     out: dict[int, tuple[float, float]] = {}
     for q in np.flatnonzero(reps[:, EC.KIND] == RepKind.CURVE3D).tolist():
@@ -208,7 +211,7 @@ def vertex_ranges(m: BRepModel) -> dict[int, tuple[float, float]]:
         g = m.curves3d[c]
         if not isinstance(g, Analytic) or g.kind not in (Kind.LINE, Kind.CIRCLE):
             continue
-        ends = edge_ends(m, int(edge_shapes[reps[q, EC.EDGE]]))
+        ends = edge_ends(m, int(edge_shapes[reps[q, EC.EDGE]]), tidx)
         if len(ends) != 2:
             continue
         a, b = (m.vertex_point[ends[e]] for e in (FORWARD, REVERSED))
