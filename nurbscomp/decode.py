@@ -4,8 +4,8 @@
 does no geometry.  This module does what those tables mean (docs/format.md
 §2.4, §2.7, §2.9, §2.10), in the order :func:`apply` runs them:
 
-0. every location's matrix checked (finite, within ``MAX_COORD``);
-0. (2.2) the frames of the lines that go through their edge's vertices
+0. every location's matrix checked (finite, within ``MAX_COORD``), then
+   (2.2) the frames of the lines that go through their edge's vertices made
    (:func:`joins.lines_through`);
 1. edge ranges the EDGE section left to rules (the curve's own range, the
    edge's 3-D curve's, the projections of its vertices: ``rules.ranges``);

@@ -275,9 +275,7 @@ def _thread_lines(
     if not tol > 0:
         return out
     reps = m.edge_reps
-    use: dict[int, list[int]] = {}
-    for q in np.flatnonzero(reps[:, EC.KIND] == RepKind.CURVE3D).tolist():
-        use.setdefault(int(reps[q, EC.CURVE]), []).append(q)
+    use = joins.curve_uses(m)
     based = {g.basis for g in source.curves3d if isinstance(g, Derived)}
     based |= {g.basis for g in source.surfaces if isinstance(g, Derived) and g.kind in SWEPT}
     vr = source.vertex_reps
@@ -340,22 +338,14 @@ def unthread(cand: BRepModel, source: BRepModel) -> BRepModel:
     through its vertices (:func:`_thread_lines`) is on an edge that keeps a
     stored pcurve (parameterized on the source line)."""
     reps = cand.edge_reps
-    kept = set(
-        reps[
-            (
-                (reps[:, EC.KIND] == RepKind.ON_SURFACE)
-                | (reps[:, EC.KIND] == RepKind.ON_CLOSED_SURFACE)
-            )
-            & (reps[:, EC.CURVE] != REBUILD),
-            EC.EDGE,
-        ].tolist()
-    )
+    pcurve = np.isin(reps[:, EC.KIND], (RepKind.ON_SURFACE, RepKind.ON_CLOSED_SURFACE))
+    kept = set(reps[pcurve & (reps[:, EC.CURVE] != REBUILD), EC.EDGE].tolist())
     back = [
         q
-        for q in np.flatnonzero(reps[:, EC.KIND] == RepKind.CURVE3D).tolist()
+        for i, qs in joins.curve_uses(cand).items()
+        if i >= 0 and isinstance(g := cand.curves3d[i], Analytic) and g.through
+        for q in qs
         if int(reps[q, EC.EDGE]) in kept
-        and isinstance(g := cand.curves3d[int(reps[q, EC.CURVE])], Analytic)
-        and g.through
     ]
     if not back:
         return cand

@@ -125,6 +125,15 @@ def _on_circle(g: Analytic, p: np.ndarray) -> float:
     return t
 
 
+def curve_uses(m: BRepModel) -> dict[int, list[int]]:
+    """Per 3-D curve row, the edge representations (3-D curves) that use it."""
+    reps = m.edge_reps
+    use: dict[int, list[int]] = {}
+    for q in np.flatnonzero(reps[:, EC.KIND] == RepKind.CURVE3D).tolist():
+        use.setdefault(int(reps[q, EC.CURVE]), []).append(q)
+    return use
+
+
 def edge_ends(m: BRepModel, edge_shape: int, tidx: np.ndarray) -> dict[int, int]:
     """The vertex rows of an edge shape's first FORWARD and first REVERSED
     direct children with reference location 0 (by orientation, where it has
@@ -165,9 +174,7 @@ def lines_through(m: BRepModel) -> None:
     if not rows:
         return
     reps = m.edge_reps
-    use: dict[int, list[int]] = {}
-    for q in np.flatnonzero(reps[:, EC.KIND] == RepKind.CURVE3D).tolist():
-        use.setdefault(int(reps[q, EC.CURVE]), []).append(q)
+    use = curve_uses(m)
     edge_shapes = np.flatnonzero(m.shape_type == ShapeType.EDGE)
     tidx = m.type_index()
     held = collections.Counter(id(h) for h in m.curves3d)
