@@ -51,3 +51,41 @@ def points(knots: np.ndarray, poles: np.ndarray, degree: int, x: np.ndarray) -> 
             d[:, j] = (1.0 - a)[:, None] * d[:, j - 1] + a[:, None] * d[:, j]
     out[inside] = d[:, p]
     return out
+
+
+def refinement(old: np.ndarray, new: np.ndarray, degree: int) -> np.ndarray:
+    """The knot-insertion matrix A (Oslo algorithm, eq. 1): the B-spline of
+    degree ``degree`` on the expanded knot vector ``old`` with poles P is the
+    one on ``new`` (``old``'s knots and more, the same clamped ends) with
+    poles A @ P.  Each row of A is non-negative and sums to one.
+
+    Row j holds the discrete B-splines α_{i,k}(j), k = degree + 1, by the
+    recursion α_{i,1}(j) = [t_i ≤ τ_j < t_{i+1}] and
+    α_{i,r}(j) = ω_{i,r} α_{i,r-1}(j) + (1 − ω_{i+1,r}) α_{i+1,r-1}(j),
+    ω_{i,r} = (τ_{j+r-1} − t_i) / (t_{i+r-1} − t_i) (0 over an empty span).
+    """
+    t, tau, k = np.asarray(old, float), np.asarray(new, float), int(degree) + 1
+    n, m = len(t) - k, len(tau) - k
+    x = tau[:m, None]
+    a = ((t[None, :-1] <= x) & (x < t[None, 1:])).astype(float)  # (m, n + k - 1)
+    for r in range(2, k + 1):
+        x = tau[r - 1 : m + r - 1, None]
+        i = np.arange(n + k - r)
+        lo, hi = t[i], t[i + r - 1]
+        w1 = np.divide(x - lo, hi - lo, out=np.zeros((m, len(i))), where=hi > lo)
+        lo2, hi2 = t[i + 1], t[i + r]
+        w2 = np.divide(hi2 - x, hi2 - lo2, out=np.zeros((m, len(i))), where=hi2 > lo2)
+        a = w1 * a[:, :-1] + w2 * a[:, 1:]
+    return a
+
+
+def refine(
+    knots: np.ndarray, mults: np.ndarray, poles: np.ndarray, degree: int, target: np.ndarray
+) -> np.ndarray:
+    """The poles (along axis 0; a surface's other direction rides along) of
+    the same clamped B-spline on the expanded knot vector ``target``, which
+    holds every knot of ``knots`` (distinct values, with ``mults``) at least
+    as often, and the same ends."""
+    flat = np.repeat(np.asarray(knots, float), np.asarray(mults, int))
+    a = refinement(flat, target, degree)
+    return np.tensordot(a, poles, axes=(1, 0))

@@ -40,7 +40,7 @@ from ..model import (
 )
 from ..rules import joins
 from ..serialize import SWEPT
-from . import analytic, coincide, weights
+from . import analytic, coincide, knots, weights
 from .nets import TRIM_C, TRIM_S, Coded, feature_limit, first_rows, poles_of, resolve_row
 
 
@@ -629,7 +629,11 @@ def _copy_iso(
             if lead.weights is None
             else joins.boundary(lead.weights[..., None], side, bool(rev))
         )
-        new, bound = _follow(g, poles, None if w is None else w[:, 0], coded.tol)
+        if not g.bezier:  # the side's knots, rounded with the surface's (:mod:`.knots`)
+            g = replace(g, knots=joins.side_knots(lead, side, bool(rev))[0])
+        source = m.curves3d[c]
+        assert isinstance(source, BSplineCurve)
+        new, bound = _follow(source, poles, None if w is None else w[:, 0], coded.tol, g)
         ints = np.array([r, side, rev], np.int64)
         code = codec.NetCode(codec.Method.ISO, codec.Quant.TOL, 0, 0, ints, np.zeros(0), bound, 0.0)
         codes[crec[c]] = replace(code, first=poles[0].copy())
@@ -649,13 +653,18 @@ def _certified(new: Any, original: Any, tol: float) -> tuple[Any, float]:
 
 
 def _follow(
-    g: BSplineCurve, poles: np.ndarray, w: np.ndarray | None, tol: float
+    g: BSplineCurve,
+    poles: np.ndarray,
+    w: np.ndarray | None,
+    tol: float,
+    like: BSplineCurve | None = None,
 ) -> tuple[BSplineCurve, float]:
     """Curve ``g`` (the source's) with ``poles`` copied from what it follows, and
     the weights of what it follows, ``w``, when they are ``g``'s rounded
     (:mod:`.weights`) and leave it within its limit, so that the two stay one
-    curve; else its own weights (:func:`_certified`).  With its certified bound."""
-    new = replace(g, poles=poles)
+    curve; else its own weights (:func:`_certified`).  With its certified bound.
+    ``like`` is ``g`` with the knots of what it follows (:mod:`.knots`)."""
+    new = replace(like if like is not None else g, poles=poles)
     if w is not None and g.weights is not None and w.shape == g.weights.shape:
         new = replace(new, weights=w.copy())
     return _certified(new, g, tol)
@@ -713,7 +722,14 @@ def _copy_twins(
         if t is not None:  # the two edges sit in frames of their own
             poles = joins.placed(poles, t)
         w = None if leader.weights is None else leader.weights[::-1] if rev else leader.weights
-        new, bound = _follow(g, poles, w, coded.tol)
+        was = m.curves3d[r]
+        assert isinstance(was, BSplineCurve)
+        like = None
+        if not (g.bezier or leader.bezier or np.array_equal(leader.knots, was.knots)):
+            # the leader's knots were rounded (:mod:`.knots`): the copy takes them,
+            # mapped onto its own ends as the two were in the source
+            like = replace(g, knots=knots.mapped(leader.knots, g.knots, bool(rev)))
+        new, bound = _follow(g, poles, w, coded.tol, like)
         if bound > feature_limit(g.poles, coded.tol):
             continue
         ints = np.array([c - r, rev], np.int64)  # the leader as an offset from this row

@@ -33,6 +33,7 @@ from ..rules.joins import (
     clamped_curve,
     clamped_surface,
     placed,
+    side_knots,
 )
 
 
@@ -97,7 +98,6 @@ def _boundary_match(g: BSplineCurve, s: Geometry) -> tuple[int, int] | None:
     for side in range(SIDES):
         along_u = side >= 2  # columns run along u
         deg = s.udegree if along_u else s.vdegree
-        knots = (s.uknots, s.umults) if along_u else (s.vknots, s.vmults)
         w = s.weights
         wrow = None if w is None else boundary(w[..., None], side, False)[:, 0]
         for rev in (0, 1):
@@ -112,9 +112,7 @@ def _boundary_match(g: BSplineCurve, s: Geometry) -> tuple[int, int] | None:
             if g.bezier != s.bezier or (not g.bezier and g.degree != deg):
                 continue
             if not g.bezier:
-                kn, mu = knots
-                if rev:
-                    kn, mu = kn[-1] + kn[0] - kn[::-1], mu[::-1]
+                kn, mu = side_knots(s, side, bool(rev))
                 if not (np.array_equal(kn, g.knots) and np.array_equal(mu, g.mults)):
                     continue
             return side, rev

@@ -42,7 +42,7 @@ from ..model import (
 from ..rules import joins
 from ..rules.nets import net_abscissae, net_basis
 from ..serialize import SWEPT
-from . import coincide, weights
+from . import coincide, knots, weights
 
 
 def resolve_row(table: list[Geometry], i: int, through: tuple[Kind, ...]) -> int:
@@ -106,6 +106,8 @@ class Coded:
     #: the precision rational rows' weights are rounded to (:func:`weights.file_bits`),
     #: None: exact
     wbits: int | None = None
+    #: the knot vectors rounded, and how (:func:`knots.plan`)
+    kplan: knots.Plan = field(default_factory=dict)
     #: the reaches of the source's analytic rows (:func:`analytic.reaches`), once made
     reach: tuple[dict[int, float], dict[int, float]] | None = None
 
@@ -136,6 +138,25 @@ def feature_limit(poles: np.ndarray, tol: float) -> float:
     return float(np.clip(FEATURE_FRACTION * size, tol / 1024, tol))
 
 
+def _net_code(
+    g: BSplineSurface | BSplineCurve,
+    tol: float,
+    methods: tuple[codec.Method, ...],
+    origin: np.ndarray | None,
+    limit: float,
+) -> tuple[codec.NetCode, np.ndarray]:
+    """``g``'s poles coded within ``limit`` (:func:`codec.encode_net`, on the
+    abscissae and basis of ``g``'s knots, as the decoder's), and the decoded
+    poles."""
+    s, t = net_abscissae(g)
+    basis = net_basis(g)
+    code = codec.encode_net(
+        g.poles, s, t, tol, methods, paper=False, origin=origin, basis=basis, limit=limit
+    )
+    net, _ = codec.decode_net(code, g.poles.shape, s, t, tol, origin, basis)
+    return replace(code, first=net.reshape(-1, net.shape[-1])[0]), net
+
+
 def _code_one(
     g: BSplineSurface | BSplineCurve,
     tol: float,
@@ -144,6 +165,7 @@ def _code_one(
     origin: np.ndarray | None,
     limit: float,
     wbits: int | None = None,
+    kplan: knots.Plan | None = None,
 ) -> tuple[codec.NetCode, Geometry]:
     """One record's code (:func:`codec.encode_net`) and the record as decoded.
 
@@ -156,22 +178,27 @@ def _code_one(
     (:func:`weights.weight_bound`) fits between the code's bound and
     ``limit``: the poles are coded as they would be with exact weights, and the
     code's bound is the sum.  Not under a D-map, whose basis holds the weights
-    (eq. 18)."""
-    s, t = net_abscissae(g)
-    basis = net_basis(g)
-    code = codec.encode_net(
-        g.poles,
-        s,
-        t,
-        tol,
-        methods,
-        paper=False,
-        origin=origin,
-        basis=basis,
-        limit=limit,
-    )
-    net, _ = codec.decode_net(code, g.poles.shape, s, t, tol, origin, basis)
-    code = replace(code, first=net.reshape(-1, net.shape[-1])[0])
+    (eq. 18).
+
+    With ``kplan`` (:func:`knots.plan`), a non-rational record's inner knots
+    are rounded as planned (:func:`knots.apply`, a move of at most
+    :data:`knots.SHARE` of ``limit``), and its poles coded on the rounded
+    knots (eq. 1: the decoder's abscissae and basis come from them) to
+    ``limit``; the code's bound is the code's plus the move.  Only where that
+    sum is past ``limit`` is it coded again to ``limit`` less the move (a
+    quarter-octave step finer, where the bound was that near the limit), and
+    where no code fits the record keeps its knots."""
+    if kplan:
+        rounded, kterm = knots.apply(g, kplan, limit)
+        if rounded is not g:
+            for room in (limit, limit - kterm):
+                try:
+                    code, net = _net_code(rounded, tol, methods, origin, room)
+                except codec.NoCodeError:
+                    break
+                if code.bound + kterm <= limit:
+                    return replace(code, bound=code.bound + kterm), replace(rounded, poles=net)
+    code, net = _net_code(g, tol, methods, origin, limit)
     if wbits is not None and g.weights is not None and code.method != codec.Method.DMAP:
         w = weights.rounded(g.weights, wbits)
         wterm = weights.weight_bound(g, w)  # of the source's poles
@@ -191,6 +218,7 @@ def _code_table(
     limits: dict[Rec, float] | None = None,
     uncodable: set[Rec] | None = None,
     wbits: int | None = None,
+    kplan: knots.Plan | None = None,
 ) -> dict[Rec, tuple[codec.NetCode, Geometry]]:
     """Code each distinct B-spline record of ``table`` (see :func:`code_model`);
     ``anchors`` maps records to :func:`joins.anchors` points, ``limits``
@@ -205,7 +233,7 @@ def _code_table(
         limit = feature_limit(g.poles, tol)
         limit = min(limit, (limits or {}).get(k, limit))
         try:
-            out[k] = _code_one(g, tol, methods, paper, at, limit, wbits)
+            out[k] = _code_one(g, tol, methods, paper, at, limit, wbits, kplan)
         except codec.NoCodeError:  # doubles too coarse for the steps here: exact
             if uncodable is not None:
                 uncodable.add(k)
@@ -240,7 +268,9 @@ def tighten(coded: Coded, m: BRepModel, recs: Iterable[Rec], level: int = 1) -> 
             floor = max(code.bound, coded.tol / 1024)
             limit = min(feature_limit(g.poles, coded.tol) / TIGHTER**level, floor)
             try:
-                done[k] = _code_one(g, coded.tol, methods, False, code.origin, limit, coded.wbits)
+                done[k] = _code_one(
+                    g, coded.tol, methods, False, code.origin, limit, coded.wbits, coded.kplan
+                )
             except codec.NoCodeError:  # as tight as doubles allow here: the code it has
                 continue
             coded.fine.add(k)
@@ -267,12 +297,28 @@ def plain(coded: Coded, m: BRepModel, recs: Iterable[Rec]) -> set[Rec]:
         limit = feature_limit(g.poles, coded.tol) / TIGHTER ** coded.tight.get(k, 0)
         try:
             coded.surfaces[k] = _code_one(
-                g, coded.tol, codec.TIGHT_SEARCH, False, code.origin, limit, coded.wbits
+                g,
+                coded.tol,
+                codec.TIGHT_SEARCH,
+                False,
+                code.origin,
+                limit,
+                coded.wbits,
+                coded.kplan,
             )
         except codec.NoCodeError:
             continue
         out.add(k)
     return out
+
+
+def _rows(table: list[Geometry], rows: Iterable[int]) -> list[tuple[int, Geometry]]:
+    return [(r, table[r]) for r in sorted(rows)]
+
+
+def _limit(g: Geometry, tol: float) -> float:
+    """:func:`feature_limit` of a B-spline row (tol for any other)."""
+    return feature_limit(g.poles, tol) if isinstance(g, (BSplineSurface, BSplineCurve)) else tol
 
 
 TRIM_S = (Kind.TRIMMED_SURFACE,)
@@ -328,6 +374,28 @@ def code_model(
         for g in (cast(BSplineSurface | BSplineCurve, table[r]) for r in sorted(rows))
     )
     searched = codec.SURFACE_METHODS if paper else codec.SURFACE_SEARCH
+    # knots rounded where nothing copies the row (:mod:`.knots`): not on joined
+    # sides; an iso-boundary curve takes its side's knots (assembly._copy_iso),
+    # a twin its leader's (assembly._copy_twins)
+    joined = {r for k, v in sides.items() for r in (k[0], v.leader[0])}
+    copied = coincide.iso_sources(m, crows, srows0)
+    where = joins.curve_placements(m)
+    pairs = coincide.twin_curves(m.curves3d, crows, eps, set(copied), where)
+    sfirst, cfirst = first_row(m.surfaces), first_row(m.curves3d)
+    kplan = knots.plan(
+        [
+            *(
+                (g, _limit(g, tol) if sfirst[r] in srows0 and sfirst[r] not in joined else None)
+                for r, g in enumerate(m.surfaces)
+            ),
+            *(
+                (g, _limit(g, tol) if cfirst[c] in crows else None)
+                for c, g in enumerate(m.curves3d)
+                if cfirst[c] not in copied  # an iso copy takes its side's knots
+            ),
+        ],
+        [(m.curves3d[c], m.curves3d[t.leader]) for c, t in pairs.items()],
+    )
     uncodable: set[Rec] = set()
     surfaces = _code_table(
         m.surfaces,
@@ -339,6 +407,7 @@ def code_model(
         limits=_leader_limits(m.surfaces, srec, sides, tol),
         uncodable=uncodable,
         wbits=wbits,
+        kplan=kplan,
     )
     h = serialize.vertex_grid(tol)
     # vertices at one point (within TWIN_VERTEX) snap as one: to their first's grid point
@@ -360,7 +429,6 @@ def code_model(
                 surfaces.pop(srec[r], None)
     iso = coincide.iso_sources(m, crows, first_rows(surfaces))
     iso_recs = {crec[c]: src for c, src in iso.items()}
-    where = joins.curve_placements(m)
     twins = coincide.twin_curves(m.curves3d, crows, eps, set(iso), where)
     twins = _affordable(m.curves3d, twins, tol)
     if points is not None:  # coincident edges no copy covers: their curves stay exact
@@ -380,7 +448,9 @@ def code_model(
             if code is not None and code.bound > need:
                 assert isinstance(sg, BSplineSurface)
                 try:
-                    surfaces[sk] = _code_one(sg, tol, searched, paper, code.origin, need, wbits)
+                    surfaces[sk] = _code_one(
+                        sg, tol, searched, paper, code.origin, need, wbits, kplan
+                    )
                 except codec.NoCodeError:
                     del surfaces[sk]
                     uncodable.add(sk)
@@ -398,6 +468,7 @@ def code_model(
             limits,
             uncodable,
             wbits,
+            kplan,
         ),
         tol,
         iso_recs,
@@ -408,6 +479,7 @@ def code_model(
         sides={k: (lead_side, rev) for k, (lead_side, rev, _) in sides.items()},
         uncodable=uncodable,
         wbits=wbits,
+        kplan=kplan,
     )
     decoded = [coded.curves[k][1] if k in coded.curves else g for k, g in zip(crec, m.curves3d)]
     rows = {i for i, k in enumerate(crec) if k in coded.curves}

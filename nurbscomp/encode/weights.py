@@ -39,6 +39,7 @@ from collections.abc import Iterable
 import numpy as np
 
 from ..model import BSplineCurve, BSplineSurface
+from . import knots
 
 #: The share of a row's limit its rounded weights may take.
 SHARE = 1.0 / 32
@@ -98,9 +99,12 @@ def weight_bound(g: Net, w: np.ndarray | None) -> float:
 
 def moved(new: Net, original: Net) -> float:
     """Certified distance between ``new`` and ``original`` (the same row, its
-    poles and weights moved): the largest pole move plus :func:`weight_bound`."""
+    poles, weights and inner knots moved): the largest pole move plus
+    :func:`weight_bound`, plus what the knots add (:func:`knots.term`: the
+    first two compare the rows on ``new``'s knots, the third ``original`` on
+    both)."""
     d = float(np.sqrt(((new.poles - original.poles) ** 2).sum(-1)).max())
-    return d + weight_bound(original, new.weights)
+    return d + weight_bound(original, new.weights) + knots.term(original, new)
 
 
 def _bits_for(g: Net, limit: float) -> int:

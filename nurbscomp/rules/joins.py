@@ -294,6 +294,16 @@ def boundary(poles: np.ndarray, side: int, reverse: bool) -> np.ndarray:
     return row[::-1] if reverse else row
 
 
+def side_knots(s: BSplineSurface, side: int, reverse: bool) -> tuple[np.ndarray, np.ndarray]:
+    """The knots and multiplicities of side ``side`` of a B-spline net (see
+    ``SIDES``) as a curve's, optionally reversed: mirrored as
+    ``k[-1] + k[0] - k[::-1]``."""
+    kn, mu = (s.uknots, s.umults) if side >= 2 else (s.vknots, s.vmults)
+    if reverse:
+        kn, mu = kn[-1] + kn[0] - kn[::-1], mu[::-1]
+    return kn, mu
+
+
 def clamped_surface(g: Geometry) -> bool:
     """A non-periodic B-spline (or Bezier) surface whose corner poles are its corners."""
     if not isinstance(g, BSplineSurface) or g.uperiodic or g.vperiodic:

@@ -108,6 +108,24 @@ def _even_prediction(a: float, b: float, nk: int) -> np.ndarray:
     return np.float64(a) + j * h
 
 
+def _even_residuals(k: np.ndarray) -> list[int] | None:
+    """The ulp residuals of a vector the writer codes as evenly spaced (§2.3:
+    3 knots or more, every |residual| below ``EVEN_WRITE``), else None."""
+    if len(k) < 3:
+        return None
+    with np.errstate(all="ignore"):
+        p = _even_prediction(float(k[0]), float(k[-1]), len(k))
+    if not np.isfinite(p).all():
+        return None
+    r = [x - y for x, y in zip(_keys(k[1:-1]), _keys(p))]
+    return r if max(abs(x) for x in r) < EVEN_WRITE else None
+
+
+def evenly_spaced(k: np.ndarray) -> bool:
+    """Whether the writer codes the knot vector ``k`` as evenly spaced."""
+    return _even_residuals(np.asarray(k, float)) is not None
+
+
 class _KnotWriter:
     """The 2.0 coding of a table's knot vectors and weight sets (§2.3): the
     forms, repeat distances and weight references go to the header stream
@@ -134,15 +152,11 @@ class _KnotWriter:
             return
         m = [int(x) for x in mu.tolist()]
         form = K_EXPLICIT
-        if nk >= 3:
-            with np.errstate(all="ignore"):
-                p = _even_prediction(float(k[0]), float(k[-1]), nk)
-            if np.isfinite(p).all():
-                r = [x - y for x, y in zip(_keys(k[1:-1]), _keys(p))]
-                if max(abs(x) for x in r) < EVEN_WRITE:
-                    form = K_EVEN
-                    knots.append(k[[0, -1]])
-                    self.res += r
+        r = _even_residuals(k)
+        if r is not None:
+            form = K_EVEN
+            knots.append(k[[0, -1]])
+            self.res += r
         if form == K_EXPLICIT:
             knots.append(k)
         if m[0] == m[-1] and all(x == 1 for x in m[1:-1]):

@@ -1,0 +1,372 @@
+"""Inner knots of coded nets within tol (issue 28 §5): rounded, with a certified bound.
+
+A knot vector that is neither a repeat of an earlier one nor evenly spaced is
+written as it is, 8 bytes a knot (docs/format.md §2.3), and the chord-length
+knots CAD systems write (8.75782843183719, 13.1367426477558, …) leave LZMA
+little to find.  Rounded to a few significant bits, they cost about half as
+much, for a move of a small share (``SHARE``) of the net's limit.  Only the
+writer changes: the reader takes the knots as they are.
+
+**The bound.**  Let S have knots K and poles P, and S' the same poles on K',
+whose inner knots moved (same ends, same multiplicities, still increasing).
+Insert into each the knots of the other (Boehm's algorithm, eq. 1: each new
+pole is a convex combination of two old ones, and no point moves), so that
+both live on one knot vector T, every value at the larger of its two
+multiplicities: S = Σ N_i^T Q_i and S' = Σ N_i^T Q'_i.  The basis is
+non-negative and sums to one, so
+
+    |S'(u) − S(u)| ≤ max_i |Q'_i − Q_i|                     (:func:`move`)
+
+at every parameter u; for a surface the same holds on T_u × T_v.  The
+refined poles are computed in binary64 as rows of the Oslo matrix
+(:func:`bspline.refinement`: degree + 1 non-negative weights summing to one
+per direction) times the poles, so each is within a few ulps per term of
+the largest pole coordinate; :func:`move` adds ``ROUNDING`` ulps per term
+and direction.  Clamped ends do not move, so neither do a
+surface's boundaries along the direction whose knots did not change.
+
+A coded row whose knots moved is coded on its new knots (its Coons
+abscissae and D-map basis come from them, as the decoder's do), and its
+certified bound is the code's plus the move (coded again to its limit less
+the move where the sum is past the limit, ``nets._code_one``)
+(:func:`weights.moved` adds :func:`term` wherever a row is compared with the
+source).
+
+**Which vectors.**  Those of non-rational, non-periodic B-splines (not
+Bezier) that the writer would store explicitly, and that nothing copies:
+not on a surface side joined to another net's, nor on a curve that may be
+an iso copy of a surface's boundary, a twin of another curve
+(:func:`coincide.twin_curves`), or the leader of twins.  Those copies take
+the leader's poles on their own knots, so their knots must stay the
+leader's.  Rows that must keep their knots freeze the vectors they use, bit
+for bit, and so do rows that are not coded.
+
+**How far.**  One precision for the file (:func:`plan`), so that knots the
+source has equal in different vectors stay equal: the coarsest that keeps
+every row's move within ``SHARE`` of its limit for the vectors it rounds,
+chosen by the size of the rounded vectors.  A 3-D curve's vector is rounded
+as places in [0, 1] (``pcurves.unit_curves`` maps free curves there, and
+IGES files write knots that are short binary fractions of their span), a
+surface's (or one a surface has too) to significant bits.
+"""
+
+from __future__ import annotations
+
+import lzma
+from collections.abc import Iterable
+from dataclasses import replace
+
+import numpy as np
+
+from .. import bspline
+from ..model import BSplineCurve, BSplineSurface, Geometry
+from ..rules.joins import clamped_curve, clamped_surface
+from ..serialize.geometry import evenly_spaced
+
+#: The share of a row's limit its rounded knots may take.
+SHARE = 1.0 / 32
+
+#: Precisions tried (bits after the leading one), coarsest first.
+BITS = tuple(range(6, 41, 2))
+
+#: Rounding must save at least this many bytes of the vectors (LZMA alone).
+MIN_SAVING = 32
+
+#: LZMA2 as the container's, with a dictionary for vectors, not for files
+#: (a 64 MiB one costs 50 ms a call to set up)
+_LZMA = [{"id": lzma.FILTER_LZMA2, "preset": 9 | lzma.PRESET_EXTREME, "dict_size": 1 << 20}]
+
+#: ulps of the largest pole coordinate added per term of a refined pole
+#: (degree + 1 per direction, :func:`move`), and the ulps of a knot vector's
+#: span within which two vectors are one (:func:`term`).
+ROUNDING = 4.0
+
+Net = BSplineSurface | BSplineCurve
+
+
+def rounded(k: np.ndarray, bits: int, unit: bool = False) -> np.ndarray:
+    """``k`` with its inner knots rounded (ties to even), its ends as they are.
+
+    Without ``unit``, to ``bits`` bits after the leading one: the knots
+    themselves then end in zeros.  With ``unit`` (a 3-D curve's knots, which
+    the writer maps onto [0, 1] where nothing holds its parameter,
+    ``pcurves.unit_curves``), each knot's place in the vector,
+    (k − a)/(b − a), is rounded to a multiple of 2^-bits, and the knot is
+    the float nearest to that place's a + q·(b − a) whose place is q bit for
+    bit where one is within two ulps: mapped onto [0, 1], the knots are then
+    short binary fractions."""
+    out = np.array(k, dtype=float)
+    inner = out[1:-1]
+    if not unit:
+        m, e = np.frexp(inner)
+        out[1:-1] = np.ldexp(np.rint(np.ldexp(m, bits + 1)), e - bits - 1)
+        return out
+    a, span = out[0], out[-1] - out[0]
+    q = np.ldexp(np.rint(np.ldexp((inner - a) / span, bits)), -bits)
+    x = a + q * span
+    best, hit = x.copy(), (x - a) / span == q
+    for toward in (np.inf, -np.inf):
+        c = x
+        for _ in range(2):
+            c = np.nextafter(c, toward)
+            new = ~hit & ((c - a) / span == q)
+            best[new], hit = c[new], hit | new
+    out[1:-1] = best
+    return out
+
+
+def _packed_form(k: np.ndarray, unit: bool) -> np.ndarray:
+    """A vector as the writer stores it: a curve's mapped onto [0, 1]."""
+    return (k - k[0]) / (k[-1] - k[0]) if unit else k
+
+
+def eligible(k: np.ndarray) -> bool:
+    """Whether a vector is worth rounding: inner knots, stored explicitly."""
+    return len(k) >= 3 and not evenly_spaced(k)
+
+
+def vectors(g: Net) -> list[np.ndarray]:
+    return [g.uknots, g.vknots] if isinstance(g, BSplineSurface) else [g.knots]
+
+
+def codable(g: object) -> bool:
+    """A row whose knots may be rounded: a clamped, non-rational B-spline
+    (not periodic, not Bezier)."""
+    if isinstance(g, BSplineSurface):
+        return g.weights is None and not g.bezier and clamped_surface(g)
+    if isinstance(g, BSplineCurve):
+        return g.weights is None and not g.bezier and clamped_curve(g)
+    return False
+
+
+def _merged(k1: np.ndarray, k2: np.ndarray, mults: np.ndarray) -> np.ndarray:
+    """The expanded knot vector holding both ``k1`` and ``k2`` (distinct values,
+    both with ``mults``), each value at the larger of its multiplicities."""
+    values, mu = np.concatenate([k1, k2]), np.concatenate([mults, mults])
+    order = np.argsort(values, kind="stable")
+    values, mu = values[order], mu[order]
+    uniq, start = np.unique(values, return_index=True)
+    most = np.maximum.reduceat(mu, start)
+    return np.repeat(uniq, most)
+
+
+def _along(
+    k: np.ndarray, k2: np.ndarray, mults: np.ndarray, p: np.ndarray, degree: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """Poles ``p`` (axis 0) on ``k`` and on ``k2``, both refined to their
+    merged vector (:func:`bspline.refine`)."""
+    if np.array_equal(k, k2):
+        return p, p
+    target = _merged(k, k2, mults)
+    a = bspline.refine(k, mults, p, degree, target)
+    return a, bspline.refine(k2, mults, p, degree, target)
+
+
+def move(g: Net, new: Net) -> float:
+    """Certified largest distance between ``g`` and ``g`` on ``new``'s knots
+    (module docstring); inf where ``new``'s knots are not ``g``'s moved."""
+    if type(g) is not type(new) or not codable(g):
+        return float("inf")
+    old_v, new_v = vectors(g), vectors(new)
+    if any(
+        len(a) != len(b) or np.any(np.diff(b) <= 0) or a[0] != b[0] or a[-1] != b[-1]
+        for a, b in zip(old_v, new_v)
+    ):
+        return float("inf")
+    if all(np.array_equal(a, b) for a, b in zip(old_v, new_v)):
+        return 0.0
+    if isinstance(g, BSplineSurface):
+        assert isinstance(new, BSplineSurface)
+        a, b = _along(g.uknots, new.uknots, g.umults, g.poles, g.udegree)
+        a, _ = _along(g.vknots, new.vknots, g.vmults, np.swapaxes(a, 0, 1), g.vdegree)
+        _, b = _along(g.vknots, new.vknots, g.vmults, np.swapaxes(b, 0, 1), g.vdegree)
+        terms = g.udegree + g.vdegree + 2
+    else:
+        assert isinstance(new, BSplineCurve)
+        a, b = _along(g.knots, new.knots, g.mults, g.poles, g.degree)
+        terms = g.degree + 1
+    d = float(np.sqrt(((a - b) ** 2).sum(-1)).max())
+    scale = float(np.abs(g.poles).max(initial=0.0))
+    return d + ROUNDING * terms * scale * float(np.finfo(float).eps)
+
+
+def _on(g: Net, vs: list[np.ndarray]) -> Net:
+    """``g`` on the knot vectors ``vs`` (u and v, or the curve's)."""
+    if isinstance(g, BSplineSurface):
+        return replace(g, uknots=vs[0], vknots=vs[1])
+    return replace(g, knots=vs[0])
+
+
+#: Per knot vector (its bytes) to round: the bits, and whether it is rounded
+#: as a place in [0, 1] (:func:`rounded`'s ``unit``: only 3-D curves use it).
+Plan = dict[bytes, tuple[int, bool]]
+
+
+def _unit(g: Net, units: dict[bytes, bool] | None, k: np.ndarray) -> bool:
+    return units[k.tobytes()] if units is not None else isinstance(g, BSplineCurve)
+
+
+def with_bits(g: Net, bits: int, units: dict[bytes, bool] | None = None) -> Net:
+    """``g`` with each eligible vector rounded to ``bits``, as a place in
+    [0, 1] where ``units`` says so (by default, a curve's)."""
+    return _on(g, [rounded(k, bits, _unit(g, units, k)) if eligible(k) else k for k in vectors(g)])
+
+
+def mapped(lead: np.ndarray, own: np.ndarray, reverse: bool) -> np.ndarray:
+    """``lead`` (a knot vector), mirrored if ``reverse`` (as
+    ``k[-1] + k[0] - k[::-1]``), mapped affinely onto the ends of ``own``,
+    which keeps them bit for bit: the knots of a copy (a twin curve) whose
+    leader's knots were rounded."""
+    k = lead[-1] + lead[0] - lead[::-1] if reverse else np.array(lead, dtype=float)
+    out = own[0] + (k - k[0]) * ((own[-1] - own[0]) / (k[-1] - k[0]))
+    out[0], out[-1] = own[0], own[-1]
+    return out
+
+
+def _back(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``b`` mapped onto the ends of ``a`` where they differ (:func:`mapped`)."""
+    return mapped(b, a, False) if a[0] != b[0] or a[-1] != b[-1] else b
+
+
+def term(original: Net, new: Net) -> float:
+    """What ``new``'s knots add to the bound of a row of ``original`` (poles
+    and weights aside).
+
+    A vector whose ends differ from ``original``'s is first mapped back onto
+    them (``pcurves.unit_curves`` maps free curves onto [0, 1]: the same
+    point set).  0 where the vectors are then ``original``'s within a few
+    ulps of their span; else :func:`move` (inf for a row whose knots may not
+    move)."""
+    if any(len(a) != len(b) for a, b in zip(vectors(original), vectors(new))):
+        return float("inf")
+    back = [_back(a, b) for a, b in zip(vectors(original), vectors(new))]
+    spans = [abs(a[-1] - a[0]) for a in vectors(original)]
+    eps = float(np.finfo(float).eps)
+    if all(
+        np.abs(a - b).max(initial=0.0) <= ROUNDING * eps * span
+        for a, b, span in zip(vectors(original), back, spans)
+    ):
+        return 0.0
+    return move(original, _on(original, back))
+
+
+def need(g: Net, limit: float, units: dict[bytes, bool] | None = None) -> int | None:
+    """The fewest bits (of ``BITS``) whose rounding (:func:`with_bits`) moves
+    ``g`` by at most ``SHARE`` of ``limit``; None where none does or nothing
+    is eligible."""
+    if not codable(g) or not any(eligible(k) for k in vectors(g)):
+        return None
+    # the move shrinks with the bits (by about half a bit): bisect BITS
+    lo, hi = 0, len(BITS)
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if move(g, with_bits(g, BITS[mid], units)) <= SHARE * limit:
+            hi = mid
+        else:
+            lo = mid + 1
+    return BITS[lo] if lo < len(BITS) else None
+
+
+def plan(
+    rows: Iterable[tuple[Geometry, float | None]],
+    links: Iterable[tuple[Geometry, Geometry]] = (),
+) -> Plan:
+    """The vectors to round, and how (:data:`Plan`).
+
+    One precision for all, so that knots the source has equal in different
+    vectors (a curve split in two) stay equal: the one of ``BITS`` whose
+    vectors, LZMA'd together as the writer stores them, are smallest.  A
+    vector is rounded as a place in [0, 1] where only 3-D curves use it, so
+    that one a surface has too stays bit for bit the surface's.  The size is
+    that of every vector of ``rows``, rounded or not (a rounded vector may
+    have matched one that stays).  A vector
+    that some row using it needs more bits for (:func:`need`), or that a row
+    whose limit is None uses (a row that must keep its knots), stays as it
+    is.  Vectors of two rows in ``links`` (a twin curve and its leader,
+    which the copy follows) are rounded both or neither.  Empty where
+    rounding saves less than ``MIN_SAVING`` bytes.
+    """
+    nets = [(g, lim) for g, lim in rows if isinstance(g, (BSplineSurface, BSplineCurve))]
+    by_key: dict[bytes, np.ndarray] = {}
+    units: dict[bytes, bool] = {}
+    for g, _ in nets:
+        for k in vectors(g):
+            key = k.tobytes()
+            by_key[key] = k
+            units[key] = units.get(key, True) and isinstance(g, BSplineCurve)
+    want: dict[bytes, int | None] = {}
+    for g, limit in nets:
+        b = None if limit is None else need(g, limit, units)
+        for k in vectors(g):
+            if eligible(k):
+                key = k.tobytes()
+                prev = want.get(key, 0)
+                want[key] = None if b is None or prev is None else max(prev, b)
+    _join(want, links)
+    if not any(b is not None for b in want.values()):
+        return {}
+    # every vector, so that a rounded one no longer matching a vector kept as
+    # it is (bit for bit, or in part) counts
+    exact = _packed(_packed_form(by_key[key], units[key]) for key in by_key)
+    best, size = 0, float(exact)
+    for bits in BITS:
+        moving = {key for key, b in want.items() if b is not None and b <= bits}
+        cost = _packed(
+            _packed_form(
+                rounded(by_key[key], bits, units[key]) if key in moving else by_key[key],
+                units[key],
+            )
+            for key in by_key
+        )
+        if cost < size:
+            best, size = bits, cost
+    if not best or exact - size < MIN_SAVING:
+        return {}
+    return {k: (best, units[k]) for k, b in want.items() if b is not None and b <= best}
+
+
+def _join(want: dict[bytes, int | None], links: Iterable[tuple[Geometry, Geometry]]) -> None:
+    """Give the vectors of linked rows, in place, one answer: the most bits
+    any of them needs, None (kept) where one is kept or not in ``want``."""
+    parent: dict[bytes, bytes] = {}
+
+    def root(k: bytes) -> bytes:
+        while parent.get(k, k) != k:
+            k = parent[k]
+        return k
+
+    for a, b in links:
+        if isinstance(a, (BSplineSurface, BSplineCurve)) and isinstance(b, type(a)):
+            for x, y in zip(vectors(a), vectors(b)):
+                parent[root(x.tobytes())] = root(y.tobytes())
+    groups: dict[bytes, list[bytes]] = {}
+    for k in parent:
+        groups.setdefault(root(k), []).append(k)
+    for r, ks in groups.items():
+        ks = [*ks, r] if r not in ks else ks
+        bits = [want.get(k) for k in ks]
+        one = None if any(b is None for b in bits) else max(bits)  # type: ignore[type-var]
+        for k in ks:
+            if k in want:
+                want[k] = one
+
+
+def _packed(vs: Iterable[np.ndarray]) -> int:
+    raw = b"".join(np.ascontiguousarray(k, "<f8").tobytes() for k in vs)
+    return len(lzma.compress(raw, format=lzma.FORMAT_RAW, filters=_LZMA))
+
+
+def apply(g: Net, kplan: Plan, limit: float) -> tuple[Net, float]:
+    """``g`` with its vectors rounded as ``kplan`` says, and its move; ``g``
+    itself and 0 where nothing is planned or the move is past ``SHARE`` of
+    ``limit``."""
+    if not codable(g):
+        return g, 0.0
+    vs = vectors(g)
+    if not any(k.tobytes() in kplan for k in vs):
+        return g, 0.0
+    new = _on(g, [rounded(k, *kplan[k.tobytes()]) if k.tobytes() in kplan else k for k in vs])
+    d = move(g, new)
+    if d > SHARE * limit:
+        return g, 0.0
+    return new, d
