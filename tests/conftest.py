@@ -100,6 +100,19 @@ def sample_files() -> list[Path]:
     return files
 
 
+def assert_comes_back(src: Path, nzc: Path, tol: float, n: int = 5):
+    """Decode ``nzc``: the source's counts, within ``tol`` of it (``n``×``n``
+    samples per face), valid.  Returns the decoded shape."""
+    from nurbscomp import occ, pipeline
+
+    shape = pipeline.decode_file(nzc)[0]
+    cad = occ.read_cad(src)
+    assert occ.counts(shape) == occ.counts(cad.shape)
+    assert occ.deviation(cad.shape, shape, n=n, tol=tol).max() <= tol
+    assert occ.is_valid(shape)
+    return shape
+
+
 def assert_step_keeps_floor(cad, nzc: Path, tmp_path: Path):
     """Decompress ``nzc`` to STEP, read it back, and compare with OCCT's own
     STEP round trip of the source (the floor): each topology count between

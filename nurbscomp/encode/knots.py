@@ -25,6 +25,13 @@ the largest pole coordinate; :func:`move` adds ``ROUNDING`` ulps per term
 and direction.  Clamped ends do not move, so neither do a
 surface's boundaries along the direction whose knots did not change.
 
+A rational row (eq. 2) is refined in homogeneous coordinates (w·P, w): on T
+the two rows have poles Q, Q' and weights W, W', and the bound is that of
+two rational rows on one knot vector, max |Q' − Q| + ε/(1 − ε)·D, ε the
+largest |W'/W − 1| and D the largest diagonal of (degree + 1) consecutive
+refined poles per direction (:func:`weights.weight_bound`, derived in
+:mod:`.weights`).
+
 A coded row whose knots moved is coded on its new knots (its Coons
 abscissae and D-map basis come from them, as the decoder's do), and its
 certified bound is the code's plus the move (coded again to its limit less
@@ -32,14 +39,14 @@ the move where the sum is past the limit, ``nets._code_one``)
 (:func:`weights.moved` adds :func:`term` wherever a row is compared with the
 source).
 
-**Which vectors.**  Those of non-rational, non-periodic B-splines (not
-Bezier) that the writer would store explicitly, and that nothing copies:
-not on a surface side joined to another net's, nor on a curve that may be
-an iso copy of a surface's boundary, a twin of another curve
-(:func:`coincide.twin_curves`), or the leader of twins.  Those copies take
-the leader's poles on their own knots, so their knots must stay the
-leader's.  Rows that must keep their knots freeze the vectors they use, bit
-for bit, and so do rows that are not coded.
+**Which vectors.**  Those of clamped B-splines (not periodic, not Bezier)
+that the writer would store explicitly, but not on a surface side joined
+to another net's (``coincide.twin_sides``: the copy takes the leader's
+poles on its own knots).  An iso-boundary curve takes its side's knots as
+rounded (``assembly._copy_iso``), a twin curve its leader's mapped onto its
+own ends (``assembly._copy_twins``), and a twin and its leader are rounded
+both or neither (``links`` of :func:`plan`).  Rows that are not coded
+freeze the vectors they use, bit for bit.
 
 **How far.**  One precision for the file (:func:`plan`), so that knots the
 source has equal in different vectors stay equal: the coarsest that keeps
@@ -62,6 +69,7 @@ from .. import bspline
 from ..model import BSplineCurve, BSplineSurface, Geometry
 from ..rules.joins import clamped_curve, clamped_surface
 from ..serialize.geometry import evenly_spaced
+from . import weights
 
 #: The share of a row's limit its rounded knots may take.
 SHARE = 1.0 / 32
@@ -130,12 +138,12 @@ def vectors(g: Net) -> list[np.ndarray]:
 
 
 def codable(g: object) -> bool:
-    """A row whose knots may be rounded: a clamped, non-rational B-spline
-    (not periodic, not Bezier)."""
+    """A row whose knots may be rounded: a clamped B-spline (not periodic,
+    not Bezier)."""
     if isinstance(g, BSplineSurface):
-        return g.weights is None and not g.bezier and clamped_surface(g)
+        return not g.bezier and clamped_surface(g)
     if isinstance(g, BSplineCurve):
-        return g.weights is None and not g.bezier and clamped_curve(g)
+        return not g.bezier and clamped_curve(g)
     return False
 
 
@@ -175,19 +183,33 @@ def move(g: Net, new: Net) -> float:
         return float("inf")
     if all(np.array_equal(a, b) for a, b in zip(old_v, new_v)):
         return 0.0
+    # a rational row is refined in homogeneous coordinates (w·P, w)
+    h = (
+        g.poles
+        if g.weights is None
+        else np.concatenate([g.poles * g.weights[..., None], g.weights[..., None]], -1)
+    )
     if isinstance(g, BSplineSurface):
         assert isinstance(new, BSplineSurface)
-        a, b = _along(g.uknots, new.uknots, g.umults, g.poles, g.udegree)
+        a, b = _along(g.uknots, new.uknots, g.umults, h, g.udegree)
         a, _ = _along(g.vknots, new.vknots, g.vmults, np.swapaxes(a, 0, 1), g.vdegree)
         _, b = _along(g.vknots, new.vknots, g.vmults, np.swapaxes(b, 0, 1), g.vdegree)
         terms = g.udegree + g.vdegree + 2
     else:
         assert isinstance(new, BSplineCurve)
-        a, b = _along(g.knots, new.knots, g.mults, g.poles, g.degree)
+        a, b = _along(g.knots, new.knots, g.mults, h, g.degree)
         terms = g.degree + 1
-    d = float(np.sqrt(((a - b) ** 2).sum(-1)).max())
     scale = float(np.abs(g.poles).max(initial=0.0))
-    return d + ROUNDING * terms * scale * float(np.finfo(float).eps)
+    ulps = ROUNDING * terms * scale * float(np.finfo(float).eps)
+    if g.weights is None:
+        return float(np.sqrt(((a - b) ** 2).sum(-1)).max()) + ulps
+    # two rational rows on one knot vector: their poles' distance plus what
+    # their weights' ratio adds (weights.weight_bound, on the refined net)
+    wa, wb = a[..., 3], b[..., 3]
+    qa, qb = a[..., :3] / wa[..., None], b[..., :3] / wb[..., None]
+    refined = replace(g, poles=qa, weights=wa)
+    d = float(np.sqrt(((qa - qb) ** 2).sum(-1)).max())
+    return d + weights.weight_bound(refined, wb) + 2 * ulps
 
 
 def _on(g: Net, vs: list[np.ndarray]) -> Net:

@@ -188,23 +188,27 @@ def _code_one(
     sum is past ``limit`` is it coded again to ``limit`` less the move (a
     quarter-octave step finer, where the bound was that near the limit), and
     where no code fits the record keeps its knots."""
+    tries = [(g, 0.0, limit)]
     if kplan:
         rounded, kterm = knots.apply(g, kplan, limit)
         if rounded is not g:
-            for room in (limit, limit - kterm):
-                try:
-                    code, net = _net_code(rounded, tol, methods, origin, room)
-                except codec.NoCodeError:
-                    break
-                if code.bound + kterm <= limit:
-                    return replace(code, bound=code.bound + kterm), replace(rounded, poles=net)
-    code, net = _net_code(g, tol, methods, origin, limit)
+            tries = [(rounded, kterm, limit), (rounded, kterm, limit - kterm), *tries]
+    for h, kterm, room in tries:  # the last is g as it is
+        try:
+            code, net = _net_code(h, tol, methods, origin, room)
+        except codec.NoCodeError:
+            if h is g:
+                raise
+            continue
+        if code.bound + kterm <= limit:
+            code = replace(code, bound=code.bound + kterm)
+            break
     if wbits is not None and g.weights is not None and code.method != codec.Method.DMAP:
         w = weights.rounded(g.weights, wbits)
         wterm = weights.weight_bound(g, w)  # of the source's poles
         if code.bound + wterm <= limit:
-            return replace(code, bound=code.bound + wterm), replace(g, poles=net, weights=w)
-    return code, replace(g, poles=net)
+            return replace(code, bound=code.bound + wterm), replace(h, poles=net, weights=w)
+    return code, replace(h, poles=net)
 
 
 def _code_table(
