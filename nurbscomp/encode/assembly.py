@@ -456,11 +456,6 @@ FINE_BITS = 10
 #: cost as much (bearing.iges, 5 of them: 0.1 mm came out 2 bytes above
 #: 0.01 mm).
 MIN_FINE = 16
-#: A twin's offset from the first vertex of its cluster (under
-#: ``coincide.TWIN_VERTEX``) is rounded to a multiple of this (mm), where
-#: that leaves it non-zero (:func:`_fine_points`): its point then ends in zero
-#: bits, at a move of 6e-11 mm at most.
-TWIN_STEP = 2.0**-34
 
 
 def _fine_points(
@@ -485,10 +480,9 @@ def _fine_points(
     the same translation, so that they keep their offsets (rounded apart they
     would open gaps; rounded together, a STEP reader takes them for one
     vertex).  Twins at the first vertex's point stay on it, bit for bit;
-    the others keep their offset below TWIN_VERTEX, each component rounded to
-    :data:`TWIN_STEP` where it is at least that (so none becomes zero), while
-    the first vertex's point costs less than half (bearing.iges at 0.01 mm:
-    7,918 -> ~4,650 bytes of vertex points).  A cluster moves only
+    the others keep a float offset below TWIN_VERTEX, which costs what it
+    did, while the first vertex's point costs less than half (bearing.iges at
+    0.01 mm: 7,918 -> ~4,650 bytes of vertex points).  A cluster moves only
     if every vertex of it may, it lands on no other cluster's point, the
     clusters within TWIN_VERTEX of each other stay the same, and its twins
     stay distinct or equal as they were; none moves where fewer than
@@ -500,11 +494,7 @@ def _fine_points(
     step = 2.0 ** (np.floor(np.log2(tol)) - FINE_BITS)
     first = p[lead]
     grid = np.rint(first / step) * step
-    # a twin's offset from its first, rounded to TWIN_STEP where that leaves it
-    # non-zero (a component below one step stays as it is)
-    d = p - first
-    d = np.where(np.abs(d) >= TWIN_STEP, np.rint(d / TWIN_STEP) * TWIN_STEP, d)
-    at = grid + d
+    at = grid + (p - first)
     fine = may & (np.abs(first) < 2.0**52 * step).all(-1)
     fine &= ~_merging(first, grid)  # clusters that land on one point from different places
     fine &= ~np.isin(lead, lead[~fine])  # a cluster moves as one or stays
@@ -526,8 +516,7 @@ def _fine_points(
     # a twin's point is the translation, then one rounding of the sum (an ulp)
     off = fine & ~same
     ulp = float(np.spacing(np.abs(at[off]).max())) if off.any() else 0.0
-    twin = TWIN_STEP * np.sqrt(3.0) / 2 if off.any() else 0.0
-    return fine, at, float(step * np.sqrt(3.0) / 2 + twin + 2 * ulp)
+    return fine, at, float(step * np.sqrt(3.0) / 2 + 2 * ulp)
 
 
 def _distinct(points: np.ndarray) -> int:
