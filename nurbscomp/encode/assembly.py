@@ -40,7 +40,7 @@ from ..model import (
 )
 from ..rules import joins
 from ..serialize import SWEPT
-from . import analytic, coincide, knots, weights
+from . import analytic, coincide, knots
 from .nets import TRIM_C, TRIM_S, Coded, feature_limit, first_rows, poles_of, resolve_row
 
 
@@ -642,13 +642,13 @@ def _copy_iso(
 
 def _certified(new: Any, original: Any, tol: float) -> tuple[Any, float]:
     """``new`` (a row of ``original``, its poles moved) and its certified bound
-    (:func:`weights.moved`); with ``original``'s weights back where its rounded
+    (:func:`knots.moved`); with ``original``'s weights back where its rounded
     ones would take it past its limit (a pin or a joined side moved its
     poles further than its code did)."""
-    bound = weights.moved(new, original)
+    bound = knots.moved(new, original)
     if bound > feature_limit(original.poles, tol) and original.weights is not None:
         new = replace(new, weights=original.weights)
-        bound = weights.moved(new, original)
+        bound = knots.moved(new, original)
     return new, bound
 
 

@@ -36,7 +36,7 @@ A coded row whose knots moved is coded on its new knots (its Coons
 abscissae and D-map basis come from them, as the decoder's do), and its
 certified bound is the code's plus the move (coded again to its limit less
 the move where the sum is past the limit, ``nets._code_one``)
-(:func:`weights.moved` adds :func:`term` wherever a row is compared with the
+(:func:`moved` adds :func:`term` wherever a row is compared with the
 source).
 
 **Which vectors.**  Those of clamped B-splines (not periodic, not Bezier)
@@ -248,6 +248,14 @@ def mapped(lead: np.ndarray, own: np.ndarray, reverse: bool) -> np.ndarray:
 def _back(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """``b`` mapped onto the ends of ``a`` where they differ (:func:`mapped`)."""
     return mapped(b, a, False) if a[0] != b[0] or a[-1] != b[-1] else b
+
+
+def moved(new: Net, original: Net) -> float:
+    """Certified distance between ``new`` and ``original`` (the same row, its
+    poles, weights and inner knots moved): :func:`weights.moved` (the poles'
+    and weights' move, both rows on ``new``'s knots) plus :func:`term`
+    (``original`` on both knot vectors)."""
+    return weights.moved(new, original) + term(original, new)
 
 
 def term(original: Net, new: Net) -> float:

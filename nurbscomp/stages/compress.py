@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, Any
 
 from .. import budget, container, product, serialize
 from .._version import version
-from ..encode import weights
+from ..encode import knots
 from ..errors import (
     InputError,
     LimitError,
@@ -263,7 +263,7 @@ def max_net_displacement(a: BRepModel, b: BRepModel) -> float:
 
     The certified bound of docs/design.md §4: knots and degrees are equal, so no
     point of a surface or curve moves further than its farthest pole, plus
-    what its rounded weights add (:func:`encode.weights.moved`).
+    what its rounded weights and knots add (:func:`encode.knots.moved`).
     """
     worst = 0.0
     pairs = [*zip(a.surfaces, b.surfaces), *zip(a.curves3d, b.curves3d)]
@@ -271,5 +271,5 @@ def max_net_displacement(a: BRepModel, b: BRepModel) -> float:
         if isinstance(x, (BSplineSurface, BSplineCurve)) and type(x) is type(y):
             if x.poles.shape != y.poles.shape:
                 return float("inf")
-            worst = max(worst, weights.moved(y, x))
+            worst = max(worst, knots.moved(y, x))
     return worst
