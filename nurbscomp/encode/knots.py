@@ -272,12 +272,11 @@ def term(original: Net, new: Net) -> float:
         return 0.0
     if any(len(a) != len(b) for a, b in pairs):
         return float("inf")
-    back = [_back(a, b) for a, b in zip(vectors(original), vectors(new))]
-    spans = [abs(a[-1] - a[0]) for a in vectors(original)]
+    back = [_back(a, b) for a, b in pairs]
     eps = float(np.finfo(float).eps)
     if all(
-        np.abs(a - b).max(initial=0.0) <= ROUNDING * eps * span
-        for a, b, span in zip(vectors(original), back, spans)
+        np.abs(a - b).max(initial=0.0) <= ROUNDING * eps * abs(a[-1] - a[0])
+        for (a, _), b in zip(pairs, back)
     ):
         return 0.0
     return move(original, _on(original, back))

@@ -180,7 +180,7 @@ def _code_one(
     code's bound is the sum.  Not under a D-map, whose basis holds the weights
     (eq. 18).
 
-    With ``kplan`` (:func:`knots.plan`), a non-rational record's inner knots
+    With ``kplan`` (:func:`knots.plan`), a record's inner knots
     are rounded as planned (:func:`knots.apply`, a move of at most
     :data:`knots.SHARE` of ``limit``), and its poles coded on the rounded
     knots (eq. 1: the decoder's abscissae and basis come from them) to
@@ -314,10 +314,6 @@ def plain(coded: Coded, m: BRepModel, recs: Iterable[Rec]) -> set[Rec]:
             continue
         out.add(k)
     return out
-
-
-def _rows(table: list[Geometry], rows: Iterable[int]) -> list[tuple[int, Geometry]]:
-    return [(r, table[r]) for r in sorted(rows)]
 
 
 def _limit(g: Geometry, tol: float) -> float:
