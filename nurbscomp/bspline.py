@@ -53,30 +53,39 @@ def points(knots: np.ndarray, poles: np.ndarray, degree: int, x: np.ndarray) -> 
     return out
 
 
-def refinement(old: np.ndarray, new: np.ndarray, degree: int) -> np.ndarray:
-    """The knot-insertion matrix A (Oslo algorithm, eq. 1): the B-spline of
-    degree ``degree`` on the expanded knot vector ``old`` with poles P is the
-    one on ``new`` (``old``'s knots and more, the same clamped ends) with
-    poles A @ P.  Each row of A is non-negative and sums to one.
+def refinement(old: np.ndarray, new: np.ndarray, degree: int) -> tuple[np.ndarray, np.ndarray]:
+    """The knot-insertion matrix A (Oslo algorithm, eq. 1), as its band: the
+    B-spline of degree ``degree`` on the expanded knot vector ``old`` with
+    poles P is the one on ``new`` (``old``'s knots and more, the same clamped
+    ends) with poles A @ P.  Returns ``(first, w)``: row j of A is ``w[j]``
+    (degree + 1 non-negative weights summing to one) in columns
+    ``first[j] .. first[j] + degree``, and 0 elsewhere.
 
     Row j holds the discrete B-splines α_{i,k}(j), k = degree + 1, by the
     recursion α_{i,1}(j) = [t_i ≤ τ_j < t_{i+1}] and
     α_{i,r}(j) = ω_{i,r} α_{i,r-1}(j) + (1 − ω_{i+1,r}) α_{i+1,r-1}(j),
     ω_{i,r} = (τ_{j+r-1} − t_i) / (t_{i+r-1} − t_i) (0 over an empty span).
+    Only α_{μ-r+1..μ, r}(j) can be non-zero, where t_μ ≤ τ_j < t_{μ+1}, so
+    each row costs O(k²), not O(k·n).
     """
     t, tau, k = np.asarray(old, float), np.asarray(new, float), int(degree) + 1
-    n, m = len(t) - k, len(tau) - k
-    x = tau[:m, None]
-    a = ((t[None, :-1] <= x) & (x < t[None, 1:])).astype(float)  # (m, n + k - 1)
+    m = len(tau) - k
+    mu = np.searchsorted(t, tau[:m], side="right") - 1  # t_μ ≤ τ_j < t_{μ+1}
+    if m and (mu[0] < k - 1 or mu[-1] > len(t) - k - 1):
+        raise ValueError("refinement: the new knots leave the old vector's span")
+    # ω_{i,r} for the band's i = μ-r+2 .. μ: their spans hold [t_μ, t_{μ+1}],
+    # so no denominator is 0; α_{μ-r+1,r} takes only 1 − ω_{μ-r+2,r}
+    b = np.ones((m, 1))
     for r in range(2, k + 1):
-        x = tau[r - 1 : m + r - 1, None]
-        i = np.arange(n + k - r)
-        lo, hi = t[i], t[i + r - 1]
-        w1 = np.divide(x - lo, hi - lo, out=np.zeros((m, len(i))), where=hi > lo)
-        lo2, hi2 = t[i + 1], t[i + r]
-        w2 = np.divide(hi2 - x, hi2 - lo2, out=np.zeros((m, len(i))), where=hi2 > lo2)
-        a = w1 * a[:, :-1] + w2 * a[:, 1:]
-    return a
+        i = mu[:, None] + np.arange(2 - r, 1)[None, :]
+        lo = t[i]
+        w = (tau[r - 1 : m + r - 1, None] - lo) / (t[i + r - 1] - lo)
+        nb = np.empty((m, r))
+        nb[:, :-1] = (1.0 - w) * b
+        nb[:, -1] = 0.0
+        nb[:, 1:] += w * b
+        b = nb
+    return mu - k + 1, b
 
 
 def refine(
@@ -87,5 +96,7 @@ def refine(
     holds every knot of ``knots`` (distinct values, with ``mults``) at least
     as often, and the same ends."""
     flat = np.repeat(np.asarray(knots, float), np.asarray(mults, int))
-    a = refinement(flat, target, degree)
-    return np.tensordot(a, poles, axes=(1, 0))
+    first, w = refinement(flat, target, degree)
+    p = np.asarray(poles, float)
+    rows = p[first[:, None] + np.arange(w.shape[1])[None, :]]  # (m, k, ...)
+    return np.einsum("jk,jk...->j...", w, rows)

@@ -60,6 +60,31 @@ def test_insertion_keeps_every_point() -> None:
     assert np.abs(a - b).max() < 1e-12 * np.abs(g.poles).max()
 
 
+@pytest.mark.parametrize("degree", [1, 2, 3, 5, 8, 11])
+def test_refinement_band_is_the_oslo_matrix(degree: int) -> None:
+    """The band (first column, degree + 1 weights) makes a matrix whose rows
+    are non-negative and sum to one, and whose poles give the same curve,
+    inner knots of every multiplicity included."""
+    rng = np.random.default_rng(degree)
+    for _ in range(20):
+        inner = np.unique(rng.uniform(0.0, 1.0, int(rng.integers(0, 25))))
+        knots = np.r_[0.0, inner, 1.0]
+        mults = np.r_[degree + 1, rng.integers(1, degree + 1, len(inner)), degree + 1]
+        flat = np.repeat(knots, mults)
+        target = np.sort(np.r_[flat, rng.uniform(0.0, 1.0, int(rng.integers(0, 15)))])
+        first, w = bspline.refinement(flat, target, degree)
+        assert w.shape == (len(target) - degree - 1, degree + 1)
+        assert (w >= 0).all() and np.allclose(w.sum(1), 1.0, atol=1e-13)
+        assert first.min() >= 0 and first.max() + degree < len(flat) - degree - 1
+        poles = rng.normal(size=(len(flat) - degree - 1, 3))
+        new = bspline.refine(knots, mults, poles, degree, target)
+        x = np.linspace(0.0, 1.0, 301)
+        a = bspline.points(flat, poles, degree, x)
+        assert np.abs(a - bspline.points(target, new, degree, x)).max() < 1e-11
+    with pytest.raises(ValueError):  # new knots outside the old span
+        bspline.refinement(flat, np.r_[-1.0, target], degree)
+
+
 @pytest.mark.parametrize("unit", [False, True])
 def test_rounding_keeps_ends_order_and_bits(unit: bool) -> None:
     rng = np.random.default_rng(2)
