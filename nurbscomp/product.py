@@ -133,14 +133,28 @@ def _key(p: ProductData) -> tuple[Any, ...]:
 # ---------------------------------------------------------------- section PROD
 
 
-def write(p: ProductData) -> bytes:
-    """The ``PROD`` section of ``p`` (docs/format.md §2.11)."""
+#: ``SHAP``'s references (``child_start``, ``child_shape``): what the format
+#: 2.3 layout of ``ref`` numbers a sub-shape's shape by (:func:`walk`).
+Shapes = tuple[np.ndarray, np.ndarray]
+
+
+def write(p: ProductData, shapes: Shapes | None = None) -> bytes:
+    """The ``PROD`` section of ``p`` (docs/format.md §2.11): with ``shapes``
+    (``SHAP``'s references) in the layout of format 2.3, whose ``ref`` holds
+    a sub-shape's place in its product's :func:`walk` and is written as
+    differences; without, in the layout of formats 1.2 to 2.2."""
     w = BlockWriter()
     n = len(p)
     named = [s for s, f in zip(p.names, p.flags.tolist()) if f & NAMED]
     header = [p.header.get(k, []) for k in HEADER_FIELDS]
     w.ints([n, len(p.forms), len(p.colours), len(p.layer_names), len(p.dropped)])
-    for a in (p.kind, p.parent, p.ref, p.orient, p.place, p.flags):
+    w.ints(p.kind)
+    w.ints(p.parent)
+    if shapes is None:
+        w.ints(p.ref)
+    else:
+        w.deltas(_ref_values(p, shapes))
+    for a in (p.orient, p.place, p.flags):
         w.ints(a)
     w.ints(np.asarray(p.colour, np.int64).reshape(n * 3))
     w.ints(p.forms)
@@ -156,6 +170,105 @@ def write(p: ProductData) -> bytes:
     return bytes(w)
 
 
+def walk(shapes: Shapes, root: int, upto: int, limit: int | None = None) -> tuple[list[int], int]:
+    """The first ``upto`` (≥ 1) shapes of the walk of ``root`` (format 2.3),
+    and its work: depth first from ``root``, each child reference in
+    ``SHAP`` order, a shape numbered when first reached (pre-order; a shape
+    reached again is passed over).  Fewer where fewer are reached.  The work
+    is the shapes numbered plus the references looked at, which is what a
+    reader bounds (:func:`walk_budget`); the walk stops once it passes
+    ``limit``."""
+    start, child = shapes
+    order, seen, work = [root], {root}, 1
+    stack = [[root, int(start[root])]]
+    while stack and len(order) < upto and (limit is None or work <= limit):
+        top = stack[-1]
+        s, i = top
+        if i == start[s + 1]:
+            stack.pop()
+            continue
+        top[1] = i + 1
+        c = int(child[i])
+        work += 1
+        if c not in seen:
+            seen.add(c)
+            order.append(c)
+            work += 1
+            stack.append([c, int(start[c])])
+    return order, work
+
+
+def walk_budget(shapes: Shapes) -> int:
+    """The most work all the walks of one ``PROD`` section may take: as many
+    steps as ``SHAP`` has shapes and references (parts whose shapes share
+    nothing never need more)."""
+    return len(shapes[0]) - 1 + len(shapes[1])
+
+
+def _ref_values(p: ProductData, shapes: Shapes) -> np.ndarray:
+    """``ref`` as format 2.3 stores it: a sub-shape's shape as its place in
+    the walk of its product's shape where it is in it, else as −1 − its row;
+    the other nodes' as they are.  The walks' work is bounded
+    (:func:`walk_budget`): once a product's walk, as far as its sub-shapes
+    need, would pass it, that product's sub-shapes are written as rows."""
+    out = np.array(p.ref, np.int64)
+    sub = np.flatnonzero(p.kind == SUBSHAPE)
+    by_root: dict[int, list[int]] = {}
+    for i in sub.tolist():
+        by_root.setdefault(int(p.ref[p.parent[i]]), []).append(i)
+    out[sub] = -1 - out[sub]
+    budget = walk_budget(shapes)
+    nshapes = len(shapes[0]) - 1
+    for root, nodes in by_root.items():
+        if not 0 <= root < nshapes:
+            continue
+        rank = {s: k for k, s in enumerate(walk(shapes, root, nshapes)[0])}
+        ranks = [rank.get(int(p.ref[i]), -1) for i in nodes]
+        if max(ranks) < 0:
+            continue
+        work = walk(shapes, root, max(ranks) + 1)[1]
+        if work > budget:
+            continue
+        budget -= work
+        for i, k in zip(nodes, ranks):
+            if k >= 0:
+                out[i] = k
+    return out
+
+
+def _refs_from_values(
+    kind: np.ndarray, parent: np.ndarray, values: np.ndarray, shapes: Shapes
+) -> np.ndarray:
+    """Inverse of :func:`_ref_values` (``parent`` already checked: every
+    non-product's parent is a product node)."""
+    ref = np.array(values, np.int64)
+    sub = np.flatnonzero(kind == SUBSHAPE)
+    escaped, ranked = sub[ref[sub] < 0], sub[ref[sub] >= 0]
+    ref[escaped] = -1 - ref[escaped]
+    if not len(ranked):
+        return ref
+    nshapes = len(shapes[0]) - 1
+    roots = ref[parent[ranked]]
+    if (roots < 0).any() or (roots >= nshapes).any():
+        raise BadReferenceError("PROD: a sub-shape is numbered in a product with no shape")
+    need: dict[int, int] = {}
+    for r, k in zip(roots.tolist(), ref[ranked].tolist()):
+        need[r] = max(need.get(r, 0), k + 1)
+    budget = walk_budget(shapes)
+    if sum(need.values()) > budget:  # each shape numbered is a step of work
+        raise BadReferenceError("PROD: the sub-shapes' walks take more work than SHAP allows")
+    for r, upto in need.items():
+        order, work = walk(shapes, r, upto, budget)
+        budget -= work
+        if budget < 0:
+            raise BadReferenceError("PROD: the sub-shapes' walks take more work than SHAP allows")
+        if len(order) < upto:
+            raise BadReferenceError(f"PROD: a sub-shape's place is past the walk of shape {r}")
+        at = ranked[roots == r]
+        ref[at] = np.asarray(order, np.int64)[ref[at]]
+    return ref
+
+
 def _within(a: np.ndarray, lo: int, hi: int, what: str) -> None:
     if len(a) and (a.min() < lo or a.max() >= hi):
         at = int(np.flatnonzero((a < lo) | (a >= hi))[0])
@@ -167,10 +280,11 @@ def _counted(r: BlockReader, n: int, where: str) -> None:
         raise SectionError(f"PROD: {where} count {n} is negative or larger than the section")
 
 
-def read(data: bytes, nshapes: int) -> ProductData:
+def read(data: bytes, nshapes: int, shapes: Shapes | None = None) -> ProductData:
     """Read a ``PROD`` section; check every count, index and string.
 
-    ``nshapes`` is the number of rows of the model's ``SHAP`` table.
+    ``nshapes`` is the number of rows of the model's ``SHAP`` table;
+    ``shapes``, its references, for the layout of format 2.3 (:func:`write`).
 
     Raises
     ------
@@ -185,7 +299,9 @@ def read(data: bytes, nshapes: int) -> ProductData:
     for what, k in (("node", n), ("placement", npl), ("colour", nc), ("layer", nl)):
         _counted(r, k, what)
     _counted(r, nd, "dropped")
-    kind, parent, ref, orient, place, flags = (r.ints(n) for _ in range(6))
+    kind, parent = r.ints(n), r.ints(n)
+    ref = r.ints(n) if shapes is None else r.deltas(n)
+    orient, place, flags = r.ints(n), r.ints(n), r.ints(n)
     colour = r.ints(3 * n).reshape(n, 3)
     forms = r.ints(npl)
     placements = r.floats(12 * npl).reshape(npl, 3, 4)
@@ -242,6 +358,8 @@ def read(data: bytes, nshapes: int) -> ProductData:
     _within(parent[~prod], 0, n, "a node's parent")
     if (~prod).any() and (kind[parent[~prod]] != PRODUCT).any():
         raise BadReferenceError("PROD: a node's parent is not a product")
+    if shapes is not None:
+        ref = _refs_from_values(kind, parent, ref, shapes)
     _within(ref[prod], -1, nshapes, "a product's shape")
     _within(ref[kind == SUBSHAPE], 0, nshapes, "a sub-shape's shape")
     _within(ref[inst], 0, n, "an instance's product")

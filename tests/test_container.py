@@ -90,7 +90,8 @@ def test_versions_read_and_refused() -> None:
     assert [container.unpack(at(1, m)).revision for m in (0, 1, 2, 9)] == [0, 1, 2, 2]
     assert container.unpack(at(2, 0)).revision == 3
     assert container.unpack(at(2, 1)).revision == 4
-    assert container.unpack(at(2, 2)).revision == container.REVISION == 5
+    assert container.unpack(at(2, 2)).revision == 5
+    assert container.unpack(at(2, 3)).revision == container.REVISION == 6
     for major, minor in ((2, container.MINOR + 1), (0, 3)):
         with pytest.raises(VersionError, match=f"{major}.{minor} is not supported"):
             container.unpack(at(major, minor))

@@ -12,6 +12,7 @@ NEXT_ASSEMBLY_USAGE_OCCURRENCE and STYLED_ITEM counts, FILE_SCHEMA.
 from __future__ import annotations
 
 import json
+import lzma
 import re
 from collections import Counter
 from pathlib import Path
@@ -422,6 +423,121 @@ def test_prod_reader_refuses_bad_utf8_and_rows() -> None:
     arrays[-1] = (kind, data)
     with pytest.raises(errors.SectionError, match="is not UTF-8"):
         product.read(_write_arrays(arrays), 10**6)
+
+
+# ---------------------------------------------------------------- PROD 2.3: walks
+
+
+def _graph(rng: np.random.Generator, n: int) -> product.Shapes:
+    """A post-ordered DAG of ``n`` shapes (children precede parents), with
+    shared children and repeated references (a seam edge twice in a wire)."""
+    kids: list[list[int]] = [[] for _ in range(3)]
+    for i in range(3, n):
+        kids.append(sorted(rng.choice(i, int(rng.integers(1, 5))).tolist()))
+    for k in kids[3:]:
+        if rng.random() < 0.2:
+            k.append(k[0])
+    start = np.r_[0, np.cumsum([len(k) for k in kids])].astype(np.int64)
+    return start, np.array([c for k in kids for c in k], np.int64)
+
+
+def _preorder(shapes: product.Shapes, root: int) -> list[int]:
+    """The walk's definition, recursively (docs/format.md §2.11)."""
+    start, child = shapes
+    out: list[int] = []
+
+    def visit(s: int) -> None:
+        out.append(s)
+        for c in child[start[s] : start[s + 1]].tolist():
+            if c not in out:
+                visit(c)
+
+    visit(root)
+    return out
+
+
+def _parts(shapes: product.Shapes, roots: list[int], subs: list[list[int]]) -> product.ProductData:
+    kind, parent, ref = [], [], []
+    for r in roots:
+        kind.append(product.PRODUCT), parent.append(-1), ref.append(r)
+    for j, rows in enumerate(subs):
+        for x in rows:
+            kind.append(product.SUBSHAPE), parent.append(j), ref.append(x)
+    n = len(kind)
+    z = np.zeros(n, np.int64)
+    return product.ProductData(
+        kind=np.array(kind, np.int64),
+        parent=np.array(parent, np.int64),
+        ref=np.array(ref, np.int64),
+        orient=z.copy(),
+        place=z - 1,
+        flags=z.copy(),
+        colour=np.full((n, 3), -1, np.int64),
+        names=[""] * n,
+    )
+
+
+def test_walk_is_the_recursive_preorder() -> None:
+    rng = np.random.default_rng(5)
+    shapes = _graph(rng, 120)
+    for root in (119, 80, 40, 3, 0):
+        want = _preorder(shapes, root)
+        assert product.walk(shapes, root, 10**6)[0] == want
+        assert product.walk(shapes, root, 7)[0] == want[:7]
+
+
+def test_prod_walk_layout_round_trip() -> None:
+    """Sub-shapes numbered by their place in their product's walk (2.3):
+    reachable ones by place, the others as rows; the same data back, and
+    smaller than the 1.2 layout where the sub-shapes follow the walk."""
+    rng = np.random.default_rng(6)
+    shapes = _graph(rng, 300)
+    inside = _preorder(shapes, 299)[1:]
+    outside = sorted(set(range(299)) - set(inside))
+    p = _parts(shapes, [299, 150], [inside + outside[:3], rng.permutation(150)[:40].tolist()])
+    values = product._ref_values(p, shapes)
+    sub = p.kind == product.SUBSHAPE
+    assert (values[sub] < 0).sum() >= 3  # rows outside the walk
+    raw = product.write(p, shapes)
+    assert product.read(raw, 300, shapes).same(p)
+    assert len(lzma.compress(raw)) < len(lzma.compress(product.write(p)))
+    # an assembly's sub-shape (its product has no shape) is written as a row
+    p.ref[1] = -1
+    p.ref[np.flatnonzero(p.parent == 1)] = 7
+    assert product.read(product.write(p, shapes), 300, shapes).same(p)
+
+
+def test_prod_walks_keep_to_their_work() -> None:
+    """Products whose shapes share one large subtree: the writer numbers by
+    place only while the walks' work stays within S + C; the reader
+    refuses a section that asks for more, and a place past a walk."""
+    n = 400
+    kids = [[] for _ in range(n - 10)] + [list(range(n - 10)) for _ in range(10)]
+    start = np.r_[0, np.cumsum([len(k) for k in kids])].astype(np.int64)
+    shapes = (start, np.array([c for k in kids for c in k], np.int64))
+    roots = list(range(n - 10, n))
+    p = _parts(shapes, roots, [[n - 11] for _ in roots])  # each needs its whole walk
+    values = product._ref_values(p, shapes)
+    sub = np.flatnonzero(p.kind == product.SUBSHAPE)
+    placed = int((values[sub] >= 0).sum())
+    assert 0 < placed < len(roots)  # S + C = 4,300: room for five walks of 781
+    assert product.read(product.write(p, shapes), n, shapes).same(p)
+    # every sub-shape by place: more work than the section may take
+    from .golden.make_golden import _arrays, _write_arrays
+
+    def with_values(v: np.ndarray) -> bytes:
+        arrays = _arrays(product.write(p, shapes), "PROD")
+        arrays[3] = (arrays[3][0], np.diff(v, prepend=0))
+        return _write_arrays(arrays)
+
+    v = values.copy()
+    v[sub] = n - 11
+    with pytest.raises(errors.BadReferenceError, match="more work"):
+        product.read(with_values(v), n, shapes)
+    v = values.copy()
+    v[sub[0]] = n + 5  # past the walk's end
+    with pytest.raises(errors.BadReferenceError, match="past the walk"):
+        product.read(with_values(v), n, shapes)
 
 
 # ---------------------------------------------------------------- corpus

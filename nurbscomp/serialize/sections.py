@@ -63,9 +63,14 @@ def model_to_sections(
         ("EDGE", lambda: _write_edges(m, t.range_how)),
         ("FACE", lambda: _write_faces(m)),
         *([("SIDE", lambda: _write_sides(m))] if len(m.side_joins) else []),
-        *([("PROD", lambda: product.write(m.product))] if m.product is not None else []),
+        *([("PROD", lambda: _write_product(m))] if m.product is not None else []),
     ]
     return [(tag, write()) for tag, write in writers if only is None or tag in only]
+
+
+def _write_product(m: BRepModel) -> bytes:
+    assert m.product is not None
+    return product.write(m.product, (m.child_start, m.child_shape))
 
 
 SECTIONS = ("META", "LOCS", "SURF", "SNET", "CRV3", "CNET", "CRV2", "SHAP", "VERT", "EDGE", "FACE")
@@ -180,7 +185,9 @@ def _read_sections(
     cnet = _read_nets(get("CNET"), len(crows), "CNET", _shapes(m.curves3d, crows), revision)
     prod = _optional(get, "PROD") if "PROD" in layout(revision) else None
     if prod is not None:
-        m.product = product.read(prod, len(m.shape_type))
+        # format 2.3: a sub-shape is numbered by its place in its product's walk
+        shapes = (m.child_start, m.child_shape) if revision >= 6 else None
+        m.product = product.read(prod, len(m.shape_type), shapes)
     return m, meta, Tables(snet, cnet, range_how)
 
 

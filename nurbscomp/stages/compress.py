@@ -252,7 +252,11 @@ def compress_report(enc: Encoded, verified: bool) -> dict[str, Any]:
         "counts": occ.counts(enc.cad.shape),
         "faces_by_type": faces_by_type(m),
         "product": product.summary(m.product) if m.product is not None else None,
-        "product_bytes": len(product.write(m.product)) if m.product is not None else 0,
+        "product_bytes": (
+            len(product.write(m.product, (m.child_start, m.child_shape)))
+            if m.product is not None
+            else 0
+        ),
         "verified": verified,
         "warnings": [*enc.cad.warnings, *enc.warnings],
     }

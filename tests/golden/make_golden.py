@@ -72,10 +72,15 @@ GOLDEN = [
     # format 2.2: lines through their edges' vertices (CRV3 kind 176)
     ("bracket.step", "v2_2.tol0.01", {"tol": 0.01}),
     ("assembly.step", "v2_2.tol0.1", {"tol": 0.1}),
+    # format 2.3: PROD's sub-shapes numbered by their place in their product's walk
+    ("assembly.step", "v2_3.tol0.01", {"tol": 0.01}),
+    ("assembly.step", "v2_3.lossless", {"lossless": True}),
 ]
 
 
 def _version(sample: str, mode: str) -> str:
+    if mode.startswith("v2_3."):
+        return "2.3"
     if mode.startswith("v2_2."):
         return "2.2"
     if mode.startswith("v2_1."):
