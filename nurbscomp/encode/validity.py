@@ -498,9 +498,10 @@ class _Plan:
             self.m, self.coded, self.exact, self.still_v, self.grid
         )
         cand = assembly.unthread(pcurves.drop_pcurves(target, self.keep_e, self.keep_f), self.m)
-        ranged = pcurves.vertex_ranges(
-            pcurves.unit_curves(cand, self.knot_memo), self.tol, self.as_read_e, self.m.vertex_point
+        cand = pcurves.unit_curves(
+            pcurves.unit_surfaces(cand, codes, self.knot_memo), self.knot_memo
         )
+        ranged = pcurves.vertex_ranges(cand, self.tol, self.as_read_e, self.m.vertex_point)
         return ranged, codes, report
 
     def with_leaders(self, recs: set[Rec | None]) -> set[Rec | None]:
