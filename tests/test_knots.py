@@ -241,10 +241,12 @@ def test_a_loft_comes_back_within_tol_with_its_knots_rounded(loft) -> None:
     assert rep["verified"] and rep["max_bound_mm"] <= 0.01
     source, _ = topology.shape_to_model(occ.read_cad(src).shape)
     back, _ = pipeline.decode(container.unpack(nzc.read_bytes()))
-    moved = [
+    moved = [  # (a surface mapped onto [0, 1] by pcurves.unit_surfaces moves too)
         (a, b)
         for a, b in zip(source.surfaces, back.surfaces)
-        if isinstance(a, BSplineSurface) and not np.array_equal(a.uknots, b.uknots)
+        if isinstance(a, BSplineSurface)
+        and len(a.uknots) > 2
+        and not np.array_equal(K.mapped(b.uknots, a.uknots, False), a.uknots)
     ]
     assert moved, "the loft's chord-length knots should be rounded"
     for a, b in moved:  # rounded to one precision: the knots end in zeros
