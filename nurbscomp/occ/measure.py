@@ -317,10 +317,14 @@ def face_distances(original: Any, decoded: Any, n: int = 7, tol: float = 0.0) ->
 
     Each sample is first compared with the decoded surface at the same (u, v),
     which bounds the distance from above; only where that exceeds ``tol`` is the
-    point projected onto the decoded surface.
+    point projected onto the decoded surface.  Where the two surfaces' bounded
+    domains differ (an encoder maps a B-spline's knots onto [0, 1] where
+    nothing holds its parameters), "the same (u, v)" is mapped affinely from
+    one domain onto the other.
     """
     uv, xyz = sample_face(original, n)
     surf = BRep_Tool.Surface_s(decoded)
+    uv = _onto(uv, BRep_Tool.Surface_s(original).Bounds(), surf.Bounds())
     trsf = decoded.Location().Transformation()
     inv = trsf.Inverted()
     out = []
@@ -333,6 +337,17 @@ def face_distances(original: Any, decoded: Any, n: int = 7, tol: float = 0.0) ->
                 d = min(d, proj.LowerDistance())
         out.append(d)
     return np.array(out)
+
+
+def _onto(uv: np.ndarray, a: tuple[float, ...], b: tuple[float, ...]) -> np.ndarray:
+    """Parameters ``uv`` of the domain ``a`` (u1, u2, v1, v2) mapped affinely
+    onto ``b``, per direction where both are bounded and differ."""
+    out = np.array(uv, dtype=float)
+    for k in (0, 1):
+        a0, a1, b0, b1 = a[2 * k], a[2 * k + 1], b[2 * k], b[2 * k + 1]
+        if (a0, a1) != (b0, b1) and all(abs(x) < 1e100 for x in (a0, a1, b0, b1)) and a1 > a0:
+            out[:, k] = b0 + (out[:, k] - a0) * ((b1 - b0) / (a1 - a0))
+    return out
 
 
 def deviation(original: Any, decoded: Any, n: int = 7, tol: float = 0.0) -> np.ndarray:
