@@ -201,13 +201,11 @@ def _cheaper(
     maps: dict[int, Ends],
     memo: dict[tuple[Any, ...], bool] | None = None,
     surface_maps: dict[int, tuple[Ends | None, Ends | None]] | None = None,
-    against: dict[int, Ends] | None = None,
 ) -> bool:
     """Whether the model's knots, surfaces' and curves', compress smaller with
     ``maps`` (by a curve record's first row) applied to the curves' and
     ``surface_maps`` (by a surface record's first row: u's and v's) to the
-    surfaces' (a curve's knots may repeat a surface's) than with ``against``
-    applied to the curves' alone (none by default).
+    surfaces' (a curve's knots may repeat a surface's) than with neither.
 
     ``memo`` keeps answers by the maps and the knots themselves: the validity
     stage's candidates share their knots (coding moves poles only) and mostly
@@ -229,24 +227,17 @@ def _cheaper(
         if first == i and isinstance(g, BSplineCurve) and not g.bezier
     ]
 
-    base = against or {}
-
     def joined(mapped: bool) -> bytes:
         parts = []
         for i, g in surfaces:
             uv = smaps.get(i, (None, None)) if mapped else (None, None)
             parts += [_unit(g.uknots, uv[0]), _unit(g.vknots, uv[1])]
         for i, c in curves:
-            parts.append(_unit(c.knots, (maps if mapped else base).get(i)))
+            parts.append(_unit(c.knots, maps.get(i) if mapped else None))
         return np.concatenate(parts).tobytes() if parts else b""
 
     plain = joined(False)
-    key = (
-        tuple(sorted(maps.items())),
-        tuple(sorted(smaps.items())),
-        tuple(sorted(base.items())),
-        hashlib.sha1(plain).digest(),
-    )
+    key = (tuple(sorted(maps.items())), tuple(sorted(smaps.items())), hashlib.sha1(plain).digest())
     if memo is not None and key in memo:
         return memo[key]
     answer = len(lzma.compress(joined(True))) < len(lzma.compress(plain))
