@@ -5,8 +5,9 @@ does no geometry.  This module does what those tables mean (docs/format.md
 §2.4, §2.7, §2.9, §2.10), in the order :func:`apply` runs them:
 
 0. every location's matrix checked (finite, within ``MAX_COORD``), then
-   (2.2) the frames of the lines that go through their edge's vertices made
-   (:func:`joins.lines_through`);
+   (2.2) the frames of the lines that go through their edge's vertices and
+   (2.4) of the circles through their edge's vertex about their face's axis
+   made (:func:`joins.through_vertices`);
 1. edge ranges the EDGE section left to rules (the curve's own range, the
    edge's 3-D curve's, the projections of its vertices: ``rules.ranges``);
 2. SNET: every coded surface net, each first pole against the previous net's
@@ -243,7 +244,7 @@ def apply(m: BRepModel, t: Tables, tol: float, revision: int) -> None:
     1.2 a net's corners are pinned only to a vertex within its own grid step:
     :func:`joins.pin_radius`)."""
     check_location_matrices(m)
-    joins.lines_through(m)  # 2.2: before the ranges from vertices on them
+    joins.through_vertices(m)  # 2.2, 2.4: before the ranges from vertices on them
     resolve_ranges(m, t.range_how)
     srows = coded_rows(m.surfaces)
     coded_surfaces = set(srows)

@@ -165,10 +165,13 @@ class Analytic:
         written as those integers.
     mask : int
         Bit j set: the origin's coordinate j is on the grid (7 when all are).
-    through : bool
-        (Tolerance mode, format 2.2, a 3-D LINE only) the line goes through its
-        edge's vertices: the container holds no value of it, and the decoder
-        makes its frame from the vertices (``rules.joins.lines_through``).
+    through : int
+        0, or (tolerance mode, ``CRV3`` only) the container holds no value of
+        the record: a LINE (1, format 2.2) goes through its edge's vertices; a
+        CIRCLE (format 2.4) goes through its first edge's FORWARD vertex about
+        the axis of a face of that edge, its normal along that axis (1) or
+        against it (-1).  The decoder makes them from the decoded vertices
+        and surfaces (``rules.joins.through_vertices``).
     """
 
     kind: Kind
@@ -176,7 +179,7 @@ class Analytic:
     params: np.ndarray
     grid: int = 0
     mask: int = 0
-    through: bool = False
+    through: int = 0
 
 
 @dataclass(frozen=True, eq=False)

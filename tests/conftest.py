@@ -113,6 +113,33 @@ def assert_comes_back(src: Path, nzc: Path, tol: float, n: int = 5):
     return shape
 
 
+def compressed_part(
+    tmp_path_factory: pytest.TempPathFactory, make, name: str, tol: float = 0.01
+) -> tuple[Path, Path, dict]:
+    """``make(path)`` writes a part's STEP; it compressed at ``tol``:
+    (source, container, report)."""
+    from nurbscomp import pipeline
+
+    d = tmp_path_factory.mktemp(name)
+    src = make(d / f"{name}.step")
+    nzc = d / f"{name}.nzc"
+    return src, nzc, pipeline.compress_file(src, nzc, tol=tol)
+
+
+def through_rows(nzc: Path, revision: int, kind) -> tuple:
+    """The tables of container ``nzc`` (of ``revision`` or later) and the
+    ``CRV3`` rows of ``kind`` that go through vertices, with that kind's rows
+    all told: (tables, model as read, through rows, every row of the kind)."""
+    from nurbscomp import container, serialize
+    from nurbscomp.model import Analytic
+
+    c = container.unpack(nzc.read_bytes())
+    assert c.revision >= revision
+    m, _, tables = serialize.read_sections(c.get, c.revision)
+    every = [i for i, g in enumerate(m.curves3d) if isinstance(g, Analytic) and g.kind == kind]
+    return tables, m, [i for i in every if m.curves3d[i].through], every
+
+
 def assert_step_keeps_floor(cad, nzc: Path, tmp_path: Path):
     """Decompress ``nzc`` to STEP, read it back, and compare with OCCT's own
     STEP round trip of the source (the floor): each topology count between

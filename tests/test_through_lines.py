@@ -1,5 +1,5 @@
 """Lines through their edges' vertices (format 2.2, docs/format.md §2.3;
-encode.assembly._thread_lines, rules.joins.lines_through): a line used by
+encode.assembly._thread, rules.joins.through_vertices): a line used by
 one edge is stored with no values and made again from the decoded vertices,
 within its bound of the source's line, its range a rule."""
 
@@ -20,7 +20,7 @@ from nurbscomp.rules import joins
 from nurbscomp.rules.ranges import RANGE_VERTICES
 from nurbscomp.serialize import geometry
 
-from .conftest import assert_comes_back, assert_step_keeps_floor
+from .conftest import assert_comes_back, assert_step_keeps_floor, compressed_part, through_rows
 
 
 def _part(path: Path) -> Path:
@@ -42,28 +42,24 @@ def _part(path: Path) -> Path:
 
 
 def _through(m) -> list[int]:
-    return [i for i, g in enumerate(m.curves3d) if isinstance(g, Analytic) and g.through]
+    return [
+        i
+        for i, g in enumerate(m.curves3d)
+        if isinstance(g, Analytic) and g.kind == Kind.LINE and g.through
+    ]
 
 
 @pytest.fixture(scope="module")
 def plate(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path, dict]:
-    d = tmp_path_factory.mktemp("through")
-    src = _part(d / "plate.step")
-    nzc = d / "plate.nzc"
-    rep = pipeline.compress_file(src, nzc, tol=0.01)
-    return src, nzc, rep
+    return compressed_part(tmp_path_factory, _part, "plate")
 
 
 def test_lines_go_through_their_vertices(plate) -> None:
     src, nzc, rep = plate
     assert rep["verified"] and rep["max_bound_mm"] <= 0.01
-    c = container.unpack(nzc.read_bytes())
-    assert c.revision >= 5  # format 2.2 and later
-    m, _, tables = serialize.read_sections(c.get, c.revision)
-    rows = _through(m)
-    lines = [g for g in m.curves3d if isinstance(g, Analytic) and g.kind == Kind.LINE]
+    tables, _, rows, lines = through_rows(nzc, 5, Kind.LINE)  # format 2.2 and later
     assert len(rows) >= len(lines) // 2 > 0
-    back, _ = pipeline.decode(c)  # the decoded model
+    back, _ = pipeline.decode(container.unpack(nzc.read_bytes()))  # the decoded model
     reps = back.edge_reps
     edge_shapes = np.flatnonzero(back.shape_type == ShapeType.EDGE)
     for i in rows:
@@ -120,10 +116,7 @@ def test_a_line_whose_edge_keeps_its_pcurve_stays(plate) -> None:
     out = assembly.unthread(cand, source)
     assert out.curves3d[i] is source.curves3d[i]
     assert np.array_equal(out.edge_rep_range[q], source.edge_rep_range[q])
-    assert (
-        sum(1 for g in out.curves3d if isinstance(g, Analytic) and g.through)
-        == len(_through(back)) - 1
-    )
+    assert len(_through(out)) == len(_through(back)) - 1
 
 
 def test_the_reader_refuses_what_breaks_the_rule(plate) -> None:
@@ -138,25 +131,34 @@ def test_the_reader_refuses_what_breaks_the_rule(plate) -> None:
     two[r, EC.CURVE] = i  # two edges on one line through vertices
     m.edge_reps = two
     with pytest.raises(BadReferenceError, match="used by 2 edges"):
-        joins.lines_through(m)
+        joins.through_vertices(m)
     m.edge_reps = reps
     m.curves3d = list(m.curves3d)
     m.curves3d[j] = m.curves3d[i]  # a copy of it
     with pytest.raises(BadReferenceError):
-        joins.lines_through(m)
+        joins.through_vertices(m)
 
 
-def test_the_kind_code_only_in_crv3_of_2_2() -> None:
-    line = Analytic(Kind.LINE, np.zeros((2, 3)), np.zeros(0), through=True)
-    raw = geometry._write_geometry([line], 3, revision=5)
-    (back,) = geometry._read_geometry(raw, "CRV3", 3, revision=5)
-    assert isinstance(back, Analytic) and back.through and back.kind == Kind.LINE
-    with pytest.raises(SectionError, match="unknown geometry kind 176"):
-        geometry._read_geometry(raw, "CRV3", 3, revision=4)
-    with pytest.raises(SectionError, match="unknown geometry kind 176"):
-        geometry._read_geometry(raw, "SURF", 3, revision=5)
+@pytest.mark.parametrize(
+    "kind, frame, through, code, revision",
+    [
+        (Kind.LINE, (2, 3), (1,), 176, 5),  # 2.2
+        (Kind.CIRCLE, (3, 3), (1, -1), 177, 7),  # 2.4: along the axis (177), against (178)
+    ],
+)
+def test_the_kind_codes_only_in_crv3_of_their_version(
+    kind: Kind, frame: tuple, through: tuple, code: int, revision: int
+) -> None:
+    rows = [Analytic(kind, np.zeros(frame), np.zeros(frame[0] - 2), through=t) for t in through]
+    raw = geometry._write_geometry(rows, 3, revision=revision)
+    back = geometry._read_geometry(raw, "CRV3", 3, revision=revision)
+    assert [(g.kind, g.through) for g in back] == [(kind, t) for t in through]
+    with pytest.raises(SectionError, match=f"unknown geometry kind {code}"):
+        geometry._read_geometry(raw, "CRV3", 3, revision=revision - 1)
+    with pytest.raises(SectionError, match=f"unknown geometry kind {code}"):
+        geometry._read_geometry(raw, "SURF", 3, revision=revision)
     with pytest.raises(ValueError):
-        geometry._write_geometry([line], 3, revision=4)
+        geometry._write_geometry(rows, 3, revision=revision - 1)
 
 
 def test_lossless_has_none(plate, tmp_path: Path) -> None:

@@ -140,8 +140,8 @@ def assemble(
     gridded |= curves_gridded
     source = m
     m, moved_v, loose_v, bound_v = _snap_vertices(m, coded, surfaces, curves, codes, exact, still)
-    threaded = _thread_lines(source, m, curves, crec, exact, coded.tol, coded.vlead)
-    snapped.update(threaded)  # the line's bound replaces its grid's: it is a new line
+    threaded = _thread(source, m, surfaces, curves, crec, exact, coded.tol, coded.vlead)
+    snapped.update(threaded)  # the curve's bound replaces its grid's: it is a new curve
     gridded |= set(threaded)  # the validity ladder's first rung leaves it as it was
     _pin_surfaces(m, surfaces, codes, coded.tol)
     side_joins = _join_sides(m, coded, surfaces, codes)
@@ -244,33 +244,36 @@ def _snap_analytic(
     return out, gridded
 
 
-def _thread_lines(
+def _thread(
     source: BRepModel,
     m: BRepModel,
+    surfaces: list[Geometry],
     curves: list[Geometry],
     crec: list[Rec],
     exact: set[Rec | None],
     tol: float,
     lead: np.ndarray,
 ) -> dict[Rec, float]:
-    """Lines that go through their edge's vertices (format 2.2: no values in
-    the container; ``joins.lines_through`` makes them from the decoded
-    vertices), in place in ``curves``, with their edge's range set to what
-    the vertices give on them (a range rule); per record, its bound.
+    """Lines that go through their edge's vertices (format 2.2) and circles
+    through their edge's vertex about their face's axis (2.4), which the
+    container holds as a kind code alone (``joins.through_vertices`` makes
+    them from the decoded vertices and surfaces), in place in ``curves``,
+    with their edges' ranges set to what the vertices give on them (a range
+    rule); per record, its bound.
 
-    A line qualifies where it is the one unlocated 3-D curve of one edge,
-    its record has no other row, no other record (a swept surface, a trimmed
-    or offset curve) and no vertex's point representation refers to it, its
-    edge is no seam and has two distinct unlocated vertices, neither of them
-    a twin (a vertex of a cluster ``lead``: a surface model whose faces each
-    have their own edges, where the coincident line of the next face is a
-    record of its own; on bearing.iges such lines opened free edges in the
-    STEP re-read and made the file grow with the tolerance), and the new
-    line stays within tol of the source's: its bound is the larger distance,
-    at either end, from the (snapped) vertex to the source line's point at
-    the edge's range end (the segments between match point for point within
-    that).  A pcurve the candidate keeps is parameterized on the source line:
-    :func:`unthread` puts such a line back."""
+    A curve qualifies where it is an unlocated 3-D curve of its edges (a
+    line: of one edge), its record has no other row, no other record (a
+    swept surface, a trimmed or offset curve) and no vertex's point
+    representation refers to it, its edges are no seams and have a FORWARD
+    and a REVERSED unlocated vertex (a line's distinct), none of them a twin
+    (a vertex of a cluster ``lead``: a surface model whose faces each have
+    their own edges, where the coincident curve of the next face is a record
+    of its own; on bearing.iges such lines opened free edges in the STEP
+    re-read and made the file grow with the tolerance), their faces lie on
+    planes, quadrics or B-spline surfaces, and the new curve stays within
+    tol of the source's (:func:`_line_bound`, :func:`_circle_bound`).  A
+    pcurve the candidate keeps is parameterized on the source curve:
+    :func:`unthread` puts such a curve back."""
     out: dict[Rec, float] = {}
     if not tol > 0:
         return out
@@ -295,48 +298,131 @@ def _thread_lines(
     faces_of = faces_around(m, ShapeType.EDGE)
     tidx = m.type_index()
     rows = _Rows(curves)
-    ranges = None
+    axes: dict[int, int] | None = None
+    copied = False
     for i, k in enumerate(crec):
         g, was = curves[i], source.curves3d[i]
         if k.row != i or k in exact or len(rows.rows[rows.first[i]]) != 1 or i in based:
             continue
-        if not (isinstance(g, Analytic) and g.kind == Kind.LINE and isinstance(was, Analytic)):
+        if not (isinstance(g, Analytic) and isinstance(was, Analytic) and g.kind == was.kind):
             continue
-        if was.frame.shape != (2, 3):
+        if g.kind not in (Kind.LINE, Kind.CIRCLE) or was.frame.shape[1:] != (3,):
             continue
         qs = use.get(i, [])
-        if len(qs) != 1 or reps[qs[0], EC.LOC] != 0 or int(reps[qs[0], EC.EDGE]) in seams:
+        if not qs or (g.kind == Kind.LINE and len(qs) != 1):
             continue
-        q = qs[0]
-        ends = joins.edge_ends(m, int(edge_shapes[reps[q, EC.EDGE]]), tidx)
-        if len(ends) != 2 or ends[joins.FORWARD] == ends[joins.REVERSED]:
+        ends = []
+        for q in qs:
+            e = int(reps[q, EC.EDGE])
+            if reps[q, EC.LOC] != 0 or e in seams or any(f not in plain for f in faces_of[e]):
+                break
+            two = joins.edge_ends(m, int(edge_shapes[e]), tidx)
+            if len(two) != 2 or twin[[two[joins.FORWARD], two[joins.REVERSED]]].any():
+                break
+            ends.append((two[joins.FORWARD], two[joins.REVERSED]))
+        if len(ends) != len(qs):
             continue
-        if (twin[[ends[joins.FORWARD], ends[joins.REVERSED]]]).any():
+        if g.kind == Kind.LINE:
+            made = _line_through(m, was, source.edge_rep_range[qs[0]], ends[0])
+        else:
+            if axes is None:
+                axes = joins.axis_faces(m, surfaces)
+            f = axes.get(int(reps[qs[0], EC.EDGE]))
+            if f is None:
+                continue
+            made = _circle_through(m, was, surfaces[int(m.face_surface[f])], qs, ends, source)
+        if made is None or not made[1] <= tol:
             continue
-        if any(f not in plain for f in faces_of[int(reps[q, EC.EDGE])]):
-            continue
-        a, b = (m.vertex_point[ends[o]] for o in (joins.FORWARD, joins.REVERSED))
-        frame = joins.line_through(a, b)
-        if frame is None:
-            continue
-        t = source.edge_rep_range[q]
-        was_ends = was.frame[0] + np.outer(t, was.frame[1])
-        dev = float(np.sqrt(((np.array([a, b]) - was_ends) ** 2).sum(-1)).max())
-        if not dev <= tol:
-            continue
-        new = Analytic(Kind.LINE, frame, np.zeros(0), through=True)
+        new, bound, spans = made
         rows.replace(i, new)
-        if ranges is None:
-            ranges = m.edge_rep_range = m.edge_rep_range.copy()
-        ranges[q] = (joins.on_line(new, a), joins.on_line(new, b))
-        out[k] = dev
+        if not copied:  # the candidate's own ranges from here on
+            m.edge_rep_range, copied = m.edge_rep_range.copy(), True
+        for q, span in zip(qs, spans):
+            m.edge_rep_range[q] = span
+        out[k] = bound
     return out
 
 
+def _line_through(
+    m: BRepModel, was: Analytic, t: np.ndarray, ends: tuple[int, int]
+) -> tuple[Analytic, float, list[tuple[float, float]]] | None:
+    """The line through an edge's (snapped) vertices, its bound and the
+    edge's range on it: the larger distance, at either end, from the vertex
+    to the source line's point at the edge's range end (the segments between
+    match point for point within that)."""
+    a, b = m.vertex_point[ends[0]], m.vertex_point[ends[1]]
+    frame = joins.line_through(a, b)
+    if frame is None:
+        return None
+    was_ends = was.frame[0] + np.outer(t, was.frame[1])
+    dev = float(np.sqrt(((np.array([a, b]) - was_ends) ** 2).sum(-1)).max())
+    new = Analytic(Kind.LINE, frame, np.zeros(0), through=1)
+    return new, dev, [(joins.on_line(new, a), joins.on_line(new, b))]
+
+
+def _circle_through(
+    m: BRepModel,
+    was: Analytic,
+    axis: Geometry,
+    qs: list[int],
+    ends: list[tuple[int, int]],
+    source: BRepModel,
+) -> tuple[Analytic, float, list[tuple[float, float]]] | None:
+    """The circle through the first edge's FORWARD (snapped) vertex about
+    ``axis`` (``joins.circle_through``), its normal on the source's side, its
+    bound and the edges' ranges on it.
+
+    The bound: map each point c' + r'u' of the new circle to c + r·ũ on the
+    source circle, ũ the unit projection of u' on the source's plane. That
+    moves it by at most sqrt(a² + (p + |r' - r|)²) + 2r'·|n - n'| (a and p
+    the axial and radial parts of the centres' distance, n and n' the
+    normals; |u' - ũ| ≤ |n - n'|, counted twice for the projection), and
+    takes each new arc onto an arc of the source circle whose ends the
+    bound adds, measured (the arcs run the same way, and their angles
+    differ by under 0.5 rad, so neither is the other's complement)."""
+    assert isinstance(axis, Analytic)
+    c, n, x = was.frame[0], was.frame[1], was.frame[2]
+    sense = 1 if float(n @ axis.frame[1]) > 0 else -1
+    new = joins.circle_through(axis, m.vertex_point[ends[0][0]], sense)
+    if new is None:
+        return None
+    r, r2 = float(was.params[0]), float(new.params[0])
+    c2, n2 = new.frame[0], new.frame[1]
+    d = c2 - c
+    axial = float(d @ n)
+    radial = float(np.linalg.norm(d - axial * n))
+    move = math.hypot(axial, radial + abs(r2 - r)) + 2 * r2 * float(np.linalg.norm(n - n2))
+    y = np.cross(n, x)
+    y2 = np.cross(n2, new.frame[2])
+    y2 /= np.linalg.norm(y2)
+
+    def on_source(t: float) -> np.ndarray:
+        return c + r * (math.cos(t) * x + math.sin(t) * y)
+
+    def mapped(t: float) -> np.ndarray:
+        u = math.cos(t) * new.frame[2] + math.sin(t) * y2
+        u = u - float(u @ n) * n
+        return c + r * u / np.linalg.norm(u)
+
+    spans, gap = [], 0.0
+    for q, (fa, fb) in zip(qs, ends):
+        t0, t1 = (float(t) for t in source.edge_rep_range[q])
+        span = joins.circle_range(new, m.vertex_point[fa], m.vertex_point[fb], fa == fb)
+        if not abs((span[1] - span[0]) - (t1 - t0)) < 0.5:
+            return None
+        gap = max(
+            gap,
+            float(np.linalg.norm(mapped(span[0]) - on_source(t0))),
+            float(np.linalg.norm(mapped(span[1]) - on_source(t1))),
+        )
+        spans.append(span)
+    return new, move + gap, spans
+
+
 def unthread(cand: BRepModel, source: BRepModel) -> BRepModel:
-    """``cand`` with the source's line and 3-D range back wherever a line
-    through its vertices (:func:`_thread_lines`) is on an edge that keeps a
-    stored pcurve (parameterized on the source line)."""
+    """``cand`` with the source's curve and its edges' 3-D ranges back
+    wherever a curve through vertices (:func:`_thread`) is on an edge that
+    keeps a stored pcurve (parameterized on the source curve)."""
     reps = cand.edge_reps
     pcurve = np.isin(reps[:, EC.KIND], (RepKind.ON_SURFACE, RepKind.ON_CLOSED_SURFACE))
     kept = set(reps[pcurve & (reps[:, EC.CURVE] != REBUILD), EC.EDGE].tolist())
@@ -344,8 +430,8 @@ def unthread(cand: BRepModel, source: BRepModel) -> BRepModel:
         q
         for i, qs in joins.curve_uses(cand).items()
         if i >= 0 and isinstance(g := cand.curves3d[i], Analytic) and g.through
-        for q in qs
-        if int(reps[q, EC.EDGE]) in kept
+        if any(int(reps[q, EC.EDGE]) in kept for q in qs)
+        for q in qs  # every edge on it: their ranges are on the new curve
     ]
     if not back:
         return cand

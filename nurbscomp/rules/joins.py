@@ -158,17 +158,71 @@ def line_through(a: np.ndarray, b: np.ndarray) -> np.ndarray | None:
     return np.array([[ax, ay, az], [dx / n, dy / n, dz / n]])
 
 
-def lines_through(m: BRepModel) -> None:
+#: Surfaces whose axis a circle through a vertex takes (2.4, docs/format.md §2.3).
+REVOLVED = (Kind.CYLINDER, Kind.CONE, Kind.SPHERE, Kind.TORUS)
+
+
+def axis_faces(m: BRepModel, surfaces: list[Geometry] | None = None) -> dict[int, int]:
+    """Per edge (its row), the first face (model order) that can give a circle
+    on it an axis (2.4): of face location 0, on a CYLINDER, CONE, SPHERE or
+    TORUS row of ``surfaces`` (``m.surfaces`` by default), holding the edge as a
+    direct child of location 0 of one of its wires of location 0."""
+    table = m.surfaces if surfaces is None else surfaces
+    types, children, start, locs = m.shape_type, m.child_shape, m.child_start, m.child_loc
+    tidx = m.type_index()
+    wire, edge = int(ShapeType.WIRE), int(ShapeType.EDGE)
+    out: dict[int, int] = {}
+    faces = np.flatnonzero(types == ShapeType.FACE).tolist()
+    for f, s in enumerate(faces):
+        g = table[int(m.face_surface[f])]
+        if m.face_loc[f] != 0 or not (isinstance(g, Analytic) and g.kind in REVOLVED):
+            continue
+        for k in range(start[s], start[s + 1]):
+            w = int(children[k])
+            if types[w] != wire or locs[k] != 0:
+                continue
+            for j in range(start[w], start[w + 1]):
+                e = int(children[j])
+                if types[e] == edge and locs[j] == 0:
+                    out.setdefault(int(tidx[e]), f)
+    return out
+
+
+def circle_through(axis: Analytic, p: np.ndarray, sense: int) -> Analytic | None:
+    """The circle about ``axis``'s axis (a surface's origin and main
+    direction) through point ``p``, as docs/format.md §2.3 computes it (2.4):
+    its centre the foot of ``p`` on the axis, its radius the distance from
+    there, its normal the axis's direction (``sense`` 1) or its opposite
+    (-1), its X direction the surface's.  None where ``p`` is on the axis or
+    the radius is not finite."""
+    (ox, oy, oz), (dx, dy, dz), x = ([float(c) for c in r] for r in axis.frame[:3])
+    px, py, pz = (float(c) for c in p)
+    wx, wy, wz = px - ox, py - oy, pz - oz
+    h = (wx * dx + wy * dy) + wz * dz
+    cx, cy, cz = ox + h * dx, oy + h * dy, oz + h * dz
+    vx, vy, vz = px - cx, py - cy, pz - cz
+    r = math.sqrt((vx * vx + vy * vy) + vz * vz)
+    if not (r > 0 and math.isfinite(r)):
+        return None
+    s = 1.0 if sense > 0 else -1.0
+    frame = np.array([[cx, cy, cz], [s * dx, s * dy, s * dz], x])
+    return Analytic(Kind.CIRCLE, frame, np.array([r]), through=sense)
+
+
+def through_vertices(m: BRepModel) -> None:
     """Make the frame of every 3-D line that goes through its edge's
-    vertices (``Analytic.through``, format 2.2, docs/format.md §2.3), in
-    place, from the decoded vertices.
+    vertices (``Analytic.through``, format 2.2) and of every circle through
+    its edge's vertex about its face's axis (2.4), in place, from the
+    decoded vertices and surfaces (docs/format.md §2.3).
 
     Raises
     ------
     BadReferenceError
         Such a line that is not the one unlocated 3-D curve of one edge with
-        distinct FORWARD and REVERSED unlocated vertices, or that another row
-        copies.
+        distinct FORWARD and REVERSED unlocated vertices; such a circle used
+        by no edge or by a located one, whose first edge has no unlocated
+        FORWARD vertex or no face to take an axis from, or whose vertex is on that
+        axis; either kind copied by another row.
     """
     rows = [i for i, g in enumerate(m.curves3d) if isinstance(g, Analytic) and g.through]
     if not rows:
@@ -178,24 +232,53 @@ def lines_through(m: BRepModel) -> None:
     edge_shapes = np.flatnonzero(m.shape_type == ShapeType.EDGE)
     tidx = m.type_index()
     held = collections.Counter(id(h) for h in m.curves3d)
+    axes: dict[int, int] | None = None
     for i in rows:
         g = m.curves3d[i]
         assert isinstance(g, Analytic)
         qs = use.get(i, [])
-        if len(qs) != 1 or reps[qs[0], EC.LOC] != 0:
-            raise BadReferenceError(
-                f"CRV3 row {i}: a line through vertices used by {len(qs)} edges"
-            )
         if held[id(g)] != 1:
-            raise BadReferenceError(f"CRV3 row {i}: a line through vertices is copied")
-        ends = edge_ends(m, int(edge_shapes[reps[qs[0], EC.EDGE]]), tidx)
-        if len(ends) != 2:
-            raise BadReferenceError(f"CRV3 row {i}: its edge has no two unlocated vertices")
-        a, b = (m.vertex_point[ends[o]] for o in (FORWARD, REVERSED))
-        frame = line_through(a, b)
-        if frame is None:
-            raise BadReferenceError(f"CRV3 row {i}: a line through two vertices at one point")
-        g.frame[...] = frame
+            raise BadReferenceError(f"CRV3 row {i}: a curve through vertices is copied")
+        if g.kind == Kind.LINE:
+            _line_through_edge(m, i, qs, edge_shapes, tidx)
+            continue
+        if not qs or any(reps[q, EC.LOC] != 0 for q in qs):
+            raise BadReferenceError(f"CRV3 row {i}: a circle through a vertex on no unlocated edge")
+        e = int(reps[qs[0], EC.EDGE])
+        ends = edge_ends(m, int(edge_shapes[e]), tidx)
+        if FORWARD not in ends:
+            raise BadReferenceError(f"CRV3 row {i}: its edge has no unlocated FORWARD vertex")
+        if axes is None:
+            axes = axis_faces(m)
+        f = axes.get(e)
+        if f is None:
+            raise BadReferenceError(f"CRV3 row {i}: its edge is on no face to take an axis from")
+        s = m.surfaces[int(m.face_surface[f])]
+        assert isinstance(s, Analytic)
+        made = circle_through(s, m.vertex_point[ends[FORWARD]], g.through)
+        if made is None:
+            raise BadReferenceError(f"CRV3 row {i}: a circle through a vertex on its axis")
+        g.frame[...] = made.frame
+        g.params[...] = made.params
+
+
+def _line_through_edge(
+    m: BRepModel, i: int, qs: list[int], edge_shapes: np.ndarray, tidx: np.ndarray
+) -> None:
+    """The frame of line row ``i`` (2.2) from its one edge's vertices, in place."""
+    g = m.curves3d[i]
+    assert isinstance(g, Analytic)
+    reps = m.edge_reps
+    if len(qs) != 1 or reps[qs[0], EC.LOC] != 0:
+        raise BadReferenceError(f"CRV3 row {i}: a line through vertices used by {len(qs)} edges")
+    ends = edge_ends(m, int(edge_shapes[reps[qs[0], EC.EDGE]]), tidx)
+    if len(ends) != 2:
+        raise BadReferenceError(f"CRV3 row {i}: its edge has no two unlocated vertices")
+    a, b = (m.vertex_point[ends[o]] for o in (FORWARD, REVERSED))
+    frame = line_through(a, b)
+    if frame is None:
+        raise BadReferenceError(f"CRV3 row {i}: a line through two vertices at one point")
+    g.frame[...] = frame
 
 
 def vertex_ranges(m: BRepModel) -> dict[int, tuple[float, float]]:
@@ -225,13 +308,20 @@ def vertex_ranges(m: BRepModel) -> dict[int, tuple[float, float]]:
         if g.kind == Kind.LINE:
             out[q] = (on_line(g, a), on_line(g, b))
             continue
-        t0, t1 = _on_circle(g, a), _on_circle(g, b)
-        if ends[FORWARD] == ends[REVERSED] or t1 == t0:
-            t1 = t0 + 2 * math.pi
-        elif t1 < t0:
-            t1 += 2 * math.pi
-        out[q] = (t0, t1)
+        out[q] = circle_range(g, a, b, ends[FORWARD] == ends[REVERSED])
     return out
+
+
+def circle_range(g: Analytic, a: np.ndarray, b: np.ndarray, closed: bool) -> tuple[float, float]:
+    """The range of an edge from point ``a`` to point ``b`` on circle ``g``:
+    from ``a``'s angle, the end one turn or less after it (a whole turn where
+    the edge is ``closed`` or both angles are one)."""
+    t0, t1 = _on_circle(g, a), _on_circle(g, b)
+    if closed or t1 == t0:
+        t1 = t0 + 2 * math.pi
+    elif t1 < t0:
+        t1 += 2 * math.pi
+    return t0, t1
 
 
 def _pinned(m: BRepModel, poles: np.ndarray, places: list[tuple[Any, int]]) -> np.ndarray:

@@ -84,6 +84,9 @@ REPEAT_MIN = 3
 GRIDDED = 128
 #: Kind code of a 3-D line through its edge's vertices, with no values (2.2, §2.3).
 THROUGH = 176
+#: Kind codes of a 3-D circle through its edge's vertex about its face's axis,
+#: its normal along the axis or against it, with no values (2.4, §2.3).
+CIRCLE_ALONG, CIRCLE_AGAINST = 177, 178
 
 
 def _keys(x: np.ndarray) -> list[int]:
@@ -211,9 +214,20 @@ def _write_geometry(
             copies.append(i - first[i])
             continue
         if isinstance(r, Analytic) and r.through:
-            if not (revision >= 5 and dim == 3 and r.kind == Kind.LINE):
-                raise ValueError("only a 3-D line of format 2.2 goes through its vertices")
-            kinds.append(THROUGH)
+            if not dim == 3 or not (
+                (revision >= 5 and r.kind == Kind.LINE and r.through == 1)
+                or (revision >= 7 and r.kind == Kind.CIRCLE and r.through in (1, -1))
+            ):
+                raise ValueError(
+                    "only a 3-D line (format 2.2) or circle (2.4) goes through its vertices"
+                )
+            kinds.append(
+                THROUGH
+                if r.kind == Kind.LINE
+                else CIRCLE_ALONG
+                if r.through == 1
+                else CIRCLE_AGAINST
+            )
             continue
         if isinstance(r, Analytic) and gridded and r.grid:
             kinds.append(GRIDDED + int(r.kind))
@@ -437,7 +451,14 @@ def _read_geometry(
             continue
         if k == THROUGH and revision >= 5 and tag == "CRV3":
             # its frame comes from its edge's vertices (decode.apply): NaN until then
-            out.append(Analytic(Kind.LINE, np.full((2, 3), np.nan), np.zeros(0), through=True))
+            out.append(Analytic(Kind.LINE, np.full((2, 3), np.nan), np.zeros(0), through=1))
+            continue
+        if k in (CIRCLE_ALONG, CIRCLE_AGAINST) and revision >= 7 and tag == "CRV3":
+            # its frame and radius come from its edge's vertex and face (decode.apply)
+            sense = 1 if k == CIRCLE_ALONG else -1
+            out.append(
+                Analytic(Kind.CIRCLE, np.full((3, 3), np.nan), np.full(1, np.nan), through=sense)
+            )
             continue
         on_grid = gridded and GRIDDED <= k < COPY
         try:

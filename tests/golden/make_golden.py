@@ -75,10 +75,15 @@ GOLDEN = [
     # format 2.3: PROD's sub-shapes numbered by their place in their product's walk
     ("assembly.step", "v2_3.tol0.01", {"tol": 0.01}),
     ("assembly.step", "v2_3.lossless", {"lossless": True}),
+    # format 2.4: circles through their edge's vertex about a face's axis (CRV3 177, 178)
+    ("bracket.step", "v2_4.tol0.01", {"tol": 0.01}),
+    ("assembly.step", "v2_4.tol0.1", {"tol": 0.1}),
 ]
 
 
 def _version(sample: str, mode: str) -> str:
+    if mode.startswith("v2_4."):
+        return "2.4"
     if mode.startswith("v2_3."):
         return "2.3"
     if mode.startswith("v2_2."):

@@ -238,10 +238,57 @@ def _ends(m: Model, r: int) -> tuple[int, int] | None:
     return None if fwd is None or rev is None else (fwd, rev)
 
 
+def _axis_face(m: Model, edge_shape: int) -> int | None:
+    """§2.3 (2.4): the first face of location 0 on a cylinder, cone, sphere or
+    torus that holds the edge in one of its wires, both links of location 0."""
+    sh = m.shapes
+    for f, fs in enumerate(sh.of(4)):
+        g = m.surfaces[int(m.faces.surface[f])]
+        if int(m.faces.loc[f]) != 0 or not (isinstance(g, Analytic) and g.kind in (1, 2, 3, 4)):
+            continue
+        for w, _, wl in sh.children[fs]:
+            if sh.type[w] == 5 and wl == 0:
+                if any(e == edge_shape and el == 0 for e, _, el in sh.children[w]):
+                    return f
+    return None
+
+
+def circle_through(m: Model, i: int, g: Analytic) -> None:
+    """§2.3 (2.4): the frame and radius of a circle through its edge's vertex."""
+    reps = m.edges.reps
+    uses = [r for r in range(len(reps)) if int(reps[r, 1]) == 0 and int(reps[r, 2]) == i]
+    if not uses or any(int(reps[r, 6]) != 0 for r in uses):
+        raise ReadError("CRV3: a circle through a vertex not on unlocated edges")
+    es = m.shapes.of(6)[int(reps[uses[0], 0])]
+    fwd = next((c for c, o, loc in m.shapes.children[es]
+                if m.shapes.type[c] == 7 and o == 0 and loc == 0), None)  # fmt: skip
+    f = _axis_face(m, es)
+    if fwd is None or f is None:
+        raise ReadError("CRV3: a circle through a vertex without its vertex or axis face")
+    axis = m.surfaces[int(m.faces.surface[f])]
+    p = [float(x) for x in m.vertices.point[m.shapes.row_of[fwd]]]
+    o, d, x = ([float(v) for v in axis.frame[k]] for k in range(3))
+    w = [p[j] - o[j] for j in range(3)]
+    h = (w[0] * d[0] + w[1] * d[1]) + w[2] * d[2]
+    c = [o[j] + h * d[j] for j in range(3)]
+    v = [p[j] - c[j] for j in range(3)]
+    r = math.sqrt((v[0] * v[0] + v[1] * v[1]) + v[2] * v[2])
+    if not (r > 0 and math.isfinite(r)):
+        raise ReadError("CRV3: a circle through a vertex on its axis")
+    g.frame = np.array([c, [g.through * dj for dj in d], x])
+    g.params = np.array([r])
+
+
 def lines_through(m: Model) -> None:
-    """§2.3 (2.2): the frame of each line through its edge's vertices."""
+    """§2.3: the frame of each line through its edge's vertices (2.2) and of
+    each circle through its edge's vertex about its face's axis (2.4)."""
     for i, g in enumerate(m.curves3d):
         if not (isinstance(g, Analytic) and g.through):
+            continue
+        if g.kind == 17:
+            if sum(h is g for h in m.curves3d) != 1:
+                raise ReadError("CRV3: a circle through a vertex is copied")
+            circle_through(m, i, g)
             continue
         uses = [r for r in range(len(m.edges.reps))
                 if int(m.edges.reps[r, 1]) == 0 and int(m.edges.reps[r, 2]) == i]  # fmt: skip

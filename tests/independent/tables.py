@@ -19,7 +19,7 @@ class Analytic:
     kind: int
     frame: np.ndarray
     params: np.ndarray
-    through: bool = False  # §2.3 (2.2): a line through its edge's vertices
+    through: int = 0  # §2.3: a line through its edge's vertices (2.2), a circle through one (2.4)
 
 
 @dataclass(eq=False)
@@ -198,7 +198,11 @@ def read_geometry(raw: bytes, tag: str, dim: int, revision: int) -> tuple[list[R
             continue
         copies.append(False)
         if kind == 176 and revision >= 5 and tag == "CRV3":  # §2.3 (2.2): frame from the vertices
-            rows.append(Analytic(16, np.full((2, 3), np.nan), np.zeros(0), through=True))
+            rows.append(Analytic(16, np.full((2, 3), np.nan), np.zeros(0), through=1))
+            continue
+        if kind in (177, 178) and revision >= 7 and tag == "CRV3":  # §2.3 (2.4): a face axis
+            sense = 1 if kind == 177 else -1
+            rows.append(Analytic(17, np.full((3, 3), np.nan), np.full(1, np.nan), through=sense))
             continue
         on_grid = kind >= 128
         if on_grid:
