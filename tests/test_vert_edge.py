@@ -99,6 +99,22 @@ def test_tolerance_codes_are_exact() -> None:
     assert (codes[: len(k)] == np.where(k == 0, 0, k)).all()
 
 
+def test_widened_tolerances_are_whole_powers_of_two() -> None:
+    """assembly.round_up: the smallest power of 2 at or above each value,
+    bit for bit, so each is coded as a multiple of 4."""
+    from nurbscomp.encode.assembly import round_up
+
+    x = np.array([1e-7, 2.0**-23, 2.0**-23 * (1 + 2.0**-52), 3e-3, 0.75, 1.0, 1.5, 7e5])
+    y = round_up(x)
+    assert (y >= x).all() and (y < 2 * x).all()
+    assert (np.frexp(y)[0] == 0.5).all()  # a power of two, bit for bit
+    assert y[1] == x[1] and y[2] == 2.0**-22 and y[5] == 1.0 and y[6] == 2.0
+    w = serialize.BlockWriter()
+    serialize._write_tolerances(w, y)
+    codes = serialize.BlockReader(bytes(w), "EDGE").ints()
+    assert (codes % 4 == 0).all() and (codes[[0, 1, 2, 3, 6, 7]] != 0).all()  # 1.0: a float
+
+
 def test_tolerance_code_out_of_range_is_refused() -> None:
     w = serialize.BlockWriter()
     w.ints([5000])

@@ -886,8 +886,10 @@ def _widen_tolerances(
 
 
 def round_up(x: np.ndarray) -> np.ndarray:
-    """The smallest power of 2^(1/4) ≥ x (x > 0): a widened tolerance needs no
-    more precision than that, and a few distinct values cost next to nothing."""
-    k = np.ceil(4 * np.log2(x))
-    y = np.exp2(k / 4)
-    return np.where(y >= x, y, np.exp2((k + 1) / 4))
+    """The smallest power of 2 ≥ x (x > 0): a widened tolerance needs no more
+    precision than that, and a few distinct values cost next to nothing (on
+    the corpus at 0.01 mm, EDGE's and VERT's tolerance codes took
+    some 1,800 bytes less than as powers of 2^(1/4))."""
+    k = np.ceil(np.log2(x))
+    y = np.exp2(k)
+    return np.where(y >= x, y, np.exp2(k + 1))
