@@ -90,13 +90,13 @@ def assert_same_product(src: Path, nzc: Path, tmp: Path, ext: str = ".step") -> 
 
 def assert_same_face_colours(want: dict, got: dict) -> None:
     """Every face has the same colour in both views (``xcaf.view`` with
-    points): face by face when both have as many faces, else paired by where
-    they are (``xcaf.match_faces``), since OCCT's reader sometimes splits a
-    face of one file and not of the other (trj7: 416 faces from its own round
-    trip, 415 from ours and from the source)."""
+    points): face by face where that matches, else paired by where they are
+    (``xcaf.match_faces``), since OCCT's reader sometimes splits a face of
+    one file and not of the other (trj7: 416 faces from its own round trip,
+    415 from the source), or another face of each (trj7 at 0.01 mm: 416
+    from ours too, the split face elsewhere in the order)."""
     w, g = want["face_colours"], got["face_colours"]
-    if len(w) == len(g):
-        assert g == w, "face_colours"
+    if g == w:
         return
     pairs = xcaf.match_faces(got, want)
     bad = [(i, j) for i, j in pairs if i < 0 or j < 0 or g[i][2] != w[j][2]]
