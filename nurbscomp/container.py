@@ -157,6 +157,10 @@ def pack(
             raise ValueError(f"section tag must be 4 ASCII bytes: {tag!r}")
         directory.append(_ENTRY.pack(tb, len(raw), zlib.crc32(raw)))
     body = b"".join(raw for _, raw in sections)
+    if version < (2, 4):  # coder 4 (the dictionary) is format 2.4's
+        coders = tuple(c for c in coders if c != entropy.Coder.ZSTD_DICT)
+        if not coders:
+            raise ValueError(f"coder 4 is format 2.4's, not {version[0]}.{version[1]}'s")
     coder, stored = entropy.compress(body, coders, thorough)
     bh = _BODY.pack(coder, b"\0\0\0", len(body), len(stored))
     d = b"".join(directory)
@@ -190,7 +194,8 @@ def unpack(data: bytes) -> Container:
             f"format version {major}.{minor} is not supported (this reads 1.x and "
             f"{MAJOR}.0 to {MAJOR}.{MINOR}) at offset 4"
         )
-    known = _KNOWN_FLAGS[revision(major, minor)]
+    rev = revision(major, minor)
+    known = _KNOWN_FLAGS[rev]
     if flags & ~known:
         raise ReservedBitsError(f"reserved flag bits 0x{flags & ~known:04x} set at offset 6")
     if reserved:
@@ -237,6 +242,8 @@ def unpack(data: bytes) -> Container:
         if tag in tags:
             raise CorruptError(f"section {tag} appears twice (entry at offset {at})")
         tags.append(tag)
+    if coder == entropy.Coder.ZSTD_DICT and rev < VERSIONS.index((2, 4)):
+        raise CorruptError(f"unknown coder id {coder} in a {major}.{minor} file")
     body = entropy.decompress(coder, stored, raw_len)
     sections = []
     at = 0

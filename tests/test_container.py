@@ -1,5 +1,7 @@
 """The container layer: byte-exact round trips, and a specific error for each damage."""
 
+import hashlib
+import json
 import struct
 import zlib
 
@@ -173,6 +175,9 @@ def test_decompression_bomb_is_not_inflated(coder: entropy.Coder) -> None:
         ),
         entropy.Coder.ZSTD: lambda: zstandard.ZstdCompressor(level=1).compress(zeros),
         entropy.Coder.BROTLI: lambda: brotli.compress(zeros, quality=1),
+        entropy.Coder.ZSTD_DICT: lambda: zstandard.ZstdCompressor(
+            level=1, dict_data=entropy.dictionary()
+        ).compress(zeros),
     }[coder]()
     assert len(bomb) < len(zeros) // 100
     with pytest.raises(CorruptError, match="1001 bytes, header says 1000"):
@@ -258,3 +263,50 @@ def test_quick_search_on_large_bodies() -> None:
         container.unpack(container.pack(SECTIONS, thorough=False)).sections
         == container.unpack(container.pack(SECTIONS)).sections
     )
+
+
+# ------------------------------------------------- coder 4: zstd with the format's dictionary
+
+
+def test_the_dictionary_is_the_format_s() -> None:
+    """Format 2.4 fixes the dictionary's bytes: a changed file is refused,
+    never used (docs/format.md §1.3)."""
+    raw = entropy.DICT_PATH.read_bytes()
+    assert len(raw) == 65536 and raw[:4] == bytes.fromhex("37a430ec")
+    assert hashlib.sha256(raw).hexdigest() == entropy.DICT_SHA256
+
+
+def test_a_small_body_takes_the_dictionary_and_round_trips() -> None:
+    body = json.dumps({"mode": "tolerance", "source_format": "STEP", "unit": "MM"}).encode()
+    sections = [("META", body), ("LOCS", b"\x01\x01\x00\x00\x00\x00")]
+    data = container.pack(sections)
+    c = container.unpack(data)
+    assert c.coder == entropy.Coder.ZSTD_DICT  # smaller than any other coder here
+    assert [c.get(t) for t in c.tags()] == [s for _, s in sections]
+    plain = container.pack(sections, coders=tuple(c for c in entropy.Coder if c != 4))
+    assert len(data) < len(plain)
+    for coder in entropy.Coder:
+        stored = entropy._compress(coder, body)
+        assert entropy.decompress(coder, stored, len(body)) == body
+
+
+def test_the_dictionary_coder_only_from_2_4() -> None:
+    """An older version's header is never written with coder 4, and a file
+    of revision 0-6 that has it is refused."""
+    sections = [("META", b'{"mode":"tolerance"}')]
+    old = container.pack(sections, version=(2, 3))
+    assert container.unpack(old).coder != entropy.Coder.ZSTD_DICT
+    data = bytearray(container.pack(sections))
+    assert container.unpack(bytes(data)).coder == entropy.Coder.ZSTD_DICT
+    data[5] = 3  # the same body in a 2.3 header
+    data[12:16] = struct.pack("<I", zlib.crc32(bytes(data[:12])))
+    with pytest.raises(CorruptError, match="unknown coder id 4"):
+        container.unpack(bytes(data))
+
+
+def test_a_text_stream_never_takes_the_dictionary_coder() -> None:
+    from nurbscomp.text import coding
+
+    stream = bytes([1, 4, 3, 3]) + b"abc"  # one stream, coder 4
+    with pytest.raises(CorruptError, match="text stream coder 4"):
+        coding.unpack(stream, 100)

@@ -6,6 +6,7 @@ import json
 import lzma
 import struct
 import zlib
+from pathlib import Path
 
 import numpy as np
 
@@ -14,11 +15,15 @@ MAGIC = b"\x89NZC"
 REVISION = {(1, 0): 0, (1, 1): 1, (1, 2): 2, (2, 0): 3, (2, 1): 4, (2, 2): 5, (2, 3): 6, (2, 4): 7}
 
 
+#: §1.3 (2.4): the dictionary of coder 4, a file of the format
+DICTIONARY = Path(__file__).resolve().parents[2] / "nurbscomp" / "data" / "nzc-2.4.dict"
+
+
 class ReadError(Exception):
     """Anything this reader refuses."""
 
 
-def _inflate(coder: int, payload: bytes, raw_length: int) -> bytes:
+def _inflate(coder: int, payload: bytes, raw_length: int, revision: int) -> bytes:
     if coder == 0:
         out = payload
     elif coder == 1:
@@ -35,6 +40,12 @@ def _inflate(coder: int, payload: bytes, raw_length: int) -> bytes:
         import brotli
 
         out = brotli.decompress(payload)
+    elif coder == 4 and revision >= 7:  # §1.3 (2.4): zstd with the format's dictionary
+        import zstandard
+
+        d = zstandard.ZstdCompressionDict(DICTIONARY.read_bytes())
+        reader = zstandard.ZstdDecompressor(dict_data=d).stream_reader(payload)
+        out = reader.read(raw_length + 1)
     else:
         raise ReadError(f"unknown coder {coder}")
     if len(out) != raw_length:
@@ -74,7 +85,7 @@ class Container:
             raise ReadError("body crc")
         if raw_length != sum(d[1] for d in directory):
             raise ReadError("raw length")
-        body = _inflate(coder, payload, raw_length)
+        body = _inflate(coder, payload, raw_length, self.revision)
         self.sections: dict[str, bytes] = {}
         self.order: list[str] = []
         at = 0
