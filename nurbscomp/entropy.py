@@ -125,6 +125,8 @@ def lzma_raw(raw: bytes, tuning: tuple[int, int, int] | None, preset: int = _PRE
 LZMA_FINALISTS = 2
 #: Largest body brotli is tried on.
 BROTLI_MAX = 256 * 1024
+#: Largest body each coder with a limit is tried on (in a search with more than one).
+_LARGEST = {Coder.BROTLI: BROTLI_MAX, Coder.ZSTD_DICT: DICT_MAX}
 #: Bodies up to this size get every stream at full strength (cheap there).
 FULL_SEARCH_MAX = 16 * 1024
 #: A quick search treats bodies up to this size as a thorough one does.
@@ -186,10 +188,7 @@ def _jobs(
             else:
                 tunings = _lzma_rank(raw)[:LZMA_FINALISTS]
             out += [(c, t) for t in tunings]
-        elif c == Coder.ZSTD_DICT:
-            if len(coders) == 1 or (not quick and len(raw) <= DICT_MAX):
-                out.append((c, None))
-        elif len(coders) == 1 or (not quick and (c != Coder.BROTLI or len(raw) <= BROTLI_MAX)):
+        elif len(coders) == 1 or (not quick and len(raw) <= _LARGEST.get(c, len(raw))):
             out.append((c, None))
     return out
 

@@ -271,7 +271,8 @@ def _thread(
     of its own; on bearing.iges such lines opened free edges in the STEP
     re-read and made the file grow with the tolerance), their faces lie on
     planes, quadrics or B-spline surfaces, and the new curve stays within
-    tol of the source's (:func:`_line_bound`, :func:`_circle_bound`).  A
+    tol of the source's (the bounds of :func:`_line_through` and
+    :func:`_circle_through`).  A
     pcurve the candidate keeps is parameterized on the source curve:
     :func:`unthread` puts such a curve back."""
     out: dict[Rec, float] = {}
