@@ -94,7 +94,8 @@ def test_versions_read_and_refused() -> None:
     assert container.unpack(at(2, 1)).revision == 4
     assert container.unpack(at(2, 2)).revision == 5
     assert container.unpack(at(2, 3)).revision == 6
-    assert container.unpack(at(2, 4)).revision == container.REVISION == 7
+    assert container.unpack(at(2, 4)).revision == 7
+    assert container.unpack(at(2, 5)).revision == container.REVISION == 8
     for major, minor in ((2, container.MINOR + 1), (0, 3)):
         with pytest.raises(VersionError, match=f"{major}.{minor} is not supported"):
             container.unpack(at(major, minor))

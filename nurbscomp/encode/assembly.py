@@ -40,6 +40,7 @@ from ..model import (
 )
 from ..rules import joins
 from ..serialize import SWEPT
+from ..serialize.vertices import TWIN_EXP, twin_offset
 from . import analytic, coincide, knots
 from .nets import TRIM_C, TRIM_S, Coded, feature_limit, first_rows, poles_of, resolve_row
 
@@ -500,12 +501,12 @@ def _snap_vertices(
         # a copy of a coincident curve (faces-mode IGES: bearing) keeps its
         # vertices as before: snapped at 0.001 mm but not at 0.01 (its faces
         # are finer than tol there), they made bearing grow with tol
-        moving = follows or (c >= 0 and SNAP_ON_EXACT and crec[c] not in coded.twins)
+        # a copy of a coded coincident curve follows its leader's vertices,
+        # which a twin cluster's move takes along (each twin at its offset)
+        twin = coded.twins.get(crec[c]) if c >= 0 else None
+        copy = twin is not None and crec[c] not in exact and crec[twin[0]] in codes
+        moving = follows or copy or (c >= 0 and SNAP_ON_EXACT and twin is None)
         if c >= 0 and not follows:
-            # a copy of a coded coincident curve follows its leader's vertices,
-            # which a twin cluster's fine move takes along
-            twin = coded.twins.get(crec[c])
-            copy = twin is not None and crec[c] not in exact and crec[twin[0]] in codes
             for v in below(m, s, ShapeType.VERTEX):
                 loose[tidx[v]] = True
                 trails[tidx[v]] |= not copy
@@ -524,20 +525,42 @@ def _snap_vertices(
         ok &= ~loose
     lead = coded.vlead if len(coded.vlead) == len(ok) else np.arange(len(ok))
     ok &= ~_merging(m.vertex_point[lead], coded.vgrid)
+    at_grid = _twin_points(m.vertex_point, lead, coded.vgrid)
+    ok &= _kept_apart(m.vertex_point, at_grid, lead)
     ok &= ~np.isin(lead, lead[~ok])  # a cluster moves as one or stays
-    fine, at_fine, fine_bound = _fine_points(m.vertex_point, lead, ~ok & ~trails & ~held, coded.tol)
+    p = m.vertex_point
+    fine, at_fine, fine_bound = _fine_points(p, lead, ~ok & ~trails & ~held, coded.tol, FINE_BITS)
+    # (not the validity ladder's held vertices: moved even this little with
+    # their twins, bearing.iges fell back to every record exact, 75 kB)
+    micro, at_micro, micro_bound = _fine_points(p, lead, ~ok & ~fine & ~held, coded.tol, MICRO_BITS)
+    # the other clusters stay, their twins' offsets rounded to what format 2.5 stores
+    at_twin = _twin_points(p, lead, p)
+    # (a twin the validity ladder holds stays; the others of its cluster need not)
+    twin = ~ok & ~fine & ~micro & ~held & _kept_apart(p, at_twin, lead)
     out: Any = replace(m)
-    out.vertex_point = np.where(
-        ok[:, None], coded.vgrid, np.where(fine[:, None], at_fine, m.vertex_point)
-    )
-    moved = np.sqrt(((out.vertex_point - m.vertex_point) ** 2).sum(-1))
-    bound = np.where(ok, coded.tol / 2, np.where(fine, fine_bound, 0.0))
-    return out, moved, loose | fine, bound
+    out.vertex_point = p
+    bound = np.zeros(len(p))
+    for which, at, b in (
+        (twin, at_twin, _twin_slack(at_twin)),
+        (micro, at_micro, micro_bound),
+        (fine, at_fine, fine_bound),
+        (ok, at_grid, coded.tol / 2 + _twin_slack(at_grid)),
+    ):
+        out.vertex_point = np.where(which[:, None], at, out.vertex_point)
+        bound = np.where(which, b, bound)
+    moved = np.sqrt(((out.vertex_point - p) ** 2).sum(-1))
+    return out, moved, loose | fine | micro | twin, bound
 
 
 #: A vertex that stays off the vertex grid is rounded to the binary grid
 #: 2**(floor(log2 tol) - FINE_BITS) instead (:func:`_fine_points`).
 FINE_BITS = 10
+#: A vertex that would stay where it is (beside a curve kept exact, or
+#: below a finer feature) is rounded to 2**(floor(log2 tol) - MICRO_BITS)
+#: still: a move under tol·5e-8 (below OCCT's confusion distance, 1e-7 mm,
+#: for any tol up to 1 mm) that leaves 24 zero bits.  Not the vertices the
+#: validity ladder holds (:func:`_snap_vertices`).
+MICRO_BITS = 24
 #: Fewer vertices than this to round stay where they are all: each saves a
 #: few bytes, and what follows them (pinned ends, widened tolerances) can
 #: cost as much (bearing.iges, 5 of them: 0.1 mm came out 2 bytes above
@@ -546,7 +569,7 @@ MIN_FINE = 16
 
 
 def _fine_points(
-    p: np.ndarray, lead: np.ndarray, may: np.ndarray, tol: float
+    p: np.ndarray, lead: np.ndarray, may: np.ndarray, tol: float, bits: int = 10
 ) -> tuple[np.ndarray, np.ndarray, float]:
     """Which vertices of ``may`` move to a fine binary grid, the points there,
     and the bound on the move.
@@ -554,11 +577,12 @@ def _fine_points(
     A vertex that stays off the vertex grid (on a feature finer than tol, or
     beside a neighbour it would land on) still need not keep all 52 bits:
     its coordinates rounded to a multiple of ``2**k``, ``k = floor(log2 tol)
-    - FINE_BITS``, move it by at most ``2**k * sqrt(3) / 2``
-    (under tol/1000), which its tolerance covers like a snapped vertex's
-    move (the curves pinned to it follow; the caller leaves out a vertex
+    - bits``, move it by at most ``2**k * sqrt(3) / 2``
+    (under tol/1000 for :data:`FINE_BITS`), which its tolerance covers like a snapped vertex's
+    move (the curves pinned to it follow; for ``FINE_BITS`` the caller leaves out a vertex
     beside a curve that does not follow, whose tolerance alone would cover the
-    gap: a filleted box lost 1.6e-6 mm³ of volume at 0.001 mm), and end
+    gap: a filleted box lost 1.6e-6 mm³ of volume at 0.001 mm; for
+    :data:`MICRO_BITS`, a move under tol·1e-7, it need not), and end
     in zero bits that the entropy stage codes for next to nothing (the reader
     takes the floats as they are: no format change).
 
@@ -566,10 +590,8 @@ def _fine_points(
     own) move as one: the cluster's first vertex to the grid, the others by
     the same translation, so that they keep their offsets (rounded apart they
     would open gaps; rounded together, a STEP reader takes them for one
-    vertex).  Twins at the first vertex's point stay on it, bit for bit;
-    the others keep a float offset below TWIN_VERTEX, which costs what it
-    did, while the first vertex's point costs less than half (bearing.iges at
-    0.01 mm: 7,918 -> ~4,650 bytes of vertex points).  A cluster moves only
+    vertex), each rounded to what format 2.5 stores (:func:`_twin_points`).
+    A cluster moves only
     if every vertex of it may, it lands on no other cluster's point, the
     clusters within TWIN_VERTEX of each other stay the same, and its twins
     stay distinct or equal as they were; none moves where fewer than
@@ -578,16 +600,17 @@ def _fine_points(
     none = np.zeros(len(p), bool)
     if not (tol > 0) or not may.any():
         return none, p, 0.0
-    step = 2.0 ** (np.floor(np.log2(tol)) - FINE_BITS)
+    step = 2.0 ** (np.floor(np.log2(tol)) - bits)
     first = p[lead]
     grid = np.rint(first / step) * step
-    at = grid + (p - first)
+    at = _twin_points(p, lead, grid)
     fine = may & (np.abs(first) < 2.0**52 * step).all(-1)
     fine &= ~_merging(first, grid)  # clusters that land on one point from different places
     fine &= ~np.isin(lead, lead[~fine])  # a cluster moves as one or stays
     # twins equal before are equal after, distinct stay distinct
     same = (p == first).all(-1)
     fine &= ~np.isin(lead, lead[same != (at == grid).all(-1)])
+    fine &= _kept_apart(p, at, lead)
     was = coincide.vertex_clusters(p, coincide.TWIN_VERTEX)
     for _ in range(3):  # the points within TWIN_VERTEX of each other stay so
         q = np.where(fine[:, None], at, p)
@@ -600,10 +623,45 @@ def _fine_points(
         return none, p, 0.0
     if fine.sum() < MIN_FINE or _distinct(p[fine]) != _distinct(at[fine]):
         return none, p, 0.0
-    # a twin's point is the translation, then one rounding of the sum (an ulp)
-    off = fine & ~same
-    ulp = float(np.spacing(np.abs(at[off]).max())) if off.any() else 0.0
-    return fine, at, float(step * np.sqrt(3.0) / 2 + 2 * ulp)
+    return fine, at, float(step * np.sqrt(3.0) / 2 + _twin_slack(at[fine]))
+
+
+def _twin_points(p: np.ndarray, lead: np.ndarray, base: np.ndarray) -> np.ndarray:
+    """Where the vertices go when each cluster's first vertex goes to its
+    row of ``base``: each twin at its offset from the first, rounded to a
+    multiple of 2**TWIN_EXP (format 2.5 stores it as that multiple, a few
+    bits where a float offset cost six bytes: ``serialize.vertices``), and
+    never rounded onto its first if it was apart from it."""
+    off = p - p[lead]
+    k = np.rint(np.ldexp(off, -TWIN_EXP))
+    lost = (k == 0).all(-1) & (off != 0).any(-1)
+    if lost.any():  # apart it stays: one step along its largest component
+        big = np.argmax(np.abs(off[lost]), axis=1)
+        k[np.flatnonzero(lost), big] = np.sign(off[lost, big])
+    k[~np.isfinite(k) | (np.abs(k) >= 2.0**52)] = 0
+    home = base[lead]
+    return np.where((k == 0).all(-1)[:, None], home, twin_offset(home, k.astype(np.int64)))
+
+
+def _twin_slack(at: np.ndarray) -> float:
+    """What :func:`_twin_points` adds to a cluster's move: the offset's
+    rounding to 2**TWIN_EXP, and an ulp of the sum."""
+    ulp = float(np.spacing(np.abs(at).max())) if len(at) else 0.0
+    return float(2.0**TWIN_EXP * np.sqrt(3.0) / 2 + 2 * ulp)
+
+
+def _kept_apart(p: np.ndarray, at: np.ndarray, lead: np.ndarray) -> np.ndarray:
+    """Per vertex, whether its cluster has as many distinct points at ``at``
+    as at ``p`` (no two twins rounded onto one point)."""
+    if not len(p):
+        return np.zeros(0, bool)
+    before = np.unique(np.column_stack([lead, p]), axis=0)[:, 0]
+    after = np.unique(np.column_stack([lead, at]), axis=0)[:, 0]
+    n = int(lead.max()) + 1
+    same = np.bincount(before.astype(np.int64), minlength=n) == np.bincount(
+        after.astype(np.int64), minlength=n
+    )
+    return same[lead]
 
 
 def _distinct(points: np.ndarray) -> int:

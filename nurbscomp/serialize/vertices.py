@@ -107,9 +107,54 @@ def _grid_from_residuals(nbr: list[list[int]], rows: np.ndarray, res: np.ndarray
     return q
 
 
+#: Format 2.5: the exponent e of the offsets of kind-2 vertices this writer
+#: writes (docs/format.md §2.6): multiples of 2**-32 mm, ~2.3e-10.
+TWIN_EXP = -32
+#: A kind-2 vertex's reference is sought within this distance of it.
+TWIN_REACH = 2.0**-20
+#: Fewer kind-2 vertices than this are written as floats: their five arrays
+#: cost more than the floats (trj3_s1-al-214.stp, 4 vertices at one point:
+#: +7 bytes).
+MIN_TWINS = 8
+
+
+def twin_offset(ref: np.ndarray, k: np.ndarray, e: int = TWIN_EXP) -> np.ndarray:
+    """Format 2.5: the point of a kind-2 vertex, ``ref + ldexp(k, e)`` per
+    coordinate (one binary64 addition; the offset is exact)."""
+    return ref + np.ldexp(np.asarray(k, np.int64).astype(np.float64), e)
+
+
+def _twin_refs(pts: np.ndarray, e: int = TWIN_EXP) -> tuple[np.ndarray, np.ndarray]:
+    """Per vertex, the row of its kind-2 reference (-1 where none) and the offsets.
+
+    The reference is the lowest row within :data:`TWIN_REACH` of the vertex
+    (and below it) from which :func:`twin_offset` gives the point bit for bit."""
+    n = len(pts)
+    ref = np.full(n, -1, np.int64)
+    k = np.zeros((n, 3), np.int64)
+    if n < 2 or not np.isfinite(pts).all():
+        return ref, k
+    from scipy.spatial import cKDTree
+
+    pairs = cKDTree(pts).query_pairs(TWIN_REACH, output_type="ndarray")
+    if not len(pairs):
+        return ref, k
+    lo, hi = pairs.min(1), pairs.max(1)
+    kk = np.rint(np.ldexp(pts[hi] - pts[lo], -e)).astype(np.int64)
+    good = (twin_offset(pts[lo], kk, e).view(np.int64) == pts[hi].view(np.int64)).all(-1)
+    lo, hi, kk = lo[good], hi[good], kk[good]
+    order = np.lexsort((lo, hi))  # per vertex, its lowest reference first
+    lo, hi, kk = lo[order], hi[order], kk[order]
+    first = np.r_[True, hi[1:] != hi[:-1]]
+    ref[hi[first]] = lo[first]
+    k[hi[first]] = kk[first]
+    return ref, k
+
+
 def _write_vertices(m: BRepModel, tol: float = 0.0) -> bytes:
-    """Vertices whose point is a grid point (``vertex_grid``) bit for bit are
-    stored as grid integers; the others as floats."""
+    """Vertices at a bit-exact offset from an earlier one (format 2.5) are
+    stored as that offset; those whose point is a grid point
+    (``vertex_grid``) bit for bit as grid integers; the others as floats."""
     w = BlockWriter()
     pts = m.vertex_point
     on_grid = np.zeros(len(pts), bool)
@@ -119,12 +164,23 @@ def _write_vertices(m: BRepModel, tol: float = 0.0) -> bytes:
         small = (np.abs(pts) < 2.0**50 * h).all(-1)
         q[small] = np.rint(pts[small] / h).astype(np.int64)
         on_grid = small & ((q * h).view(np.int64) == pts.view(np.int64)).all(-1)  # bit for bit
-    w.ints(on_grid.astype(np.int64))
-    w.floats(pts[~on_grid].reshape(-1))
+    ref, k = _twin_refs(pts)
+    twin = ref >= 0
+    if twin.sum() < MIN_TWINS:
+        twin[:] = False
+    on_grid &= ~twin
+    w.ints(np.where(twin, 2, on_grid.astype(np.int64)))
+    w.floats(pts[~on_grid & ~twin].reshape(-1))
     rows = np.flatnonzero(on_grid)
     pred = _grid_predictions(vertex_neighbours(m), rows, q[rows]) if len(rows) else q[rows]
     for axis in range(3):
         w.ints(q[rows, axis] - pred[:, axis])
+    tw = np.flatnonzero(twin)
+    if len(tw):
+        w.ints(tw - ref[tw])
+        w.ints([TWIN_EXP])
+        for axis in range(3):
+            w.ints(k[tw, axis])
     _write_tolerances(w, m.vertex_tol)
     reps = m.vertex_reps
     w.ints(np.bincount(reps[:, VC.VERTEX], minlength=len(m.vertex_tol)) if len(reps) else [])
@@ -137,12 +193,13 @@ def _write_vertices(m: BRepModel, tol: float = 0.0) -> bytes:
 def _read_vertices(data: bytes, m: BRepModel, tol: float = 0.0, revision: int = 3) -> None:
     r = BlockReader(data, "VERT")
     kind = r.ints()
-    if len(kind) and (kind.min() < 0 or kind.max() > 1):
+    if len(kind) and (kind.min() < 0 or kind.max() > (2 if revision >= 8 else 1)):
         raise SectionError("VERT: unknown vertex kind")
-    on_grid = kind.astype(bool)
+    on_grid, twin = kind == 1, kind == 2
     nv, ng = len(on_grid), int(on_grid.sum())
     pts = np.zeros((nv, 3))
-    pts[~on_grid] = r.floats(3 * (nv - ng)).reshape(-1, 3)
+    plain = kind == 0
+    pts[plain] = r.floats(3 * int(plain.sum())).reshape(-1, 3)
     if revision >= 3:
         res = np.stack([r.ints(ng) for _ in range(3)], axis=1)
         q = _grid_from_residuals(vertex_neighbours(m), np.flatnonzero(on_grid), res) if ng else res
@@ -153,6 +210,8 @@ def _read_vertices(data: bytes, m: BRepModel, tol: float = 0.0, revision: int = 
     if ng:
         with np.errstate(over="ignore"):
             pts[on_grid] = q * vertex_grid(tol)
+    if revision >= 8:
+        _read_twins(r, pts, np.flatnonzero(twin))
     finite(pts, "VERT points", MAX_COORD)
     m.vertex_point = pts
     m.vertex_tol = _read_tolerances(r, nv, "VERT") if revision >= 3 else r.floats(nv)
@@ -167,3 +226,26 @@ def _read_vertices(data: bytes, m: BRepModel, tol: float = 0.0, revision: int = 
     finite(m.vertex_rep_params, "VERT parameters", MAX_COORD)
     cols.insert(0, np.repeat(np.arange(len(per)), per))
     m.vertex_reps = np.stack(cols, axis=1).astype(np.int64).reshape(-1, 5)
+
+
+def _read_twins(r: BlockReader, pts: np.ndarray, rows: np.ndarray) -> None:
+    """Format 2.5: the points of the kind-2 vertices (``rows``), each at its
+    offset from its reference, in row order (docs/format.md §2.6)."""
+    n = len(rows)
+    if not n:
+        return
+    back = r.ints(n)
+    e = r.ints(1)
+    k = np.stack([r.ints(n) for _ in range(3)], axis=1)
+    ref = rows - back
+    if (back < 1).any() or (ref < 0).any():
+        raise SectionError("VERT: a vertex's reference is not an earlier vertex")
+    if not -1074 <= int(e[0]) <= 0:
+        raise SectionError("VERT: the offsets' exponent is out of range")
+    if (np.abs(k) >= 2**53).any():
+        raise SectionError("VERT: an offset is out of range")
+    off = np.ldexp(k.astype(np.float64), int(e[0]))
+    done = ~np.isin(ref, rows)  # references of kind 0 or 1: all at once
+    pts[rows[done]] = pts[ref[done]] + off[done]
+    for j in np.flatnonzero(~done).tolist():  # a reference of kind 2: in row order
+        pts[rows[j]] = pts[ref[j]] + off[j]

@@ -12,7 +12,17 @@ import numpy as np
 
 MAGIC = b"\x89NZC"
 #: (major, minor) -> revision (§0)
-REVISION = {(1, 0): 0, (1, 1): 1, (1, 2): 2, (2, 0): 3, (2, 1): 4, (2, 2): 5, (2, 3): 6, (2, 4): 7}
+REVISION = {
+    (1, 0): 0,
+    (1, 1): 1,
+    (1, 2): 2,
+    (2, 0): 3,
+    (2, 1): 4,
+    (2, 2): 5,
+    (2, 3): 6,
+    (2, 4): 7,
+    (2, 5): 8,
+}
 
 
 #: §1.3 (2.4): the dictionary of coder 4, a file of the format

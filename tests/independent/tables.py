@@ -393,18 +393,32 @@ def read_vertices(raw: bytes, revision: int, shapes: Shapes, tol: float | None) 
             done[v] = q
             last = q
             k += 1
+    n2 = int((kind == 2).sum()) if revision >= 8 else 0
+    if n2:  # 2.5: back, exponent, offsets
+        back, ex = a.ints(), a.ints()
+        off = np.stack([a.ints(), a.ints(), a.ints()], axis=1)
+        if len(back) != n2 or len(ex) != 1 or len(off) != n2:
+            raise ReadError("VERT: twin arrays")
     point = np.zeros((nv, 3))
-    i0 = i1 = 0
+    i0 = i1 = i2 = 0
     h = (tol / math.sqrt(3.0)) if tol else 0.0
-    for v in range(nv):
+    for v in range(nv):  # kinds 0 and 1 first
         if kind[v] == 0:
             point[v] = pts[i0]
             i0 += 1
         elif kind[v] == 1:
             point[v] = grid[i1].astype(np.int64) * h
             i1 += 1
-        else:
+        elif not (kind[v] == 2 and revision >= 8):
             raise ReadError("VERT kind")
+    for v in range(nv):  # then each vertex near an earlier one, in row order
+        if kind[v] == 2:
+            r = v - int(back[i2])
+            if not 0 <= r < v:
+                raise ReadError("VERT: twin reference")
+            for c in range(3):
+                point[v, c] = point[r, c] + math.ldexp(float(int(off[i2, c])), int(ex[0]))
+            i2 += 1
     t = tolerances(a, nv, revision)
     nreps = a.ints()
     rk, rc, rs, rl = a.ints(), a.ints(), a.ints(), a.ints()

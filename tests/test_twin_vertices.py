@@ -1,0 +1,159 @@
+"""Vertices near an earlier vertex (format 2.5, `VERT` kind 2, docs/format.md §2.6).
+
+An IGES surface model gives every face its own corners: four vertices at one
+corner, a few 1e-9 mm apart.  They are stored as a reference and an offset in
+multiples of 2**-32 mm, not as floats.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from nurbscomp import container, pipeline, serialize
+from nurbscomp.encode import assembly
+from nurbscomp.errors import SectionError
+from nurbscomp.serialize import vertices
+from nurbscomp.streams import BlockReader
+from tests.golden.make_golden import faces_iges
+
+SAMPLES = Path(__file__).resolve().parent.parent / "samples"
+
+
+def _kinds(nzc: bytes) -> np.ndarray:
+    c = container.unpack(nzc)
+    return BlockReader(c.get("VERT"), "VERT").ints()
+
+
+def test_twin_refs_reproduce_points_bit_for_bit() -> None:
+    rng = np.random.default_rng(7)
+    first = rng.uniform(-50, 50, (20, 3))
+    k = rng.integers(-300, 300, (20, 3))
+    twins = vertices.twin_offset(first, k)
+    noisy = first + rng.uniform(-3e-8, 3e-8, (20, 3))  # not multiples of 2**-32
+    pts = np.concatenate([first, twins, first.copy(), noisy])
+    ref, got = vertices._twin_refs(pts)
+    assert (ref[:20] == -1).all()
+    assert (ref[20:40] == np.arange(20)).all() and (got[20:40] == k).all()
+    assert (ref[40:60] == np.arange(20)).all() and (got[40:60] == 0).all()  # at one point
+    for v in np.flatnonzero(ref >= 0):
+        back = vertices.twin_offset(pts[ref[v]], got[v])
+        assert back.tobytes() == pts[v].tobytes()
+    # a noisy vertex is kind 2 only if some earlier vertex reproduces it exactly
+    for v in range(60, 80):
+        if ref[v] >= 0:
+            assert vertices.twin_offset(pts[ref[v]], got[v]).tobytes() == pts[v].tobytes()
+
+
+def test_twin_points_keep_twins_apart_and_on_the_step() -> None:
+    p = np.array(
+        [[10.0, 20.0, 30.0], [10.0 + 3e-11, 20.0, 30.0], [10.0, 20.0 + 4.7e-8, 30.0], [10.0] * 3]
+    )
+    lead = np.array([0, 0, 0, 3])
+    base = p + 1e-3  # the first vertices' new places
+    at = assembly._twin_points(p, lead, base)
+    assert at[0].tobytes() == base[0].tobytes() and at[3].tobytes() == base[3].tobytes()
+    # 3e-11 rounds to 0 steps of 2**-32 (2.3e-10): kept one step apart
+    assert not np.array_equal(at[1], at[0])
+    assert assembly._kept_apart(p, at, lead).all()
+    for v in (1, 2):
+        k = np.rint(np.ldexp(at[v] - at[0], -vertices.TWIN_EXP))
+        assert vertices.twin_offset(at[0], k.astype(np.int64)).tobytes() == at[v].tobytes()
+        # moved with its first, and by at most a step further
+        assert np.abs((at[v] - base[0]) - (p[v] - p[0])).max() <= 2.0**vertices.TWIN_EXP
+    assert assembly._twin_slack(at) < 1e-9
+
+
+def test_reader_refuses_bad_twin_arrays() -> None:
+    c = container.unpack(_faces_container(SAMPLES / "teapot.step", 0.01))
+    raw = c.get("VERT")
+    m, _, _ = serialize.read_sections(c.get, c.revision)
+    kinds = BlockReader(raw, "VERT").ints()
+    assert (kinds == 2).any()
+    # the same section read as revision 7 (format 2.4): kind 2 is unknown there
+    with pytest.raises(SectionError, match="unknown vertex kind"):
+        vertices._read_vertices(raw, m, 0.01, revision=7)
+
+
+def _faces_container(step: Path, tol: float) -> bytes:
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as d:
+        src = faces_iges(step, Path(d) / "s.igs")
+        dst = Path(d) / "s.nzc"
+        pipeline.compress_file(src, dst, tol=tol)
+        return dst.read_bytes()
+
+
+@pytest.mark.parametrize("tol", [0.01, None])
+def test_faces_model_twins_are_kind_2(tol: float | None) -> None:
+    """A faces-mode IGES file (OCCT writes each corner's twins at one point):
+    every twin is stored as its reference, lossless or not."""
+    data = (
+        _faces_container(SAMPLES / "teapot.step", tol)
+        if tol
+        else _lossless_faces(SAMPLES / "teapot.step")
+    )
+    kinds = _kinds(data)
+    m, _ = pipeline.decode(container.unpack(data))
+    pts = m.vertex_point
+    distinct = len(np.unique(pts, axis=0))
+    assert int((kinds == 2).sum()) == len(pts) - distinct > 0
+
+
+def _lossless_faces(step: Path) -> bytes:
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as d:
+        src = faces_iges(step, Path(d) / "s.igs")
+        dst = Path(d) / "s.nzc"
+        pipeline.compress_file(src, dst, lossless=True)
+        return dst.read_bytes()
+
+
+@pytest.mark.slow
+def test_noisy_twins_come_back_apart(tmp_path: Path) -> None:
+    """Twins a few 1e-9 mm apart (as surface modellers write them) stay apart
+    and within tol, stored as kind 2 with non-zero offsets."""
+    from OCP.BRep import BRep_Builder, BRep_Tool
+    from OCP.gp import gp_Pnt
+    from OCP.TopAbs import TopAbs_VERTEX
+    from OCP.TopExp import TopExp_Explorer
+    from OCP.TopoDS import TopoDS
+
+    import nurbscomp
+    from nurbscomp import occ
+
+    src = faces_iges(SAMPLES / "teapot.step", tmp_path / "s.igs")
+    shape = occ.read_cad(src).shape
+    rng = np.random.default_rng(3)
+    b = BRep_Builder()
+    seen = set()
+    ex = TopExp_Explorer(shape, TopAbs_VERTEX)
+    while ex.More():
+        v = TopoDS.Vertex_s(ex.Current())
+        ex.Next()
+        if v.TShape().__hash__() in seen:
+            continue
+        seen.add(v.TShape().__hash__())
+        p = BRep_Tool.Pnt_s(v)
+        d = rng.uniform(-3e-8, 3e-8, 3)
+        b.UpdateVertex(v, gp_Pnt(p.X() + d[0], p.Y() + d[1], p.Z() + d[2]), 1e-6)
+    before = serialize_points(shape)
+    data = nurbscomp.compress(shape, tol=0.01)
+    kinds = _kinds(data)
+    m, _ = pipeline.decode(container.unpack(data))
+    after = m.vertex_point
+    assert (kinds == 2).sum() >= len(after) // 2
+    assert len(after) == len(before)
+    assert len(np.unique(after, axis=0)) == len(np.unique(before, axis=0))
+    assert np.sqrt(((after - before) ** 2).sum(-1)).max() <= 0.01
+
+
+def serialize_points(shape) -> np.ndarray:
+    """The vertex points of ``shape`` as the encoder's model holds them."""
+    from nurbscomp import occ
+
+    return occ.shape_to_model(shape)[0].vertex_point
