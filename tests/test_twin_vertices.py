@@ -47,6 +47,13 @@ def test_twin_refs_reproduce_points_bit_for_bit() -> None:
             assert vertices.twin_offset(pts[ref[v]], got[v]).tobytes() == pts[v].tobytes()
 
 
+def test_twin_refs_with_close_points_none_of_them_exact() -> None:
+    """Points within reach of each other, none an exact offset from another."""
+    p = np.array([[1.0, 2.0, 3.0], [1.0 + 1e-12, 2.0, 3.0]])
+    ref, k = vertices._twin_refs(p)
+    assert (ref == -1).all() and not k.any()
+
+
 def test_twin_points_keep_twins_apart_and_on_the_step() -> None:
     p = np.array(
         [[10.0, 20.0, 30.0], [10.0 + 3e-11, 20.0, 30.0], [10.0, 20.0 + 4.7e-8, 30.0], [10.0] * 3]

@@ -127,27 +127,37 @@ def twin_offset(ref: np.ndarray, k: np.ndarray, e: int = TWIN_EXP) -> np.ndarray
 def _twin_refs(pts: np.ndarray, e: int = TWIN_EXP) -> tuple[np.ndarray, np.ndarray]:
     """Per vertex, the row of its kind-2 reference (-1 where none) and the offsets.
 
-    The reference is the lowest row within :data:`TWIN_REACH` of the vertex
-    (and below it) from which :func:`twin_offset` gives the point bit for bit."""
+    A vertex at the point of an earlier one takes the first such (offset 0);
+    any other, the lowest row within :data:`TWIN_REACH` of it (and below it)
+    from which :func:`twin_offset` gives its point bit for bit.  The
+    distances are sought among distinct points only, so that many vertices at
+    one point cost one k-d tree entry, not pairs among all of them."""
     n = len(pts)
     ref = np.full(n, -1, np.int64)
     k = np.zeros((n, 3), np.int64)
     if n < 2 or not np.isfinite(pts).all():
         return ref, k
+    _, first, inv = np.unique(pts, axis=0, return_index=True, return_inverse=True)
+    home = first[inv.ravel()]
+    dup = home < np.arange(n)
+    ref[dup] = home[dup]
     from scipy.spatial import cKDTree
 
-    pairs = cKDTree(pts).query_pairs(TWIN_REACH, output_type="ndarray")
+    rows = np.sort(first)
+    pairs = cKDTree(pts[rows]).query_pairs(TWIN_REACH, output_type="ndarray")
     if not len(pairs):
         return ref, k
-    lo, hi = pairs.min(1), pairs.max(1)
+    lo, hi = rows[pairs.min(1)], rows[pairs.max(1)]
     kk = np.rint(np.ldexp(pts[hi] - pts[lo], -e)).astype(np.int64)
     good = (twin_offset(pts[lo], kk, e).view(np.int64) == pts[hi].view(np.int64)).all(-1)
+    if not good.any():
+        return ref, k
     lo, hi, kk = lo[good], hi[good], kk[good]
     order = np.lexsort((lo, hi))  # per vertex, its lowest reference first
     lo, hi, kk = lo[order], hi[order], kk[order]
-    first = np.r_[True, hi[1:] != hi[:-1]]
-    ref[hi[first]] = lo[first]
-    k[hi[first]] = kk[first]
+    take = np.r_[True, hi[1:] != hi[:-1]]
+    ref[hi[take]] = lo[take]
+    k[hi[take]] = kk[take]
     return ref, k
 
 
