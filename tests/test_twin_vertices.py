@@ -54,6 +54,16 @@ def test_twin_refs_with_close_points_none_of_them_exact() -> None:
     assert (ref == -1).all() and not k.any()
 
 
+def test_twin_refs_signed_zeros() -> None:
+    """-0.0 and 0.0 are one point to np.unique but not bit for bit, and
+    -0.0 + 0.0 is 0.0: a vertex at -0.0 is not a kind-2 copy of anything."""
+    p = np.array([[0.0, 1.0, 2.0], [-0.0, 1.0, 2.0], [-0.0, 1.0, 2.0], [0.0, 1.0, 2.0]])
+    ref, k = vertices._twin_refs(p)
+    for v in np.flatnonzero(ref >= 0):
+        assert vertices.twin_offset(p[ref[v]], k[v]).tobytes() == p[v].tobytes()
+    assert ref[3] == 0 and ref[1] == -1 and ref[2] == -1
+
+
 def test_twin_points_keep_twins_apart_and_on_the_step() -> None:
     p = np.array(
         [[10.0, 20.0, 30.0], [10.0 + 3e-11, 20.0, 30.0], [10.0, 20.0 + 4.7e-8, 30.0], [10.0] * 3]

@@ -11,6 +11,7 @@ from ..model import (
     BRepModel,
     ShapeType,
 )
+from ..nearby import pairs_within
 from ..streams import BlockReader, BlockWriter
 from .limits import MAX_COORD, _counts, _tolerances, finite
 
@@ -139,12 +140,12 @@ def _twin_refs(pts: np.ndarray, e: int = TWIN_EXP) -> tuple[np.ndarray, np.ndarr
         return ref, k
     _, first, inv = np.unique(pts, axis=0, return_index=True, return_inverse=True)
     home = first[inv.ravel()]
-    dup = home < np.arange(n)
+    # bit for bit: -0.0 and 0.0 are one point to np.unique, and -0.0 + 0.0 is 0.0
+    same = twin_offset(pts[home], np.zeros((n, 3), np.int64), e)
+    dup = (home < np.arange(n)) & (same.view(np.int64) == pts.view(np.int64)).all(-1)
     ref[dup] = home[dup]
-    from scipy.spatial import cKDTree
-
     rows = np.sort(first)
-    pairs = cKDTree(pts[rows]).query_pairs(TWIN_REACH, output_type="ndarray")
+    pairs = pairs_within(pts[rows], TWIN_REACH)
     if not len(pairs):
         return ref, k
     lo, hi = rows[pairs.min(1)], rows[pairs.max(1)]
