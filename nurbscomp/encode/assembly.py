@@ -498,14 +498,11 @@ def _snap_vertices(
                 and srec[coded.iso[crec[c]].surface] in codes
             )
         )
-        # a copy of a coincident curve (faces-mode IGES: bearing) keeps its
-        # vertices as before: snapped at 0.001 mm but not at 0.01 (its faces
-        # are finer than tol there), they made bearing grow with tol
         # a copy of a coded coincident curve follows its leader's vertices,
         # which a twin cluster's move takes along (each twin at its offset)
-        twin = coded.twins.get(crec[c]) if c >= 0 else None
-        copy = twin is not None and crec[c] not in exact and crec[twin[0]] in codes
-        moving = follows or copy or (c >= 0 and SNAP_ON_EXACT and twin is None)
+        leader = coded.twins.get(crec[c]) if c >= 0 else None
+        copy = leader is not None and crec[c] not in exact and crec[leader[0]] in codes
+        moving = follows or copy or (c >= 0 and SNAP_ON_EXACT and leader is None)
         if c >= 0 and not follows:
             for v in below(m, s, ShapeType.VERTEX):
                 loose[tidx[v]] = True
@@ -569,7 +566,7 @@ MIN_FINE = 16
 
 
 def _fine_points(
-    p: np.ndarray, lead: np.ndarray, may: np.ndarray, tol: float, bits: int = 10
+    p: np.ndarray, lead: np.ndarray, may: np.ndarray, tol: float, bits: int = FINE_BITS
 ) -> tuple[np.ndarray, np.ndarray, float]:
     """Which vertices of ``may`` move to a fine binary grid, the points there,
     and the bound on the move.
@@ -582,7 +579,7 @@ def _fine_points(
     move (the curves pinned to it follow; for ``FINE_BITS`` the caller leaves out a vertex
     beside a curve that does not follow, whose tolerance alone would cover the
     gap: a filleted box lost 1.6e-6 mm³ of volume at 0.001 mm; for
-    :data:`MICRO_BITS`, a move under tol·1e-7, it need not), and end
+    :data:`MICRO_BITS`, a move under tol·5e-8, it need not), and end
     in zero bits that the entropy stage codes for next to nothing (the reader
     takes the floats as they are: no format change).
 
