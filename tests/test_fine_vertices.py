@@ -85,3 +85,10 @@ def test_micro_grid_for_vertices_that_would_stay():
     assert np.linalg.norm(at - p, axis=1).max() <= bound
     step = 2.0 ** (np.floor(np.log2(0.01)) - assembly.MICRO_BITS)
     assert np.array_equal(at / step, np.rint(at / step))
+
+
+def test_point_ids_are_bit_for_bit():
+    p = np.array([[0.0, 1.0, 2.0], [-0.0, 1.0, 2.0], [0.0, 1.0, 2.0], [0.0, 1.0, 2.5]])
+    ids = assembly._point_ids(p)
+    assert ids[0] == ids[2] and len({ids[0], ids[1], ids[3]}) == 3
+    assert len(assembly._point_ids(np.zeros((0, 3)))) == 0

@@ -527,13 +527,22 @@ def _snap_vertices(
     ok &= ~np.isin(lead, lead[~ok])  # a cluster moves as one or stays
     p = m.vertex_point
     fine, at_fine, fine_bound = _fine_points(p, lead, ~ok & ~trails & ~held, coded.tol, FINE_BITS)
-    # (not the validity ladder's held vertices: moved even this little with
-    # their twins, bearing.iges fell back to every record exact, 75 kB)
-    micro, at_micro, micro_bound = _fine_points(p, lead, ~ok & ~fine & ~held, coded.tol, MICRO_BITS)
+    # Not the validity ladder's held vertices, nor the twins at their point
+    # (moved even this little, bearing.iges fell back to every record exact,
+    # 75 kB, and ec_turbine and trj7 at 0.1 mm too); the rest of a held
+    # vertex's cluster moves about its first where that is not held.
+    stay = held | np.isin(_point_ids(p), _point_ids(p)[held])
+    micro, at_micro, micro_bound = _fine_points(
+        p, lead, ~ok & ~fine & ~(stay & (lead == np.arange(len(p)))), coded.tol, MICRO_BITS
+    )
+    micro &= ~stay
+    at_micro = np.where(micro[:, None], at_micro, p)
+    micro &= _kept_apart(p, at_micro, lead)
+    at_micro = np.where(micro[:, None], at_micro, p)
     # the other clusters stay, their twins' offsets rounded to what format 2.5 stores
     at_twin = _twin_points(p, lead, p)
-    # (a twin the validity ladder holds stays; the others of its cluster need not)
-    twin = ~ok & ~fine & ~micro & ~held & _kept_apart(p, at_twin, lead)
+    # (a twin that stays stays bit for bit; the others of its cluster need not)
+    twin = ~ok & ~fine & ~micro & ~stay & _kept_apart(p, at_twin, lead)
     out: Any = replace(m)
     out.vertex_point = p
     bound = np.zeros(len(p))
@@ -659,6 +668,14 @@ def _kept_apart(p: np.ndarray, at: np.ndarray, lead: np.ndarray) -> np.ndarray:
         after.astype(np.int64), minlength=n
     )
     return same[lead]
+
+
+def _point_ids(points: np.ndarray) -> np.ndarray:
+    """Per row of ``points``, an id shared by the rows at the same point, bit for bit."""
+    if not len(points):
+        return np.zeros(0, np.int64)
+    _, inv = np.unique(points.view(np.int64), axis=0, return_inverse=True)
+    return inv.ravel().astype(np.int64)
 
 
 def _distinct(points: np.ndarray) -> int:
