@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from nurbscomp import codec, container, decode, occ, pipeline, serialize
+from nurbscomp import codec, container, decode, nearby, occ, pipeline, serialize
 from nurbscomp.encode import coincide
 from nurbscomp.errors import BadReferenceError, SectionError
 from nurbscomp.model import BSplineCurve, BSplineSurface
@@ -207,7 +207,7 @@ def test_corner_pins_follow_the_format_minor(
 
 
 def test_close_pairs_finds_what_the_tree_finds() -> None:
-    """coincide.close_pairs: every pair cKDTree.query_pairs finds, sorted, and
+    """nearby.close_pairs: every pair cKDTree.query_pairs finds, sorted, and
     nothing beyond r but by the slack; None where points pile up."""
     from scipy.spatial import cKDTree
 
@@ -217,7 +217,7 @@ def test_close_pairs_finds_what_the_tree_finds() -> None:
         if n > 100:  # exact duplicates and points a hair apart
             pts[::50] = pts[1::50]
             pts[2::50] = pts[3::50] + r * (1 - 1e-12)
-        got = coincide.close_pairs(pts, r)
+        got = nearby.close_pairs(pts, r)
         assert got is not None
         want = cKDTree(pts).query_pairs(r) if n else set()
         assert got.tolist() == sorted(map(list, {tuple(p) for p in got.tolist()}))
@@ -225,13 +225,13 @@ def test_close_pairs_finds_what_the_tree_finds() -> None:
         for i, j in got.tolist():
             assert np.sqrt(((pts[i] - pts[j]) ** 2).sum()) <= r * (1 + 1e-8)
     # points in one place: swept while few (every pair), a tree's job beyond
-    assert len(coincide.close_pairs(np.zeros((300, 3)), 1.0)) == 300 * 299 // 2
-    assert coincide.close_pairs(np.zeros((coincide._SWEEP_RUN + 2, 3)), 1.0) is None
-    assert coincide.close_pairs(np.array([[0.0, 0, 0], [np.nan, 0, 0]]), 1.0) is None
+    assert len(nearby.close_pairs(np.zeros((300, 3)), 1.0)) == 300 * 299 // 2
+    assert nearby.close_pairs(np.zeros((nearby._SWEEP_RUN + 2, 3)), 1.0) is None
+    assert nearby.close_pairs(np.array([[0.0, 0, 0], [np.nan, 0, 0]]), 1.0) is None
 
 
 def test_pairs_components_and_nearest_match_scipy() -> None:
-    """coincide.within + first_of_components give scipy's connected components
+    """nearby.within + coincide.first_of_components give scipy's connected components
     (each labelled by its first point), and coincide.nearest cKDTree's nearest
     points (of duplicates, the first), on random clouds with duplicates and chains."""
     from scipy.sparse import coo_matrix
@@ -248,9 +248,9 @@ def test_pairs_components_and_nearest_match_scipy() -> None:
         _, label = connected_components(graph, directed=False)
         first = np.full(label.max() + 1, n)
         np.minimum.at(first, label, np.arange(n))
-        got = coincide.close_pairs(pts, r)
+        got = nearby.close_pairs(pts, r)
         assert got is not None
-        assert coincide.within(pts, got, r).tolist() == sorted(pairs.tolist())
+        assert nearby.within(pts, got, r).tolist() == sorted(pairs.tolist())
         assert coincide.vertex_clusters(pts, r).tolist() == first[label].tolist()
         queries = rng.random((97, 3))
         d, i = coincide.nearest(pts, queries)

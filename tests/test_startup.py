@@ -57,7 +57,7 @@ def test_info_and_test_on_damaged_import_no_ocp(args: list[str]) -> None:
 @pytest.mark.slow
 def test_compress_of_a_small_part_imports_no_scipy(tmp_path: Path) -> None:
     """Compress finds close points, clusters and nearest faces with numpy
-    (``encode.coincide.close_pairs``, ``first_of_components``, ``nearest``): importing
+    (``nearby.close_pairs``, ``first_of_components``, ``nearest``): importing
     scipy.spatial cost 0.2 s a process, more than OCCT's whole read of a
     small file.  Faces-mode IGES (its faces' corners are separate vertices
     at one place, which must be clustered) and STEP, with the STEP check."""
