@@ -3,6 +3,8 @@ their neighbours), tolerances on a quarter-power scale, point representations.""
 
 from __future__ import annotations
 
+import lzma
+
 import numpy as np
 
 from ..errors import SectionError
@@ -113,10 +115,6 @@ def _grid_from_residuals(nbr: list[list[int]], rows: np.ndarray, res: np.ndarray
 TWIN_EXP = -32
 #: A kind-2 vertex's reference is sought within this distance of it.
 TWIN_REACH = 2.0**-20
-#: Fewer kind-2 vertices than this are written as floats: their five arrays
-#: cost more than the floats (trj3_s1-al-214.stp, 4 vertices at one point:
-#: +7 bytes).
-MIN_TWINS = 8
 
 
 def twin_offset(ref: np.ndarray, k: np.ndarray, e: int = TWIN_EXP) -> np.ndarray:
@@ -164,9 +162,11 @@ def _twin_refs(pts: np.ndarray, e: int = TWIN_EXP) -> tuple[np.ndarray, np.ndarr
 
 def _write_vertices(m: BRepModel, tol: float = 0.0) -> bytes:
     """Vertices at a bit-exact offset from an earlier one (format 2.5) are
-    stored as that offset; those whose point is a grid point
-    (``vertex_grid``) bit for bit as grid integers; the others as floats."""
-    w = BlockWriter()
+    stored as that offset, where the section then compresses smaller (LZMA
+    alone: a few vertices at one point cost LZMA less as repeated floats
+    than as references; generated faces-mode IGES parts lost up to 51 bytes);
+    those whose point is a grid point (``vertex_grid``) bit for bit as grid
+    integers; the others as floats."""
     pts = m.vertex_point
     on_grid = np.zeros(len(pts), bool)
     q = np.zeros_like(pts, dtype=np.int64)
@@ -176,10 +176,25 @@ def _write_vertices(m: BRepModel, tol: float = 0.0) -> bytes:
         q[small] = np.rint(pts[small] / h).astype(np.int64)
         on_grid = small & ((q * h).view(np.int64) == pts.view(np.int64)).all(-1)  # bit for bit
     ref, k = _twin_refs(pts)
+    plain = _vertex_arrays(m, on_grid, q, ref, k, np.zeros(len(pts), bool))
     twin = ref >= 0
-    if twin.sum() < MIN_TWINS:
-        twin[:] = False
-    on_grid &= ~twin
+    if not twin.any():
+        return plain
+    twins = _vertex_arrays(m, on_grid & ~twin, q, ref, k, twin)
+    return twins if len(lzma.compress(twins)) < len(lzma.compress(plain)) else plain
+
+
+def _vertex_arrays(
+    m: BRepModel,
+    on_grid: np.ndarray,
+    q: np.ndarray,
+    ref: np.ndarray,
+    k: np.ndarray,
+    twin: np.ndarray,
+) -> bytes:
+    """The section with the vertices of ``twin`` as kind 2, of ``on_grid`` as kind 1."""
+    w = BlockWriter()
+    pts = m.vertex_point
     w.ints(np.where(twin, 2, on_grid.astype(np.int64)))
     w.floats(pts[~on_grid & ~twin].reshape(-1))
     rows = np.flatnonzero(on_grid)
