@@ -94,13 +94,18 @@ def test_reader_refuses_bad_twin_arrays() -> None:
         vertices._read_vertices(raw, m, 0.01, revision=7)
 
 
-def _faces_container(step: Path, tol: float) -> bytes:
+def _faces_container(step: Path, tol: float | None) -> bytes:
+    """``step`` written as an IGES surface model and compressed at ``tol``
+    (lossless if None)."""
     import tempfile
 
     with tempfile.TemporaryDirectory() as d:
         src = faces_iges(step, Path(d) / "s.igs")
         dst = Path(d) / "s.nzc"
-        pipeline.compress_file(src, dst, tol=tol)
+        if tol is None:
+            pipeline.compress_file(src, dst, lossless=True)
+        else:
+            pipeline.compress_file(src, dst, tol=tol)
         return dst.read_bytes()
 
 
@@ -108,26 +113,12 @@ def _faces_container(step: Path, tol: float) -> bytes:
 def test_faces_model_twins_are_kind_2(tol: float | None) -> None:
     """A faces-mode IGES file (OCCT writes each corner's twins at one point):
     every twin is stored as its reference, lossless or not."""
-    data = (
-        _faces_container(SAMPLES / "teapot.step", tol)
-        if tol
-        else _lossless_faces(SAMPLES / "teapot.step")
-    )
+    data = _faces_container(SAMPLES / "teapot.step", tol)
     kinds = _kinds(data)
     m, _ = pipeline.decode(container.unpack(data))
     pts = m.vertex_point
     distinct = len(np.unique(pts, axis=0))
     assert int((kinds == 2).sum()) == len(pts) - distinct > 0
-
-
-def _lossless_faces(step: Path) -> bytes:
-    import tempfile
-
-    with tempfile.TemporaryDirectory() as d:
-        src = faces_iges(step, Path(d) / "s.igs")
-        dst = Path(d) / "s.nzc"
-        pipeline.compress_file(src, dst, lossless=True)
-        return dst.read_bytes()
 
 
 @pytest.mark.slow
