@@ -126,6 +126,18 @@ def compressed_part(
     return src, nzc, pipeline.compress_file(src, nzc, tol=tol)
 
 
+def through_curves(m, kind) -> list[int]:
+    """The ``CRV3`` rows of ``m`` of analytic ``kind`` (a line, a circle) that
+    go through vertices."""
+    from nurbscomp.model import Analytic
+
+    return [
+        i
+        for i, g in enumerate(m.curves3d)
+        if isinstance(g, Analytic) and g.kind == kind and g.through
+    ]
+
+
 def through_rows(nzc: Path, revision: int, kind) -> tuple:
     """The tables of container ``nzc`` (of ``revision`` or later) and the
     ``CRV3`` rows of ``kind`` that go through vertices, with that kind's rows
@@ -137,7 +149,7 @@ def through_rows(nzc: Path, revision: int, kind) -> tuple:
     assert c.revision >= revision
     m, _, tables = serialize.read_sections(c.get, c.revision)
     every = [i for i, g in enumerate(m.curves3d) if isinstance(g, Analytic) and g.kind == kind]
-    return tables, m, [i for i in every if m.curves3d[i].through], every
+    return tables, m, through_curves(m, kind), every
 
 
 def assert_step_keeps_floor(cad, nzc: Path, tmp_path: Path):

@@ -20,7 +20,13 @@ from nurbscomp.occ import topology
 from nurbscomp.rules import joins
 from nurbscomp.rules.ranges import RANGE_VERTICES
 
-from .conftest import assert_comes_back, assert_step_keeps_floor, compressed_part, through_rows
+from .conftest import (
+    assert_comes_back,
+    assert_step_keeps_floor,
+    compressed_part,
+    through_curves,
+    through_rows,
+)
 
 
 def _part(path: Path) -> Path:
@@ -42,14 +48,6 @@ def _part(path: Path) -> Path:
     shape = body.rotate((0, 0, 0), (1, 0.4, 0.2), 23)
     cq.exporters.export(shape, str(path))
     return path
-
-
-def _circles(m) -> list[int]:
-    return [
-        i
-        for i, g in enumerate(m.curves3d)
-        if isinstance(g, Analytic) and g.kind == Kind.CIRCLE and g.through
-    ]
 
 
 def _uses(m, i: int) -> np.ndarray:
@@ -102,7 +100,7 @@ def test_the_circle_moves_within_its_bound(turned) -> None:
         y = np.cross(n, x)
         return o + g.params[0] * (np.cos(t)[:, None] * x + np.sin(t)[:, None] * y)
 
-    for i in _circles(back):
+    for i in through_curves(back, Kind.CIRCLE):
         was, now = source.curves3d[i], back.curves3d[i]
         for q in _uses(back, i):
             t = np.linspace(*source.edge_rep_range[q], 41)
@@ -117,7 +115,7 @@ def test_a_circle_whose_edge_keeps_its_pcurve_stays(turned) -> None:
     src, nzc, _ = turned
     source, _ = topology.shape_to_model(occ.read_cad(src).shape)
     back, _ = pipeline.decode(container.unpack(nzc.read_bytes()))
-    (i, *_) = _circles(back)
+    (i, *_) = through_curves(back, Kind.CIRCLE)
     reps = back.edge_reps
     qs = _uses(back, i)
     pcurve = [reps[qs[-1], EC.EDGE], RepKind.ON_SURFACE, REBUILD, -1, 0, -1, 0, 0]
@@ -134,7 +132,7 @@ def test_the_reader_refuses_what_the_rule_cannot_make(turned) -> None:
     _, nzc, _ = turned
     c = container.unpack(nzc.read_bytes())
     m, _, _ = serialize.read_sections(c.get, c.revision)
-    (i, j, *_) = _circles(m)
+    (i, j, *_) = through_curves(m, Kind.CIRCLE)
     reps = m.edge_reps.copy()
     m.curves3d = list(m.curves3d)
     m.curves3d[j] = m.curves3d[i]  # a copy of it
@@ -173,4 +171,4 @@ def test_lossless_has_none(turned, tmp_path: Path) -> None:
     out = tmp_path / "x.nzc"
     pipeline.compress_file(src, out, lossless=True)
     c = container.unpack(out.read_bytes())
-    assert not _circles(serialize.read_sections(c.get, c.revision)[0])
+    assert not through_curves(serialize.read_sections(c.get, c.revision)[0], Kind.CIRCLE)

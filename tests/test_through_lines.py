@@ -20,7 +20,13 @@ from nurbscomp.rules import joins
 from nurbscomp.rules.ranges import RANGE_VERTICES
 from nurbscomp.serialize import geometry
 
-from .conftest import assert_comes_back, assert_step_keeps_floor, compressed_part, through_rows
+from .conftest import (
+    assert_comes_back,
+    assert_step_keeps_floor,
+    compressed_part,
+    through_curves,
+    through_rows,
+)
 
 
 def _part(path: Path) -> Path:
@@ -39,14 +45,6 @@ def _part(path: Path) -> Path:
     )
     cq.exporters.export(shape, str(path))
     return path
-
-
-def _through(m) -> list[int]:
-    return [
-        i
-        for i, g in enumerate(m.curves3d)
-        if isinstance(g, Analytic) and g.kind == Kind.LINE and g.through
-    ]
 
 
 @pytest.fixture(scope="module")
@@ -87,7 +85,7 @@ def test_the_line_moves_within_its_bound(plate) -> None:
     source, _ = topology.shape_to_model(occ.read_cad(src).shape)
     back, _ = pipeline.decode(container.unpack(nzc.read_bytes()))
     reps = back.edge_reps
-    for i in _through(back):
+    for i in through_curves(back, Kind.LINE):
         (q,) = np.flatnonzero((reps[:, EC.KIND] == RepKind.CURVE3D) & (reps[:, EC.CURVE] == i))
         was, now = source.curves3d[i], back.curves3d[i]
         t0, t1 = source.edge_rep_range[q]
@@ -103,7 +101,7 @@ def test_a_line_whose_edge_keeps_its_pcurve_stays(plate) -> None:
     src, nzc, _ = plate
     source, _ = topology.shape_to_model(occ.read_cad(src).shape)
     back, _ = pipeline.decode(container.unpack(nzc.read_bytes()))
-    (i, *_) = _through(back)
+    (i, *_) = through_curves(back, Kind.LINE)
     reps = back.edge_reps
     (q,) = np.flatnonzero((reps[:, EC.KIND] == RepKind.CURVE3D) & (reps[:, EC.CURVE] == i))
     edge = reps[q, EC.EDGE]
@@ -116,14 +114,14 @@ def test_a_line_whose_edge_keeps_its_pcurve_stays(plate) -> None:
     out = assembly.unthread(cand, source)
     assert out.curves3d[i] is source.curves3d[i]
     assert np.array_equal(out.edge_rep_range[q], source.edge_rep_range[q])
-    assert len(_through(out)) == len(_through(back)) - 1
+    assert len(through_curves(out, Kind.LINE)) == len(through_curves(back, Kind.LINE)) - 1
 
 
 def test_the_reader_refuses_what_breaks_the_rule(plate) -> None:
     _, nzc, _ = plate
     c = container.unpack(nzc.read_bytes())
     m, _, _ = serialize.read_sections(c.get, c.revision)
-    (i, j, *_) = _through(m)
+    (i, j, *_) = through_curves(m, Kind.LINE)
     reps = m.edge_reps
     (q,) = np.flatnonzero((reps[:, EC.KIND] == RepKind.CURVE3D) & (reps[:, EC.CURVE] == i))
     (r,) = np.flatnonzero((reps[:, EC.KIND] == RepKind.CURVE3D) & (reps[:, EC.CURVE] == j))
@@ -166,4 +164,4 @@ def test_lossless_has_none(plate, tmp_path: Path) -> None:
     out = tmp_path / "x.nzc"
     pipeline.compress_file(src, out, lossless=True)
     c = container.unpack(out.read_bytes())
-    assert not _through(serialize.read_sections(c.get, c.revision)[0])
+    assert not through_curves(serialize.read_sections(c.get, c.revision)[0], Kind.LINE)
