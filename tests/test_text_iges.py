@@ -6,6 +6,7 @@ import hashlib
 import lzma
 import random
 
+import numpy as np
 import pytest
 
 from nurbscomp.errors import FormatError
@@ -223,3 +224,57 @@ def test_second_differences_and_version_1(path):
     assert b"\x02" not in s[6]
     old = coding.pack([b"\x01" + s[0][1:], *s[1:]])
     assert iges.decode(old, len(small)) == small
+
+
+def _tails_one_by_one(
+    zero: bool, exc: dict[int, bytes], nrec: int
+) -> tuple[list[bytes], list[int]]:
+    """The record tails and DE numbers, record by record (what iges._tails computes)."""
+    cur, tails, des = 1, [], []
+    for r in range(nrec):
+        t = exc.get(r)
+        if t is None:
+            t = (b" %07d" if zero else b" %7d") % cur
+            if len(t) > 8:
+                t = b" " + t[-7:]
+        s = t.strip()
+        val = int(s) if s.isdigit() and len(s) < 12 else cur
+        tails.append(t)
+        des.append(val)
+        cur = val + 2
+    return tails, des
+
+
+def test_tails_match_the_record_by_record_rule():
+    """Back pointers predicted as the previous + 2 (wrapping past 7 digits),
+    with exceptions of digits, blanks and other bytes."""
+    rng = random.Random(3)
+    choices = [
+        b" 9999997",
+        b"99999999",
+        b"   12345",
+        b"        ",
+        b" 12 34  ",
+        b"  abc  1",
+        b" 0000001",
+    ]
+    for _ in range(200):
+        nrec = rng.randrange(0, 40)
+        at = sorted(rng.sample(range(nrec), rng.randrange(min(nrec, 6) + 1)))
+        exc = {r: rng.choice(choices) for r in at}
+        zero = rng.random() < 0.5
+        rows, des = iges._tails(zero, np.asarray(at, np.int64), b"".join(exc[r] for r in at), nrec)
+        want_t, want_d = _tails_one_by_one(zero, exc, nrec)
+        assert [bytes(r) for r in rows] == want_t and des.tolist() == want_d
+
+
+def test_record_types_match_split_and_strip():
+    recs = [b"128,1,2", b"  110 ,3", b"", b"12345678901,2", b"   ", b" " * 30 + b"406,1", b"7"]
+    recs.append(b"\t 99 \x0b;x")
+    ptext = b"\n".join(recs)
+    lens = np.asarray([len(r) for r in recs], np.int64)
+    end = np.cumsum(lens + 1) - 1
+    got = iges._record_types(ptext, ord(","), end - lens, end)
+    for row, r in zip(got, recs):
+        head = r.split(b",", 1)[0].strip()
+        assert bytes(row) == (b"%8s" % head if len(head) <= 8 else b" " * 8)

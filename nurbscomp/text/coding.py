@@ -72,6 +72,42 @@ def read_varint(data: bytes | memoryview, pos: int) -> tuple[int, int]:
     raise CorruptError(f"varint at offset {pos} is longer than 9 bytes")
 
 
+def read_varints(data: bytes | memoryview, pos: int, n: int) -> tuple[np.ndarray, int]:
+    """The ``n`` LEB128 integers from ``pos`` (as int64) and the position
+    after them: :func:`read_varint` ``n`` times, in one numpy pass over at
+    most ``9 n`` bytes.
+
+    Raises
+    ------
+    TruncatedError
+        ``data`` ends inside an integer (or before the ``n``-th).
+    CorruptError
+        An integer longer than 9 bytes.
+    """
+    if n <= 0:
+        return np.zeros(0, np.int64), pos
+    if pos >= len(data):
+        raise TruncatedError(f"varint at offset {pos} runs past the end")
+    window = np.frombuffer(data, np.uint8, count=min(9 * n, len(data) - pos), offset=pos)
+    ends = np.flatnonzero(window < 0x80)[:n]  # the last byte of each integer
+    lens = np.diff(ends, prepend=-1)
+    if len(lens) and int(lens.max()) > 9:
+        k = int(np.argmax(lens > 9))
+        at = pos + int(ends[k] - lens[k]) + 1
+        raise CorruptError(f"varint at offset {at} is longer than 9 bytes")
+    if len(ends) < n:  # the next integer has no last byte in the window
+        at = int(ends[-1]) + 1 if len(ends) else 0
+        if len(window) - at >= 9:
+            raise CorruptError(f"varint at offset {pos + at} is longer than 9 bytes")
+        raise TruncatedError(f"varint at offset {pos + at} runs past the end")
+    used = int(ends[-1]) + 1
+    body = window[:used]
+    first = ends - lens + 1
+    shift = (np.arange(used) - np.repeat(first, lens)) * 7
+    terms = (body & 0x7F).astype(np.uint64) << shift.astype(np.uint64)
+    return np.add.reduceat(terms, first).astype(np.int64), pos + used
+
+
 #: LZMA literal settings (lc, lp, pb) a quick :func:`pack` tries: text, then bytes.
 QUICK_TUNINGS = ((3, 0, 2), (0, 0, 0))
 #: Streams up to this size are also tried with LZMA's default literal settings.

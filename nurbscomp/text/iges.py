@@ -244,18 +244,28 @@ class _Varints:
         v, self.pos = coding.read_varint(self.data, self.pos)
         return v
 
-    def many(self, n: int) -> list[int]:
+    def many(self, n: int) -> np.ndarray:
+        """The next ``n`` integers (one numpy pass: ``coding.read_varints``)."""
         if n > len(self.data) - self.pos:
             raise TruncatedError("IGES model: fewer integers than declared")
-        return [self() for _ in range(n)]
+        v, self.pos = coding.read_varints(self.data, self.pos, n)
+        return v
 
-    def gaps(self, n: int) -> list[int]:
-        """``n`` increasing indices stored as gaps."""
-        out, at = [], -1
-        for g in self.many(n):
-            at += g + 1
-            out.append(at)
-        return out
+    def gaps(self, n: int, bound: int, what: str) -> np.ndarray:
+        """``n`` increasing indices below ``bound``, stored as gaps.
+
+        Raises
+        ------
+        CorruptError
+            An index at or past ``bound`` (``what`` says which).
+        """
+        g = self.many(n)
+        if n and int(g.max()) >= bound:  # checked first: the sum stays in an int64
+            raise CorruptError(f"IGES model: {what}")
+        at = np.cumsum(g + 1) - 1
+        if n and int(at[-1]) >= bound:
+            raise CorruptError(f"IGES model: {what}")
+        return at
 
 
 def _gaps(idx: list[int]) -> list[int]:
@@ -372,11 +382,10 @@ def _encode(data: bytes) -> bytes | None:
 
     # D entries
     D = M[d_idx, :72].reshape(nd, 18, 8)
-    rec_of: dict[int, int] = {}
-    for r, de in enumerate(rdes):
-        rec_of.setdefault(de, r)
-    types = _record_types(rtexts, pd)
-    pred_c = _d_predicted(nd, rec_of, rstart_l, rcount, types)
+    rend = np.cumsum(rlen + 1) - 1
+    types = _record_types(ptext, pd, rend - rlen, rend)
+    erec = _entry_records(np.asarray(rdes, np.int64), nd)
+    pred_c = _d_predicted(erec, np.asarray(rstart_l, np.int64), rcount_a, types)
     dmask, dvals = _d_encode(D, pred_c)
 
     # skeleton and digits
@@ -420,32 +429,70 @@ def _encode(data: bytes) -> bytes | None:
     return coding.pack(streams, quick=True)
 
 
-def _record_types(rtexts: list[bytes], pd: int) -> list[bytes]:
-    """Each record's first parameter as a D field (8 columns, right-aligned)."""
-    sep = bytes([pd])
-    out = []
-    for t in rtexts:
-        head = t.split(sep, 1)[0].strip()
-        out.append(b"%8s" % head if len(head) <= 8 else b"")
+#: The bytes ``bytes.strip()`` takes off (ASCII whitespace).
+_WHITE = np.zeros(256, bool)
+_WHITE[list(b" \t\n\r\x0b\x0c")] = True
+#: Record heads up to this long (to the first delimiter) are read as arrays.
+_HEAD_SPAN = 16
+
+
+def _record_types(ptext: bytes, pd: int, rbeg: np.ndarray, rend: np.ndarray) -> np.ndarray:
+    """Each record's first parameter as a D field: ``ptext[rbeg:rend]`` up
+    to its first ``pd``, stripped, right-aligned in 8 columns; blanks where
+    it is longer.  An (n, 8) array; one gather of a short window a record,
+    Python's ``strip`` only on heads longer than :data:`_HEAD_SPAN`."""
+    n = len(rbeg)
+    out = np.full((n, 8), 32, np.uint8)
+    if not n:
+        return out
+    a = np.frombuffer(ptext, np.uint8)
+    seps = np.flatnonzero(a == pd)
+    i = np.searchsorted(seps, rbeg)
+    hend = np.minimum(seps[np.minimum(i, len(seps) - 1)] if len(seps) else rend, rend)
+    hend = np.where(i < len(seps), hend, rend)
+    span = hend - rbeg
+    short = span <= _HEAD_SPAN
+    cols = np.arange(_HEAD_SPAN)
+    win = a[np.minimum(rbeg[:, None] + cols, max(len(a) - 1, 0))] if len(a) else np.zeros((n, 0))
+    keep = (cols < span[:, None]) & ~_WHITE[win] if len(a) else np.zeros((n, _HEAD_SPAN), bool)
+    some = keep.any(axis=1)
+    lo = np.argmax(keep, axis=1)
+    hi = _HEAD_SPAN - np.argmax(keep[:, ::-1], axis=1)
+    size = np.where(some, hi - lo, 0)
+    fits = short & (size <= 8)
+    for c in range(8):
+        at = np.flatnonzero(fits & (c >= 8 - size))
+        out[at, c] = win[at, (lo + c - 8 + size)[at]]
+    for r in np.flatnonzero(~short).tolist():
+        head = ptext[int(rbeg[r]) : int(hend[r])].strip()
+        if len(head) <= 8:
+            out[r] = np.frombuffer(b"%8s" % head, np.uint8)
     return out
 
 
+def _entry_records(des: np.ndarray, nd: int) -> np.ndarray:
+    """For each of ``nd`` D entries, the first record whose back pointer
+    (``des``) is its DE number ``2 k + 1``; -1 where none is."""
+    rec = np.full(nd, -1, np.int64)
+    odd = np.flatnonzero((des & 1 == 1) & (des >= 0) & (des < 2 * nd))
+    k, first = np.unique(des[odd] >> 1, return_index=True)
+    rec[k] = odd[first]
+    return rec
+
+
 def _d_predicted(
-    nd: int, rec_of: dict[int, int], rstart: list[int], rcount: list[int], types: list[bytes]
+    rec: np.ndarray, rstart: np.ndarray, rcount: np.ndarray, types: np.ndarray
 ) -> np.ndarray:
     """The computed D fields (type, pointer, type, line count) of each entry,
-    predicted from its parameter record (the one whose back pointer is its
-    DE number); blanks where there is none."""
-    rows = []
-    blank = b" " * 32
-    for k in range(nd):
-        r = rec_of.get(2 * k + 1)
-        if r is None:
-            rows.append(blank)
-            continue
-        t = types[r] or b"        "
-        rows.append(t + (b"%8d" % (rstart[r] + 1))[-8:] + t + (b"%8d" % rcount[r])[-8:])
-    return np.frombuffer(b"".join(rows), np.uint8).reshape(nd, 4, 8)
+    predicted from its parameter record ``rec`` (:func:`_entry_records`);
+    blanks where there is none.  ``types``: :func:`_record_types`."""
+    out = np.full((len(rec), 4, 8), 32, np.uint8)
+    has = np.flatnonzero(rec >= 0)
+    r = rec[has]
+    out[has, 0] = out[has, 2] = types[r]
+    out[has, 1] = _fmt_rows(False, 8, rstart[r] + 1)
+    out[has, 3] = _fmt_rows(False, 8, rcount[r])
+    return out
 
 
 def _d_prev_same_type(key: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -802,22 +849,24 @@ def _decode(payload: bytes, limit: int) -> bytes:
     ):
         raise LimitError("IGES model: output past the limit")
 
+    letters = np.repeat(
+        np.frombuffer(bytes(x for x, _ in runs), np.uint8), np.array([c for _, c in runs])
+    )
+    is_d = letters == ord("D")
+    is_p = letters == ord("P")
+    npl = int(is_p.sum())
+
     iv = _Varints(ints_s)
-    raw_idx = iv.gaps(nraw)
-    seq_bad = iv.gaps(nseq)
-    tail_exc = iv.gaps(ntail)
-    lay_i = iv.gaps(nlay)
+    raw_idx = iv.gaps(nraw, npieces, "an exception past the last line")
+    seq_bad = iv.gaps(nseq, m, "an exception past the last line")
+    tail_exc = iv.gaps(ntail, nrec, "a back pointer exception past the last record")
+    lay_i = iv.gaps(nlay, npl, "a layout exception past the last P line")
     lay_l = iv.many(nlay)
     rcount = iv.many(nrec)
     eb = ints_s[iv.pos :]
     if len(eb) != 7 * nseq + 8 * ntail:
         raise CorruptError("IGES model: exception bytes do not add up")
-    if (raw_idx and raw_idx[-1] >= npieces) or (seq_bad and seq_bad[-1] >= m):
-        raise CorruptError("IGES model: an exception past the last line")
 
-    letters = np.repeat(
-        np.frombuffer(bytes(x for x, _ in runs), np.uint8), np.array([c for _, c in runs])
-    )
     M = np.empty((m, 80), np.uint8)
     M[:, 72] = letters
     counts = [c for _, c in runs]
@@ -826,8 +875,6 @@ def _decode(payload: bytes, limit: int) -> bytes:
     M[:, 73:80] = _fmt_rows(seq_zero, 7, seqno)
     if nseq:
         M[seq_bad, 73:80] = _rows(eb[: 7 * nseq], 7, nseq)
-    is_d = letters == ord("D")
-    is_p = letters == ord("P")
     d_idx = np.flatnonzero(is_d)
     text_mask = ~(is_d | is_p)
     if len(d_idx) % 2:
@@ -843,39 +890,30 @@ def _decode(payload: bytes, limit: int) -> bytes:
     if ntext:
         M[text_mask, :72] = _rows(b"".join(r.ljust(72) for r in rows), 72, ntext)
 
-    # parameter text
+    # parameter text: records joined by newlines
     ptext = _numbers_decode(streams[6:], pd, ph, version)
-    rtexts = ptext.split(b"\n") if nrec else []
-    npl = int(is_p.sum())
-    if len(rtexts) != nrec or sum(rcount) != npl or any(c < 1 for c in rcount):
+    pbuf = np.frombuffer(ptext, np.uint8)
+    if nrec:
+        nl = np.flatnonzero(pbuf == 10)
+        if len(nl) + 1 != nrec:
+            raise CorruptError("IGES model: parameter records do not match")
+        rend = np.r_[nl, np.int64(len(ptext))]
+        rbeg = np.r_[np.int64(0), nl + 1]
+        if int(rcount.min()) < 1 or int(rcount.max()) > npl or int(rcount.sum()) != npl:
+            raise CorruptError("IGES model: parameter records do not match")
+    elif npl:
         raise CorruptError("IGES model: parameter records do not match")
-    if lay_i and lay_i[-1] >= npl:
-        raise CorruptError("IGES model: a layout exception past the last P line")
+    else:
+        rbeg = rend = np.zeros(0, np.int64)
 
     # record tails (back pointers)
-    tex = dict(zip(tail_exc, (eb[7 * nseq + 8 * i : 7 * nseq + 8 * i + 8] for i in range(ntail))))
-    if tail_exc and tail_exc[-1] >= nrec:
-        raise CorruptError("IGES model: a back pointer exception past the last record")
-    cur, rtails, rdes = 1, [], []
-    for r in range(nrec):
-        t = tex.get(r)
-        if t is None:
-            t = (b" %07d" if tail_zero else b" %7d") % cur
-            if len(t) > 8:
-                t = b" " + t[-7:]
-        s = t.strip()
-        val = int(s) if s.isdigit() and len(s) < 12 else cur
-        rtails.append(t)
-        rdes.append(val)
-        cur = val + 2
+    rtails, rdes = _tails(tail_zero, tail_exc, eb[7 * nseq :], nrec)
 
     # P lines: their lengths by the layout policy, then one scatter
-    bounds_a = np.frombuffer(ptext, np.uint8)
     exc = np.full(npl, -1, np.int64)
     if nlay:
-        exc[np.asarray(lay_i, np.int64)] = np.asarray(lay_l, np.int64)
-    rlen = np.asarray([len(t) for t in rtexts], np.int64)
-    starts, lens = _lines(lay_mode, _bounds(ptext, pd, rd), rlen, np.asarray(rcount, np.int64), exc)
+        exc[lay_i] = lay_l
+    starts, lens = _lines(lay_mode, _bounds(ptext, pd, rd), rend - rbeg, rcount, exc)
     if npl:
         Pc = np.full((npl, 72), 32, np.uint8)
         ln = lens
@@ -883,18 +921,15 @@ def _decode(payload: bytes, limit: int) -> bytes:
         prow = np.repeat(np.arange(npl), ln)
         first = np.repeat(np.cumsum(ln) - ln, ln)
         cols = np.arange(total) - first
-        Pc[prow, cols] = bounds_a[np.repeat(starts, ln) + cols]
-        Pc[:, 64:72] = np.repeat(_rows(b"".join(rtails), 8, nrec), rcount, axis=0)
+        Pc[prow, cols] = pbuf[np.repeat(starts, ln) + cols]
+        Pc[:, 64:72] = np.repeat(rtails, rcount, axis=0)
         M[is_p, :72] = Pc
 
     # D entries
     if nd:
-        rec_of: dict[int, int] = {}
-        for r, de in enumerate(rdes):
-            rec_of.setdefault(de, r)
-        rstart = np.concatenate(([0], np.cumsum(rcount)[:-1])).tolist() if nrec else []
-        types = _record_types(rtexts, pd)
-        pred_c = _d_predicted(nd, rec_of, rstart, rcount, types)
+        rstart = np.cumsum(rcount) - rcount
+        types = _record_types(ptext, pd, rbeg, rend)
+        pred_c = _d_predicted(_entry_records(rdes, nd), rstart, rcount, types)
         D = _d_decode(nd, pred_c, dmask_s, dvals_s)
         M[d_idx, :72] = D.reshape(2 * nd, 72)
     elif dmask_s or dvals_s:
@@ -912,7 +947,7 @@ def _decode(payload: bytes, limit: int) -> bytes:
         raise CorruptError("IGES model: raw line count does not match")
     chunks: list[bytes] = []
     k = prev = 0
-    for i, raw in zip(raw_idx, raws):
+    for i, raw in zip(raw_idx.tolist(), raws):
         take = i - prev
         chunks += [blob[w * k : w * (k + take)], raw, b"\n"]
         k += take
@@ -922,6 +957,53 @@ def _decode(payload: bytes, limit: int) -> bytes:
     if len(out) > limit:
         raise LimitError(f"IGES model inflates past {limit} bytes")
     return out
+
+
+#: Back pointers wrap at this (7 columns of digits).
+_WRAP = 10**7
+
+
+def _tails(
+    zero: bool, exc_at: np.ndarray, exc_bytes: bytes, nrec: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """The P records' tails (columns 65-72, an (n, 8) array) and the DE
+    numbers they point back to.  Each record's is predicted as the previous
+    one's + 2 (1 for the first), written zero-padded or right-aligned (its
+    last 7 digits when longer), but at the exceptions ``exc_at``, whose
+    tails are ``exc_bytes`` (8 each) and whose DE numbers are their digits
+    (the prediction when they are not digits).
+
+    Between two exceptions the numbers go up by 2 modulo :data:`_WRAP`, so
+    only the exceptions are visited one by one (for the number after each)."""
+    cur = 1  # the prediction for the next record
+    at = exc_at.tolist()
+    base = [cur]  # the prediction at the start of each run (after each exception)
+    vals = []
+    prev = 0
+    for k, x in enumerate(at):
+        if x > prev:  # the run before: cur, then (cur + 2 j) % _WRAP + 2
+            cur = (cur + 2 * (x - prev - 1)) % _WRAP + 2
+        s = exc_bytes[8 * k : 8 * k + 8].strip()
+        v = int(s) if s.isdigit() and len(s) < 12 else cur
+        vals.append(v)
+        cur = v + 2
+        base.append(cur)
+        prev = x + 1
+    run = np.searchsorted(exc_at, np.arange(nrec), side="right")
+    run_start = np.r_[np.int64(0), exc_at + 1]
+    j = np.arange(nrec) - run_start[run]
+    b = np.asarray(base, np.int64)[run]
+    des = (b + 2 * j) % _WRAP
+    pred = np.where(j == 0, b, (b + 2 * (j - 1)) % _WRAP + 2)
+    rows = np.full((nrec, 8), 32, np.uint8)
+    rows[:, 1:] = _fmt_rows(True, 7, pred % _WRAP)
+    if not zero:  # right-aligned where the number fits, its last digits where not
+        p = np.int64(10) ** np.arange(6, 0, -1, dtype=np.int64)
+        rows[:, 1:7][(pred[:, None] < p)] = 32
+    if len(at):
+        des[exc_at] = vals
+        rows[exc_at] = _rows(exc_bytes, 8, len(at))
+    return rows, des
 
 
 def _d_decode(nd: int, pred_c: np.ndarray, dmask_s: bytes, dvals_s: bytes) -> np.ndarray:
