@@ -12,6 +12,13 @@ implementation.  All fields are little-endian.
                | crc32 u32 of the directory, the 12 body-header bytes and the payload
                | payload: the sections' bytes, concatenated, then compressed
 
+and from format 2.6 (what every container pays, some 140 bytes less)::
+
+    directory  nsections x (tag code u8 [| tag 4s after code 255] | raw_length varint)
+    body       coder u8 | crc32 u32 of the decoded body
+               | crc32 u32 of the directory, the 5 body-header bytes and the payload
+               | payload: to the end of the file
+
 The sections are compressed together, not one by one: B-rep data repeats
 across tables (a vertex is the end pole of its curves, which are boundary
 poles of their surfaces) and one LZ window sees those repeats.  Measured on
@@ -36,15 +43,16 @@ from .errors import (
     VersionError,
 )
 from .formats import CONTAINER_MAGIC
+from .streams import read_varint, varint
 
 MAGIC = CONTAINER_MAGIC  # b"\x89NZC", formats' (it tells a container apart from CAD)
 #: The version this writer writes (docs/format.md §0).  Format 1.x is frozen:
 #: 1.0, 1.1 and 1.2 decode forever, and no 1.3 will be written.
 MAJOR = 2
-MINOR = 5
+MINOR = 6
 #: Every version this reader reads, oldest first.  A file's *revision* is its
 #: index here (:attr:`Container.revision`); the sections' readers branch on it.
-VERSIONS = ((1, 0), (1, 1), (1, 2), (2, 0), (2, 1), (2, 2), (2, 3), (2, 4), (2, 5))
+VERSIONS = ((1, 0), (1, 1), (1, 2), (2, 0), (2, 1), (2, 2), (2, 3), (2, 4), (2, 5), (2, 6))
 #: The revision this writer writes.
 REVISION = VERSIONS.index((MAJOR, MINOR))
 FLAG_LOSSLESS = 1
@@ -65,10 +73,22 @@ _KNOWN_FLAGS = (
     FLAG_LOSSLESS | FLAG_PASSTHROUGH | FLAG_EXACT,
     FLAG_LOSSLESS | FLAG_PASSTHROUGH | FLAG_EXACT,
     FLAG_LOSSLESS | FLAG_PASSTHROUGH | FLAG_EXACT,
+    FLAG_LOSSLESS | FLAG_PASSTHROUGH | FLAG_EXACT,
 )
+#: Format 2.6: the first revision with the compact directory and body header.
+COMPACT = VERSIONS.index((2, 6))
+#: Format 2.6: the tags a directory entry names by a one-byte code (its index);
+#: code :data:`TAG_ESCAPE` is followed by the tag's 4 ASCII bytes.
+TAGS = (
+    "META", "LOCS", "SURF", "SNET", "CRV3", "CNET", "CRV2", "SHAP",
+    "VERT", "EDGE", "FACE", "SIDE", "PROD", "FILE", "TEXT",
+)  # fmt: skip
+TAG_ESCAPE = 255
 _HEADER = struct.Struct("<4sBBHHH")
 _ENTRY = struct.Struct("<4sII")
 _BODY = struct.Struct("<B3sII")
+#: Format 2.6's body header: coder, CRC-32 of the decoded body (then the body CRC).
+_BODY6 = struct.Struct("<BI")
 _CRC = struct.Struct("<I")
 #: Largest body (all sections, decoded) a reader will inflate: a
 #: decompression-bomb guard, checked before anything is inflated.
@@ -91,6 +111,8 @@ class Container:
     coder: int
     stored_length: int
     sections: list[Section]
+    #: bytes before the payload: header, directory and body header
+    overhead: int = 0
 
     def get(self, tag: str) -> bytes:
         """The bytes of the section ``tag`` (:func:`unpack` refuses duplicate tags).
@@ -117,14 +139,7 @@ class Container:
     @property
     def file_bytes(self) -> int:
         """Size of the container's bytes (header, directory, body)."""
-        return (
-            _HEADER.size
-            + 4
-            + len(self.sections) * _ENTRY.size
-            + _BODY.size
-            + 4
-            + self.stored_length
-        )
+        return self.overhead + self.stored_length
 
 
 def revision(major: int, minor: int) -> int:
@@ -148,25 +163,52 @@ def pack(
     body (``entropy.compress``).  ``version`` is what the header says: a
     writer says its own; tests re-pack older files' sections with theirs.
     """
-    head = _HEADER.pack(MAGIC, *version, flags, len(sections), 0)
     if len({tag for tag, _ in sections}) != len(sections):
         raise ValueError("section tags must be distinct")
-    directory = []
-    for tag, raw in sections:
-        tb = tag.encode("ascii")
-        if len(tb) != 4:
+    for tag, _ in sections:
+        if len(tag.encode("ascii")) != 4:
             raise ValueError(f"section tag must be 4 ASCII bytes: {tag!r}")
-        directory.append(_ENTRY.pack(tb, len(raw), zlib.crc32(raw)))
     body = b"".join(raw for _, raw in sections)
     if version < (2, 4):  # coder 4 (the dictionary) is format 2.4's
         coders = tuple(c for c in coders if c != entropy.Coder.ZSTD_DICT)
         if not coders:
             raise ValueError(f"coder 4 is format 2.4's, not {version[0]}.{version[1]}'s")
     coder, stored = entropy.compress(body, coders, thorough)
-    bh = _BODY.pack(coder, b"\0\0\0", len(body), len(stored))
-    d = b"".join(directory)
+    return frame(sections, flags, version, coder, stored)
+
+
+def _entry(tag: str, size: int) -> bytes:
+    """A 2.6 directory entry: the tag's code (or the escape and the tag), its length."""
+    code = TAGS.index(tag) if tag in TAGS else TAG_ESCAPE
+    head = bytes([code]) + (tag.encode("latin-1") if code == TAG_ESCAPE else b"")
+    return head + varint(size)
+
+
+def frame(
+    sections: list[tuple[str, bytes]],
+    flags: int,
+    version: tuple[int, int],
+    coder: int,
+    stored: bytes,
+) -> bytes:
+    """The container bytes of ``sections`` whose concatenation ``coder``
+    compressed into ``stored``, laid out as ``version`` lays them out (no
+    check of the tags: tests frame damaged directories with it)."""
+    head = _HEADER.pack(MAGIC, *version, flags, len(sections), 0)
+    head += _CRC.pack(zlib.crc32(head))
+    if revision(*version) >= COMPACT:
+        d = b"".join(_entry(tag, len(raw)) for tag, raw in sections)
+        crc_raw = 0
+        for _, raw in sections:
+            crc_raw = zlib.crc32(raw, crc_raw)
+        bh = _BODY6.pack(coder, crc_raw)
+    else:
+        d = b"".join(
+            _ENTRY.pack(tag.encode("latin-1"), len(raw), zlib.crc32(raw)) for tag, raw in sections
+        )
+        bh = _BODY.pack(coder, b"\0\0\0", sum(len(raw) for _, raw in sections), len(stored))
     crc = zlib.crc32(stored, zlib.crc32(bh, zlib.crc32(d)))
-    return b"".join([head, _CRC.pack(zlib.crc32(head)), d, bh, _CRC.pack(crc), stored])
+    return b"".join([head, d, bh, _CRC.pack(crc), stored])
 
 
 def unpack(data: bytes) -> Container:
@@ -202,6 +244,8 @@ def unpack(data: bytes) -> Container:
     if reserved:
         raise ReservedBitsError("reserved header field is not zero at offset 10")
     pos = _HEADER.size + 4
+    if rev >= COMPACT:
+        return _unpack_compact(data, major, minor, flags, nsec)
     dir_end = pos + nsec * _ENTRY.size
     body_at = dir_end
     if body_at + _BODY.size + 4 > len(data):
@@ -256,4 +300,60 @@ def unpack(data: bytes) -> Container:
                 f"section {tag} checksum mismatch (entry at offset {pos + i * _ENTRY.size})"
             )
         sections.append(Section(tag, raw))
-    return Container(major, minor, flags, coder, stored_len, sections)
+    return Container(major, minor, flags, coder, stored_len, sections, start)
+
+
+def _unpack_compact(data: bytes, major: int, minor: int, flags: int, nsec: int) -> Container:
+    """:func:`unpack` of a 2.6 file from its directory on (docs/format.md §1.2, §1.3)."""
+    pos = at = _HEADER.size + 4
+    entries: list[tuple[str, int]] = []
+    seen: set[str] = set()
+    raw_len = 0
+    for _ in range(nsec):
+        if at >= len(data):
+            raise TruncatedError(f"directory truncated at offset {len(data)}")
+        entry, code = at, data[at]
+        at += 1
+        if code == TAG_ESCAPE:
+            if at + 4 > len(data):
+                raise TruncatedError(f"directory truncated at offset {len(data)}")
+            try:
+                tag = data[at : at + 4].decode("ascii")
+            except UnicodeDecodeError:
+                raise CorruptError(f"bad section tag at offset {at}") from None
+            at += 4
+        elif code < len(TAGS):
+            tag = TAGS[code]
+        else:
+            raise CorruptError(f"unknown section tag code {code} at offset {entry}")
+        n, at = read_varint(data, at)
+        if tag in seen:
+            raise CorruptError(f"section {tag} appears twice (entry at offset {entry})")
+        seen.add(tag)
+        entries.append((tag, n))
+        raw_len += n
+    body_at = at
+    start = body_at + _BODY6.size + 4
+    if start > len(data):
+        raise TruncatedError(f"directory or body header truncated at offset {len(data)}")
+    coder, raw_crc = _BODY6.unpack_from(data, body_at)
+    (crc,) = _CRC.unpack_from(data, body_at + _BODY6.size)
+    stored = data[start:]
+    head = data[body_at : body_at + _BODY6.size]
+    if crc != zlib.crc32(stored, zlib.crc32(head, zlib.crc32(data[pos:body_at]))):
+        raise ChecksumError(
+            f"body checksum mismatch (directory at offset {pos}, body at {body_at})"
+        )
+    if raw_len > MAX_RAW:
+        raise LimitError(
+            f"directory at offset {pos} declares {raw_len} bytes, more than the {MAX_RAW} "
+            "a reader inflates"
+        )
+    body = entropy.decompress(coder, stored, raw_len)
+    if zlib.crc32(body) != raw_crc:
+        raise ChecksumError(f"decoded body checksum mismatch (body at offset {body_at})")
+    sections, k = [], 0
+    for tag, n in entries:
+        sections.append(Section(tag, body[k : k + n]))
+        k += n
+    return Container(major, minor, flags, coder, len(stored), sections, start)

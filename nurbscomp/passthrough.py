@@ -19,7 +19,6 @@ read.  Nothing here imports OCP.
 from __future__ import annotations
 
 import hashlib
-import json
 import os
 import time
 import zlib
@@ -112,7 +111,7 @@ def _pack(
     InputError
         ``data`` is larger than a reader inflates (``container.MAX_RAW``).
     """
-    from .serialize import meta_text
+    from .serialize import meta_text, write_meta
 
     if len(data) > container.MAX_RAW - MAX_META_BYTES:
         raise InputError(
@@ -131,20 +130,19 @@ def _pack(
     }
     if reason is not None:
         meta["reason"] = meta_text(reason)
-    raw_meta = json.dumps(meta, sort_keys=True, separators=(",", ":")).encode()
+    raw_meta = write_meta(meta)
     sections = [("META", raw_meta), ("TEXT", blob)]
     return container.pack(sections, container.FLAG_EXACT, coders=(Coder.STORED,)), meta
 
 
 def _meta(c: container.Container, mode: str) -> dict[str, Any]:
     """META of a verbatim container, its fields checked (:func:`read`)."""
+    from .serialize import parse_meta
+
     raw = c.get("META")
     if len(raw) > MAX_META_BYTES:
         raise LimitError(f"META: {len(raw)} bytes, more than the {MAX_META_BYTES} a reader parses")
-    try:
-        meta = json.loads(raw.decode("utf-8"))
-    except (UnicodeDecodeError, ValueError, RecursionError):
-        raise SectionError("META section is not valid JSON") from None
+    meta = parse_meta(raw, c.revision)
     if not isinstance(meta, dict) or meta.get("mode") != mode:
         raise SectionError(f"META: a {mode} container's mode is not {mode!r}")
     for key in ("source_format", "source_name", "writer", "reason", "model", "sha256"):

@@ -36,14 +36,13 @@ import struct
 import sys
 import tempfile
 import traceback
-import zlib
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import zstandard
 
-from nurbscomp import container, entropy, pipeline, writer
+from nurbscomp import container, entropy, pipeline, serialize, writer
 from nurbscomp.errors import FormatError, UndiagnosedError
 from nurbscomp.model import (
     REBUILD,
@@ -55,8 +54,9 @@ from nurbscomp.model import (
     RepKind,
     ShapeType,
 )
+from nurbscomp.streams import varint
 
-from .golden.make_golden import pack_raw
+from .golden.make_golden import compact, fix_crcs, pack_raw
 from .supervisor import supervise
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -96,30 +96,35 @@ def make_seeds(folder: Path) -> list[bytes]:
 # ---------------------------------------------------------------- raw mutations
 
 
-def fix_crcs(data: bytes) -> bytes:
-    """Recompute the header and body CRCs, where the layout allows it."""
-    b = bytearray(data)
-    if len(b) < _HEADER:
-        return data
-    b[12:16] = struct.pack("<I", zlib.crc32(bytes(b[:12])))
-    nsec = struct.unpack_from("<H", b, 8)[0]
-    body = _HEADER + nsec * _ENTRY
-    if body + 16 > len(b):
-        return bytes(b)
-    crc = zlib.crc32(bytes(b[body : body + 12]), zlib.crc32(bytes(b[_HEADER:body])))
-    b[body + 12 : body + 16] = struct.pack("<I", zlib.crc32(bytes(b[body + 16 :]), crc))
-    return bytes(b)
-
-
 def _length_fields(data: bytes) -> list[tuple[int, str]]:
-    """Offsets and formats of every declared length or count in the outer layout."""
+    """Offsets and formats of every fixed-width length or count in the outer
+    layout (from format 2.6 the lengths are varints: :func:`_varint_lengths`)."""
     fields = [(8, "<H")]  # nsections
+    if compact(data):
+        return fields
     nsec = struct.unpack_from("<H", data, 8)[0]
     for i in range(nsec):
         fields.append((_HEADER + i * _ENTRY + 4, "<I"))  # a section's raw length
     body = _HEADER + nsec * _ENTRY
     fields += [(body + 4, "<I"), (body + 8, "<I")]  # raw and stored length
     return [(o, f) for o, f in fields if o + struct.calcsize(f) <= len(data)]
+
+
+def _varint_length(data: bytes, rng: random.Random) -> bytes:
+    """``data`` (format 2.6) with one directory entry's varint length replaced
+    by a large, small or random value (the file grows or shrinks with it)."""
+    nsec = struct.unpack_from("<H", data, 8)[0]
+    at, ends = _HEADER, []
+    for _ in range(nsec):
+        at += 5 if data[at] == container.TAG_ESCAPE else 1
+        start = at
+        while data[at] & 0x80:
+            at += 1
+        at += 1
+        ends.append((start, at))
+    start, end = rng.choice(ends)
+    value = rng.choice([2**62, 2**32, 2**28 + 1, rng.randrange(1 << 20), 0, 1])
+    return data[:start] + varint(value) + data[end:]
 
 
 def _big(rng: random.Random, fmt: str) -> int:
@@ -151,6 +156,9 @@ def mutate_raw(data: bytes, rng: random.Random) -> bytes:
     if kind == 5:  # random bytes with the magic
         return container.MAGIC + rng.randbytes(rng.randint(0, 64))
     # an inflated (or shrunk) length field, CRCs kept (6) or recomputed (7)
+    if compact(data) and rng.random() < 0.7:  # a directory's varint length (2.6)
+        out = _varint_length(data, rng)
+        return fix_crcs(out) if kind == 7 else out
     off, fmt = rng.choice(_length_fields(data))
     struct.pack_into(fmt, b, off, _big(rng, fmt))
     return fix_crcs(bytes(b)) if kind == 7 else bytes(b)
@@ -224,12 +232,16 @@ def _mutate_bytes(raw: bytes, rng: random.Random) -> bytes:
 
 
 def _mutate_meta(raw: bytes, rng: random.Random) -> bytes:
-    meta = json.loads(raw)
+    try:
+        meta = serialize.parse_meta(raw)
+    except FormatError:
+        raise ValueError("META does not read") from None
     key = rng.choice([*meta, "unit", "tolerance_mm", "mode"])
     meta[key] = rng.choice(
         [None, 0, -1, 1e308, float("nan"), "x", "INCH", "lossless", "tolerance", [], {}, 1e-300]
     )
-    return json.dumps(meta).encode()
+    # JSON, or (format 2.6) binary where every value has a binary form
+    return serialize.write_meta(meta) if rng.random() < 0.5 else json.dumps(meta).encode()
 
 
 def mutate_sections(data: bytes, rng: random.Random, others: list[bytes]) -> bytes:
@@ -307,14 +319,10 @@ def decoded(data: bytes) -> tuple[BRepModel, dict[str, Any]]:
 def pack_fast(sections: list[tuple[str, bytes]], flags: int) -> bytes:
     """A container coded with zstd at a fast level (a reader takes any level):
     as small as a writer's, in milliseconds even for a 24 MB net."""
-    d = b"".join(struct.pack("<4sII", t.encode(), len(r), zlib.crc32(r)) for t, r in sections)
     body = b"".join(r for _, r in sections)
     stored = zstandard.ZstdCompressor(level=3).compress(body)
-    head = struct.pack(
-        "<4sBBHHH", container.MAGIC, container.MAJOR, container.MINOR, flags, len(sections), 0
-    )
-    bh = struct.pack("<B3sII", int(entropy.Coder.ZSTD), b"\0\0\0", len(body), len(stored))
-    return fix_crcs(head + b"\0" * 4 + d + bh + b"\0" * 4 + stored)
+    version = (container.MAJOR, container.MINOR)
+    return container.frame(sections, flags, version, int(entropy.Coder.ZSTD), stored)
 
 
 def pack_model(m: BRepModel, meta: dict[str, Any]) -> bytes:
@@ -516,7 +524,9 @@ def meta_abuse(meta: dict[str, Any], rng: random.Random) -> bytes:
     ]
     meta[key] = rng.choice(bad)
     raw = json.dumps(meta, ensure_ascii=rng.random() < 0.5).encode("utf-8", "surrogatepass")
-    if rng.random() < 0.2:  # integers longer than Python's int() takes
+    if rng.random() < 0.3:  # binary (format 2.6), where every value has a binary form
+        raw = serialize.write_meta(meta)
+    elif rng.random() < 0.2:  # integers longer than Python's int() takes
         raw = raw[:-1] + b',"big":' + b"9" * rng.choice([21, 4301, 50000]) + b"}"
     return raw
 

@@ -21,6 +21,7 @@ from nurbscomp.errors import (
     TruncatedError,
     VersionError,
 )
+from nurbscomp.streams import varint
 
 SECTIONS = [("META", b'{"a":1}'), ("SURF", bytes(range(256)) * 20), ("EMPT", b"")]
 
@@ -89,13 +90,14 @@ def test_versions_read_and_refused() -> None:
         data[12:16] = struct.pack("<I", zlib.crc32(bytes(data[:12])))
         return bytes(data)
 
-    assert [container.unpack(at(1, m)).revision for m in (0, 1, 2, 9)] == [0, 1, 2, 2]
-    assert container.unpack(at(2, 0)).revision == 3
-    assert container.unpack(at(2, 1)).revision == 4
-    assert container.unpack(at(2, 2)).revision == 5
-    assert container.unpack(at(2, 3)).revision == 6
-    assert container.unpack(at(2, 4)).revision == 7
-    assert container.unpack(at(2, 5)).revision == container.REVISION == 8
+    def of(*version: int) -> int:  # each version laid out as it lays out its directory
+        c = container.unpack(container.pack(SECTIONS, version=version))
+        assert [s.raw for s in c.sections] == [raw for _, raw in SECTIONS]
+        return c.revision
+
+    assert [of(1, m) for m in (0, 1, 2, 9)] == [0, 1, 2, 2]
+    assert [of(2, m) for m in range(7)] == [3, 4, 5, 6, 7, 8, 9]
+    assert of(2, 6) == container.REVISION == 9
     for major, minor in ((2, container.MINOR + 1), (0, 3)):
         with pytest.raises(VersionError, match=f"{major}.{minor} is not supported"):
             container.unpack(at(major, minor))
@@ -114,7 +116,7 @@ def test_trailing_bytes_are_refused() -> None:
 
 
 def test_inflated_length_is_refused_before_reading() -> None:
-    data = bytearray(container.pack(SECTIONS))
+    data = bytearray(container.pack(SECTIONS, version=(2, 5)))
     # body header follows the 16-byte header and the directory (12 bytes an entry)
     at = 16 + 12 * len(SECTIONS)
     data[at + 8 : at + 12] = struct.pack("<I", 2**31)
@@ -185,11 +187,18 @@ def test_decompression_bomb_is_not_inflated(coder: entropy.Coder) -> None:
         entropy.decompress(coder, bomb, 1000)
     # a declared size above the reader's limit is refused before inflating
     sections = [("BOMB", zeros[:1000])]
-    data = bytearray(container.pack(sections, coders=(coder,)))
+    data = bytearray(container.pack(sections, coders=(coder,), version=(2, 5)))
     data[16 + 12 + 4 : 16 + 12 + 8] = struct.pack("<I", container.MAX_RAW + 1)
     data[16 + 4 : 16 + 8] = struct.pack("<I", container.MAX_RAW + 1)
     with pytest.raises(LimitError):
         container.unpack(_fix_crcs(bytes(data)))
+    # from 2.6, by the directory's varint lengths: one entry at offset 16,
+    # the escape code and the 4-byte tag, then the length (1000: two bytes)
+    data = container.pack(sections, coders=(coder,))
+    assert data[16] == container.TAG_ESCAPE and data[21:23] == varint(1000)
+    huge = data[:21] + varint(container.MAX_RAW + 1) + data[23:]
+    with pytest.raises(LimitError, match="declares"):
+        container.unpack(_fix_crcs(huge))
 
 
 def _fix_crcs(data: bytes) -> bytes:
@@ -215,6 +224,9 @@ def test_reserved_bits_and_trailing_bytes_have_their_own_errors() -> None:
     with pytest.raises(ReservedBitsError, match="offset 6"):
         container.unpack(fix_crcs(bytes(data)))
     with pytest.raises(TrailingDataError, match="offset"):
+        container.unpack(container.pack(SECTIONS, version=(2, 5)) + b"xyz")
+    # from 2.6 the payload runs to the end of the file: its CRC catches them
+    with pytest.raises(ChecksumError, match="body checksum"):
         container.unpack(container.pack(SECTIONS) + b"xyz")
 
 
@@ -297,7 +309,7 @@ def test_the_dictionary_coder_only_from_2_4() -> None:
     sections = [("META", b'{"mode":"tolerance"}')]
     old = container.pack(sections, version=(2, 3))
     assert container.unpack(old).coder != entropy.Coder.ZSTD_DICT
-    data = bytearray(container.pack(sections))
+    data = bytearray(container.pack(sections, version=(2, 5)))
     assert container.unpack(bytes(data)).coder == entropy.Coder.ZSTD_DICT
     data[5] = 3  # the same body in a 2.3 header
     data[12:16] = struct.pack("<I", zlib.crc32(bytes(data[:12])))
@@ -311,3 +323,51 @@ def test_a_text_stream_never_takes_the_dictionary_coder() -> None:
     stream = bytes([1, 4, 3, 3]) + b"abc"  # one stream, coder 4
     with pytest.raises(CorruptError, match="text stream coder 4"):
         coding.unpack(stream, 100)
+
+
+# --------------------------------------------- format 2.6: compact directory and body header
+
+
+def test_the_compact_layout_and_what_it_saves() -> None:
+    """docs/format.md §1.2, §1.3 (2.6): one-byte codes for the format's tags,
+    the escape and 4 bytes for others, varint lengths, a 9-byte body header."""
+    sections = [("META", b"x" * 3), ("SURF", bytes(200)), ("ZZZZ", b""), ("TEXT", b"t")]
+    data = container.pack(sections, coders=(entropy.Coder.STORED,))
+    body = 16 + 2 + 3 + 6 + 2
+    assert data[16:body] == bytes([0, 3, 2]) + varint(200) + b"\xffZZZZ\x00" + bytes([14, 1])
+    assert len(data) == body + 9 + 204
+    c = container.unpack(data)
+    assert [(s.tag, s.raw) for s in c.sections] == sections
+    assert c.file_bytes == len(data) and c.stored_length == 204
+    old = container.pack(sections, coders=(entropy.Coder.STORED,), version=(2, 5))
+    assert len(old) - len(data) == (12 * 4 + 16) - (body - 16 + 9)
+    assert container.unpack(old).file_bytes == len(old)
+
+
+@pytest.mark.parametrize(
+    "edit, error, fragment",
+    [
+        (lambda d: d[:16] + b"\x20" + d[17:], CorruptError, "unknown section tag code 32"),
+        (lambda d: d[:16] + b"\x01" + d[17:], CorruptError, "appears twice"),
+        (lambda d: d[:17] + b"\xff" * 9 + d[18:], CorruptError, "longer than 9 bytes"),
+        (lambda d: d[:18], TruncatedError, "directory truncated"),
+        (lambda d: d[:22], TruncatedError, "body header truncated"),
+    ],
+    ids=["unknown code", "twice", "long varint", "cut directory", "cut body header"],
+)
+def test_a_damaged_compact_directory_is_refused(edit, error, fragment) -> None:
+    from .golden.make_golden import fix_crcs
+
+    data = container.pack([("META", b"ab"), ("LOCS", b"c")], coders=(entropy.Coder.STORED,))
+    with pytest.raises(error, match=fragment):
+        container.unpack(fix_crcs(edit(data)))
+
+
+def test_the_decoded_body_crc_is_checked() -> None:
+    """A 2.6 file's one CRC of the decoded sections (where 2.5 had one each)."""
+    from .golden.make_golden import fix_crcs
+
+    data = bytearray(container.pack(SECTIONS, coders=(entropy.Coder.STORED,)))
+    data[-1] ^= 1  # the payload, then the body CRC made right again
+    with pytest.raises(ChecksumError, match="decoded body checksum"):
+        container.unpack(fix_crcs(bytes(data)))

@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 
 import nurbscomp
-from nurbscomp import container, errors, occ, passthrough, pipeline, text
+from nurbscomp import container, errors, occ, passthrough, pipeline, serialize, text
 
 from .conftest import CORPUS, SAMPLES, in_corpus
 
@@ -119,7 +119,7 @@ def test_damaged_byte_exact_containers() -> None:
     src = (SAMPLES / "loft.step").read_bytes()
     good = passthrough.pack(src, "STEP", "loft.step")
     c = container.unpack(good)
-    meta, blob = json.loads(c.get("META")), c.get("TEXT")
+    meta, blob = serialize.parse_meta(c.get("META")), c.get("TEXT")
 
     def meta_with(**kw: object) -> bytes:
         return json.dumps({**meta, **kw}).encode()

@@ -71,8 +71,10 @@ from .meta import (
     MAX_META_TEXT,
     MAX_SOURCE_BYTES,
     meta_text,
+    parse_meta,
     read_meta,
     tolerance,
+    write_meta,
 )
 from .nets import (
     NET_STREAMS,
@@ -172,7 +174,9 @@ __all__ = [
     "meta_text",
     "model_to_sections",
     "quarter_power",
+    "parse_meta",
     "read_meta",
+    "write_meta",
     "read_sections",
     "tolerance",
     "vertex_grid",

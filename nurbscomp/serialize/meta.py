@@ -1,12 +1,16 @@
-"""`META` (§2): the JSON header of a container, read with bounds on its size,
-its strings and its numbers."""
+"""`META` (§2): the header of a container, as JSON or (format 2.6, §2.12) in
+binary, read with bounds on its size, its strings and its numbers."""
 
 from __future__ import annotations
 
 import json
+import math
+import struct
 from typing import Any, cast
 
-from ..errors import LimitError, SectionError
+from .. import container
+from ..errors import CorruptError, LimitError, SectionError
+from ..streams import read_varint, varint
 from ..units import UNITS_MM
 from .limits import MAX_COORD
 
@@ -48,8 +52,189 @@ def meta_text(s: str) -> str:
     return "".join("\ufffd" if _bad_text(c) else c for c in s) if _bad_text(s) else s
 
 
-def read_meta(raw: bytes) -> dict[str, Any]:
-    """The META section's JSON object, its fields checked.
+#: §2.12: the keys a binary META names by a one-byte code (its index).
+KEYS = (
+    "mode", "source_bytes", "source_format", "source_name", "step_pcurves", "tolerance_mm",
+    "unit", "writer", "sha256", "model", "reason", "decoded", "rows", "references", "depth",
+    "poles", "bases", "step_bytes", "iges_bytes",
+)  # fmt: skip
+#: §2.12: the strings a binary META value names by a one-byte code.
+WORDS = (
+    "tolerance", "lossless", "exact", "passthrough", "STEP", "IGES", "MM", "CM", "M", "KM",
+    "UM", "INCH", "FT", "MI", "MIL", "UIN", "plain", "step", "iges",
+)  # fmt: skip
+#: §2.12: the first byte of a binary META (a JSON one starts with ``{``).
+BINARY = 1
+_KEY_ESCAPE = 255
+_NULL, _FALSE, _TRUE, _INT, _FLOAT, _STR, _WORD, _HEX, _OBJECT = range(9)
+_F64 = struct.Struct("<d")
+#: Largest magnitude of a binary META integer (a zig-zag varint of 9 bytes).
+_INT_LIMIT = 1 << 62
+
+
+def _hex(s: str) -> bool:
+    return bool(s) and len(s) % 2 == 0 and all(c in "0123456789abcdef" for c in s)
+
+
+def _text(s: str) -> bytes | None:
+    """A String of §2.12 (None for text UTF-8 cannot hold: a lone surrogate)."""
+    try:
+        b = s.encode("utf-8")
+    except UnicodeEncodeError:
+        return None
+    return varint(len(b)) + b
+
+
+def _value(v: Any, top: bool) -> bytes | None:
+    """One value in binary (§2.12), None where the binary form has none."""
+    if v is None:
+        return bytes([_NULL])
+    if isinstance(v, bool):
+        return bytes([_TRUE if v else _FALSE])
+    if isinstance(v, int):
+        if abs(v) >= _INT_LIMIT:
+            return None
+        return bytes([_INT]) + varint(2 * v if v >= 0 else -2 * v - 1)
+    if isinstance(v, float):
+        return bytes([_FLOAT]) + _F64.pack(v) if math.isfinite(v) else None
+    if isinstance(v, str):
+        if v in WORDS:
+            return bytes([_WORD, WORDS.index(v)])
+        if _hex(v):
+            return bytes([_HEX]) + varint(len(v) // 2) + bytes.fromhex(v)
+        t = _text(v)
+        return None if t is None else bytes([_STR]) + t
+    if isinstance(v, dict) and top:
+        inner = _object(v, False)
+        return None if inner is None else bytes([_OBJECT]) + inner
+    return None
+
+
+def _object(d: dict[str, Any], top: bool) -> bytes | None:
+    parts = [varint(len(d))]
+    for k in sorted(d):
+        if not isinstance(k, str):
+            return None
+        v = _value(d[k], top)
+        key = bytes([KEYS.index(k)]) if k in KEYS else _text(k)
+        if v is None or key is None:
+            return None
+        parts += [key if k in KEYS else bytes([_KEY_ESCAPE]) + key, v]
+    return b"".join(parts)
+
+
+def write_meta(meta: dict[str, Any], revision: int = container.REVISION) -> bytes:
+    """The META section of ``meta``: binary (§2.12) from format 2.6 wherever
+    every value has a binary form, else JSON with sorted keys."""
+    if revision >= container.COMPACT:
+        body = _object(meta, True)
+        if body is not None:
+            return bytes([BINARY]) + body
+    return json.dumps(meta, sort_keys=True, separators=(",", ":")).encode()
+
+
+class _Binary:
+    """Reads a binary META (§2.12); every fault a ``SectionError``."""
+
+    def __init__(self, raw: bytes) -> None:
+        self.raw, self.pos = raw, 1
+
+    def byte(self) -> int:
+        if self.pos >= len(self.raw):
+            raise SectionError("META: binary object runs past the section")
+        self.pos += 1
+        return self.raw[self.pos - 1]
+
+    def count(self) -> int:
+        try:
+            n, self.pos = read_varint(self.raw, self.pos)
+        except CorruptError:  # a TruncatedError too
+            raise SectionError(f"META: bad varint at offset {self.pos}") from None
+        return n
+
+    def take(self, n: int) -> bytes:
+        if n > len(self.raw) - self.pos:
+            raise SectionError("META: a length past the section's end")
+        self.pos += n
+        return self.raw[self.pos - n : self.pos]
+
+    def text(self) -> str:
+        try:
+            return self.take(self.count()).decode("utf-8")
+        except UnicodeDecodeError:
+            raise SectionError("META: text that is not UTF-8") from None
+
+    def value(self, top: bool) -> Any:
+        t = self.byte()
+        if t in (_NULL, _FALSE, _TRUE):
+            return (None, False, True)[t]
+        if t == _INT:
+            z = self.count()
+            return z >> 1 if not z & 1 else -((z + 1) >> 1)
+        if t == _FLOAT:
+            (x,) = _F64.unpack(self.take(8))
+            if not math.isfinite(x):
+                raise SectionError("META: a number that is not finite")
+            return x
+        if t == _STR:
+            return self.text()
+        if t == _WORD:
+            w = self.byte()
+            if w >= len(WORDS):
+                raise SectionError(f"META: string code {w} past the table")
+            return WORDS[w]
+        if t == _HEX:
+            return self.take(self.count()).hex()
+        if t == _OBJECT and top:
+            return self.object(False)
+        raise SectionError(f"META: unknown value type {t}" + ("" if top else " in an object"))
+
+    def object(self, top: bool) -> dict[str, Any]:
+        n = self.count()
+        if n > len(self.raw) - self.pos:  # two bytes an entry at least
+            raise SectionError("META: more entries than the section holds")
+        out: dict[str, Any] = {}
+        for _ in range(n):
+            k = self.byte()
+            if k == _KEY_ESCAPE:
+                key = self.text()
+            elif k < len(KEYS):
+                key = KEYS[k]
+            else:
+                raise SectionError(f"META: key code {k} past the table")
+            if key in out:
+                raise SectionError(f"META: key {key[:20]!r} twice")
+            out[key] = self.value(top)
+        return out
+
+
+def parse_meta(raw: bytes, revision: int = container.REVISION) -> Any:
+    """META's object, JSON or (from format 2.6) binary, before its fields are
+    checked (:func:`read_meta` checks a B-rep container's, ``passthrough`` a
+    verbatim one's).
+
+    Raises
+    ------
+    SectionError
+        Neither valid JSON nor, in a file of format 2.6 or later, a valid binary object.
+    """
+    if revision >= container.COMPACT and raw[:1] not in (b"{", bytes([BINARY])):
+        raise SectionError("META section is neither a JSON object nor binary")
+    if raw[:1] == bytes([BINARY]) and revision >= container.COMPACT:
+        b = _Binary(raw)
+        meta = b.object(True)
+        if b.pos != len(raw):
+            raise SectionError("META: bytes after the binary object")
+        return meta
+    try:
+        return json.loads(raw.decode("utf-8"), parse_int=_meta_int, parse_constant=_meta_constant)
+    except (UnicodeDecodeError, json.JSONDecodeError, RecursionError):
+        raise SectionError("META section is not valid JSON") from None
+
+
+def read_meta(raw: bytes, revision: int = container.REVISION) -> dict[str, Any]:
+    """The META section's object (JSON, or binary in a file of ``revision``
+    from format 2.6), its fields checked.
 
     Raises
     ------
@@ -62,10 +247,7 @@ def read_meta(raw: bytes) -> dict[str, Any]:
     """
     if len(raw) > MAX_META_BYTES:
         raise LimitError(f"META: {len(raw)} bytes, more than the {MAX_META_BYTES} a reader parses")
-    try:
-        meta = json.loads(raw.decode("utf-8"), parse_int=_meta_int, parse_constant=_meta_constant)
-    except (UnicodeDecodeError, json.JSONDecodeError, RecursionError):
-        raise SectionError("META section is not valid JSON") from None
+    meta = parse_meta(raw, revision)
     if not isinstance(meta, dict):
         raise SectionError("META section is not a JSON object")
     for key in ("unit", "source_format", "mode", "source_name", "writer"):

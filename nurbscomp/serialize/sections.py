@@ -4,7 +4,6 @@ reading them all with every reference checked (``read_sections``)."""
 
 from __future__ import annotations
 
-import json
 from collections.abc import Callable, Collection
 from typing import Any, cast
 
@@ -24,7 +23,7 @@ from ..model import (
 )
 from .edges import _read_edges, _read_faces, _resolve_picks, _write_edges, _write_faces
 from .geometry import SWEPT, _read_geometry, _write_geometry
-from .meta import read_meta, tolerance
+from .meta import read_meta, tolerance, write_meta
 from .nets import (
     Tables,
     _net_shapes,
@@ -51,7 +50,7 @@ def model_to_sections(
     meta = {**meta, "unit": m.unit, "source_format": m.source_format}
     tol = float(meta.get("tolerance_mm") or 0.0)
     writers: list[tuple[str, Callable[[], bytes]]] = [
-        ("META", lambda: json.dumps(meta, sort_keys=True, separators=(",", ":")).encode()),
+        ("META", lambda: write_meta(meta)),
         ("LOCS", lambda: _write_locations(m)),
         ("SURF", lambda: _write_geometry(m.surfaces, 3, t.rows(Table.SURFACE))),
         ("SNET", lambda: _write_nets(t.snet, _net_shapes(m.surfaces, t, Table.SURFACE), True)),
@@ -153,7 +152,7 @@ def _optional(get: Any, tag: str) -> bytes | None:
 def _read_sections(
     get: Any, revision: int, limits: budget.Limits | None
 ) -> tuple[BRepModel, dict[str, Any], Tables]:
-    meta = read_meta(get("META"))
+    meta = read_meta(get("META"), revision)
     m = BRepModel()
     m.unit = str(meta.get("unit", "MM"))
     m.source_format = str(meta.get("source_format", "STEP"))

@@ -84,7 +84,7 @@ def source_format(path: Path) -> str:
     c = read_container(path)
     if c.flags & passthrough.VERBATIM:
         return str(passthrough.read(c)[0]["source_format"])
-    fmt = str(serialize.read_meta(c.get("META")).get("source_format", "STEP"))
+    fmt = str(serialize.read_meta(c.get("META"), c.revision).get("source_format", "STEP"))
     return fmt if fmt in FORMAT_SUFFIX else "STEP"
 
 

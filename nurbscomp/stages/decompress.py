@@ -66,7 +66,7 @@ def decode(
     serialize.check_layout(c.tags(), c.revision, newer=c.major == 1 and c.minor > 2)
     if limits is not None:
         # what the writer declared it decodes into is admitted, up to a ceiling
-        declared = budget.declared(serialize.read_meta(c.get("META")))
+        declared = budget.declared(serialize.read_meta(c.get("META"), c.revision))
         limits = limits.sized(c.file_bytes).admit(declared)
     try:
         m, meta = sections_to_model(c.get, c.revision, limits)

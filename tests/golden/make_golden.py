@@ -81,10 +81,16 @@ GOLDEN = [
     # format 2.5: vertices near an earlier vertex (VERT kind 2: a surface model's twins)
     ("teapot.step", "v2_5.faces.tol0.01", {"tol": 0.01}),
     ("teapot.step", "v2_5.faces.lossless", {"lossless": True}),
+    # format 2.6: the compact directory and body header, META in binary
+    ("bracket.step", "v2_6.tol0.01", {"tol": 0.01}),
+    ("assembly.step", "v2_6.lossless", {"lossless": True}),
+    ("loft.step", "v2_6.exact", {"exact": True}),
 ]
 
 
 def _version(sample: str, mode: str) -> str:
+    if mode.startswith("v2_6."):
+        return "2.6"
     if mode.startswith("v2_5."):
         return "2.5"
     if mode.startswith("v2_4."):
@@ -237,13 +243,46 @@ def describe(data: bytes) -> dict:
 # ---------------------------------------------------------------- damaged files
 
 
+def compact(data: bytes) -> bool:
+    """Whether container bytes' header says format 2.6's directory and body header."""
+    v = (data[4], data[5])
+    return v in container.VERSIONS and container.revision(*v) >= container.COMPACT
+
+
+def body_at(data: bytes) -> int | None:
+    """Where the body header of container bytes starts (their header's version
+    says how the directory is laid out), None where the directory is cut."""
+    if len(data) < 16:
+        return None
+    nsec = struct.unpack_from("<H", data, 8)[0]
+    if not compact(data):
+        return 16 + 12 * nsec
+    at = 16
+    for _ in range(nsec):
+        if at >= len(data):
+            return None
+        at += 5 if data[at] == container.TAG_ESCAPE else 1
+        while at < len(data) and data[at] & 0x80:
+            at += 1
+        at += 1
+    return at if at <= len(data) else None
+
+
 def fix_crcs(data: bytes) -> bytes:
-    """Recompute the header and body CRCs of (possibly damaged) container bytes."""
+    """Recompute the header and body CRCs of (possibly damaged) container bytes,
+    where the layout allows it (not the CRCs of the decoded sections)."""
     b = bytearray(data)
+    if len(b) < 16:
+        return data
     b[12:16] = struct.pack("<I", zlib.crc32(bytes(b[:12])))
-    body = 16 + 12 * struct.unpack_from("<H", b, 8)[0]
-    crc = zlib.crc32(bytes(b[body : body + 12]), zlib.crc32(bytes(b[16:body])))
-    b[body + 12 : body + 16] = struct.pack("<I", zlib.crc32(bytes(b[body + 16 :]), crc))
+    body = body_at(bytes(b))
+    head = 5 if compact(bytes(b)) else 12
+    if body is None or body + head + 4 > len(b):
+        return bytes(b)
+    crc = zlib.crc32(bytes(b[body : body + head]), zlib.crc32(bytes(b[16:body])))
+    b[body + head : body + head + 4] = struct.pack(
+        "<I", zlib.crc32(bytes(b[body + head + 4 :]), crc)
+    )
     return bytes(b)
 
 
@@ -254,14 +293,9 @@ def pack_raw(
     major: int = container.MAJOR,
 ) -> bytes:
     """``container.pack`` without its checks (duplicate tags allowed), any version."""
-    d = b"".join(
-        struct.pack("<4sII", t.encode("latin-1"), len(r), zlib.crc32(r)) for t, r in sections
-    )
     body = b"".join(r for _, r in sections)
     stored = entropy._compress(entropy.Coder.STORED, body)
-    head = struct.pack("<4sBBHHH", container.MAGIC, major, minor, flags, len(sections), 0)
-    bh = struct.pack("<B3sII", 0, b"\0\0\0", len(body), len(stored))
-    return fix_crcs(head + b"\0" * 4 + d + bh + b"\0" * 4 + stored)
+    return container.frame(sections, flags, (major, minor), 0, stored)
 
 
 def _replace(secs: list[tuple[str, bytes]], tag: str, raw: bytes) -> list[tuple[str, bytes]]:

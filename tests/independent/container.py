@@ -22,7 +22,19 @@ REVISION = {
     (2, 3): 6,
     (2, 4): 7,
     (2, 5): 8,
+    (2, 6): 9,
 }
+#: §1.2 (2.6): the tags of the directory's one-byte codes
+TAGS = "META LOCS SURF SNET CRV3 CNET CRV2 SHAP VERT EDGE FACE SIDE PROD FILE TEXT".split()
+#: §2.12 (2.6): the binary META's key and string tables
+META_KEYS = (
+    "mode source_bytes source_format source_name step_pcurves tolerance_mm unit writer sha256 "
+    "model reason decoded rows references depth poles bases step_bytes iges_bytes"
+).split()
+META_WORDS = (
+    "tolerance lossless exact passthrough STEP IGES MM CM M KM UM INCH FT MI MIL UIN plain step "
+    "iges"
+).split()
 
 
 #: §1.3 (2.4): the dictionary of coder 4, a file of the format
@@ -63,6 +75,83 @@ def _inflate(coder: int, payload: bytes, raw_length: int, revision: int) -> byte
     return out
 
 
+def leb128(data: bytes, pos: int) -> tuple[int, int]:
+    """§1.2: a varint, at most 9 bytes; the value and the position after it."""
+    value = 0
+    for i in range(9):
+        if pos + i >= len(data):
+            raise ReadError("varint cut")
+        value |= (data[pos + i] & 127) << (7 * i)
+        if data[pos + i] < 128:
+            return value, pos + i + 1
+    raise ReadError("varint of more than 9 bytes")
+
+
+class BinaryMeta:
+    """§2.12: META in binary."""
+
+    def __init__(self, raw: bytes) -> None:
+        self.raw, self.pos = raw, 1
+
+    def u8(self) -> int:
+        if self.pos >= len(self.raw):
+            raise ReadError("META cut")
+        self.pos += 1
+        return self.raw[self.pos - 1]
+
+    def n(self) -> int:
+        v, self.pos = leb128(self.raw, self.pos)
+        return v
+
+    def blob(self, k: int) -> bytes:
+        if self.pos + k > len(self.raw):
+            raise ReadError("META length")
+        self.pos += k
+        return self.raw[self.pos - k : self.pos]
+
+    def string(self) -> str:
+        return self.blob(self.n()).decode("utf-8")
+
+    def obj(self, depth: int) -> dict:
+        out = {}
+        for _ in range(self.n()):
+            code = self.u8()
+            key = self.string() if code == 255 else META_KEYS[code]
+            if key in out:
+                raise ReadError("META key twice")
+            kind = self.u8()
+            if kind <= 2:
+                value = (None, False, True)[kind]
+            elif kind == 3:
+                z = self.n()
+                value = -(z + 1) // 2 if z % 2 else z // 2
+            elif kind == 4:
+                (value,) = struct.unpack("<d", self.blob(8))
+            elif kind == 5:
+                value = self.string()
+            elif kind == 6:
+                value = META_WORDS[self.u8()]
+            elif kind == 7:
+                value = self.blob(self.n()).hex()
+            elif kind == 8 and depth == 0:
+                value = self.obj(1)
+            else:
+                raise ReadError(f"META value type {kind}")
+            out[key] = value
+        return out
+
+
+def read_meta(raw: bytes, revision: int) -> dict:
+    """§2 and §2.12: META as JSON, or from 2.6 in binary."""
+    if revision >= 9 and raw[:1] == b"\x01":
+        b = BinaryMeta(raw)
+        meta = b.obj(0)
+        if b.pos != len(raw):
+            raise ReadError("bytes after META")
+        return meta
+    return json.loads(raw.decode("utf-8"))
+
+
 class Container:
     """The header's fields and the sections' bytes by tag (§1.1–1.3)."""
 
@@ -76,6 +165,11 @@ class Container:
         if (self.major, self.minor) not in REVISION:
             raise ReadError(f"version {self.major}.{self.minor}")
         self.revision = REVISION[(self.major, self.minor)]
+        self.sections: dict[str, bytes] = {}
+        self.order: list[str] = []
+        if self.revision >= 9:
+            self._compact(data, nsec)
+            return
         pos = 16
         directory = []
         for _ in range(nsec):
@@ -96,8 +190,6 @@ class Container:
         if raw_length != sum(d[1] for d in directory):
             raise ReadError("raw length")
         body = _inflate(coder, payload, raw_length, self.revision)
-        self.sections: dict[str, bytes] = {}
-        self.order: list[str] = []
         at = 0
         for tag, length, scrc in directory:
             raw = body[at : at + length]
@@ -109,6 +201,38 @@ class Container:
             self.sections[tag] = raw
             self.order.append(tag)
 
+    def _compact(self, data: bytes, nsec: int) -> None:
+        """§1.2 and §1.3 from 2.6: codes and varints, one CRC of the decoded body."""
+        pos = 16
+        directory = []
+        for _ in range(nsec):
+            code = data[pos]
+            pos += 1
+            if code == 255:
+                tag = data[pos : pos + 4].decode("ascii")
+                pos += 4
+            else:
+                tag = TAGS[code]
+            length, pos = leb128(data, pos)
+            directory.append((tag, length))
+        coder, raw_crc, body_crc = struct.unpack_from("<BII", data, pos)
+        payload = data[pos + 9 :]
+        if (
+            zlib.crc32(payload, zlib.crc32(data[pos : pos + 5], zlib.crc32(data[16:pos])))
+            != body_crc
+        ):
+            raise ReadError("body crc")
+        body = _inflate(coder, payload, sum(n for _, n in directory), self.revision)
+        if zlib.crc32(body) != raw_crc:
+            raise ReadError("decoded body crc")
+        at = 0
+        for tag, length in directory:
+            if tag in self.sections:
+                raise ReadError(f"section {tag} twice")
+            self.sections[tag] = body[at : at + length]
+            self.order.append(tag)
+            at += length
+
     @property
     def lossless(self) -> bool:
         return bool(self.flags & 1)
@@ -118,7 +242,7 @@ class Container:
         return not self.flags & 6
 
     def meta(self) -> dict:
-        return json.loads(self.sections["META"].decode("utf-8"))
+        return read_meta(self.sections["META"], self.revision)
 
 
 class Arrays:
