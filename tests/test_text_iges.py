@@ -278,3 +278,67 @@ def test_record_types_match_split_and_strip():
     for row, r in zip(got, recs):
         head = r.split(b",", 1)[0].strip()
         assert bytes(row) == (b"%8s" % head if len(head) <= 8 else b" " * 8)
+
+
+def _lines_one_by_one(mode, bounds, rlen, rcount, exc):
+    """P line starts and lengths, line by line (what iges._lines computes)."""
+    ends = np.cumsum(rlen + 1) - 1
+    starts, lens, li = [], [], 0
+    bl = bounds.tolist()
+    for r in range(len(rlen)):
+        pr, er = int(ends[r] - rlen[r]), int(ends[r])
+        for _ in range(int(rcount[r])):
+            w = int(exc[li]) if exc[li] >= 0 else iges._layout1(mode, bl, pr, er)
+            if w < 0 or w > iges.P_WIDTH or pr + w > er:
+                raise FormatError("does not fit")
+            starts.append(pr)
+            lens.append(w)
+            pr += w
+            li += 1
+        if pr != er:
+            raise FormatError("does not cover")
+    return starts, lens
+
+
+def test_lines_match_the_line_by_line_layout():
+    """Records of every length (long ones go by pointer doubling), parameters
+    longer than a line, layout exceptions and wrong line counts."""
+    rng = random.Random(4)
+    for _ in range(300):
+        recs = []
+        for _ in range(rng.randrange(1, 40)):
+            n = rng.choice([rng.randrange(80), rng.randrange(600), rng.randrange(3000)])
+            dense = rng.random() * 0.3
+            recs.append(
+                bytes(
+                    rng.choice(b",;") if rng.random() < dense else rng.choice(b"0123456789.E-")
+                    for _ in range(n)
+                )
+            )
+        ptext = b"\n".join(recs)
+        mode = rng.randrange(2)
+        bounds = iges._bounds(ptext, ord(","), ord(";"))
+        rlen = np.array([len(r) for r in recs], np.int64)
+        ends = np.cumsum(rlen + 1) - 1
+        rcount = []
+        bl = bounds.tolist()
+        for r in range(len(recs)):
+            s, e, c = int(ends[r] - rlen[r]), int(ends[r]), 0
+            while (w := iges._layout1(mode, bl, s, e)) >= 0:
+                s, c = s + w, c + 1
+            rcount.append(max(c, 1))
+        rc = np.array(rcount, np.int64)
+        if rng.random() < 0.3:
+            i = rng.randrange(len(rc))
+            rc[i] = max(1, rc[i] + rng.choice([-1, 1, 2]))
+        exc = np.full(int(rc.sum()), -1, np.int64)
+        for _ in range(rng.randrange(4) if rng.random() < 0.4 else 0):
+            exc[rng.randrange(len(exc))] = rng.randrange(70)
+        try:
+            want = _lines_one_by_one(mode, bounds, rlen, rc, exc)
+        except FormatError:
+            with pytest.raises(FormatError):
+                iges._lines(mode, bounds, rlen, rc, exc)
+            continue
+        starts, lens = iges._lines(mode, bounds, rlen, rc, exc)
+        assert (starts.tolist(), lens.tolist()) == want

@@ -148,13 +148,18 @@ def take(col: Column, index: np.ndarray) -> Column:
 
 def join(col: Column) -> bytes:
     """The items of ``col`` one after the other, as one ``bytes``."""
+    return gather(col).tobytes()
+
+
+def gather(col: Column) -> np.ndarray:
+    """The items of ``col`` one after the other, as one uint8 array."""
     size = col.size
     total = int(size.sum())
     if not total:
-        return b""
+        return np.zeros(0, np.uint8)
     # int32 offsets where they fit: a fifth faster than int64 on a 1 MB text
     kind = np.int32 if max(total, len(col.buf)) < 1 << 31 else np.int64
     at = np.repeat((col.start - (np.cumsum(size) - size)).astype(kind), size)
     at += np.arange(total, dtype=kind)
     # np.take: half the time of indexing with ``[at]`` on a 1 MB text
-    return np.take(np.frombuffer(col.buf, np.uint8), at).tobytes()
+    return np.take(np.frombuffer(col.buf, np.uint8), at)

@@ -205,9 +205,26 @@ def _lines(
     bnd: list[int] | None = None
     for j in range(int(desc[0]) if nrec else 0):
         act = order[: int(np.searchsorted(-desc, -j, side="left"))]
-        if len(act) < FEW_RECORDS:  # a few long records left: line by line
-            bnd = bounds.tolist() if bnd is None else bnd
-            for r in act.tolist():
+        if len(act) < FEW_RECORDS:  # a few long records left: each on its own
+            # those with a layout exception to come line by line, the others
+            # by pointer doubling
+            xl = np.flatnonzero(exc >= 0)
+            xr = np.searchsorted(base, xl, side="right") - 1
+            late = np.isin(act, xr[xl - base[xr] >= j])
+            slow = act[late].tolist()
+            quick = act[~late]
+            if len(quick):
+                got = _chain(mode, bounds, pos[quick], ends[quick], rcount[quick] - j)
+                if got is None:
+                    slow = act.tolist()
+                else:
+                    left = rcount[quick] - j
+                    at = np.repeat(base[quick] + j - (np.cumsum(left) - left), left)
+                    at += np.arange(len(at))
+                    starts[at], lens[at] = got
+                    pos[quick] = ends[quick]
+            bnd = bounds.tolist() if slow else []
+            for r in slow:
                 pr, er, lr = int(pos[r]), int(ends[r]), int(base[r])
                 for li in range(lr + j, lr + int(rcount[r])):
                     w = int(exc[li])
@@ -232,6 +249,75 @@ def _lines(
     if (pos != ends).any():
         raise CorruptError("IGES model: P lines do not cover their record")
     return starts, lens
+
+
+#: Rounds of :func:`_chain` that add the positions lines break at inside a
+#: parameter (no delimiter fits) before it gives up: then line by line.
+CHAIN_ROUNDS = 4
+
+
+def _merge(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The distinct values of two ascending arrays, ascending (``b`` the
+    shorter: ``np.unique`` sorts, ten times the time of this)."""
+    out = np.insert(a, np.searchsorted(a, b), b)
+    return out[np.r_[True, out[1:] != out[:-1]]] if len(out) else out
+
+
+def _chain(
+    mode: int, bounds: np.ndarray, first: np.ndarray, end: np.ndarray, count: np.ndarray
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """Where each line of some records starts and its length, the records
+    (disjoint, from ``first`` to ``end``, ``count`` lines each) laid out by
+    :func:`_layout` alone, by pointer doubling: a line's start follows from
+    the previous one's, so the starts lines can have (the records' first
+    positions and the bounds in them; a position past a parameter cut at
+    P_WIDTH is added) are each given the next, and the k-th line's start
+    found in log2(k) steps.  None when lines cut parameters more than
+    :data:`CHAIN_ROUNDS` rounds find.
+
+    Raises
+    ------
+    CorruptError
+        A line that does not fit its record, or lines that do not cover it.
+    """
+    order = np.argsort(first)
+    lo, hi = first[order], end[order]
+    k = np.searchsorted(hi, bounds, side="left")
+    inside = k < len(hi)
+    inside[inside] &= bounds[inside] > lo[k[inside]]
+    nodes = _merge(bounds[inside], lo)
+    for _ in range(CHAIN_ROUNDS):
+        e = hi[np.searchsorted(hi, nodes, side="left")]
+        step = _layout(mode, bounds, nodes, e)
+        ok = (step >= 0) & (step <= P_WIDTH) & (nodes + step <= e)
+        nxt = nodes + step
+        to = nxt[ok]
+        new = to[nodes[np.minimum(np.searchsorted(nodes, to), len(nodes) - 1)] != to]
+        if not len(new):
+            break
+        nodes = _merge(nodes, np.sort(new))
+    else:
+        return None
+    sink = len(nodes)
+    jump = np.where(ok, np.searchsorted(nodes, nxt), sink)
+    jump = np.r_[jump, sink]
+    # the start of line t of each record, t = 0 ... count (the last: where it ends)
+    t = np.arange(int(count.sum()) + len(count)) - np.repeat(
+        np.cumsum(count + 1) - count - 1, count + 1
+    )
+    at = np.repeat(np.searchsorted(nodes, first), count + 1)
+    for bit in range(int(count.max()).bit_length()):
+        at = np.where(t >> bit & 1, jump[at], at)
+        jump = jump[jump]
+    last = np.cumsum(count + 1) - 1
+    line = np.ones(len(at), bool)
+    line[last] = False
+    if (at[line] == sink).any() or not ok[at[line]].all():
+        raise CorruptError("IGES model: P line layout does not fit its record")
+    if (at[last] == sink).any() or (nodes[np.minimum(at[last], sink - 1)] != end).any():
+        raise CorruptError("IGES model: P lines do not cover their record")
+    at = at[line]
+    return nodes[at], step[at]
 
 
 class _Varints:
@@ -604,13 +690,18 @@ def _pole_lanes(skel: bytes, pd: int, ph: int) -> list[tuple[int, int, int]]:
     return out
 
 
-def _lane_sel(lanes: list[tuple[int, int, int]], nd: np.ndarray, q: np.ndarray) -> list[np.ndarray]:
-    """The real indices of each pole lane (entity and coordinate) that is
-    predicted: all its reals have digit slots, and at the lane's finest
-    quantum none has more than LANE_DIGITS digits.  (All lanes at once: one
-    flat index array, reduced per lane.)"""
+def _lane_table(
+    lanes: list[tuple[int, int, int]], nd: np.ndarray, q: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The real indices of the pole lanes (entity and coordinate) that are
+    predicted: all their reals have digit slots, and at the lane's finest
+    quantum none has more than LANE_DIGITS digits.  One flat index array and,
+    per lane kept, its offset in it, its rows and columns (the lane's
+    indices are ``flat[off : off + rows * cols]``, row by row).  All lanes at
+    once: one flat index array, reduced per lane."""
     if not lanes:
-        return []
+        empty = np.zeros(0, np.int64)
+        return empty, empty, empty, empty
     first_e, rows_e, cols_e = (np.asarray(x, dtype=np.int64) for x in zip(*lanes))
     size = np.repeat(rows_e * cols_e, 3)
     start = np.repeat(first_e, 3) + np.tile(np.arange(3), len(lanes))
@@ -621,10 +712,18 @@ def _lane_sel(lanes: list[tuple[int, int, int]], nd: np.ndarray, q: np.ndarray) 
     qf = q[flat]
     qmin = np.minimum.reduceat(qf, off)
     widest = np.maximum.reduceat(nd[flat] + qf - np.repeat(qmin, size), off)
-    keep = np.flatnonzero(ok & (widest <= LANE_DIGITS)).tolist()
-    shape = np.repeat(np.stack([rows_e, cols_e], axis=1), 3, axis=0).tolist()
-    offl, sizel = off.tolist(), size.tolist()
-    return [flat[offl[k] : offl[k] + sizel[k]].reshape(shape[k]) for k in keep]
+    keep = np.flatnonzero(ok & (widest <= LANE_DIGITS))
+    return flat, off[keep], np.repeat(rows_e, 3)[keep], np.repeat(cols_e, 3)[keep]
+
+
+def _lane_sel(lanes: list[tuple[int, int, int]], nd: np.ndarray, q: np.ndarray) -> list[np.ndarray]:
+    """The real indices of each pole lane that is predicted (:func:`_lane_table`),
+    as a (rows, columns) array each."""
+    flat, off, rows, cols = _lane_table(lanes, nd, q)
+    return [
+        flat[o : o + r * c].reshape(r, c)
+        for o, r, c in zip(off.tolist(), rows.tolist(), cols.tolist())
+    ]
 
 
 def _diff(a: np.ndarray) -> np.ndarray:
@@ -739,31 +838,33 @@ def _numbers_decode(streams: list[bytes], pd: int, ph: int, version: int) -> byt
         raise CorruptError("IGES model: a number format past the dictionary")
     nd_f, q_f, neg_f = _template_info(fmts)
     nd, q = nd_f[ids], q_f[ids]
-    sel = _lane_sel(_pole_lanes(skel, pd, ph), nd, q)
-    if len(flags) != len(sel) or flags.strip(b"\x00\x01\x02" if version >= 2 else b"\x00\x01"):
+    flat, off, rows, cols = _lane_table(_pole_lanes(skel, pd, ph), nd, q)
+    how = np.frombuffer(flags, np.uint8)
+    if len(how) != len(off) or (len(how) and int(how.max()) > (2 if version >= 2 else 1)):
         raise CorruptError("IGES model: pole lane flags do not match")
-    how = [f for f in flags if f]
-    sel = [ix for ix, f in zip(sel, flags) if f]
+    use = np.flatnonzero(how)
+    how, off, rows, cols = how[use], off[use], rows[use], cols[use]
     z = np.frombuffer(zres, np.uint8).reshape(8, -1).T.copy().view(np.uint64).ravel()
     r = ((z >> np.uint64(1)).astype(np.int64)) ^ -((z & np.uint64(1)).astype(np.int64))
     slots = int(nd.sum())
-    predicted = np.zeros(n, bool)
-    sizes = np.asarray([ix.size for ix in sel], dtype=np.int64)
+    sizes = rows * cols
     if int(sizes.sum()) != len(r):
         raise CorruptError("IGES model: pole residuals do not match the poles")
+    if np.any((how == 2) & (np.minimum(rows, cols) < 3)):
+        raise CorruptError("IGES model: second differences on a short lane")
     at = np.cumsum(sizes) - sizes
-    groups: dict[tuple[int, int, int], list[int]] = {}
-    for k, (ix, f) in enumerate(zip(sel, how)):
-        if f == 2 and min(ix.shape) < 3:
-            raise CorruptError("IGES model: second differences on a short lane")
-        groups.setdefault((f, *ix.shape), []).append(k)
+    # lanes of one shape (and predictor) together
+    order = np.lexsort((cols, rows, how))
+    cut = np.flatnonzero(np.diff(how[order]) | np.diff(rows[order]) | np.diff(cols[order])) + 1
     pidx, pm = [], []
-    for (f, rows, cols), ks in groups.items():  # lanes of one shape together
-        ix = np.stack([sel[k] for k in ks])
-        d = r[at[ks][:, None] + np.arange(rows * cols)].reshape(len(ks), rows, cols)
+    for ks in np.split(order, cut) if len(order) else []:
+        f, nr, nc = int(how[ks[0]]), int(rows[ks[0]]), int(cols[ks[0]])
+        span = np.arange(nr * nc)
+        ix = flat[off[ks][:, None] + span].reshape(len(ks), nr, nc)
+        d = r[at[ks][:, None] + span].reshape(len(ks), nr, nc)
         if f == 2:
             big = np.cumsum(np.cumsum(np.cumsum(np.cumsum(d, 1), 1), 2), 2)
-        elif rows == 1:
+        elif nr == 1:
             big = np.cumsum(np.cumsum(d, 2), 2)
         else:
             big = np.cumsum(np.cumsum(d, 1), 2)
@@ -773,14 +874,16 @@ def _numbers_decode(streams: list[bytes], pd: int, ph: int, version: int) -> byt
             raise CorruptError("IGES model: a pole is finer than its format")
         pidx.append(ix.ravel())
         pm.append((big // scale).ravel())
-        predicted[ix] = True
     out = np.empty(slots, np.uint8)
+    predicted = np.zeros(n, bool)
+    if pidx:
+        pi = np.concatenate(pidx)
+        predicted[pi] = True
     pslot = np.repeat(predicted, nd)
     if int((~pslot).sum()) != len(digits):
         raise CorruptError("IGES model: digit count does not match the formats")
     out[~pslot] = np.frombuffer(digits, np.uint8)
     if pidx:
-        pi = np.concatenate(pidx)
         m = np.concatenate(pm)
         order = np.argsort(pi)
         pi, m = pi[order], m[order]
@@ -792,26 +895,31 @@ def _numbers_decode(streams: list[bytes], pd: int, ph: int, version: int) -> byt
         if (a >= columns.POW10[w]).any():
             raise CorruptError("IGES model: a pole has more digits than its format")
         columns.put_digits(out, (np.cumsum(nd) - nd)[pi], a, w)
-    # the numbers' texts: their formats one after the other, digits in the slots
-    words = columns.take(columns.of_items(fmts), ids)
-    texts = np.frombuffer(columns.join(words), np.uint8).copy()
-    holes = texts == _SLOT
-    if int(holes.sum()) != slots:
+    # the skeleton's pieces between the holes and the numbers' formats,
+    # interleaved in one gather; then the digits into the formats' slots
+    fbuf = b"".join(fmts)
+    flen = np.fromiter(map(len, fmts), np.int64, len(fmts))
+    seg_start = np.empty(2 * n + 1, np.int64)
+    seg_size = np.empty(2 * n + 1, np.int64)
+    seg_start[0] = 0
+    seg_start[2::2] = holes_at + 1
+    seg_size[0:-1:2] = holes_at
+    seg_size[-1] = len(skel)
+    seg_size[0::2] -= seg_start[0::2]
+    seg_start[1::2] = len(skel) + (np.cumsum(flen) - flen)[ids]
+    seg_size[1::2] = flen[ids]
+    text = columns.gather(columns.Column(skel + fbuf, seg_start, seg_size))
+    slot = text == _SLOT
+    if skel.count(_SLOT) != (n if ph == _SLOT else 0):  # a literal slot byte: numbers' only
+        inside = np.zeros(len(text) + 1, np.int8)
+        num_end = np.cumsum(seg_size)[1::2]
+        inside[num_end - seg_size[1::2]] += 1
+        inside[num_end] -= 1
+        slot &= np.cumsum(inside[:-1], dtype=np.int8) > 0
+    if int(slot.sum()) != slots:
         raise CorruptError("IGES model: digit slots do not match")
-    texts[holes] = out
-    # the skeleton's pieces between the holes, and the numbers, interleaved
-    cut_start = np.r_[np.int64(0), holes_at + 1]
-    cut_end = np.r_[holes_at, np.int64(len(skel))]
-    both = columns.concat(
-        [
-            columns.Column(skel, cut_start, cut_end - cut_start),
-            columns.Column(texts.tobytes(), np.cumsum(words.size) - words.size, words.size),
-        ]
-    )
-    order = np.empty(2 * n + 1, np.int64)
-    order[0::2] = np.arange(n + 1)
-    order[1::2] = np.arange(n + 1, 2 * n + 1)
-    return columns.join(columns.take(both, order))
+    text[slot] = out
+    return text.tobytes()
 
 
 # ---------------------------------------------------------------- decode
@@ -867,7 +975,10 @@ def _decode(payload: bytes, limit: int) -> bytes:
     if len(eb) != 7 * nseq + 8 * ntail:
         raise CorruptError("IGES model: exception bytes do not add up")
 
-    M = np.empty((m, 80), np.uint8)
+    eol = b"\r\n" if crlf else b"\n"
+    W = np.empty((m, 80 + len(eol)), np.uint8)  # the records and their line ends
+    W[:, 80:] = np.frombuffer(eol, np.uint8)
+    M = W[:, :80]
     M[:, 72] = letters
     counts = [c for _, c in runs]
     cnt = np.asarray(counts, dtype=np.int64)
@@ -913,17 +1024,19 @@ def _decode(payload: bytes, limit: int) -> bytes:
     exc = np.full(npl, -1, np.int64)
     if nlay:
         exc[lay_i] = lay_l
-    starts, lens = _lines(lay_mode, _bounds(ptext, pd, rd), rend - rbeg, rcount, exc)
+    lens = _lines(lay_mode, _bounds(ptext, pd, rd), rend - rbeg, rcount, exc)[1]
     if npl:
-        Pc = np.full((npl, 72), 32, np.uint8)
-        ln = lens
-        total = int(ln.sum())
-        prow = np.repeat(np.arange(npl), ln)
-        first = np.repeat(np.cumsum(ln) - ln, ln)
-        cols = np.arange(total) - first
-        Pc[prow, cols] = pbuf[np.repeat(starts, ln) + cols]
-        Pc[:, 64:72] = np.repeat(rtails, rcount, axis=0)
-        M[is_p, :72] = Pc
+        # the lines cover the records in order: their bytes are the text's
+        # but its newlines, laid out left-aligned in 64 columns
+        p_rows = np.flatnonzero(is_p)
+        together = int(p_rows[-1]) - int(p_rows[0]) + 1 == npl
+        P = W[int(p_rows[0]) : int(p_rows[0]) + npl] if together else np.empty((npl, 72), np.uint8)
+        body = P[:, :P_WIDTH]
+        body[...] = 32
+        body[np.arange(P_WIDTH) < lens[:, None]] = pbuf[pbuf != 10]
+        P[:, 64:72] = np.repeat(rtails, rcount, axis=0)
+        if not together:
+            M[is_p, :72] = P[:, :72]
 
     # D entries
     if nd:
@@ -936,15 +1049,16 @@ def _decode(payload: bytes, limit: int) -> bytes:
         raise CorruptError("IGES model: D data without D entries")
 
     # assemble: every piece followed by a newline, the last one's dropped
-    eol = b"\r\n" if crlf else b"\n"
-    W = np.empty((m, 80 + len(eol)), np.uint8)
-    W[:, :80] = M
-    W[:, 80:] = np.frombuffer(eol, np.uint8)
-    blob = W.tobytes()
-    w = W.shape[1]
     raws = raw_s.split(b"\n") if nraw else []
     if len(raws) != nraw:
         raise CorruptError("IGES model: raw line count does not match")
+    if not nraw and m:
+        out = W.reshape(-1)[:-1].tobytes()
+        if len(out) > limit:
+            raise LimitError(f"IGES model inflates past {limit} bytes")
+        return out
+    blob = W.tobytes()
+    w = W.shape[1]
     chunks: list[bytes] = []
     k = prev = 0
     for i, raw in zip(raw_idx.tolist(), raws):
@@ -1007,6 +1121,11 @@ def _tails(
 
 
 def _d_decode(nd: int, pred_c: np.ndarray, dmask_s: bytes, dvals_s: bytes) -> np.ndarray:
+    """The D entries, (nd, 18, 8): the fields the mask marks from the values
+    stream (column by column), the others predicted: the computed ones
+    (``pred_c``), the second type from the first, the rest from the previous
+    entry of the same type.  Each 8-column field is handled as one uint64,
+    all columns at once."""
     nbits = nd * 18
     if len(dmask_s) != (nbits + 7) // 8:
         raise CorruptError("IGES model: D mask has the wrong size")
@@ -1014,29 +1133,26 @@ def _d_decode(nd: int, pred_c: np.ndarray, dmask_s: bytes, dvals_s: bytes) -> np
     per = mask.sum(axis=0)
     if 8 * int(per.sum()) != len(dvals_s):
         raise CorruptError("IGES model: D values do not match the mask")
-    D = np.empty((nd, 18, 8), np.uint8)
-    vals = np.frombuffer(dvals_s, np.uint8)
-    offs = np.concatenate(([0], np.cumsum(per) * 8))
-    explicit = [vals[offs[j] : offs[j + 1]].reshape(-1, 8) for j in range(18)]
+    D = np.empty((nd, 18), np.uint64)
+    vals = np.frombuffer(dvals_s, np.uint64)
+    offs = np.concatenate(([0], np.cumsum(per))).tolist()
+    pred = np.ascontiguousarray(pred_c).view(np.uint64).reshape(nd, 4)
     # the type first: computed or explicit
-    D[:, 0] = pred_c[:, 0]
-    D[mask[:, 0], 0] = explicit[0]
-    for j, col in ((1, 1), (12, 3)):
-        D[:, j] = pred_c[:, col]
-        D[mask[:, j], j] = explicit[j]
+    for j, col in ((0, 0), (1, 1), (12, 3)):
+        D[:, j] = pred[:, col]
+        D[mask[:, j], j] = vals[offs[j] : offs[j + 1]]
     D[:, 9] = D[:, 0]
-    D[mask[:, 9], 9] = explicit[9]
-    key = np.ascontiguousarray(D[:, 0]).view(np.uint64).ravel()
-    order, first = _d_prev_same_type(key)
-    idx = np.arange(nd)
-    default = np.frombuffer(_DEFAULT_FIELD, np.uint8)
-    for j in range(18):
-        if j in _COMPUTED:
-            continue
-        full = np.empty((nd, 8), np.uint8)
-        full[:] = default
-        full[mask[:, j]] = explicit[j]
-        full = full[order]  # in type order: explicit, or the previous of the type
-        src = np.maximum.accumulate(np.where(mask[order, j] | first, idx, 0))
-        D[order, j] = full[src]
-    return D
+    D[mask[:, 9], 9] = vals[offs[9] : offs[10]]
+    order, first = _d_prev_same_type(D[:, 0].copy())
+    other = [j for j in range(18) if j not in _COMPUTED]
+    # in type order, per field: explicit, or the previous entry's of the type
+    given = mask[:, other].T  # (fields, nd)
+    full = np.full((len(other), nd), np.frombuffer(_DEFAULT_FIELD, np.uint64)[0])
+    full[given] = np.concatenate([vals[offs[j] : offs[j + 1]] for j in other])
+    src = np.where(given[:, order] | first, np.arange(nd), 0)
+    np.maximum.accumulate(src, axis=1, out=src)
+    picked = np.take_along_axis(full[:, order], src, axis=1)
+    back = np.empty((nd, len(other)), np.uint64)
+    back[order] = picked.T
+    D[:, other] = back
+    return D.view(np.uint8).reshape(nd, 18, 8)
