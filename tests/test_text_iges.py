@@ -342,3 +342,11 @@ def test_lines_match_the_line_by_line_layout():
             continue
         starts, lens = iges._lines(mode, bounds, rlen, rc, exc)
         assert (starts.tolist(), lens.tolist()) == want
+
+
+def test_parameter_text_with_the_slot_byte():
+    """A ``#`` in the parameter text (the placeholder is then another byte):
+    the digits go only into the numbers' slots."""
+    data = _small_iges().replace(b"110|1.0D0|", b"110|3HA#B|")
+    assert b"3HA#B" in data
+    assert _roundtrip(data) is not None

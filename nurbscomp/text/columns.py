@@ -146,6 +146,23 @@ def take(col: Column, index: np.ndarray) -> Column:
     return Column(col.buf, col.start[index], col.size[index])
 
 
+def fill(skel: bytes, holes: np.ndarray, values: Column) -> np.ndarray:
+    """``skel`` with the byte at each of ``holes`` (ascending) replaced by
+    the item of ``values`` of the same rank, as one uint8 array: the pieces
+    between the holes and the items interleaved, in one gather."""
+    n = len(holes)
+    start = np.empty(2 * n + 1, np.int64)
+    size = np.empty(2 * n + 1, np.int64)
+    start[0] = 0
+    start[2::2] = holes + 1
+    size[0:-1:2] = holes
+    size[-1] = len(skel)
+    size[0::2] -= start[0::2]
+    start[1::2] = values.start + len(skel)
+    size[1::2] = values.size
+    return gather(Column(skel + values.buf, start, size))
+
+
 def join(col: Column) -> bytes:
     """The items of ``col`` one after the other, as one ``bytes``."""
     return gather(col).tobytes()

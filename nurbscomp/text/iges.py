@@ -897,23 +897,14 @@ def _numbers_decode(streams: list[bytes], pd: int, ph: int, version: int) -> byt
         columns.put_digits(out, (np.cumsum(nd) - nd)[pi], a, w)
     # the skeleton's pieces between the holes and the numbers' formats,
     # interleaved in one gather; then the digits into the formats' slots
-    fbuf = b"".join(fmts)
     flen = np.fromiter(map(len, fmts), np.int64, len(fmts))
-    seg_start = np.empty(2 * n + 1, np.int64)
-    seg_size = np.empty(2 * n + 1, np.int64)
-    seg_start[0] = 0
-    seg_start[2::2] = holes_at + 1
-    seg_size[0:-1:2] = holes_at
-    seg_size[-1] = len(skel)
-    seg_size[0::2] -= seg_start[0::2]
-    seg_start[1::2] = len(skel) + (np.cumsum(flen) - flen)[ids]
-    seg_size[1::2] = flen[ids]
-    text = columns.gather(columns.Column(skel + fbuf, seg_start, seg_size))
+    words = columns.Column(b"".join(fmts), (np.cumsum(flen) - flen)[ids], flen[ids])
+    text = columns.fill(skel, holes_at, words)
     slot = text == _SLOT
     if skel.count(_SLOT) != (n if ph == _SLOT else 0):  # a literal slot byte: numbers' only
         inside = np.zeros(len(text) + 1, np.int8)
-        num_end = np.cumsum(seg_size)[1::2]
-        inside[num_end - seg_size[1::2]] += 1
+        num_end = holes_at + np.cumsum(words.size - 1) + 1  # where each number ends
+        inside[num_end - words.size] += 1
         inside[num_end] -= 1
         slot &= np.cumsum(inside[:-1], dtype=np.int8) > 0
     if int(slot.sum()) != slots:

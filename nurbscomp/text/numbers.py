@@ -345,7 +345,11 @@ def _print(f: _Fields, mant: np.ndarray) -> columns.Column:
     signed = (f.sign > 0) | (mant < 0)
     point = f.frac > 0
     # exponent tails: one text per distinct (ecode, magnitude)
-    keys, tail_of = np.unique(f.ecode * (MAX_EXPONENT + 1) + f.emag, return_inverse=True)
+    # (np.unique sorts: a tenth of the time with a count over the few keys)
+    key = f.ecode * (MAX_EXPONENT + 1) + f.emag  # < 55 * 401: checked by _read_format
+    seen = np.bincount(key) > 0
+    keys = np.flatnonzero(seen)
+    tail_of = (np.cumsum(seen) - 1)[key]
     tails = [_tail(int(k) // (MAX_EXPONENT + 1), int(k) % (MAX_EXPONENT + 1)) for k in keys]
     tail_len = np.fromiter(map(len, tails), np.int64, len(tails))[tail_of]
     size = signed + ndig + point + tail_len

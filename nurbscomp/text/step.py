@@ -472,38 +472,6 @@ def _unit_names(table: list[bytes], index: np.ndarray) -> tuple[np.ndarray, np.n
     return starts, np.r_[np.int64(0), rank[lid]]
 
 
-def _assemble(
-    table: list[bytes], index: np.ndarray, values: columns.Column, place: np.ndarray
-) -> bytes:
-    """The text: the statements picked by ``index``, the k-th placeholder
-    replaced by item ``place[k]`` of ``values``."""
-    # the statements' pieces between placeholders, found in them joined
-    joined = b"".join(table)
-    arr = np.frombuffer(joined, np.uint8)
-    holes = np.flatnonzero((arr >= ID) & (arr <= RAW))
-    lens = np.fromiter(map(len, table), dtype=np.int64, count=len(table))
-    unit_end = np.cumsum(lens)
-    unit_start = unit_end - lens
-    count = np.searchsorted(holes, unit_end) - np.searchsorted(holes, unit_start) + 1
-    # pieces in order: each statement's start and every hole's end open one,
-    # every hole and each statement's end close one
-    p_start = np.sort(np.r_[unit_start, holes + 1])
-    p_end = np.sort(np.r_[holes, unit_end])
-    parts = columns.Column(joined, p_start, p_end - p_start)
-    first = np.cumsum(count) - count
-    k = count[index]
-    total = int(k.sum()) + len(place)
-    if total != 2 * int(k.sum()) - len(index):
-        raise CorruptError("STEP model: values do not match the skeleton")
-    slots = 2 * k - 1  # per statement: piece, value, piece, ..., piece
-    local = np.arange(total, dtype=np.int64) - np.repeat(np.cumsum(slots) - slots, slots)
-    is_piece = local % 2 == 0
-    piece = np.repeat(first[index], slots) + local // 2
-    value = place[np.maximum(np.cumsum(~is_piece) - 1, 0)] + len(parts) if len(place) else piece
-    both = columns.concat([parts, values])
-    return columns.join(columns.take(both, np.where(is_piece, piece, value)))
-
-
 def _index_width(n: int) -> int:
     """Bytes per statement index for ``n`` distinct statements."""
     return 1 if n <= 1 << 8 else 2 if n <= 1 << 16 else 4
@@ -675,7 +643,7 @@ def _decode(payload: bytes, limit: int) -> bytes:
     total = len(skel) - n + int(allv.size[place].sum())
     if total != size:
         raise CorruptError(f"STEP model decodes to {total} bytes, header says {size}")
-    out = _assemble(table, index, allv, place)
+    out = columns.fill(skel, np.flatnonzero(ph_mask), columns.take(allv, place)).tobytes()
     if zlib.crc32(out) != crc:
         raise CorruptError("STEP model: CRC-32 of the text does not match")
     return out
