@@ -291,3 +291,14 @@ def test_int_streams():
         coding.read_int_stream(b"\x01\x00", 2, "x")
     with pytest.raises(CorruptError):
         coding.read_int_stream(b"", 1, "x")
+
+
+def test_name_spans_match_the_name_expression():
+    """step._name_spans finds what NAME's regular expression finds."""
+    rng = random.Random(9)
+    alpha = b"aZ_09 (\t\r\n);,#'\x01\x80xy"
+    cases = [b"", b"A(", b"9A(", b"_x (", b"AB\n\t (x", b"AB C(", b"(A)(", b"\x80A("]
+    cases += [bytes(rng.choice(alpha) for _ in range(rng.randrange(40))) for _ in range(3000)]
+    for t in cases:
+        a, e = step._name_spans(t)
+        assert list(zip(a.tolist(), e.tolist())) == [m.span() for m in step.NAME.finditer(t)]
