@@ -302,3 +302,23 @@ def test_name_spans_match_the_name_expression():
     for t in cases:
         a, e = step._name_spans(t)
         assert list(zip(a.tolist(), e.tolist())) == [m.span() for m in step.NAME.finditer(t)]
+
+
+def test_unit_names_match_names_of_the_skeleton():
+    """_unit_names (statements in order of first use, or not) gives what
+    names() finds in the whole skeleton."""
+    data = (
+        b"ISO-10303-21;\nDATA;\n#1=CARTESIAN_POINT('',(0.,1.,2.));\n#2=DIRECTION('',(1.,0.,0.));\n"
+        b"#3=CARTESIAN_POINT('',(3.,1.,2.));\n#4=AXIS2_PLACEMENT_3D('',#1,#2,$);\nENDSEC;\n"
+    )
+    table, index = step._units(step.TOKEN.sub(b"\x03", data))
+    skel = b"".join(table[i] for i in index.tolist())
+    rng = random.Random(2)
+    for shuffle in (False, True, True):
+        perm = list(range(len(table)))
+        if shuffle:
+            rng.shuffle(perm)
+        t2 = [table[i] for i in perm]
+        i2 = np.argsort(perm)[index]
+        got, want = step._unit_names(t2, i2), step.names(skel)
+        assert np.array_equal(got[0], want[0]) and np.array_equal(got[1], want[1])

@@ -482,16 +482,18 @@ def _unit_names(table: list[bytes], index: np.ndarray) -> tuple[np.ndarray, np.n
     seen: dict[bytes, int] = {}
     joined = b"".join(table)
     at_all, name_end = _name_spans(joined)
-    found = [
-        (a, seen.setdefault(joined[a:e], len(seen)))
-        for a, e in zip(at_all.tolist(), name_end.tolist())
-    ]
+    local = np.asarray(
+        [
+            seen.setdefault(joined[a:e], len(seen))
+            for a, e in zip(at_all.tolist(), name_end.tolist())
+        ],
+        dtype=np.int64,
+    )
     unit_start = np.cumsum(lens) - lens
     owner = np.searchsorted(unit_start + lens, at_all, side="right")
     count = np.bincount(owner, minlength=len(table)).astype(np.int64)
-    pos = (at_all - unit_start[owner]).tolist()
-    local = [v for _, v in found]
-    if not len(index) or not pos:
+    pos = at_all - unit_start[owner]
+    if not len(index) or not len(pos):
         return np.zeros(0, dtype=np.int64), np.zeros(1, dtype=np.int64)
     first = np.cumsum(count) - count
     k = count[index]
@@ -499,9 +501,14 @@ def _unit_names(table: list[bytes], index: np.ndarray) -> tuple[np.ndarray, np.n
     at = np.repeat(np.cumsum(lens[index]) - lens[index], k)
     within = np.arange(total, dtype=np.int64) - np.repeat(np.cumsum(k) - k, k)
     src = np.repeat(first[index], k) + within
-    starts = np.asarray(pos, dtype=np.int64)[src] + at
-    lid = np.asarray(local, dtype=np.int64)[src]
-    # number the names in order of first appearance in the skeleton
+    starts = pos[src] + at
+    lid = local[src]
+    # number the names in order of first appearance in the skeleton: the
+    # order they are found in the table when its statements are too, each
+    # used and in order of first use (as _units makes it)
+    seq = np.maximum.accumulate(index)
+    if index[0] == 0 and seq[-1] == len(table) - 1 and (index[1:] <= seq[:-1] + 1).all():
+        return starts, np.r_[np.int64(0), lid + 1]
     uniq, first_at = np.unique(lid, return_index=True)
     rank = np.empty(len(seen), dtype=np.int64)
     rank[uniq[np.argsort(first_at)]] = np.arange(1, len(uniq) + 1)
