@@ -658,7 +658,8 @@ def _decode(payload: bytes, limit: int) -> bytes:
             for s in range(nn + 1)
         ]
     )
-    order = np.argsort(n_stream, kind="stable")
+    # stream numbers: sorted stably as 16-bit integers (a radix sort) where they fit
+    order = np.argsort(n_stream.astype(np.uint16) if nn < 1 << 16 else n_stream, kind="stable")
     inv = np.empty_like(order)
     inv[order] = np.arange(len(order))
     # number k of group g is number k of group src[g]; fresh numbers are
