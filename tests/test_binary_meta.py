@@ -118,7 +118,7 @@ def test_the_2_6_golden_files_hold_binary_meta() -> None:
 
     golden = Path(__file__).resolve().parent / "golden"
     files = sorted(golden.glob("*.v2_6.*.nzc"))
-    assert len(files) == 3
+    assert len(files) == 4
     for p in files:
         c = container.unpack(p.read_bytes())
         assert (c.major, c.minor) == (2, 6) and c.get("META")[0] == 1

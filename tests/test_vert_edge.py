@@ -244,6 +244,41 @@ def test_grid_vertices_by_prediction_round_trip() -> None:
     assert back.tolist() == q.tolist()
 
 
+def test_quad_corners_are_predicted_by_parallelograms() -> None:
+    """Format 2.6 (docs/format.md §2.6, "Quad faces"): on a box every vertex is
+    a corner of three four-edge wires; a grid vertex whose three other corners
+    of a face came before it is predicted exactly (an axis-aligned box is a
+    parallelogram on every face), and the residuals read back; a 2.5 reader's
+    rule gives other points from the same residuals."""
+    import copy
+
+    import cadquery as cq
+
+    from nurbscomp import occ
+    from nurbscomp.serialize.vertices import _read_vertices, _write_vertices, vertex_quads
+
+    m, _ = occ.shape_to_model(cq.Workplane().box(10, 20, 30).val().wrapped)
+    quads = vertex_quads(m)
+    assert sorted(quads) == list(range(8)) and all(len(t) == 3 for t in quads.values())
+    for v, triples in quads.items():
+        for x, y, z in triples:  # x, z share an edge with v; y is opposite
+            assert len({v, x, y, z}) == 4
+    tol = 0.01
+    h = serialize.vertex_grid(tol)
+    m.vertex_point = np.rint(m.vertex_point / h).astype(np.int64) * h
+    nbr = serialize.vertex_neighbours(m)
+    rows = np.arange(8)
+    q = np.rint(m.vertex_point / h).astype(np.int64)
+    res = q - serialize._grid_predictions(nbr, rows, q, quads)
+    assert (res == 0).all(-1).sum() >= 4  # the corners a parallelogram closes
+    assert serialize._grid_from_residuals(nbr, rows, res, quads).tolist() == q.tolist()
+    raw = _write_vertices(m, tol)
+    for revision, same in ((container.REVISION, True), (8, False)):
+        back = copy.deepcopy(m)
+        _read_vertices(raw, back, tol, revision)
+        assert (back.vertex_point == m.vertex_point).all() == same
+
+
 @pytest.mark.parametrize("name", ["loft.tol0.01.nzc", "teapot.tol0.01.nzc"])
 def test_lossy_vertices_round_trip_bit_for_bit(name: str) -> None:
     """A 1.x lossy golden file, its vertices snapped to the 2.0 grid and packed as
@@ -275,7 +310,7 @@ def test_hostile_grid_residuals_wrap_harmlessly(monkeypatch) -> None:
     m.side_joins = np.zeros((0, 5), np.int64)
     big = np.full((len(m.vertex_point), 3), 2**62, np.int64)
     monkeypatch.setattr(
-        serialize.vertices, "_grid_predictions", lambda nbr, rows, q: q - big[: len(q)]
+        serialize.vertices, "_grid_predictions", lambda nbr, rows, q, quads=None: q - big[: len(q)]
     )
     data = fuzz.pack_fast(writer.model_to_sections(m, meta), 0)
     with warnings.catch_warnings():

@@ -7,6 +7,7 @@ import lzma
 
 import numpy as np
 
+from .. import container
 from ..errors import SectionError
 from ..model import (
     VC,
@@ -77,35 +78,83 @@ def vertex_neighbours(m: BRepModel) -> list[list[int]]:
     return [sorted(x) for x in out]
 
 
-def _grid_predictions(nbr: list[list[int]], rows: np.ndarray, q: np.ndarray) -> np.ndarray:
+#: Per vertex row, its quads (format 2.6): (x, y, z) rows, x and z its
+#: neighbours on a four-edge wire, y the opposite corner.
+Quads = dict[int, list[tuple[int, int, int]]]
+
+
+def vertex_quads(m: BRepModel) -> Quads:
+    """Format 2.6: the quads of docs/format.md §2.6 ("Quad faces"): for each
+    wire of exactly four edges, each with two distinct vertices, in which
+    consecutive edges (cyclically) share exactly one vertex and the four
+    shared vertices c0..c3 are distinct, the triple (c[i-1], c[i+2], c[i+1])
+    of each c[i], in wire order."""
+    out: Quads = {}
+    tidx = m.type_index()
+    types, children, start = m.shape_type, m.child_shape, m.child_start
+    vertex = int(ShapeType.VERTEX)
+    for w in np.flatnonzero(types == ShapeType.WIRE).tolist():
+        kids = children[start[w] : start[w + 1]]
+        if len(kids) != 4 or (types[kids] != ShapeType.EDGE).any():
+            continue
+        ends = []
+        for e in kids.tolist():
+            vk = children[start[e] : start[e + 1]]
+            ends.append({int(tidx[c]) for c in vk[types[vk] == vertex].tolist()})
+        shared = [ends[i] & ends[(i + 1) % 4] for i in range(4)]
+        if any(len(x) != 2 for x in ends) or any(len(s) != 1 for s in shared):
+            continue
+        c = [min(s) for s in shared]
+        if len(set(c)) != 4:
+            continue
+        for i in range(4):
+            out.setdefault(c[i], []).append((c[i - 1], c[(i + 2) % 4], c[(i + 1) % 4]))
+    return out
+
+
+def _prediction(
+    v: int, k: int, done: dict[int, int], q: np.ndarray, nbr: list[list[int]], quads: Quads
+) -> np.ndarray | None:
+    """The prediction of the ``k``-th grid vertex, row ``v`` (docs/format.md
+    §2.6), from the grid integers ``q`` of the grid vertices ``done`` (row ->
+    k) before it: the parallelogram of its first quad whose three other
+    corners are done (format 2.6: ``quads``), else its highest-row grid
+    neighbour's, else the grid vertex's before it (None for the first)."""
+    for x, y, z in quads.get(v, ()):
+        if x in done and y in done and z in done:
+            return q[done[x]] + q[done[z]] - q[done[y]]
+    before = [done[u] for u in (nbr[v] if v < len(nbr) else ()) if u in done]
+    if before:
+        return q[max(before)]
+    return q[k - 1] if k else None
+
+
+def _grid_predictions(
+    nbr: list[list[int]], rows: np.ndarray, q: np.ndarray, quads: Quads | None = None
+) -> np.ndarray:
     """Per grid vertex (``rows``, ascending, with grid integers ``q``), its
-    prediction: the grid integers of its highest-row grid neighbour before it,
-    else of the grid vertex before it (zeros for the first)."""
+    prediction (:func:`_prediction`; zeros for the first)."""
     pred = np.zeros_like(q)
     done: dict[int, int] = {}  # row -> k
-    for k, v in enumerate(rows.tolist()):
-        before = [done[u] for u in (nbr[v] if v < len(nbr) else ()) if u in done]
-        if before:
-            pred[k] = q[max(before)]
-        elif k:
-            pred[k] = q[k - 1]
-        done[v] = k
+    with np.errstate(over="ignore"):
+        for k, v in enumerate(rows.tolist()):
+            p = _prediction(v, k, done, q, nbr, quads or {})
+            if p is not None:
+                pred[k] = p
+            done[v] = k
     return pred
 
 
-def _grid_from_residuals(nbr: list[list[int]], rows: np.ndarray, res: np.ndarray) -> np.ndarray:
+def _grid_from_residuals(
+    nbr: list[list[int]], rows: np.ndarray, res: np.ndarray, quads: Quads | None = None
+) -> np.ndarray:
     """The inverse of :func:`_grid_predictions`: grid integers from residuals."""
     q = np.zeros_like(res)
     done: dict[int, int] = {}
     with np.errstate(over="ignore"):
         for k, v in enumerate(rows.tolist()):
-            before = [done[u] for u in (nbr[v] if v < len(nbr) else ()) if u in done]
-            if before:
-                q[k] = q[max(before)] + res[k]
-            elif k:
-                q[k] = q[k - 1] + res[k]
-            else:
-                q[k] = res[k]
+            p = _prediction(v, k, done, q, nbr, quads or {})
+            q[k] = res[k] if p is None else p + res[k]
             done[v] = k
     return q
 
@@ -198,7 +247,11 @@ def _vertex_arrays(
     w.ints(np.where(twin, 2, on_grid.astype(np.int64)))
     w.floats(pts[~on_grid & ~twin].reshape(-1))
     rows = np.flatnonzero(on_grid)
-    pred = _grid_predictions(vertex_neighbours(m), rows, q[rows]) if len(rows) else q[rows]
+    pred = (
+        _grid_predictions(vertex_neighbours(m), rows, q[rows], vertex_quads(m))
+        if len(rows)
+        else q[rows]
+    )
     for axis in range(3):
         w.ints(q[rows, axis] - pred[:, axis])
     tw = np.flatnonzero(twin)
@@ -228,7 +281,9 @@ def _read_vertices(data: bytes, m: BRepModel, tol: float = 0.0, revision: int = 
     pts[plain] = r.floats(3 * int(plain.sum())).reshape(-1, 3)
     if revision >= 3:
         res = np.stack([r.ints(ng) for _ in range(3)], axis=1)
-        q = _grid_from_residuals(vertex_neighbours(m), np.flatnonzero(on_grid), res) if ng else res
+        quads = vertex_quads(m) if ng and revision >= container.COMPACT else {}
+        grid = np.flatnonzero(on_grid)
+        q = _grid_from_residuals(vertex_neighbours(m), grid, res, quads) if ng else res
     else:
         q = np.stack([r.deltas(ng) for _ in range(3)], axis=1)
     if ng and not tol > 0:

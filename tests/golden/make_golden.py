@@ -83,6 +83,7 @@ GOLDEN = [
     ("teapot.step", "v2_5.faces.lossless", {"lossless": True}),
     # format 2.6: the compact directory and body header, META in binary
     ("bracket.step", "v2_6.tol0.01", {"tol": 0.01}),
+    ("blob.step", "v2_6.tol0.1", {"tol": 0.1}),  # grid vertices at quad corners
     ("assembly.step", "v2_6.lossless", {"lossless": True}),
     ("loft.step", "v2_6.exact", {"exact": True}),
 ]

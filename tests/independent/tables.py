@@ -361,6 +361,32 @@ class Vertices:
     params: np.ndarray  # (R, 2)
 
 
+def quad_corners(shapes: Shapes) -> dict[int, list[tuple[int, int, int]]]:
+    """§2.6 (2.6): per vertex row, (x, y, z) of each four-edge wire it is a corner of."""
+    out: dict[int, list[tuple[int, int, int]]] = {}
+    for w, t in enumerate(shapes.type):
+        kids = [c for c, _, _ in shapes.children[w]]
+        if t != 5 or len(kids) != 4 or any(shapes.type[c] != 6 for c in kids):
+            continue
+        ends = [
+            {shapes.row_of[c] for c, _, _ in shapes.children[e] if shapes.type[c] == 7}
+            for e in kids
+        ]
+        corners = []
+        for i in range(4):
+            both = ends[i] & ends[(i + 1) % 4]
+            if len(ends[i]) != 2 or len(both) != 1:
+                break
+            corners += list(both)
+        if len(corners) != 4 or len(set(corners)) != 4:
+            continue
+        for i in range(4):
+            out.setdefault(corners[i], []).append(
+                (corners[i - 1], corners[(i + 2) % 4], corners[(i + 1) % 4])
+            )
+    return out
+
+
 def read_vertices(raw: bytes, revision: int, shapes: Shapes, tol: float | None) -> Vertices:
     a = Arrays(raw, "VERT")
     kind = a.ints()
@@ -379,6 +405,7 @@ def read_vertices(raw: bytes, revision: int, shapes: Shapes, tol: float | None) 
                 for y in vs:
                     if x != y:
                         nbr.setdefault(x, set()).add(y)
+        quads = quad_corners(shapes) if revision >= 9 else {}
         grid = np.zeros_like(res)
         last = np.zeros(3, np.int64)
         done: dict[int, np.ndarray] = {}
@@ -388,6 +415,10 @@ def read_vertices(raw: bytes, revision: int, shapes: Shapes, tol: float | None) 
                 continue
             before = [u for u in nbr.get(v, ()) if u in done]
             pred = done[max(before)] if before else last
+            for x, y, z in quads.get(v, []):  # 2.6: a parallelogram first
+                if x in done and y in done and z in done:
+                    pred = done[x] + done[z] - done[y]
+                    break
             q = pred + res[k]
             grid[k] = q
             done[v] = q
