@@ -100,10 +100,17 @@ def _fmt_rows(zero: bool, width: int, values: np.ndarray) -> np.ndarray:
     v = values.astype(np.int64)
     if len(v) and v.min() < 0:
         return np.frombuffer(_fmt(zero, width, v.tolist()), np.uint8).reshape(len(v), width)
-    p = np.int64(10) ** np.arange(width - 1, -1, -1, dtype=np.int64)
-    out = ((v[:, None] // p) % 10 + 48).astype(np.uint8)
-    if not zero:
-        out[(v[:, None] < p) & (p > 1)] = 32
+    # a column at a time from the right, dividing by ten (numpy divides by a
+    # constant fast; its % and a division by an array of powers are slow)
+    out = np.empty((len(v), width), np.uint8)
+    q = v.astype(np.uint64)
+    ten = np.uint64(10)
+    for k in range(width - 1, -1, -1):
+        q10 = q // ten
+        out[:, k] = (q - q10 * ten).astype(np.uint8) + np.uint8(48)
+        if not zero and k < width - 1:
+            out[q == 0, k] = 32  # right-aligned: blank left of the number
+        q = q10
     return out
 
 
@@ -532,25 +539,27 @@ def _record_types(ptext: bytes, pd: int, rbeg: np.ndarray, rend: np.ndarray) -> 
     if not n:
         return out
     a = np.frombuffer(ptext, np.uint8)
-    seps = np.flatnonzero(a == pd)
-    i = np.searchsorted(seps, rbeg)
-    hend = np.minimum(seps[np.minimum(i, len(seps) - 1)] if len(seps) else rend, rend)
-    hend = np.where(i < len(seps), hend, rend)
-    span = hend - rbeg
+    if not len(a):
+        return out
+    # each record's first bytes, one past the longest head read here
+    cols = np.arange(_HEAD_SPAN + 1)
+    win = a[np.minimum(rbeg[:, None] + cols, len(a) - 1)]
+    sep = (win == pd) & (cols < (rend - rbeg)[:, None])
+    span = np.where(sep.any(axis=1), np.argmax(sep, axis=1), rend - rbeg)  # to the first pd
     short = span <= _HEAD_SPAN
-    cols = np.arange(_HEAD_SPAN)
-    win = a[np.minimum(rbeg[:, None] + cols, max(len(a) - 1, 0))] if len(a) else np.zeros((n, 0))
-    keep = (cols < span[:, None]) & ~_WHITE[win] if len(a) else np.zeros((n, _HEAD_SPAN), bool)
+    keep = (cols < span[:, None]) & ~_WHITE[win]
     some = keep.any(axis=1)
     lo = np.argmax(keep, axis=1)
-    hi = _HEAD_SPAN - np.argmax(keep[:, ::-1], axis=1)
+    hi = _HEAD_SPAN + 1 - np.argmax(keep[:, ::-1], axis=1)
     size = np.where(some, hi - lo, 0)
     fits = short & (size <= 8)
     for c in range(8):
         at = np.flatnonzero(fits & (c >= 8 - size))
         out[at, c] = win[at, (lo + c - 8 + size)[at]]
     for r in np.flatnonzero(~short).tolist():
-        head = ptext[int(rbeg[r]) : int(hend[r])].strip()
+        b, e = int(rbeg[r]), int(rend[r])
+        cut = ptext.find(bytes([pd]), b, e)
+        head = ptext[b : e if cut < 0 else cut].strip()
         if len(head) <= 8:
             out[r] = np.frombuffer(b"%8s" % head, np.uint8)
     return out
