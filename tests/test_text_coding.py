@@ -64,3 +64,27 @@ def test_read_varints_matches_read_varint_on_damaged_streams():
         except (TruncatedError, CorruptError) as e:
             got = (type(e), str(e))
         assert got == want
+
+
+def test_inflate_is_entropy_decompress():
+    """An LZMA stream inflated with a dictionary of its own size gives what
+    entropy.decompress gives (bytes, or CorruptError), damaged or not."""
+    from nurbscomp.entropy import Coder, decompress
+
+    rng = random.Random(8)
+    raws = [b"", b"a", bytes(range(256)) * 40, rng.randbytes(3000), b"ab" * 5000]
+    for _ in range(400):
+        raw = rng.choice(raws)
+        blob = bytearray(coding.quick_lzma(raw) if raw else coding._lzma(b"x", 0, 0, 0))
+        for _ in range(rng.randrange(3)):
+            blob[rng.randrange(len(blob))] = rng.randrange(256)
+        if rng.random() < 0.2:
+            blob = blob[: rng.randrange(len(blob) + 1)]
+        n = len(raw) + rng.choice([0, 0, 0, -1, 1, 100])
+        outcome = []
+        for f in (decompress, coding._inflate):
+            try:
+                outcome.append(f(Coder.LZMA, bytes(blob), max(n, 0)))
+            except CorruptError as e:
+                outcome.append(type(e))
+        assert outcome[0] == outcome[1]
