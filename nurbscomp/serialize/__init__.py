@@ -110,6 +110,7 @@ from .vertices import (
     quarter_power,
     vertex_grid,
     vertex_neighbours,
+    vertex_quads,
 )
 
 __all__ = [
@@ -181,4 +182,5 @@ __all__ = [
     "tolerance",
     "vertex_grid",
     "vertex_neighbours",
+    "vertex_quads",
 ]
