@@ -299,15 +299,16 @@ def _chain(
         ok = (step >= 0) & (step <= P_WIDTH) & (nodes + step <= e)
         nxt = nodes + step
         to = nxt[ok]
-        new = to[nodes[np.minimum(np.searchsorted(nodes, to), len(nodes) - 1)] != to]
+        where = np.searchsorted(nodes, to)
+        new = to[nodes[np.minimum(where, len(nodes) - 1)] != to]
         if not len(new):
             break
         nodes = _merge(nodes, np.sort(new))
     else:
         return None
     sink = len(nodes)
-    jump = np.where(ok, np.searchsorted(nodes, nxt), sink)
-    jump = np.r_[jump, sink]
+    jump = np.full(sink + 1, sink, np.int64)  # the sink: where a line does not fit
+    jump[:-1][ok] = where
     # the start of line t of each record, t = 0 ... count (the last: where it ends)
     t = np.arange(int(count.sum()) + len(count)) - np.repeat(
         np.cumsum(count + 1) - count - 1, count + 1
@@ -893,9 +894,7 @@ def _numbers_decode(streams: list[bytes], pd: int, ph: int, version: int) -> byt
         raise CorruptError("IGES model: digit count does not match the formats")
     out[~pslot] = np.frombuffer(digits, np.uint8)
     if pidx:
-        m = np.concatenate(pm)
-        order = np.argsort(pi)
-        pi, m = pi[order], m[order]
+        m = np.concatenate(pm)  # the lanes are disjoint: in any order
         neg = neg_f[ids[pi]]
         if ((m > 0) & neg).any() or ((m < 0) & ~neg).any():
             raise CorruptError("IGES model: a pole's sign does not match its format")
