@@ -34,43 +34,7 @@ import numpy as np
 
 from ..entropy import Coder, decompress, lzma_raw
 from ..errors import CorruptError, LimitError, TruncatedError
-
-
-def varint(n: int) -> bytes:
-    """``n`` (≥ 0) as LEB128: seven bits a byte, low group first."""
-    if n < 0:
-        raise ValueError("varint of a negative number")
-    out = bytearray()
-    while True:
-        b = n & 0x7F
-        n >>= 7
-        if n:
-            out.append(b | 0x80)
-        else:
-            out.append(b)
-            return bytes(out)
-
-
-def read_varint(data: bytes | memoryview, pos: int) -> tuple[int, int]:
-    """The LEB128 integer at ``pos`` and the position after it (at most 9 bytes).
-
-    Raises
-    ------
-    TruncatedError
-        ``data`` ends inside the integer.
-    CorruptError
-        More than 9 bytes (a value past 2**63).
-    """
-    n = shift = 0
-    for k in range(9):
-        if pos + k >= len(data):
-            raise TruncatedError(f"varint at offset {pos} runs past the end")
-        b = data[pos + k]
-        n |= (b & 0x7F) << shift
-        if not b & 0x80:
-            return n, pos + k + 1
-        shift += 7
-    raise CorruptError(f"varint at offset {pos} is longer than 9 bytes")
+from ..streams import read_varint, varint
 
 
 def read_varints(data: bytes | memoryview, pos: int, n: int) -> tuple[np.ndarray, int]:
