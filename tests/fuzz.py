@@ -56,7 +56,7 @@ from nurbscomp.model import (
 )
 from nurbscomp.streams import varint
 
-from .golden.make_golden import compact, fix_crcs, pack_raw
+from .golden.make_golden import compact, fix_crcs, length_fields, pack_raw
 from .supervisor import supervise
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -113,16 +113,7 @@ def _length_fields(data: bytes) -> list[tuple[int, str]]:
 def _varint_length(data: bytes, rng: random.Random) -> bytes:
     """``data`` (format 2.6) with one directory entry's varint length replaced
     by a large, small or random value (the file grows or shrinks with it)."""
-    nsec = struct.unpack_from("<H", data, 8)[0]
-    at, ends = _HEADER, []
-    for _ in range(nsec):
-        at += 5 if data[at] == container.TAG_ESCAPE else 1
-        start = at
-        while data[at] & 0x80:
-            at += 1
-        at += 1
-        ends.append((start, at))
-    start, end = rng.choice(ends)
+    start, end = rng.choice(length_fields(data) or [(_HEADER, _HEADER)])
     value = rng.choice([2**62, 2**32, 2**28 + 1, rng.randrange(1 << 20), 0, 1])
     return data[:start] + varint(value) + data[end:]
 

@@ -220,7 +220,7 @@ def parse_meta(raw: bytes, revision: int = container.REVISION) -> Any:
     """
     if revision >= container.COMPACT and raw[:1] not in (b"{", bytes([BINARY])):
         raise SectionError("META section is neither a JSON object nor binary")
-    if raw[:1] == bytes([BINARY]) and revision >= container.COMPACT:
+    if revision >= container.COMPACT and raw[:1] == bytes([BINARY]):
         b = _Binary(raw)
         meta = b.object(True)
         if b.pos != len(raw):

@@ -225,11 +225,12 @@ def _write_vertices(m: BRepModel, tol: float = 0.0) -> bytes:
         q[small] = np.rint(pts[small] / h).astype(np.int64)
         on_grid = small & ((q * h).view(np.int64) == pts.view(np.int64)).all(-1)  # bit for bit
     ref, k = _twin_refs(pts)
-    plain = _vertex_arrays(m, on_grid, q, ref, k, np.zeros(len(pts), bool))
+    near = (vertex_neighbours(m), vertex_quads(m)) if on_grid.any() else ([], {})
+    plain = _vertex_arrays(m, on_grid, q, ref, k, np.zeros(len(pts), bool), near)
     twin = ref >= 0
     if not twin.any():
         return plain
-    twins = _vertex_arrays(m, on_grid & ~twin, q, ref, k, twin)
+    twins = _vertex_arrays(m, on_grid & ~twin, q, ref, k, twin, near)
     return twins if len(lzma.compress(twins)) < len(lzma.compress(plain)) else plain
 
 
@@ -240,18 +241,16 @@ def _vertex_arrays(
     ref: np.ndarray,
     k: np.ndarray,
     twin: np.ndarray,
+    near: tuple[list[list[int]], Quads],
 ) -> bytes:
-    """The section with the vertices of ``twin`` as kind 2, of ``on_grid`` as kind 1."""
+    """The section with the vertices of ``twin`` as kind 2, of ``on_grid`` as
+    kind 1 (predicted from ``near``: the model's vertex neighbours and quads)."""
     w = BlockWriter()
     pts = m.vertex_point
     w.ints(np.where(twin, 2, on_grid.astype(np.int64)))
     w.floats(pts[~on_grid & ~twin].reshape(-1))
     rows = np.flatnonzero(on_grid)
-    pred = (
-        _grid_predictions(vertex_neighbours(m), rows, q[rows], vertex_quads(m))
-        if len(rows)
-        else q[rows]
-    )
+    pred = _grid_predictions(near[0], rows, q[rows], near[1]) if len(rows) else q[rows]
     for axis in range(3):
         w.ints(q[rows, axis] - pred[:, axis])
     tw = np.flatnonzero(twin)

@@ -25,7 +25,6 @@ Layout (little-endian, docs/format.md §1.5)::
 
 from __future__ import annotations
 
-import lzma
 import os
 from concurrent.futures import ThreadPoolExecutor
 
@@ -208,37 +207,6 @@ def pack_coded(coded: list[tuple[Coder, bytes, bytes]]) -> bytes:
     return b"".join(out)
 
 
-#: Streams inflated by :func:`_inflate` with a dictionary of their own size
-#: (up to preset 9's, 64 MiB: larger ones as ``entropy.decompress`` does).
-SMALL_DICT = 1 << 26
-
-
-def _inflate(coder: int, data: bytes, raw_len: int) -> bytes:
-    """``entropy.decompress`` of one text stream; an LZMA stream's decoder
-    made with a dictionary of the stream's size, not preset 9's 64 MiB (no
-    match reaches further back than the bytes decoded, so the output and
-    the errors are the same): a tenth of the time to set up, 0.2-0.6 ms less
-    a corpus file's streams.
-
-    Raises
-    ------
-    CorruptError
-        As ``entropy.decompress``.
-    """
-    if coder != Coder.LZMA or raw_len + 1 > SMALL_DICT:
-        return decompress(coder, data, raw_len)
-    filters = [{"id": lzma.FILTER_LZMA2, "preset": 9 | lzma.PRESET_EXTREME}]
-    filters[0]["dict_size"] = max(raw_len + 1, 4096)
-    try:
-        d = lzma.LZMADecompressor(format=lzma.FORMAT_RAW, filters=filters)
-        out = d.decompress(data, max_length=raw_len + 1)
-    except (lzma.LZMAError, EOFError) as e:
-        raise CorruptError(f"compressed data does not decode ({e})") from None
-    if len(out) != raw_len:
-        raise CorruptError(f"body decodes to {len(out)} bytes, header says {raw_len}")
-    return out
-
-
 def unpack(data: bytes, limit: int, count: int | None = None) -> list[bytes]:
     """Invert :func:`pack`; the streams' raw lengths together are at most ``limit``.
 
@@ -272,7 +240,7 @@ def unpack(data: bytes, limit: int, count: int | None = None) -> list[bytes]:
             raise TruncatedError(f"text stream at offset {pos} runs past the end")
         if coder == Coder.ZSTD_DICT:  # a container's coder, not a text stream's
             raise CorruptError(f"text stream coder {coder} at offset {pos}")
-        out.append(_inflate(coder, bytes(view[pos : pos + stored]), raw_len))
+        out.append(decompress(coder, bytes(view[pos : pos + stored]), raw_len))
         pos += stored
     if pos != len(view):
         raise CorruptError(f"{len(view) - pos} bytes after the last text stream")

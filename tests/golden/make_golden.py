@@ -250,23 +250,34 @@ def compact(data: bytes) -> bool:
     return v in container.VERSIONS and container.revision(*v) >= container.COMPACT
 
 
+def length_fields(data: bytes) -> list[tuple[int, int]] | None:
+    """Format 2.6: the (start, end) offsets of each directory entry's varint
+    length, None where the directory is cut."""
+    nsec = struct.unpack_from("<H", data, 8)[0]
+    at, out = 16, []
+    for _ in range(nsec):
+        if at >= len(data):
+            return None
+        at += 5 if data[at] == container.TAG_ESCAPE else 1
+        start = at
+        while at < len(data) and data[at] & 0x80:
+            at += 1
+        at += 1
+        out.append((start, at))
+    return out if at <= len(data) else None
+
+
 def body_at(data: bytes) -> int | None:
     """Where the body header of container bytes starts (their header's version
     says how the directory is laid out), None where the directory is cut."""
     if len(data) < 16:
         return None
-    nsec = struct.unpack_from("<H", data, 8)[0]
     if not compact(data):
-        return 16 + 12 * nsec
-    at = 16
-    for _ in range(nsec):
-        if at >= len(data):
-            return None
-        at += 5 if data[at] == container.TAG_ESCAPE else 1
-        while at < len(data) and data[at] & 0x80:
-            at += 1
-        at += 1
-    return at if at <= len(data) else None
+        return 16 + 12 * struct.unpack_from("<H", data, 8)[0]
+    fields = length_fields(data)
+    if fields is None:
+        return None
+    return fields[-1][1] if fields else 16
 
 
 def fix_crcs(data: bytes) -> bytes:
