@@ -166,12 +166,14 @@ class Analytic:
     mask : int
         Bit j set: the origin's coordinate j is on the grid (7 when all are).
     through : int
-        0, or (tolerance mode, ``CRV3`` only) the container holds no value of
-        the record: a LINE (1, format 2.2) goes through its edge's vertices; a
-        CIRCLE (format 2.4) goes through its first edge's FORWARD vertex about
-        the axis of a face of that edge, its normal along that axis (1) or
-        against it (-1).  The decoder makes them from the decoded vertices
-        and surfaces (``rules.joins.through_vertices``).
+        0, or (tolerance mode) the container holds no value of the record, or
+        not its origin: a LINE (``CRV3``, 1, format 2.2) goes through its
+        edge's vertices; a CIRCLE (``CRV3``, format 2.4) goes through its
+        first edge's FORWARD vertex about the axis of a face of that edge, its
+        normal along that axis (1) or against it (-1); a PLANE (``SURF``, 1,
+        format 2.7) has its origin at a vertex of its first face.  The decoder
+        makes them from the decoded vertices and surfaces
+        (``rules.joins.through_vertices``).
     """
 
     kind: Kind

@@ -144,7 +144,11 @@ def test_the_reader_refuses_what_the_rule_cannot_make(turned) -> None:
     with pytest.raises(BadReferenceError, match="unlocated"):
         joins.through_vertices(m)
     m, _, _ = serialize.read_sections(c.get, c.revision)
-    m.face_loc = np.ones_like(m.face_loc)  # no face to take an axis from
+    planes = [  # faces on planes through a vertex (2.7) keep theirs
+        (g := m.surfaces[r]).kind == Kind.PLANE and bool(g.through)  # type: ignore[union-attr]
+        for r in m.face_surface.tolist()
+    ]
+    m.face_loc = np.where(planes, m.face_loc, 1)  # no face to take an axis from
     with pytest.raises(BadReferenceError, match="axis"):
         joins.through_vertices(m)
 

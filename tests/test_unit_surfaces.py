@@ -169,7 +169,9 @@ def test_a_moved_part_comes_back_with_its_planes_on_their_axes(tmp_path: Path) -
     m, _, _ = serialize.read_sections(container.unpack(nzc.read_bytes()).get, None)
     planes = [g for g in m.surfaces if isinstance(g, Analytic) and g.kind == Kind.PLANE]
     axis = [g for g in planes if np.count_nonzero(g.frame[1]) == 1]
-    assert len(axis) == 2 and all(np.count_nonzero(g.frame[0]) == 1 for g in axis)
+    # on their axes, or (2.7) through a vertex of their face: no origin stored
+    assert len(axis) == 2
+    assert all(g.through or np.count_nonzero(g.frame[0]) == 1 for g in axis)
     assert_comes_back(src, nzc, 0.01, n=7)
     assert_step_keeps_floor(occ.read_cad(src), nzc, tmp_path)
 

@@ -22,7 +22,7 @@ origin (:func:`reaches`).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import replace
 
 import numpy as np
@@ -120,6 +120,10 @@ def quantize(
 #: A direction's component at most this large is noise (the sine of an angle of
 #: 1e-10 rad or less to a coordinate plane): it is set to 0 (:func:`straighten`).
 NOISE = 1e-10
+#: Straightened directions whose components are all within this of each other
+#: are one direction (:func:`same_directions`): 1e-9 rad, a move of 1e-7 mm
+#: at 100 mm from the frame's origin.
+SAME = 1e-9
 #: ... where the record moves by at most this share of tol.
 STRAIGHT_SHARE = 1 / 64
 #: The kinds whose directions are straightened: every point's distance to the
@@ -138,33 +142,100 @@ STRAIGHT_KINDS = frozenset(
 )
 
 
-def straighten(g: Geometry, reach: float, tol: float) -> tuple[Analytic, float] | None:
+def _straight(d: np.ndarray) -> np.ndarray | None:
+    """Direction rows ``d`` with their components within ``NOISE`` of 0 set to
+    0, each scaled back to unit length where that changed it (None where a
+    row would vanish)."""
+    s = np.where(np.abs(d) <= NOISE, 0.0, d)
+    norm = np.sqrt((s**2).sum(-1, keepdims=True))
+    if not (norm > 0).all():
+        return None
+    return np.where(norm == 1.0, s, s / norm)
+
+
+def _frames(tables: Iterable[list[Geometry]]) -> Iterator[np.ndarray]:
+    """The direction rows of every record :func:`straighten` may move."""
+    for table in tables:
+        for g in table:
+            if isinstance(g, Analytic) and g.kind in STRAIGHT_KINDS and g.frame.shape[1] == 3:
+                if np.isfinite(g.frame).all():
+                    yield g.frame[1:]
+
+
+def same_directions(tables: Iterable[list[Geometry]]) -> dict[bytes, np.ndarray]:
+    """Directions that are one within the source's precision, and the one each
+    becomes (issue 28 §1: "directions that the source has equal within its
+    precision coded once and kept equal").
+
+    Every direction row of the analytic records of ``tables`` (SURF and CRV3:
+    a circle shares its cylinder's axis) is straightened (:func:`_straight`)
+    and compared with the directions kept so far, in table order: one whose
+    components are all within ``SAME`` of a kept one's (or of its negation)
+    becomes that one (negated), bit for bit; otherwise it is kept.  A part
+    rotated off the world's axes holds each of its few directions in a dozen
+    variants some 1e-12 apart (the rounding of STEP's text and of OCCT's
+    frames), which LZMA codes as different floats.  Keys are the straightened
+    rows' bytes; a row not in the map stays."""
+    kept: list[np.ndarray] = []
+    out: dict[bytes, np.ndarray] = {}
+    for d in _frames(tables):
+        s = _straight(d)
+        if s is None:
+            continue
+        for row in s + 0.0:
+            key = row.tobytes()
+            if key in out:
+                continue
+            hit = None
+            if kept:
+                k = np.array(kept)
+                near = np.flatnonzero(np.abs(k - row).max(-1) <= SAME)
+                if len(near):
+                    hit = k[near[0]]
+                else:
+                    near = np.flatnonzero(np.abs(k + row).max(-1) <= SAME)
+                    if len(near):
+                        hit = -k[near[0]]
+            if hit is None:
+                kept.append(row)
+                hit = row
+            out[key] = hit + 0.0
+            out[(-row + 0.0).tobytes()] = -hit + 0.0
+    return out
+
+
+def straighten(
+    g: Geometry, reach: float, tol: float, same: dict[bytes, np.ndarray] | None = None
+) -> tuple[Analytic, float] | None:
     """``g`` with the components of its directions (every frame row but the
     origin) of magnitude at most ``NOISE`` set to 0 and each direction scaled
-    back to unit length, and the bound of that move; None where nothing
+    back to unit length, then each made the direction ``same`` maps it to
+    (:func:`same_directions`), and the bound of that move; None where nothing
     changes or the bound passes ``STRAIGHT_SHARE`` x tol.
 
     A point of the record is o + Σ c_k d_k with |c_k| ≤ |p − o| (the d_k
     orthonormal), so it moves by at most |p − o| · Σ |Δd_k| for fixed
     parameters; OCCT rebuilds a frame's Y direction from its main and X
-    directions, which moves it by at most their two moves: twice the sum of
+    directions (and an X direction off the plane normal to the main one onto
+    that plane), which moves it by at most their two moves: twice the sum of
     the stored rows' moves covers it.  ``reach`` bounds |p − o| over the
     faces or edges the record bounds (:func:`reaches`)."""
     if not isinstance(g, Analytic) or g.kind not in STRAIGHT_KINDS or g.frame.shape[1] != 3:
         return None
     d = g.frame[1:]
-    s = np.where(np.abs(d) <= NOISE, 0.0, d)
-    norm = np.sqrt((s**2).sum(-1, keepdims=True))
-    if not (norm > 0).all():
+    s = _straight(d)
+    if s is None:
         return None
-    s = np.where(norm == 1.0, s, s / norm)
+    s = s + 0.0  # never -0.0
+    if same:
+        s = np.array([same.get(row.tobytes(), row) for row in s])
     if np.array_equal(s, d):
         return None
     bound = 2.0 * reach * float(np.sqrt(((s - d) ** 2).sum(-1)).sum())
     if not bound <= STRAIGHT_SHARE * tol:
         return None
     frame = g.frame.copy()
-    frame[1:] = s + 0.0  # never -0.0
+    frame[1:] = s
     return replace(g, frame=frame), bound
 
 

@@ -10,6 +10,7 @@ edge and vertex tolerances widened by the coding error around them.
 from __future__ import annotations
 
 import collections
+import functools
 import math
 from dataclasses import dataclass, replace
 from typing import Any
@@ -135,14 +136,19 @@ def assemble(
     if coded.reach is None:
         coded.reach = analytic.reaches(m)
     reach_s, reach_c = coded.reach
-    snapped, gridded = _snap_analytic(surfaces, srec, exact, coded.tol, at_vertex, reach_s)
-    curve_moves, curves_gridded = _snap_analytic(curves, crec, exact, coded.tol, at_vertex, reach_c)
+    if coded.same is None:
+        coded.same = analytic.same_directions((m.surfaces, m.curves3d))
+    snap = functools.partial(_snap_analytic, tol=coded.tol, at_vertex=at_vertex, same=coded.same)
+    snapped, gridded = snap(surfaces, srec, exact, reach=reach_s)
+    curve_moves, curves_gridded = snap(curves, crec, exact, reach=reach_c)
     snapped.update(curve_moves)
     gridded |= curves_gridded
     source = m
     m, moved_v, loose_v, bound_v = _snap_vertices(m, coded, surfaces, curves, codes, exact, still)
     threaded = _thread(source, m, surfaces, curves, crec, exact, coded.tol, coded.vlead)
-    snapped.update(threaded)  # the curve's bound replaces its grid's: it is a new curve
+    planes = _planes_through(source, m, surfaces, srec, exact, coded.tol, reach_s, coded.same)
+    threaded.update(planes)
+    snapped.update(threaded)  # the record's bound replaces its grid's: it is a new record
     gridded |= set(threaded)  # the validity ladder's first rung leaves it as it was
     _pin_surfaces(m, surfaces, codes, coded.tol)
     side_joins = _join_sides(m, coded, surfaces, codes)
@@ -208,9 +214,11 @@ def _snap_analytic(
     tol: float,
     at_vertex: frozenset[float] | None,
     reach: dict[int, float],
+    same: dict[bytes, np.ndarray],
 ) -> tuple[dict[Rec, float], set[Rec]]:
     """Straighten every analytic record of ``table`` but ``exact`` whose rows
-    all have a ``reach`` (:func:`.analytic.straighten`), and with
+    all have a ``reach`` (:func:`.analytic.straighten`, its directions made
+    the ones ``same`` maps them to), and with
     ``at_vertex`` put it on its grid (:func:`.analytic.quantize`), in place
     at every row of it; per record moved, its bound (the sum), and the records
     put on a grid.  Straightening alone does not make a record gridded (the
@@ -232,7 +240,7 @@ def _snap_analytic(
         if k.row != i or k in exact:
             continue
         g, bound = table[i], 0.0
-        line = analytic.straighten(g, far[k], tol) if math.isfinite(far[k]) else None
+        line = analytic.straighten(g, far[k], tol, same) if math.isfinite(far[k]) else None
         if line is not None:
             g, bound = line
         hit = None if at_vertex is None else analytic.quantize(g, tol, at_vertex)
@@ -345,6 +353,61 @@ def _thread(
     return out
 
 
+def _planes_through(
+    source: BRepModel,
+    m: BRepModel,
+    surfaces: list[Geometry],
+    srec: list[Rec],
+    exact: set[Rec | None],
+    tol: float,
+    reach: dict[int, float],
+    same: dict[bytes, np.ndarray],
+) -> dict[Rec, float]:
+    """Planes whose origin is a vertex of their first face (format 2.7,
+    ``joins.plane_points``), which the container holds as a kind code and
+    the directions, in place in ``surfaces``; per record, its bound.
+
+    A plane qualifies where its record has one row, no other record (an
+    offset or trimmed surface) and no vertex's (u, v) refers to it, its
+    first face gives a vertex, and the bound is within tol.  Moving the
+    origin within the plane changes only the plane's parameters, which no
+    pcurve the decoder computes depends on; a pcurve the candidate keeps
+    does, and :func:`unthread` puts the source's plane back under it.  The
+    directions are the straightened ones (:func:`.analytic.straighten`), the
+    origin is the vertex as decoded.  The bound: a point p of the source
+    plane, |p − o| ≤ R (``reach``), is |n'·(p − v')| from the new plane,
+    at most R·|n' − n| (the straightening's bound covers it) plus
+    |n'·(o − v')|."""
+    out: dict[Rec, float] = {}
+    if not tol > 0:
+        return out
+    based = {g.basis for g in source.surfaces if isinstance(g, Derived) and g.kind not in SWEPT}
+    vr = source.vertex_reps
+    based |= set(vr[vr[:, VC.KIND] != PointRepKind.ON_CURVE, VC.SURFACE].tolist())
+    at = joins.plane_points(m)
+    rows = _Rows(surfaces)
+    for i, k in enumerate(srec):
+        was = source.surfaces[i]
+        if k.row != i or k in exact or i in based or i not in at or len(rows.rows[i]) != 1:
+            continue
+        if not (isinstance(was, Analytic) and was.kind == Kind.PLANE and not was.through):
+            continue
+        if was.frame.shape != (4, 3) or not np.isfinite(was.frame).all():
+            continue
+        r = reach.get(i, math.inf)
+        st = analytic.straighten(was, r, tol, same) if math.isfinite(r) else None
+        g, bound = st if st is not None else (was, 0.0)
+        v = m.vertex_point[at[i]]
+        bound += abs(float(g.frame[1] @ (was.frame[0] - v)))
+        if not bound <= tol:
+            continue
+        frame = g.frame.copy()
+        frame[0] = v
+        rows.replace(i, Analytic(Kind.PLANE, frame, np.zeros(0), through=1))
+        out[k] = bound
+    return out
+
+
 def _line_through(
     m: BRepModel, was: Analytic, t: np.ndarray, ends: tuple[int, int]
 ) -> tuple[Analytic, float, list[tuple[float, float]]] | None:
@@ -424,10 +487,24 @@ def _circle_through(
 def unthread(cand: BRepModel, source: BRepModel) -> BRepModel:
     """``cand`` with the source's curve and its edges' 3-D ranges back
     wherever a curve through vertices (:func:`_thread`) is on an edge that
-    keeps a stored pcurve (parameterized on the source curve)."""
+    keeps a stored pcurve (parameterized on the source curve), and the
+    source's plane back wherever a plane through a vertex
+    (:func:`_planes_through`) holds a stored pcurve."""
     reps = cand.edge_reps
     pcurve = np.isin(reps[:, EC.KIND], (RepKind.ON_SURFACE, RepKind.ON_CLOSED_SURFACE))
-    kept = set(reps[pcurve & (reps[:, EC.CURVE] != REBUILD), EC.EDGE].tolist())
+    stored = pcurve & (reps[:, EC.CURVE] != REBUILD)
+    held = set(reps[stored, EC.SURFACE].tolist())
+    planes = [
+        i
+        for i, g in enumerate(cand.surfaces)
+        if i in held and isinstance(g, Analytic) and g.kind == Kind.PLANE and g.through
+    ]
+    if planes:
+        cand = replace(cand)
+        cand.surfaces = list(cand.surfaces)
+        for i in planes:
+            cand.surfaces[i] = source.surfaces[i]
+    kept = set(reps[stored, EC.EDGE].tolist())
     back = [
         q
         for i, qs in joins.curve_uses(cand).items()

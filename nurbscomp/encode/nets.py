@@ -110,6 +110,8 @@ class Coded:
     kplan: knots.Plan = field(default_factory=dict)
     #: the reaches of the source's analytic rows (:func:`analytic.reaches`), once made
     reach: tuple[dict[int, float], dict[int, float]] | None = None
+    #: the source's directions that are one (:func:`analytic.same_directions`), once made
+    same: dict[bytes, np.ndarray] | None = None
 
 
 #: A coded net moves by at most this fraction of its size (:func:`feature_limit`).

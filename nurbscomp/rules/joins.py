@@ -209,11 +209,47 @@ def circle_through(axis: Analytic, p: np.ndarray, sense: int) -> Analytic | None
     return Analytic(Kind.CIRCLE, frame, np.array([r]), through=sense)
 
 
+def plane_points(m: BRepModel) -> dict[int, int]:
+    """Per surface row, the vertex row a plane on it may go through (2.7,
+    docs/format.md §2.3): the row's first face (model order) must have
+    location 0; in it, the first wire of location 0; in that, the first edge
+    of location 0 with a FORWARD vertex of location 0 (:func:`edge_ends`).
+    Rows whose first face has no such vertex are left out."""
+    types, children, start, locs = m.shape_type, m.child_shape, m.child_start, m.child_loc
+    tidx = m.type_index()
+    wire, edge = int(ShapeType.WIRE), int(ShapeType.EDGE)
+    out: dict[int, int] = {}
+    seen: set[int] = set()
+    for f, s in enumerate(np.flatnonzero(types == ShapeType.FACE).tolist()):
+        row = int(m.face_surface[f])
+        if row in seen:
+            continue
+        seen.add(row)
+        if m.face_loc[f] != 0:
+            continue
+        w = next(
+            (int(children[k]) for k in range(start[s], start[s + 1])
+             if types[children[k]] == wire and locs[k] == 0),
+            None,
+        )  # fmt: skip
+        if w is None:
+            continue
+        for j in range(start[w], start[w + 1]):
+            e = int(children[j])
+            if types[e] == edge and locs[j] == 0:
+                v = edge_ends(m, e, tidx).get(FORWARD)
+                if v is not None:
+                    out[row] = v
+                    break
+    return out
+
+
 def through_vertices(m: BRepModel) -> None:
     """Make the frame of every 3-D line that goes through its edge's
-    vertices (``Analytic.through``, format 2.2) and of every circle through
-    its edge's vertex about its face's axis (2.4), in place, from the
-    decoded vertices and surfaces (docs/format.md §2.3).
+    vertices (``Analytic.through``, format 2.2), of every circle through
+    its edge's vertex about its face's axis (2.4) and the origin of every
+    plane through its face's vertex (2.7), in place, from the decoded
+    vertices and surfaces (docs/format.md §2.3).
 
     Raises
     ------
@@ -222,8 +258,21 @@ def through_vertices(m: BRepModel) -> None:
         distinct FORWARD and REVERSED unlocated vertices; such a circle used
         by no edge or by a located one, whose first edge has no unlocated
         FORWARD vertex or no face to take an axis from, or whose vertex is on that
-        axis; either kind copied by another row.
+        axis; such a plane on no face or without the vertex of
+        :func:`plane_points`; any of them copied by another row.
     """
+    planes = [i for i, g in enumerate(m.surfaces) if isinstance(g, Analytic) and g.through]
+    if planes:
+        held_s = collections.Counter(id(h) for h in m.surfaces)
+        at = plane_points(m)
+        for i in planes:
+            g = m.surfaces[i]
+            assert isinstance(g, Analytic)
+            if held_s[id(g)] != 1:
+                raise BadReferenceError(f"SURF row {i}: a plane through a vertex is copied")
+            if i not in at:
+                raise BadReferenceError(f"SURF row {i}: a plane through a vertex has no vertex")
+            g.frame[0] = m.vertex_point[at[i]]
     rows = [i for i, g in enumerate(m.curves3d) if isinstance(g, Analytic) and g.through]
     if not rows:
         return

@@ -87,6 +87,11 @@ THROUGH = 176
 #: Kind codes of a 3-D circle through its edge's vertex about its face's axis,
 #: its normal along the axis or against it, with no values (2.4, §2.3).
 CIRCLE_ALONG, CIRCLE_AGAINST = 177, 178
+#: Kind code of a plane whose origin is a vertex of its first face, with its
+#: directions only (2.7, §2.3; ``rules.joins.plane_points``).
+PLANE_THROUGH = 179
+#: Format 2.7: the first revision with :data:`PLANE_THROUGH` rows.
+PLANES_THROUGH = container.VERSIONS.index((2, 7))
 
 
 def _keys(x: np.ndarray) -> list[int]:
@@ -212,6 +217,12 @@ def _write_geometry(
         if first[i] != i:
             kinds.append(COPY)
             copies.append(i - first[i])
+            continue
+        if isinstance(r, Analytic) and r.through and r.kind == Kind.PLANE and dim == 3:
+            if revision < PLANES_THROUGH or r.through != 1:
+                raise ValueError("only format 2.7 has planes through a vertex")
+            kinds.append(PLANE_THROUGH)
+            frames.append(r.frame[1:].reshape(-1))
             continue
         if isinstance(r, Analytic) and r.through:
             if not dim == 3 or not (
@@ -459,6 +470,11 @@ def _read_geometry(
             out.append(
                 Analytic(Kind.CIRCLE, np.full((3, 3), np.nan), np.full(1, np.nan), through=sense)
             )
+            continue
+        if k == PLANE_THROUGH and revision >= PLANES_THROUGH and surface:
+            # its origin is a vertex of its first face (decode.apply): NaN until then
+            frame = np.concatenate([np.full((1, 3), np.nan), frames.take(9).reshape(3, 3)])
+            out.append(Analytic(Kind.PLANE, frame, np.zeros(0), through=1))
             continue
         on_grid = gridded and GRIDDED <= k < COPY
         try:

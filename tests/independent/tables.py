@@ -19,7 +19,9 @@ class Analytic:
     kind: int
     frame: np.ndarray
     params: np.ndarray
-    through: int = 0  # §2.3: a line through its edge's vertices (2.2), a circle through one (2.4)
+    # §2.3: a line through its edge's vertices (2.2), a circle through one (2.4),
+    # a plane's origin at a vertex (2.7)
+    through: int = 0
 
 
 @dataclass(eq=False)
@@ -199,6 +201,10 @@ def read_geometry(raw: bytes, tag: str, dim: int, revision: int) -> tuple[list[R
         copies.append(False)
         if kind == 176 and revision >= 5 and tag == "CRV3":  # §2.3 (2.2): frame from the vertices
             rows.append(Analytic(16, np.full((2, 3), np.nan), np.zeros(0), through=1))
+            continue
+        if kind == 179 and revision >= 10 and tag == "SURF":  # §2.3 (2.7): origin at a vertex
+            dirs = frames(9).reshape(3, 3)
+            rows.append(Analytic(0, np.vstack([np.full((1, 3), np.nan), dirs]), np.zeros(0), 1))
             continue
         if kind in (177, 178) and revision >= 7 and tag == "CRV3":  # §2.3 (2.4): a face axis
             sense = 1 if kind == 177 else -1
