@@ -211,3 +211,36 @@ def test_lossless_has_none(plate, tmp_path: Path) -> None:
     c = container.unpack(out.read_bytes())
     m = serialize.read_sections(c.get, c.revision)[0]
     assert not [i for i in _planes(m) if m.surfaces[i].through]
+
+
+def test_seam_lines_go_through_their_vertices(plate) -> None:
+    """A hole's seam (a line on a cylinder, its two pcurves computed by the
+    decoder) goes through its vertices like any other line, and the decoded
+    seam stays within its edge's tolerance of the cylinder."""
+    src, nzc, _ = plate
+    c = container.unpack(nzc.read_bytes())
+    m, _, _ = serialize.read_sections(c.get, c.revision)
+    reps = m.edge_reps
+    seams = set(reps[reps[:, EC.KIND] == RepKind.ON_CLOSED_SURFACE, EC.EDGE].tolist())
+    on_seam = (reps[:, EC.KIND] == RepKind.CURVE3D) & np.isin(reps[:, EC.EDGE], list(seams))
+    lines = [int(i) for i in reps[on_seam, EC.CURVE] if m.curves3d[i].kind == Kind.LINE]
+    assert len(seams) >= 4 and lines
+    assert all(m.curves3d[i].through for i in lines)
+    back, _ = pipeline.decode(c)
+    for q in np.flatnonzero(on_seam):
+        e = int(reps[q, EC.EDGE])
+        line = back.curves3d[int(reps[q, EC.CURVE])]
+        cyl = back.surfaces[
+            int(
+                reps[
+                    (reps[:, EC.EDGE] == e) & (reps[:, EC.KIND] == RepKind.ON_CLOSED_SURFACE),
+                    EC.SURFACE,
+                ][0]
+            )
+        ]
+        assert cyl.kind == Kind.CYLINDER
+        t = np.array(back.edge_rep_range[q])
+        p = line.frame[0] + t[:, None] * line.frame[1]  # the seam's ends
+        w = p - cyl.frame[0]
+        r = np.linalg.norm(w - (w @ cyl.frame[1])[:, None] * cyl.frame[1], axis=1)
+        assert np.abs(r - cyl.params[0]).max() <= back.edge_tol[e]

@@ -253,6 +253,12 @@ def _snap_analytic(
     return out, gridded
 
 
+#: Seam lines go through their vertices too (a hole's cylinder or a cone: the
+#: decoder computes both pcurves on the closed surface).  Nine generated
+#: plates at 0.01 mm: 17,190 -> 15,362 bytes; 153 generated seam parts -0.6%.
+SEAM_LINES = True
+
+
 def _thread(
     source: BRepModel,
     m: BRepModel,
@@ -273,7 +279,8 @@ def _thread(
     A curve qualifies where it is an unlocated 3-D curve of its edges (a
     line: of one edge), its record has no other row, no other record (a
     swept surface, a trimmed or offset curve) and no vertex's point
-    representation refers to it, its edges are no seams and have a FORWARD
+    representation refers to it, its edges are no seams (a line's may be:
+    ``SEAM_LINES``) and have a FORWARD
     and a REVERSED unlocated vertex (a line's distinct), none of them a twin
     (a vertex of a cluster ``lead``: a surface model whose faces each have
     their own edges, where the coincident curve of the next face is a record
@@ -324,7 +331,8 @@ def _thread(
         ends = []
         for q in qs:
             e = int(reps[q, EC.EDGE])
-            if reps[q, EC.LOC] != 0 or e in seams or any(f not in plain for f in faces_of[e]):
+            seam = e in seams and (g.kind != Kind.LINE or not SEAM_LINES)
+            if reps[q, EC.LOC] != 0 or seam or any(f not in plain for f in faces_of[e]):
                 break
             two = joins.edge_ends(m, int(edge_shapes[e]), tidx)
             if len(two) != 2 or twin[[two[joins.FORWARD], two[joins.REVERSED]]].any():
