@@ -144,9 +144,8 @@ def test_the_reader_refuses_what_the_rule_cannot_make(turned) -> None:
     with pytest.raises(BadReferenceError, match="unlocated"):
         joins.through_vertices(m)
     m, _, _ = serialize.read_sections(c.get, c.revision)
-    planes = [  # faces on planes through a vertex (2.7) keep theirs
-        (g := m.surfaces[r]).kind == Kind.PLANE and bool(g.through)  # type: ignore[union-attr]
-        for r in m.face_surface.tolist()
+    planes = [  # faces on planes and cylinders through a vertex (2.7) keep theirs
+        bool(getattr(m.surfaces[r], "through", 0)) for r in m.face_surface.tolist()
     ]
     m.face_loc = np.where(planes, m.face_loc, 1)  # no face to take an axis from
     with pytest.raises(BadReferenceError, match="axis"):

@@ -145,9 +145,9 @@ def assemble(
     gridded |= curves_gridded
     source = m
     m, moved_v, loose_v, bound_v = _snap_vertices(m, coded, surfaces, curves, codes, exact, still)
-    threaded = _thread(source, m, surfaces, curves, crec, exact, coded.tol, coded.vlead)
-    planes = _planes_through(source, m, surfaces, srec, exact, coded.tol, reach_s, coded.same)
-    threaded.update(planes)
+    # planes and cylinders first: a circle through a vertex takes its cylinder's axis
+    threaded = _surfaces_through(source, m, surfaces, srec, exact, coded.tol, reach_s, coded.same)
+    threaded.update(_thread(source, m, surfaces, curves, crec, exact, coded.tol, coded.vlead))
     snapped.update(threaded)  # the record's bound replaces its grid's: it is a new record
     gridded |= set(threaded)  # the validity ladder's first rung leaves it as it was
     _pin_surfaces(m, surfaces, codes, coded.tol)
@@ -361,7 +361,7 @@ def _thread(
     return out
 
 
-def _planes_through(
+def _surfaces_through(
     source: BRepModel,
     m: BRepModel,
     surfaces: list[Geometry],
@@ -371,47 +371,65 @@ def _planes_through(
     reach: dict[int, float],
     same: dict[bytes, np.ndarray],
 ) -> dict[Rec, float]:
-    """Planes whose origin is a vertex of their first face (format 2.7,
-    ``joins.plane_points``), which the container holds as a kind code and
-    the directions, in place in ``surfaces``; per record, its bound.
+    """Planes and cylinders whose origin comes from a vertex of their first
+    face (format 2.7, ``joins.face_points``, ``joins.surface_origin``),
+    which the container holds as a kind code, the directions and a
+    cylinder's radius, in place in ``surfaces``; per record, its bound.
 
-    A plane qualifies where its record has one row, no other record (an
-    offset or trimmed surface) and no vertex's (u, v) refers to it, its
-    first face gives a vertex, and the bound is within tol.  Moving the
-    origin within the plane changes only the plane's parameters, which no
-    pcurve the decoder computes depends on; a pcurve the candidate keeps
-    does, and :func:`unthread` puts the source's plane back under it.  The
-    directions are the straightened ones (:func:`.analytic.straighten`), the
-    origin is the vertex as decoded.  The bound: a point p of the source
-    plane, |p − o| ≤ R (``reach``), is |n'·(p − v')| from the new plane,
-    at most R·|n' − n| (the straightening's bound covers it) plus
-    |n'·(o − v')|."""
+    A record qualifies where it has one row, no other record (an offset or
+    trimmed surface) and no vertex's (u, v) refers to it, its first face
+    gives a vertex, and the bound is within tol.  Moving the origin within a
+    plane, or along a cylinder's axis, changes only the surface's
+    parameters, which no pcurve the decoder computes depends on; a pcurve
+    the candidate keeps does, and :func:`unthread` puts the source's record
+    back under it.  The directions are the straightened ones
+    (:func:`.analytic.straighten`), the vertex is as decoded, a cylinder's
+    radius the source's, and its axis is taken against the one of its X, Y,
+    −X, −Y directions nearest the vertex.  The bound, R bounding |p − o|
+    over the face (``reach``): a plane's point p is |n'·(p − v')| from the
+    new plane, at most R·|n' − n| (within the straightening's bound) plus
+    |n'·(o − v')|; a cylinder's point is as far from the new surface as the
+    axes are apart near it, at most the part of o' − o across d, plus
+    |o' − o|·|d' − d| and R·|d' − d| (within the straightening's bound)."""
     out: dict[Rec, float] = {}
     if not tol > 0:
         return out
     based = {g.basis for g in source.surfaces if isinstance(g, Derived) and g.kind not in SWEPT}
     vr = source.vertex_reps
     based |= set(vr[vr[:, VC.KIND] != PointRepKind.ON_CURVE, VC.SURFACE].tolist())
-    at = joins.plane_points(m)
+    at = joins.face_points(m)
     rows = _Rows(surfaces)
     for i, k in enumerate(srec):
         was = source.surfaces[i]
         if k.row != i or k in exact or i in based or i not in at or len(rows.rows[i]) != 1:
             continue
-        if not (isinstance(was, Analytic) and was.kind == Kind.PLANE and not was.through):
+        if not (isinstance(was, Analytic) and was.kind in joins.THROUGH_SURFACES):
             continue
-        if was.frame.shape != (4, 3) or not np.isfinite(was.frame).all():
+        if was.through or was.frame.shape != (4, 3) or not np.isfinite(was.frame).all():
             continue
         r = reach.get(i, math.inf)
         st = analytic.straighten(was, r, tol, same) if math.isfinite(r) else None
         g, bound = st if st is not None else (was, 0.0)
         v = m.vertex_point[at[i]]
-        bound += abs(float(g.frame[1] @ (was.frame[0] - v)))
+        o, d = was.frame[0], was.frame[1]
+        if was.kind == Kind.PLANE:
+            new = Analytic(Kind.PLANE, g.frame.copy(), np.zeros(0), through=1)
+        else:
+            w = v - o
+            w = w - float(w @ d) * d
+            q = int(np.argmax([w @ g.frame[2], w @ g.frame[3], -w @ g.frame[2], -w @ g.frame[3]]))
+            new = Analytic(Kind.CYLINDER, g.frame.copy(), was.params.copy(), through=q + 1)
+        new.frame[0] = joins.surface_origin(new, v)
+        shift = new.frame[0] - o
+        if was.kind == Kind.PLANE:
+            bound += abs(float(new.frame[1] @ shift))
+        else:
+            across = shift - float(shift @ d) * d
+            bound += float(np.linalg.norm(across))
+            bound += float(np.linalg.norm(shift)) * float(np.linalg.norm(new.frame[1] - d))
         if not bound <= tol:
             continue
-        frame = g.frame.copy()
-        frame[0] = v
-        rows.replace(i, Analytic(Kind.PLANE, frame, np.zeros(0), through=1))
+        rows.replace(i, new)
         out[k] = bound
     return out
 
@@ -493,31 +511,40 @@ def _circle_through(
 
 
 def unthread(cand: BRepModel, source: BRepModel) -> BRepModel:
-    """``cand`` with the source's curve and its edges' 3-D ranges back
-    wherever a curve through vertices (:func:`_thread`) is on an edge that
-    keeps a stored pcurve (parameterized on the source curve), and the
-    source's plane back wherever a plane through a vertex
-    (:func:`_planes_through`) holds a stored pcurve."""
+    """``cand`` with the source's record back wherever a plane or cylinder
+    through a vertex (:func:`_surfaces_through`) holds a stored pcurve, and
+    the source's curve and its edges' 3-D ranges back wherever a curve
+    through vertices (:func:`_thread`) is on an edge that keeps a stored
+    pcurve (parameterized on the source curve) or, for a circle, takes its
+    axis from a cylinder put back (the decoder would make it about the
+    source's axis)."""
     reps = cand.edge_reps
     pcurve = np.isin(reps[:, EC.KIND], (RepKind.ON_SURFACE, RepKind.ON_CLOSED_SURFACE))
     stored = pcurve & (reps[:, EC.CURVE] != REBUILD)
     held = set(reps[stored, EC.SURFACE].tolist())
-    planes = [
+    put = [
         i
         for i, g in enumerate(cand.surfaces)
-        if i in held and isinstance(g, Analytic) and g.kind == Kind.PLANE and g.through
+        if i in held and isinstance(g, Analytic) and g.through
     ]
-    if planes:
+    if put:
         cand = replace(cand)
         cand.surfaces = list(cand.surfaces)
-        for i in planes:
+        for i in put:
             cand.surfaces[i] = source.surfaces[i]
     kept = set(reps[stored, EC.EDGE].tolist())
+    moved = {i for i in put if cand.surfaces[i].kind == Kind.CYLINDER}
+    axes = joins.axis_faces(cand) if moved else {}
     back = [
         q
         for i, qs in joins.curve_uses(cand).items()
         if i >= 0 and isinstance(g := cand.curves3d[i], Analytic) and g.through
         if any(int(reps[q, EC.EDGE]) in kept for q in qs)
+        or (
+            g.kind == Kind.CIRCLE
+            and int(cand.face_surface[axes.get(int(reps[qs[0], EC.EDGE]), 0)]) in moved
+            and int(reps[qs[0], EC.EDGE]) in axes
+        )
         for q in qs  # every edge on it: their ranges are on the new curve
     ]
     if not back:

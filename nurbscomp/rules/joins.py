@@ -209,9 +209,9 @@ def circle_through(axis: Analytic, p: np.ndarray, sense: int) -> Analytic | None
     return Analytic(Kind.CIRCLE, frame, np.array([r]), through=sense)
 
 
-def plane_points(m: BRepModel) -> dict[int, int]:
-    """Per surface row, the vertex row a plane on it may go through (2.7,
-    docs/format.md §2.3): the row's first face (model order) must have
+def face_points(m: BRepModel) -> dict[int, int]:
+    """Per surface row, the vertex row a plane or cylinder on it may go
+    through (2.7, docs/format.md §2.3): the row's first face (model order) must have
     location 0; in it, the first wire of location 0; in that, the first edge
     of location 0 with a FORWARD vertex of location 0 (:func:`edge_ends`).
     Rows whose first face has no such vertex are left out."""
@@ -244,12 +244,31 @@ def plane_points(m: BRepModel) -> dict[int, int]:
     return out
 
 
+def surface_origin(g: Analytic, p: np.ndarray) -> np.ndarray:
+    """The origin of a plane or cylinder through point ``p`` (2.7,
+    docs/format.md §2.3): a plane's is ``p``; a cylinder whose ``through`` is
+    q + 1 has its axis at its radius r from ``p``, against the unit ``u``
+    (X, Y, −X, −Y direction for q = 0 … 3): per coordinate
+    ``p_j − r·u_j`` (the product rounded, then the difference)."""
+    if g.kind == Kind.PLANE:
+        return np.array(p, dtype=np.float64)
+    q = g.through - 1
+    u = g.frame[2 + q % 2] * (1.0 if q < 2 else -1.0)
+    r = float(g.params[0])
+    return np.array([float(p[j]) - r * float(u[j]) for j in range(3)])
+
+
+#: Surface kinds that may go through a vertex of their first face (2.7).
+THROUGH_SURFACES = (Kind.PLANE, Kind.CYLINDER)
+
+
 def through_vertices(m: BRepModel) -> None:
     """Make the frame of every 3-D line that goes through its edge's
     vertices (``Analytic.through``, format 2.2), of every circle through
     its edge's vertex about its face's axis (2.4) and the origin of every
-    plane through its face's vertex (2.7), in place, from the decoded
-    vertices and surfaces (docs/format.md §2.3).
+    plane or cylinder through its face's vertex (2.7, before the circles,
+    which take a cylinder's axis), in place, from the decoded vertices and
+    surfaces (docs/format.md §2.3).
 
     Raises
     ------
@@ -258,21 +277,22 @@ def through_vertices(m: BRepModel) -> None:
         distinct FORWARD and REVERSED unlocated vertices; such a circle used
         by no edge or by a located one, whose first edge has no unlocated
         FORWARD vertex or no face to take an axis from, or whose vertex is on that
-        axis; such a plane on no face or without the vertex of
-        :func:`plane_points`; any of them copied by another row.
+        axis; such a plane or cylinder on no face or without the vertex of
+        :func:`face_points`; any of them copied by another row.
     """
-    planes = [i for i, g in enumerate(m.surfaces) if isinstance(g, Analytic) and g.through]
-    if planes:
+    through = [i for i, g in enumerate(m.surfaces) if isinstance(g, Analytic) and g.through]
+    if through:
         held_s = collections.Counter(id(h) for h in m.surfaces)
-        at = plane_points(m)
-        for i in planes:
+        at = face_points(m)
+        for i in through:
             g = m.surfaces[i]
             assert isinstance(g, Analytic)
+            name = g.kind.name.lower()
             if held_s[id(g)] != 1:
-                raise BadReferenceError(f"SURF row {i}: a plane through a vertex is copied")
+                raise BadReferenceError(f"SURF row {i}: a {name} through a vertex is copied")
             if i not in at:
-                raise BadReferenceError(f"SURF row {i}: a plane through a vertex has no vertex")
-            g.frame[0] = m.vertex_point[at[i]]
+                raise BadReferenceError(f"SURF row {i}: a {name} through a vertex has no vertex")
+            g.frame[0] = surface_origin(g, m.vertex_point[at[i]])
     rows = [i for i, g in enumerate(m.curves3d) if isinstance(g, Analytic) and g.through]
     if not rows:
         return

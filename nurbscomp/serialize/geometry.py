@@ -88,9 +88,14 @@ THROUGH = 176
 #: its normal along the axis or against it, with no values (2.4, §2.3).
 CIRCLE_ALONG, CIRCLE_AGAINST = 177, 178
 #: Kind code of a plane whose origin is a vertex of its first face, with its
-#: directions only (2.7, §2.3; ``rules.joins.plane_points``).
+#: directions only (2.7, §2.3; ``rules.joins.face_points``).
 PLANE_THROUGH = 179
-#: Format 2.7: the first revision with :data:`PLANE_THROUGH` rows.
+#: Kind codes of a cylinder whose axis is its radius from a vertex of its
+#: first face, against its X, Y, −X or −Y direction (2.7, §2.3): its
+#: directions and radius only.
+CYLINDER_THROUGH = 180
+#: Format 2.7: the first revision with :data:`PLANE_THROUGH` and
+#: :data:`CYLINDER_THROUGH` rows.
 PLANES_THROUGH = container.VERSIONS.index((2, 7))
 
 
@@ -218,11 +223,14 @@ def _write_geometry(
             kinds.append(COPY)
             copies.append(i - first[i])
             continue
-        if isinstance(r, Analytic) and r.through and r.kind == Kind.PLANE and dim == 3:
-            if revision < PLANES_THROUGH or r.through != 1:
-                raise ValueError("only format 2.7 has planes through a vertex")
-            kinds.append(PLANE_THROUGH)
+        if isinstance(r, Analytic) and r.through and r.kind in (Kind.PLANE, Kind.CYLINDER):
+            top = 1 if r.kind == Kind.PLANE else 4
+            if revision < PLANES_THROUGH or dim != 3 or not 1 <= r.through <= top:
+                raise ValueError("only format 2.7 has planes and cylinders through a vertex")
+            plane = r.kind == Kind.PLANE
+            kinds.append(PLANE_THROUGH if plane else CYLINDER_THROUGH + r.through - 1)
             frames.append(r.frame[1:].reshape(-1))
+            params.append(r.params)
             continue
         if isinstance(r, Analytic) and r.through:
             if not dim == 3 or not (
@@ -471,10 +479,16 @@ def _read_geometry(
                 Analytic(Kind.CIRCLE, np.full((3, 3), np.nan), np.full(1, np.nan), through=sense)
             )
             continue
-        if k == PLANE_THROUGH and revision >= PLANES_THROUGH and surface:
-            # its origin is a vertex of its first face (decode.apply): NaN until then
+        if PLANE_THROUGH <= k < CYLINDER_THROUGH + 4 and revision >= PLANES_THROUGH and surface:
+            # its origin comes from a vertex of its first face (decode.apply): NaN until then
             frame = np.concatenate([np.full((1, 3), np.nan), frames.take(9).reshape(3, 3)])
-            out.append(Analytic(Kind.PLANE, frame, np.zeros(0), through=1))
+            if k == PLANE_THROUGH:
+                out.append(Analytic(Kind.PLANE, frame, np.zeros(0), through=1))
+            else:
+                radius = params.take(1)
+                if not radius[0] > 0:
+                    raise SectionError(f"{where}: a cylinder's radius must be positive")
+                out.append(Analytic(Kind.CYLINDER, frame, radius, through=k - CYLINDER_THROUGH + 1))
             continue
         on_grid = gridded and GRIDDED <= k < COPY
         try:

@@ -279,14 +279,15 @@ def circle_through(m: Model, i: int, g: Analytic) -> None:
     g.params = np.array([r])
 
 
-def plane_through(m: Model, i: int, g: Analytic) -> None:
-    """§2.3 (2.7): the origin of a plane at a vertex of its first face."""
+def surface_through(m: Model, i: int, g: Analytic) -> None:
+    """§2.3 (2.7): the origin of a plane at a vertex of its first face, or of
+    a cylinder at its radius from that vertex."""
     sh = m.shapes
     if sum(h is g for h in m.surfaces) != 1:
-        raise ReadError("SURF: a plane through a vertex is copied")
+        raise ReadError("SURF: a plane or cylinder through a vertex is copied")
     faces = [f for f in range(len(m.faces.surface)) if int(m.faces.surface[f]) == i]
     if not faces or int(m.faces.loc[faces[0]]) != 0:
-        raise ReadError("SURF: a plane through a vertex without an unlocated first face")
+        raise ReadError("SURF: a surface through a vertex without an unlocated first face")
     fs = sh.of(4)[faces[0]]
     wire = next((w for w, _, wl in sh.children[fs] if sh.type[w] == 5 and wl == 0), None)
     for e, _, el in sh.children[wire] if wire is not None else []:
@@ -295,18 +296,25 @@ def plane_through(m: Model, i: int, g: Analytic) -> None:
         fwd = next((c for c, o, loc in sh.children[e]
                     if sh.type[c] == 7 and o == 0 and loc == 0), None)  # fmt: skip
         if fwd is not None:
-            g.frame[0] = m.vertices.point[sh.row_of[fwd]]
+            p = [float(x) for x in m.vertices.point[sh.row_of[fwd]]]
+            if g.kind == 0:
+                g.frame[0] = p
+                return
+            q = g.through - 1  # against X, Y, -X, -Y
+            u = [(1.0 if q < 2 else -1.0) * float(x) for x in g.frame[2 + q % 2]]
+            r = float(g.params[0])
+            g.frame[0] = [p[j] - r * u[j] for j in range(3)]
             return
-    raise ReadError("SURF: a plane through a vertex without its vertex")
+    raise ReadError("SURF: a plane or cylinder through a vertex without its vertex")
 
 
 def lines_through(m: Model) -> None:
-    """§2.3: the origin of each plane through a vertex of its face (2.7), the
+    """§2.3: the origin of each plane or cylinder through a vertex of its face (2.7), the
     frame of each line through its edge's vertices (2.2) and of each circle
     through its edge's vertex about its face's axis (2.4)."""
     for i, g in enumerate(m.surfaces):
         if isinstance(g, Analytic) and g.through:
-            plane_through(m, i, g)
+            surface_through(m, i, g)
     for i, g in enumerate(m.curves3d):
         if not (isinstance(g, Analytic) and g.through):
             continue

@@ -202,9 +202,15 @@ def read_geometry(raw: bytes, tag: str, dim: int, revision: int) -> tuple[list[R
         if kind == 176 and revision >= 5 and tag == "CRV3":  # §2.3 (2.2): frame from the vertices
             rows.append(Analytic(16, np.full((2, 3), np.nan), np.zeros(0), through=1))
             continue
-        if kind == 179 and revision >= 10 and tag == "SURF":  # §2.3 (2.7): origin at a vertex
-            dirs = frames(9).reshape(3, 3)
-            rows.append(Analytic(0, np.vstack([np.full((1, 3), np.nan), dirs]), np.zeros(0), 1))
+        if 179 <= kind <= 183 and revision >= 10 and tag == "SURF":  # §2.3 (2.7): at a vertex
+            frame = np.vstack([np.full((1, 3), np.nan), frames(9).reshape(3, 3)])
+            if kind == 179:
+                rows.append(Analytic(0, frame, np.zeros(0), 1))
+                continue
+            radius = params(1).copy()
+            if not radius[0] > 0:
+                raise ReadError(f"{tag}: a cylinder through a vertex with radius {radius[0]}")
+            rows.append(Analytic(1, frame, radius, kind - 179))
             continue
         if kind in (177, 178) and revision >= 7 and tag == "CRV3":  # §2.3 (2.4): a face axis
             sense = 1 if kind == 177 else -1

@@ -1,5 +1,7 @@
-"""Planes whose origin is a vertex of their face (format 2.7, docs/format.md
-§2.3; ``encode.assembly._planes_through``, ``rules.joins.plane_points``), and
+"""Planes whose origin is a vertex of their face and cylinders whose axis is
+their radius from it (format 2.7, docs/format.md §2.3;
+``encode.assembly._surfaces_through``, ``rules.joins.face_points``), seam
+lines through their vertices, and
 directions that are one within the source's precision made equal
 (``encode.analytic.same_directions``)."""
 
@@ -17,7 +19,12 @@ from nurbscomp.errors import BadReferenceError, SectionError
 from nurbscomp.model import EC, REBUILD, Analytic, Kind, RepKind
 from nurbscomp.occ import topology
 from nurbscomp.rules import joins
-from nurbscomp.serialize.geometry import PLANE_THROUGH, _read_geometry, _write_geometry
+from nurbscomp.serialize.geometry import (
+    CYLINDER_THROUGH,
+    PLANE_THROUGH,
+    _read_geometry,
+    _write_geometry,
+)
 
 from .conftest import assert_comes_back, assert_step_keeps_floor, compressed_part
 
@@ -57,7 +64,7 @@ def test_planes_go_through_a_vertex_of_their_face(plate) -> None:
     for i in through:
         assert np.isnan(m.surfaces[i].frame[0]).all()  # no origin in the container
     back, _ = pipeline.decode(c)
-    at = joins.plane_points(back)
+    at = joins.face_points(back)
     for i in through:
         assert np.array_equal(back.surfaces[i].frame[0], back.vertex_point[at[i]])
     assert_comes_back(src, nzc, 0.01)
@@ -158,13 +165,26 @@ def test_a_plane_under_a_stored_pcurve_comes_back(plate) -> None:
     i = next(i for i in _planes(back) if back.surfaces[i].through)
     f = int(np.flatnonzero(back.face_surface == i)[0])
     edge = _face_edges(back, f)[0]
-    pcurve = [edge, RepKind.ON_SURFACE, REBUILD, i, 0, -1, 0, 0]
+    pcurve = _stored_pcurve(back, edge, i)
+    pcurve[EC.CURVE] = REBUILD
     back.edge_reps = np.vstack([back.edge_reps, pcurve])
     assert assembly.unthread(back, source) is back  # computed by the decoder: no change
     back.edge_reps[-1, EC.CURVE] = 0
     out = assembly.unthread(back, source)
     assert out.surfaces[i] is source.surfaces[i]
     assert back.surfaces[i].through  # the candidate itself is left as it was
+
+
+def _stored_pcurve(m, edge: int, surface: int) -> np.ndarray:
+    """An edge representation: a pcurve (2-D curve row 0) of ``edge`` on ``surface``."""
+    row = np.zeros(m.edge_reps.shape[1], m.edge_reps.dtype)
+    row[EC.EDGE], row[EC.KIND], row[EC.CURVE], row[EC.SURFACE] = (
+        edge,
+        RepKind.ON_SURFACE,
+        0,
+        surface,
+    )
+    return row
 
 
 def _face_edges(m, f: int) -> list[int]:
@@ -198,7 +218,7 @@ def test_the_kind_code_belongs_to_2_7_surfaces() -> None:
     assert np.array_equal(back.frame[1:], plane.frame[1:])
     with pytest.raises(ValueError, match="2.7"):
         _write_geometry([plane], 3, revision=9)
-    with pytest.raises(SectionError, match=f"kind {PLANE_THROUGH - 128}|unknown"):
+    with pytest.raises(SectionError, match=f"unknown geometry kind {PLANE_THROUGH}"):
         _read_geometry(raw, "SURF", 3, revision=9)
     with pytest.raises(SectionError):
         _read_geometry(raw, "CRV3", 3)
@@ -244,3 +264,87 @@ def test_seam_lines_go_through_their_vertices(plate) -> None:
         w = p - cyl.frame[0]
         r = np.linalg.norm(w - (w @ cyl.frame[1])[:, None] * cyl.frame[1], axis=1)
         assert np.abs(r - cyl.params[0]).max() <= back.edge_tol[e]
+
+
+def _cylinders(m) -> list[int]:
+    return [
+        i for i, g in enumerate(m.surfaces) if isinstance(g, Analytic) and g.kind == Kind.CYLINDER
+    ]
+
+
+def test_cylinders_go_through_a_vertex_of_their_face(plate) -> None:
+    """Holes, bosses and fillets: each cylinder's axis is its radius from the
+    vertex of its first face, against the direction the spec names; its
+    face's vertices stay within their tolerances of the decoded cylinder,
+    and its circles take the decoded axis."""
+    src, nzc, _ = plate
+    c = container.unpack(nzc.read_bytes())
+    m, _, _ = serialize.read_sections(c.get, c.revision)
+    cyl = _cylinders(m)
+    through = [i for i in cyl if m.surfaces[i].through]
+    assert len(through) >= len(cyl) // 2 > 0
+    assert all(np.isnan(m.surfaces[i].frame[0]).all() for i in through)
+    back, _ = pipeline.decode(c)
+    at = joins.face_points(back)
+    faces = np.flatnonzero(back.shape_type == 4)
+    for i in through:
+        g = back.surfaces[i]
+        q = g.through - 1
+        u = g.frame[2 + q % 2] * (1 if q < 2 else -1)
+        p = back.vertex_point[at[i]]
+        assert np.array_equal(g.frame[0], np.array([p[j] - g.params[0] * u[j] for j in range(3)]))
+        for f in np.flatnonzero(back.face_surface == i):
+            verts = _face_vertices(back, int(faces[f]))
+            w = back.vertex_point[verts] - g.frame[0]
+            r = np.linalg.norm(w - (w @ g.frame[1])[:, None] * g.frame[1], axis=1)
+            assert (np.abs(r - g.params[0]) <= back.vertex_tol[verts] + 1e-12).all()
+    assert_comes_back(src, nzc, 0.01)
+
+
+def test_the_cylinder_codes_belong_to_2_7_surfaces() -> None:
+    frame = np.array([[1.0, 2, 3], [0, 0, 1], [1, 0, 0], [0, 1, 0]])
+    rows = [Analytic(Kind.CYLINDER, frame, np.array([2.5]), through=t) for t in (1, 2, 3, 4)]
+    back = _read_geometry(_write_geometry(rows, 3), "SURF", 3)
+    assert [g.through for g in back] == [1, 2, 3, 4]
+    assert all(g.params[0] == 2.5 and np.isnan(g.frame[0]).all() for g in back)
+    for g, t in zip(back, (1, 2, 3, 4)):
+        g.frame[0] = 0.0
+        made = joins.surface_origin(g, np.array([1.0, 1.0, 1.0]))
+        u = [frame[2], frame[3], -frame[2], -frame[3]][t - 1]
+        assert np.array_equal(made, 1.0 - 2.5 * u)
+    with pytest.raises(ValueError, match="2.7"):
+        _write_geometry(rows, 3, revision=9)
+    with pytest.raises(ValueError):
+        _write_geometry([Analytic(Kind.CYLINDER, frame, np.array([2.5]), through=5)], 3)
+    raw = _write_geometry(rows[:1], 3)
+    with pytest.raises(SectionError, match=f"unknown geometry kind {CYLINDER_THROUGH}"):
+        _read_geometry(raw, "SURF", 3, revision=9)
+    bad = [Analytic(Kind.CYLINDER, frame, np.array([-1.0]), through=1)]
+    with pytest.raises(SectionError, match="radius"):
+        _read_geometry(_write_geometry(bad, 3), "SURF", 3)
+
+
+def test_a_cylinder_put_back_takes_its_circles_back(plate) -> None:
+    """assembly.unthread: a cylinder under a stored pcurve comes back as the
+    source's, and so do the circles through a vertex that take its axis
+    (the decoder would make them about the source's axis)."""
+    src, nzc, _ = plate
+    source, _ = topology.shape_to_model(occ.read_cad(src).shape)
+    back, _ = pipeline.decode(container.unpack(nzc.read_bytes()))
+    axes = joins.axis_faces(back)
+    uses = joins.curve_uses(back)
+    reps = back.edge_reps
+    pairs = [
+        (int(back.face_surface[axes[int(reps[qs[0], EC.EDGE])]]), c)
+        for c, qs in uses.items()
+        if c >= 0
+        and getattr(back.curves3d[c], "through", 0)
+        and back.curves3d[c].kind == Kind.CIRCLE
+        if int(reps[qs[0], EC.EDGE]) in axes
+    ]
+    i, circle = next((s, c) for s, c in pairs if back.surfaces[s].through)
+    f = int(np.flatnonzero(back.face_surface == i)[0])
+    back.edge_reps = np.vstack([reps, _stored_pcurve(back, _face_edges(back, f)[0], i)])
+    out = assembly.unthread(back, source)
+    assert out.surfaces[i] is source.surfaces[i]
+    assert out.curves3d[circle] is source.curves3d[circle]
