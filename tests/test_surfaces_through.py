@@ -16,7 +16,7 @@ import pytest
 from nurbscomp import container, occ, pipeline, serialize
 from nurbscomp.encode import analytic, assembly
 from nurbscomp.errors import BadReferenceError, SectionError
-from nurbscomp.model import EC, REBUILD, Analytic, Kind, RepKind
+from nurbscomp.model import EC, REBUILD, Analytic, Kind, RepKind, first_row
 from nurbscomp.occ import topology
 from nurbscomp.rules import joins
 from nurbscomp.serialize.geometry import (
@@ -65,8 +65,9 @@ def test_planes_go_through_a_vertex_of_their_face(plate) -> None:
         assert np.isnan(m.surfaces[i].frame[0]).all()  # no origin in the container
     back, _ = pipeline.decode(c)
     at = joins.face_points(back)
+    first = first_row(back.surfaces)
     for i in through:
-        assert np.array_equal(back.surfaces[i].frame[0], back.vertex_point[at[i]])
+        assert np.array_equal(back.surfaces[i].frame[0], back.vertex_point[at[first[i]]])
     assert_comes_back(src, nzc, 0.01)
 
 
@@ -198,15 +199,30 @@ def test_the_reader_refuses_what_the_rule_cannot_make(plate) -> None:
     _, nzc, _ = plate
     c = container.unpack(nzc.read_bytes())
     m, _, _ = serialize.read_sections(c.get, c.revision)
-    i, j = [k for k in _planes(m) if m.surfaces[k].through][:2]
-    m.surfaces = list(m.surfaces)
-    m.surfaces[j] = m.surfaces[i]  # a copy of it
-    with pytest.raises(BadReferenceError, match="copied"):
-        joins.through_vertices(m)
-    m, _, _ = serialize.read_sections(c.get, c.revision)
+    i = [k for k in _planes(m) if m.surfaces[k].through][0]
     m.face_loc = np.where(m.face_surface == i, 1, m.face_loc)  # its first face located
     with pytest.raises(BadReferenceError, match="plane through a vertex has no vertex"):
         joins.through_vertices(m)
+
+
+def test_a_copied_record_is_made_once_from_its_first_face(plate) -> None:
+    """A record on two rows (a COPY row: coplanar faces, or a cylinder's two
+    halves, on one surface entity) takes the vertex of the first face on
+    either row."""
+    _, nzc, _ = plate
+    c = container.unpack(nzc.read_bytes())
+    m, _, _ = serialize.read_sections(c.get, c.revision)
+    i, j = [k for k in _planes(m) if m.surfaces[k].through][:2]
+    faces_i = np.flatnonzero(m.face_surface == i)
+    faces_j = np.flatnonzero(m.face_surface == j)
+    assert faces_i[0] < faces_j[0]
+    m.surfaces = list(m.surfaces)
+    m.surfaces[j] = m.surfaces[i]  # row j now a copy of row i
+    at = joins.face_points(m)
+    assert j not in at and i in at
+    joins.through_vertices(m)
+    assert m.surfaces[j] is m.surfaces[i]
+    assert np.array_equal(m.surfaces[i].frame[0], m.vertex_point[at[i]])
 
 
 def test_the_kind_code_belongs_to_2_7_surfaces() -> None:
@@ -287,11 +303,12 @@ def test_cylinders_go_through_a_vertex_of_their_face(plate) -> None:
     back, _ = pipeline.decode(c)
     at = joins.face_points(back)
     faces = np.flatnonzero(back.shape_type == 4)
+    first = first_row(back.surfaces)
     for i in through:
         g = back.surfaces[i]
         q = g.through - 1
         u = g.frame[2 + q % 2] * (1 if q < 2 else -1)
-        p = back.vertex_point[at[i]]
+        p = back.vertex_point[at[first[i]]]
         assert np.array_equal(g.frame[0], np.array([p[j] - g.params[0] * u[j] for j in range(3)]))
         for f in np.flatnonzero(back.face_surface == i):
             verts = _face_vertices(back, int(faces[f]))

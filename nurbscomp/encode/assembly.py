@@ -12,6 +12,7 @@ from __future__ import annotations
 import collections
 import functools
 import math
+from collections.abc import Set
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -79,6 +80,8 @@ class LossyReport:
     #: vertices snapped beside a curve kept exact (``SNAP_ON_EXACT``): the
     #: first to stay where they were when a face around them faults
     loose_v: frozenset[int] = frozenset()
+    #: the planes and cylinders through a vertex (:func:`_surfaces_through`)
+    through_s: frozenset[Rec] = frozenset()
 
     def method_counts(self) -> dict[str, int]:
         return dict(collections.Counter(self.face_method))
@@ -90,10 +93,12 @@ def assemble(
     exact: set[Rec | None] = frozenset(),  # type: ignore[assignment]
     still: set[int] = frozenset(),  # type: ignore[assignment]
     grid: bool = True,
+    plain: Set[Rec] = frozenset(),
 ) -> tuple[BRepModel, dict[Rec, codec.NetCode], LossyReport]:
     """The model the decoder will rebuild when every coded record but ``exact`` is used,
     and every vertex that may move (:func:`_snap_vertices`) but the rows in ``still``;
-    with ``grid``, analytic records on their grids (:func:`_snap_analytic`).
+    with ``grid``, analytic records on their grids (:func:`_snap_analytic`), and
+    planes and cylinders but ``plain`` through a vertex (:func:`_surfaces_through`).
 
     Returns
     -------
@@ -146,7 +151,10 @@ def assemble(
     source = m
     m, moved_v, loose_v, bound_v = _snap_vertices(m, coded, surfaces, curves, codes, exact, still)
     # planes and cylinders first: a circle through a vertex takes its cylinder's axis
-    threaded = _surfaces_through(source, m, surfaces, srec, exact, coded.tol, reach_s, coded.same)
+    threaded = _surfaces_through(
+        source, m, surfaces, srec, exact | set(plain), coded.tol, reach_s, coded.same
+    )
+    through_s = frozenset(threaded)
     threaded.update(_thread(source, m, surfaces, curves, crec, exact, coded.tol, coded.vlead))
     snapped.update(threaded)  # the record's bound replaces its grid's: it is a new record
     gridded |= set(threaded)  # the validity ladder's first rung leaves it as it was
@@ -203,6 +211,7 @@ def assemble(
         sum(len(poles_of(g)) for k, g in zip(crec, curves) if k in codes),
         frozenset(gridded),
         frozenset(np.flatnonzero(loose_v & (moved_v > 0)).tolist()),
+        through_s,
     )
     return out, codes, report
 
@@ -376,10 +385,10 @@ def _surfaces_through(
     which the container holds as a kind code, the directions and a
     cylinder's radius, in place in ``surfaces``; per record, its bound.
 
-    A record qualifies where it has one row, no other record (an offset or
-    trimmed surface) and no vertex's (u, v) refers to it, its first face
-    gives a vertex, and the bound is within tol.  Moving the origin within a
-    plane, or along a cylinder's axis, changes only the surface's
+    A record qualifies where no other record (an offset or trimmed surface)
+    and no vertex's (u, v) refers to any row of it, its first face gives a
+    vertex, and the bound (over every face on it: ``reach``) is within tol.
+    Moving the origin within a plane, or along a cylinder's axis, changes only the surface's
     parameters, which no pcurve the decoder computes depends on; a pcurve
     the candidate keeps does, and :func:`unthread` puts the source's record
     back under it.  The directions are the straightened ones
@@ -401,13 +410,13 @@ def _surfaces_through(
     rows = _Rows(surfaces)
     for i, k in enumerate(srec):
         was = source.surfaces[i]
-        if k.row != i or k in exact or i in based or i not in at or len(rows.rows[i]) != 1:
+        if k.row != i or k in exact or i not in at or set(rows.rows[i]) & based:
             continue
         if not (isinstance(was, Analytic) and was.kind in joins.THROUGH_SURFACES):
             continue
         if was.through or was.frame.shape != (4, 3) or not np.isfinite(was.frame).all():
             continue
-        r = reach.get(i, math.inf)
+        r = max(reach.get(j, math.inf) for j in rows.rows[i])
         st = analytic.straighten(was, r, tol, same) if math.isfinite(r) else None
         g, bound = st if st is not None else (was, 0.0)
         v = m.vertex_point[at[i]]

@@ -445,6 +445,8 @@ class _Plan:
         self.make_exact(set(self.coded.uncodable), "precision")
         self.grid = True  # analytic records on their grids (encode.analytic)
         self.gridded: frozenset[Rec] = frozenset()  # those of the last candidate
+        self.through_s: frozenset[Rec] = frozenset()  # its planes, cylinders through a vertex
+        self.plain_s: set[Rec] = set()  # records taken off a vertex, straightened still
         self._made: tuple[Any, ...] | None = None  # (state, grid, what _candidate made)
         self.grid = self._grid_pays()
 
@@ -479,6 +481,7 @@ class _Plan:
             sum(self.rung.values()),
             len(self.tight_f),
             len(self.plain_f),
+            len(self.plain_s),
         )
 
     def candidate(self) -> tuple[BRepModel, dict[Rec, Any], assembly.LossyReport]:
@@ -490,12 +493,13 @@ class _Plan:
         fresh = made is None or made[:2] != (self.state(), self.grid)
         out = self._candidate() if fresh else made[2]  # type: ignore[index]
         self.gridded, self.loose_v = out[2].gridded, out[2].loose_v
+        self.through_s = out[2].through_s
         return out
 
     def _candidate(self) -> tuple[BRepModel, dict[Rec, Any], assembly.LossyReport]:
         """:meth:`candidate` made now (``gridded`` and ``loose_v`` left as they are)."""
         target, codes, report = assembly.assemble(
-            self.m, self.coded, self.exact, self.still_v, self.grid
+            self.m, self.coded, self.exact, self.still_v, self.grid, self.plain_s
         )
         cand = assembly.unthread(pcurves.drop_pcurves(target, self.keep_e, self.keep_f), self.m)
         cand = pcurves.unit_curves(
@@ -582,11 +586,15 @@ class _Plan:
 
     def ungrid(self, faces: Iterable[int], why: str) -> bool:
         """The first rung for a fault: the analytic records of ``faces`` and
-        of their edges that are on a grid are left as they are (exact);
-        whether there were any."""
+        of their edges that are on a grid are left as they are (exact), but
+        a plane or cylinder through a vertex first goes back to its own
+        origin, its directions straightened still (a filleted plate turned by
+        1e-12 rad kept its fillets' noise otherwise); whether there were any."""
         recs = {r for f in faces for r in (self.faces_rec[f], *self.edge_recs(f))}
         hit = (recs & self.gridded) - self.exact
-        self.make_exact(set(hit), why)
+        back = {r for r in hit & self.through_s if r is not None} - self.plain_s
+        self.plain_s |= back
+        self.make_exact(set(hit - back), why)
         return bool(hit)
 
     def ease(self, faces: Iterable[int]) -> set[int]:

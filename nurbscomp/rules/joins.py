@@ -39,6 +39,7 @@ from ..model import (
     Rec,
     RepKind,
     ShapeType,
+    first_row,
 )
 
 FORWARD, REVERSED = 0, 1
@@ -210,18 +211,20 @@ def circle_through(axis: Analytic, p: np.ndarray, sense: int) -> Analytic | None
 
 
 def face_points(m: BRepModel) -> dict[int, int]:
-    """Per surface row, the vertex row a plane or cylinder on it may go
-    through (2.7, docs/format.md §2.3): the row's first face (model order) must have
-    location 0; in it, the first wire of location 0; in that, the first edge
-    of location 0 with a FORWARD vertex of location 0 (:func:`edge_ends`).
-    Rows whose first face has no such vertex are left out."""
+    """Per surface record (by its first row), the vertex row a plane or
+    cylinder on it may go through (2.7, docs/format.md §2.3): the record's
+    first face (model order, on its row or a copy of it) must have location
+    0; in it, the first wire of location 0; in that, the first edge of
+    location 0 with a FORWARD vertex of location 0 (:func:`edge_ends`).
+    Records whose first face has no such vertex are left out."""
     types, children, start, locs = m.shape_type, m.child_shape, m.child_start, m.child_loc
     tidx = m.type_index()
+    first = first_row(m.surfaces)
     wire, edge = int(ShapeType.WIRE), int(ShapeType.EDGE)
     out: dict[int, int] = {}
     seen: set[int] = set()
     for f, s in enumerate(np.flatnonzero(types == ShapeType.FACE).tolist()):
-        row = int(m.face_surface[f])
+        row = first[int(m.face_surface[f])]
         if row in seen:
             continue
         seen.add(row)
@@ -278,19 +281,21 @@ def through_vertices(m: BRepModel) -> None:
         by no edge or by a located one, whose first edge has no unlocated
         FORWARD vertex or no face to take an axis from, or whose vertex is on that
         axis; such a plane or cylinder on no face or without the vertex of
-        :func:`face_points`; any of them copied by another row.
+        :func:`face_points`; a line or circle copied by another row.
     """
-    through = [i for i, g in enumerate(m.surfaces) if isinstance(g, Analytic) and g.through]
+    first = first_row(m.surfaces)
+    through = [
+        i
+        for i, g in enumerate(m.surfaces)
+        if isinstance(g, Analytic) and g.through and first[i] == i
+    ]
     if through:
-        held_s = collections.Counter(id(h) for h in m.surfaces)
         at = face_points(m)
         for i in through:
             g = m.surfaces[i]
             assert isinstance(g, Analytic)
-            name = g.kind.name.lower()
-            if held_s[id(g)] != 1:
-                raise BadReferenceError(f"SURF row {i}: a {name} through a vertex is copied")
             if i not in at:
+                name = g.kind.name.lower()
                 raise BadReferenceError(f"SURF row {i}: a {name} through a vertex has no vertex")
             g.frame[0] = surface_origin(g, m.vertex_point[at[i]])
     rows = [i for i, g in enumerate(m.curves3d) if isinstance(g, Analytic) and g.through]

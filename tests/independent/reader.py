@@ -280,12 +280,10 @@ def circle_through(m: Model, i: int, g: Analytic) -> None:
 
 
 def surface_through(m: Model, i: int, g: Analytic) -> None:
-    """§2.3 (2.7): the origin of a plane at a vertex of its first face, or of
-    a cylinder at its radius from that vertex."""
+    """§2.3 (2.7): the origin of a plane at a vertex of its first face (on its
+    row or a copy of it), or of a cylinder at its radius from that vertex."""
     sh = m.shapes
-    if sum(h is g for h in m.surfaces) != 1:
-        raise ReadError("SURF: a plane or cylinder through a vertex is copied")
-    faces = [f for f in range(len(m.faces.surface)) if int(m.faces.surface[f]) == i]
+    faces = [f for f in range(len(m.faces.surface)) if m.surfaces[int(m.faces.surface[f])] is g]
     if not faces or int(m.faces.loc[faces[0]]) != 0:
         raise ReadError("SURF: a surface through a vertex without an unlocated first face")
     fs = sh.of(4)[faces[0]]
@@ -312,8 +310,10 @@ def lines_through(m: Model) -> None:
     """§2.3: the origin of each plane or cylinder through a vertex of its face (2.7), the
     frame of each line through its edge's vertices (2.2) and of each circle
     through its edge's vertex about its face's axis (2.4)."""
+    done: list[Analytic] = []
     for i, g in enumerate(m.surfaces):
-        if isinstance(g, Analytic) and g.through:
+        if isinstance(g, Analytic) and g.through and not any(h is g for h in done):
+            done.append(g)  # a copy row holds the same record: made once
             surface_through(m, i, g)
     for i, g in enumerate(m.curves3d):
         if not (isinstance(g, Analytic) and g.through):
