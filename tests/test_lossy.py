@@ -143,7 +143,9 @@ def test_a_fault_first_leaves_its_gridded_records_exact() -> None:
     plan = validity._Plan(m, 0.01, cad.shape)
     plan.grid = True
     plan.candidate()
-    f = next(f for f, r in enumerate(plan.faces_rec) if r in plan.gridded)
+    f = next(
+        f for f, r in enumerate(plan.faces_rec) if r in plan.gridded and r not in plan.through_s
+    )
     plan.step({f})
     assert plan.faces_rec[f] in plan.exact and plan.reason[plan.faces_rec[f]] == "grid-step"
     assert f not in plan.rung
@@ -151,6 +153,23 @@ def test_a_fault_first_leaves_its_gridded_records_exact() -> None:
     assert plan.faces_rec[f] not in report.gridded
     plan.step({f})  # nothing left on a grid there: the first rung
     assert plan.rung[f] == validity.Rung.STILL
+
+
+def test_a_fault_first_takes_a_surface_off_its_vertex() -> None:
+    """A plane or cylinder through a vertex (format 2.7) on a blamed face
+    first goes back to its own origin, straightened still, not exact."""
+    cad = occ.read_cad(next(p for p in sample_files() if p.name == "bracket.step"))
+    m, _ = occ.shape_to_model(cad.shape)
+    plan = validity._Plan(m, 0.01, cad.shape)
+    plan.candidate()
+    f = next(f for f, r in enumerate(plan.faces_rec) if r in plan.through_s)
+    r = plan.faces_rec[f]
+    plan.step({f})
+    assert r in plan.plain_s and r not in plan.exact and f not in plan.rung
+    cand, _, report = plan.candidate()
+    assert r not in report.through_s and not cand.surfaces[r.row].through
+    plan.step({f})  # then it is left exact, as a record on a grid is
+    assert r in plan.exact or f in plan.rung
 
 
 def test_the_floor_is_written_as_decompress_writes(monkeypatch: pytest.MonkeyPatch) -> None:

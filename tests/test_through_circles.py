@@ -6,6 +6,7 @@ its bound of the source's circle, its edges' ranges a rule."""
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import cadquery as cq
@@ -15,7 +16,7 @@ import pytest
 from nurbscomp import container, occ, pipeline, serialize
 from nurbscomp.encode import assembly
 from nurbscomp.errors import BadReferenceError
-from nurbscomp.model import EC, REBUILD, Analytic, Kind, RepKind
+from nurbscomp.model import EC, REBUILD, Analytic, Kind, RepKind, first_row
 from nurbscomp.occ import topology
 from nurbscomp.rules import joins
 from nurbscomp.rules.ranges import RANGE_VERTICES
@@ -144,10 +145,16 @@ def test_the_reader_refuses_what_the_rule_cannot_make(turned) -> None:
     with pytest.raises(BadReferenceError, match="unlocated"):
         joins.through_vertices(m)
     m, _, _ = serialize.read_sections(c.get, c.revision)
-    planes = [  # faces on planes and cylinders through a vertex (2.7) keep theirs
-        bool(getattr(m.surfaces[r], "through", 0)) for r in m.face_surface.tolist()
-    ]
-    m.face_loc = np.where(planes, m.face_loc, 1)  # no face to take an axis from
+    at, first = joins.face_points(m), first_row(m.surfaces)
+    made = {  # planes and cylinders through a vertex (2.7) made first, as the decoder does
+        r: replace(g, frame=g.frame.copy(), through=0)
+        for r, g in enumerate(m.surfaces)
+        if getattr(g, "through", 0) and first[r] == r
+    }
+    for r, g in made.items():
+        g.frame[0] = joins.surface_origin(m.surfaces[r], m.vertex_point[at[r]])
+    m.surfaces = [made.get(first[r], g) for r, g in enumerate(m.surfaces)]
+    m.face_loc = np.ones_like(m.face_loc)  # no face to take an axis from
     with pytest.raises(BadReferenceError, match="axis"):
         joins.through_vertices(m)
 
