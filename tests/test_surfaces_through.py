@@ -365,3 +365,18 @@ def test_a_cylinder_put_back_takes_its_circles_back(plate) -> None:
     out = assembly.unthread(back, source)
     assert out.surfaces[i] is source.surfaces[i]
     assert out.curves3d[circle] is source.curves3d[circle]
+
+
+def test_a_record_made_from_a_vertex_far_away_is_refused(plate) -> None:
+    """A hostile container's vertex at 1e100 would make a line (or circle,
+    plane, cylinder) there, on which OCCT's pcurve projection crashed the
+    process: the reader refuses what it would make past 1e15 mm."""
+    _, nzc, _ = plate
+    c = container.unpack(nzc.read_bytes())
+    assert joins.within_reach(
+        Analytic(Kind.PLANE, np.full((4, 3), 1e14), np.zeros(0), through=1)
+    ) and not joins.within_reach(Analytic(Kind.PLANE, np.full((4, 3), 1e15), np.zeros(0)))
+    m, _, _ = serialize.read_sections(c.get, c.revision)
+    m.vertex_point[0] = 1e100  # a vertex some plane, line or circle goes through
+    with pytest.raises(BadReferenceError, match="through a vertex at or past 1e"):
+        joins.through_vertices(m)

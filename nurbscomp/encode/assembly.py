@@ -358,7 +358,7 @@ def _thread(
             if f is None:
                 continue
             made = _circle_through(m, was, surfaces[int(m.face_surface[f])], qs, ends, source)
-        if made is None or not made[1] <= tol:
+        if made is None or not made[1] <= tol or not joins.within_reach(made[0]):
             continue
         new, bound, spans = made
         rows.replace(i, new)
@@ -429,6 +429,8 @@ def _surfaces_through(
             q = int(np.argmax([w @ g.frame[2], w @ g.frame[3], -w @ g.frame[2], -w @ g.frame[3]]))
             new = Analytic(Kind.CYLINDER, g.frame.copy(), was.params.copy(), through=q + 1)
         new.frame[0] = joins.surface_origin(new, v)
+        if not joins.within_reach(new):
+            continue  # the reader would refuse it
         shift = new.frame[0] - o
         if was.kind == Kind.PLANE:
             bound += abs(float(new.frame[1] @ shift))

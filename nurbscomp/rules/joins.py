@@ -263,6 +263,24 @@ def surface_origin(g: Analytic, p: np.ndarray) -> np.ndarray:
 
 #: Surface kinds that may go through a vertex of their first face (2.7).
 THROUGH_SURFACES = (Kind.PLANE, Kind.CYLINDER)
+#: A frame or radius made from a vertex (a line, circle, plane or cylinder
+#: through it) must stay below this in magnitude (mm): a hostile container's
+#: vertex at 1e100 made a line there on which OCCT's pcurve projection
+#: crashed the process (found by ``tests.fuzz --structure``).
+THROUGH_MAX = 1e15
+
+
+def within_reach(g: Analytic) -> bool:
+    """Whether a record made through a vertex has its frame and params below
+    :data:`THROUGH_MAX` (the writer makes no other: the reader refuses it)."""
+    return bool((np.abs(g.frame) < THROUGH_MAX).all() and (np.abs(g.params) < THROUGH_MAX).all())
+
+
+def _made(where: str, *values: np.ndarray) -> None:
+    """Refuse a made frame or radius at or past :data:`THROUGH_MAX` (or not finite)."""
+    for v in values:
+        if not (np.abs(v) < THROUGH_MAX).all():
+            raise BadReferenceError(f"{where} through a vertex at or past {THROUGH_MAX:g} mm")
 
 
 def through_vertices(m: BRepModel) -> None:
@@ -298,6 +316,7 @@ def through_vertices(m: BRepModel) -> None:
                 name = g.kind.name.lower()
                 raise BadReferenceError(f"SURF row {i}: a {name} through a vertex has no vertex")
             g.frame[0] = surface_origin(g, m.vertex_point[at[i]])
+            _made(f"SURF row {i}: a {g.kind.name.lower()}", g.frame[0])
     rows = [i for i, g in enumerate(m.curves3d) if isinstance(g, Analytic) and g.through]
     if not rows:
         return
@@ -332,6 +351,7 @@ def through_vertices(m: BRepModel) -> None:
         made = circle_through(s, m.vertex_point[ends[FORWARD]], g.through)
         if made is None:
             raise BadReferenceError(f"CRV3 row {i}: a circle through a vertex on its axis")
+        _made(f"CRV3 row {i}: a circle", made.frame, made.params)
         g.frame[...] = made.frame
         g.params[...] = made.params
 
@@ -352,6 +372,7 @@ def _line_through_edge(
     frame = line_through(a, b)
     if frame is None:
         raise BadReferenceError(f"CRV3 row {i}: a line through two vertices at one point")
+    _made(f"CRV3 row {i}: a line", frame)
     g.frame[...] = frame
 
 

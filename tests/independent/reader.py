@@ -277,6 +277,14 @@ def circle_through(m: Model, i: int, g: Analytic) -> None:
         raise ReadError("CRV3: a circle through a vertex on its axis")
     g.frame = np.array([c, [g.through * dj for dj in d], x])
     g.params = np.array([r])
+    _made(g.frame, g.params)
+
+
+def _made(*values) -> None:
+    """§2.3, made values: each below 1e15 in magnitude."""
+    for v in values:
+        if not all(abs(float(x)) < 1e15 for x in np.ravel(v)):
+            raise ReadError("a record made through a vertex at or past 1e15 mm")
 
 
 def surface_through(m: Model, i: int, g: Analytic) -> None:
@@ -297,11 +305,13 @@ def surface_through(m: Model, i: int, g: Analytic) -> None:
             p = [float(x) for x in m.vertices.point[sh.row_of[fwd]]]
             if g.kind == 0:
                 g.frame[0] = p
+                _made(g.frame[0])
                 return
             q = g.through - 1  # against X, Y, -X, -Y
             u = [(1.0 if q < 2 else -1.0) * float(x) for x in g.frame[2 + q % 2]]
             r = float(g.params[0])
             g.frame[0] = [p[j] - r * u[j] for j in range(3)]
+            _made(g.frame[0])
             return
     raise ReadError("SURF: a plane or cylinder through a vertex without its vertex")
 
@@ -338,6 +348,7 @@ def lines_through(m: Model) -> None:
         if not (n > 0 and math.isfinite(n)):
             raise ReadError("CRV3: a line through two vertices at one point")
         g.frame = np.array([[float(x) for x in a], [x / n for x in d]])
+        _made(g.frame)
 
 
 def vertex_range(m: Model, r: int) -> tuple[float, float]:
