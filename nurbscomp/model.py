@@ -171,7 +171,9 @@ class Analytic:
         edge's vertices; a CIRCLE (``CRV3``, format 2.4) goes through its
         first edge's FORWARD vertex about the axis of a face of that edge, its
         normal along that axis (1) or against it (-1); a PLANE (``SURF``, 1,
-        format 2.7) has its origin at a vertex of its first face.  The decoder
+        format 2.7) has its origin at a vertex of its first face, a CYLINDER
+        (``SURF``, q + 1, 2.7) its axis at its radius from that vertex against
+        its X, Y, −X or −Y direction (q = 0 … 3).  The decoder
         makes them from the decoded vertices and surfaces
         (``rules.joins.through_vertices``).
     """

@@ -16,7 +16,7 @@ import pytest
 from nurbscomp import container, occ, pipeline, serialize
 from nurbscomp.encode import analytic, assembly
 from nurbscomp.errors import BadReferenceError, SectionError
-from nurbscomp.model import EC, REBUILD, Analytic, Kind, RepKind, first_row
+from nurbscomp.model import EC, REBUILD, Analytic, Kind, RepKind, ShapeType, below, first_row
 from nurbscomp.occ import topology
 from nurbscomp.rules import joins
 from nurbscomp.serialize.geometry import (
@@ -92,17 +92,9 @@ def test_each_plane_moves_within_its_bound(plate) -> None:
 
 
 def _face_vertices(m, s: int) -> list[int]:
+    """The vertex rows below face shape ``s``."""
     tidx = m.type_index()
-    out, todo = set(), [s]
-    while todo:
-        x = todo.pop()
-        for k in range(m.child_start[x], m.child_start[x + 1]):
-            c = int(m.child_shape[k])
-            if m.shape_type[c] == 7:
-                out.add(int(tidx[c]))
-            else:
-                todo.append(c)
-    return sorted(out)
+    return sorted(int(tidx[v]) for v in below(m, s, ShapeType.VERTEX))
 
 
 def test_the_step_output_keeps_the_floor(plate, tmp_path: Path) -> None:

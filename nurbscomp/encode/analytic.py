@@ -176,7 +176,7 @@ def same_directions(tables: Iterable[list[Geometry]]) -> dict[bytes, np.ndarray]
     variants some 1e-12 apart (the rounding of STEP's text and of OCCT's
     frames), which LZMA codes as different floats.  Keys are the straightened
     rows' bytes; a row not in the map stays."""
-    kept: list[np.ndarray] = []
+    kept = np.zeros((0, 3))
     out: dict[bytes, np.ndarray] = {}
     for d in _frames(tables):
         s = _straight(d)
@@ -186,18 +186,14 @@ def same_directions(tables: Iterable[list[Geometry]]) -> dict[bytes, np.ndarray]
             key = row.tobytes()
             if key in out:
                 continue
-            hit = None
-            if kept:
-                k = np.array(kept)
-                near = np.flatnonzero(np.abs(k - row).max(-1) <= SAME)
-                if len(near):
-                    hit = k[near[0]]
-                else:
-                    near = np.flatnonzero(np.abs(k + row).max(-1) <= SAME)
-                    if len(near):
-                        hit = -k[near[0]]
-            if hit is None:
-                kept.append(row)
+            near = np.flatnonzero(np.abs(kept - row).max(-1, initial=0.0) <= SAME)
+            flip = np.flatnonzero(np.abs(kept + row).max(-1, initial=0.0) <= SAME)
+            if len(near):
+                hit = kept[near[0]]
+            elif len(flip):
+                hit = -kept[flip[0]]
+            else:
+                kept = np.vstack([kept, row])
                 hit = row
             out[key] = hit + 0.0
             out[(-row + 0.0).tobytes()] = -hit + 0.0

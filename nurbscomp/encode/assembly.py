@@ -546,16 +546,18 @@ def unthread(cand: BRepModel, source: BRepModel) -> BRepModel:
     kept = set(reps[stored, EC.EDGE].tolist())
     moved = {i for i in put if cand.surfaces[i].kind == Kind.CYLINDER}
     axes = joins.axis_faces(cand) if moved else {}
+
+    def axis_moved(q: int) -> bool:
+        """Whether the circle on representation ``q`` takes a cylinder put back."""
+        f = axes.get(int(reps[q, EC.EDGE]))
+        return f is not None and int(cand.face_surface[f]) in moved
+
     back = [
         q
         for i, qs in joins.curve_uses(cand).items()
         if i >= 0 and isinstance(g := cand.curves3d[i], Analytic) and g.through
         if any(int(reps[q, EC.EDGE]) in kept for q in qs)
-        or (
-            g.kind == Kind.CIRCLE
-            and int(cand.face_surface[axes.get(int(reps[qs[0], EC.EDGE]), 0)]) in moved
-            and int(reps[qs[0], EC.EDGE]) in axes
-        )
+        or (g.kind == Kind.CIRCLE and axis_moved(qs[0]))
         for q in qs  # every edge on it: their ranges are on the new curve
     ]
     if not back:
