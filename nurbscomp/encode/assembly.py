@@ -913,8 +913,9 @@ def _copy_iso(
             if lead.weights is None
             else joins.boundary(lead.weights[..., None], side, bool(rev))
         )
-        if not g.bezier:  # the side's knots, rounded with the surface's (:mod:`.knots`)
-            g = replace(g, knots=joins.side_knots(lead, side, bool(rev))[0])
+        if not g.bezier:  # the side's knots, rounded or removed with the surface's
+            kn, mu = joins.side_knots(lead, side, bool(rev))
+            g = replace(g, knots=kn, mults=mu)
         source = m.curves3d[c]
         assert isinstance(source, BSplineCurve)
         new, bound = _follow(source, poles, None if w is None else w[:, 0], coded.tol, g)
@@ -930,7 +931,11 @@ def _certified(new: Any, original: Any, tol: float) -> tuple[Any, float]:
     ones would take it past its limit (a pin or a joined side moved its
     poles further than its code did)."""
     bound = knots.moved(new, original)
-    if bound > feature_limit(original.poles, tol) and original.weights is not None:
+    if (
+        bound > feature_limit(original.poles, tol)
+        and original.weights is not None
+        and new.poles.shape == original.poles.shape
+    ):
         new = replace(new, weights=original.weights)
         bound = knots.moved(new, original)
     return new, bound
@@ -949,8 +954,8 @@ def _follow(
     curve; else its own weights (:func:`_certified`).  With its certified bound.
     ``like`` is ``g`` with the knots of what it follows (:mod:`.knots`)."""
     new = replace(like if like is not None else g, poles=poles)
-    if w is not None and g.weights is not None and w.shape == g.weights.shape:
-        new = replace(new, weights=w.copy())
+    if w is not None and g.weights is not None and len(w) == len(poles):
+        new = replace(new, weights=w.copy())  # a side with knots removed: its weights
     return _certified(new, g, tol)
 
 

@@ -250,12 +250,98 @@ def _back(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return mapped(b, a, False) if a[0] != b[0] or a[-1] != b[-1] else b
 
 
+def _within(
+    sub: tuple[np.ndarray, np.ndarray], full: tuple[np.ndarray, np.ndarray]
+) -> np.ndarray | None:
+    """Where the vector ``sub`` (distinct knots, multiplicities) is part of
+    ``full``: mapped onto ``full``'s ends (:func:`_back`: the writer maps free
+    rows onto [0, 1]), each of its knots within ``ROUNDING`` ulps of ``full``'s
+    span of a knot of ``full`` that is there at least as often.  Returns
+    those knots of ``full`` (``sub`` as ``full`` has it), or None."""
+    (k, m), (fk, fm) = sub, full
+    if len(k) > len(fk) or len(k) < 2:
+        return None
+    kb = _back(fk, k)
+    at = np.clip(np.searchsorted(fk, kb), 1, len(fk) - 1)
+    near = np.where(np.abs(fk[at - 1] - kb) <= np.abs(fk[at] - kb), at - 1, at)
+    eps = ROUNDING * float(np.finfo(float).eps) * abs(fk[-1] - fk[0])
+    if np.abs(fk[near] - kb).max() > eps or (fm[near] < m).any() or (np.diff(near) <= 0).any():
+        return None
+    if near[0] != 0 or near[-1] != len(fk) - 1:
+        return None
+    return fk[near]
+
+
+def raised(new: Net, original: Net) -> Net | None:
+    """``new``, a row whose knot vectors are parts of ``original``'s with fewer
+    poles (:mod:`.removal`), refined onto ``original``'s knots by knot
+    insertion (eq. 1; in homogeneous coordinates where rational): the same
+    curve or surface, row for row comparable with ``original``.  None where
+    ``new`` is not such a row."""
+    if type(new) is not type(original) or not codable(new) or not codable(original):
+        return None
+    if new.poles.shape == original.poles.shape:
+        return None
+    if isinstance(new, BSplineSurface):
+        assert isinstance(original, BSplineSurface)
+        pairs = [
+            ((new.uknots, new.umults), (original.uknots, original.umults), new.udegree),
+            ((new.vknots, new.vmults), (original.vknots, original.vmults), new.vdegree),
+        ]
+        if new.udegree != original.udegree or new.vdegree != original.vdegree:
+            return None
+    else:
+        assert isinstance(original, BSplineCurve)
+        if new.degree != original.degree:
+            return None
+        pairs = [((new.knots, new.mults), (original.knots, original.mults), new.degree)]
+    at = [_within(a, b) for a, b, _ in pairs]
+    if any(k is None for k in at):
+        return None
+    h = (
+        new.poles
+        if new.weights is None
+        else np.concatenate([new.poles * new.weights[..., None], new.weights[..., None]], -1)
+    )
+    for axis, (k, ((_, m), (fk, fm), degree)) in enumerate(zip(at, pairs)):
+        assert k is not None
+        target = np.repeat(fk, fm)
+        h = np.swapaxes(bspline.refine(k, m, np.swapaxes(h, 0, axis), degree, target), 0, axis)
+    if new.weights is None:
+        out = replace(new, poles=h)
+    else:
+        out = replace(new, poles=h[..., :3] / h[..., 3:], weights=h[..., 3])
+    if isinstance(out, BSplineSurface):
+        assert isinstance(original, BSplineSurface)
+        return replace(
+            out,
+            uknots=original.uknots,
+            umults=original.umults,
+            vknots=original.vknots,
+            vmults=original.vmults,
+        )
+    assert isinstance(original, BSplineCurve)
+    return replace(out, knots=original.knots, mults=original.mults)
+
+
 def moved(new: Net, original: Net) -> float:
     """Certified distance between ``new`` and ``original`` (the same row, its
     poles, weights and inner knots moved): :func:`weights.moved` (the poles'
     and weights' move, both rows on ``new``'s knots) plus :func:`term`
-    (``original`` on both knot vectors)."""
+    (``original`` on both knot vectors).  A row with knots removed
+    (:mod:`.removal`) is first :func:`raised` onto ``original``'s knots,
+    with ``ROUNDING`` ulps per term and direction for the insertion."""
+    up = raised(new, original)
+    if up is not None:
+        terms = sum(d + 1 for d in _degrees(original))
+        scale = float(np.abs(new.poles).max(initial=0.0))
+        ulps = ROUNDING * terms * scale * float(np.finfo(float).eps)
+        return weights.moved(up, original) + ulps * (2 if new.weights is not None else 1)
     return weights.moved(new, original) + term(original, new)
+
+
+def _degrees(g: Net) -> list[int]:
+    return [g.udegree, g.vdegree] if isinstance(g, BSplineSurface) else [g.degree]
 
 
 def term(original: Net, new: Net) -> float:

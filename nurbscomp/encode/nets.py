@@ -42,7 +42,7 @@ from ..model import (
 from ..rules import joins
 from ..rules.nets import net_abscissae, net_basis
 from ..serialize import SWEPT
-from . import coincide, knots, weights
+from . import coincide, knots, removal, weights
 
 
 def resolve_row(table: list[Geometry], i: int, through: tuple[Kind, ...]) -> int:
@@ -112,6 +112,11 @@ class Coded:
     reach: tuple[dict[int, float], dict[int, float]] | None = None
     #: the source's directions that are one (:func:`analytic.same_directions`), once made
     same: dict[bytes, np.ndarray] | None = None
+    #: surface record -> the directions (0: u) it may lose inner knots in
+    #: (:mod:`.removal`)
+    removable: dict[Rec, tuple[int, ...]] = field(default_factory=dict)
+    #: records that lost inner knots
+    removed: set[Rec] = field(default_factory=set)
 
 
 #: A coded net moves by at most this fraction of its size (:func:`feature_limit`).
@@ -168,6 +173,7 @@ def _code_one(
     limit: float,
     wbits: int | None = None,
     kplan: knots.Plan | None = None,
+    removable: tuple[int, ...] = (),
 ) -> tuple[codec.NetCode, Geometry]:
     """One record's code (:func:`codec.encode_net`) and the record as decoded.
 
@@ -189,7 +195,12 @@ def _code_one(
     ``limit``; the code's bound is the code's plus the move.  Only where that
     sum is past ``limit`` is it coded again to ``limit`` less the move (a
     quarter-octave step finer, where the bound was that near the limit), and
-    where no code fits the record keeps its knots."""
+    where no code fits the record keeps its knots.
+
+    With ``removable`` (directions, 0: u), a surface is also coded with inner
+    knots of those directions removed (:func:`_removed`, :mod:`.removal`),
+    and that code is kept where its estimated size (:func:`_size`) is
+    smaller."""
     tries = [(g, 0.0, limit)]
     if kplan:
         rounded, kterm = knots.apply(g, kplan, limit)
@@ -205,12 +216,78 @@ def _code_one(
         if code.bound + kterm <= limit:
             code = replace(code, bound=code.bound + kterm)
             break
-    if wbits is not None and g.weights is not None and code.method != codec.Method.DMAP:
-        w = weights.rounded(g.weights, wbits)
-        wterm = weights.weight_bound(g, w)  # of the source's poles
-        if code.bound + wterm <= limit:
-            return replace(code, bound=code.bound + wterm), replace(h, poles=net, weights=w)
-    return code, replace(h, poles=net)
+    out = _rounded_weights(code, g, replace(h, poles=net), wbits, limit)
+    if removable and isinstance(g, BSplineSurface):
+        fewer = _removed(g, tol, methods, origin, limit, wbits, removable)
+        if fewer is not None and _size(fewer) < _size(out):
+            return fewer
+    return out
+
+
+def _rounded_weights(
+    code: codec.NetCode,
+    base: BSplineSurface | BSplineCurve,
+    decoded: BSplineSurface | BSplineCurve,
+    wbits: int | None,
+    limit: float,
+) -> tuple[codec.NetCode, Geometry]:
+    """``decoded`` (the rational row ``base`` as coded) with ``base``'s weights
+    rounded to ``wbits`` (:mod:`.weights`) where their term fits between the
+    code's bound and ``limit``.  Not under a D-map, whose basis holds the
+    weights (eq. 18)."""
+    if wbits is None or code.method == codec.Method.DMAP:
+        return code, decoded
+    if base.weights is None:
+        return code, decoded
+    w = weights.rounded(base.weights, wbits)
+    wterm = weights.weight_bound(base, w)  # of the poles before coding
+    if code.bound + wterm <= limit:
+        return replace(code, bound=code.bound + wterm), replace(decoded, weights=w)
+    return code, decoded
+
+
+#: The share of a surface's limit its removed knots may take (:mod:`.removal`).
+REMOVAL_SHARE = 0.5
+
+#: What a knot is taken to cost against a code's estimated bits
+#: (:func:`_size`): its float, about half of it left by the entropy stage.
+KNOT_BITS = 32.0
+
+
+def _size(coded: tuple[codec.NetCode, Geometry]) -> float:
+    """A coded row's estimated bits: its code's, its knots' and its weights'."""
+    code, g = coded
+    n = 0
+    if isinstance(g, BSplineSurface):
+        n = len(g.uknots) + len(g.vknots)
+    w = getattr(g, "weights", None)
+    return code.bits + KNOT_BITS * (n + (0 if w is None else w.size))
+
+
+def _removed(
+    g: BSplineSurface,
+    tol: float,
+    methods: tuple[codec.Method, ...],
+    origin: np.ndarray | None,
+    limit: float,
+    wbits: int | None,
+    axes: tuple[int, ...],
+) -> tuple[codec.NetCode, Geometry] | None:
+    """``g`` with inner knots of directions ``axes`` removed within
+    ``REMOVAL_SHARE`` of ``limit`` (:func:`removal.removed`), coded to the
+    rest of it; None where no knot goes or no code fits."""
+    r = removal.removed(g, REMOVAL_SHARE * limit, axes)
+    if r is None:
+        return None
+    h, d = r
+    try:
+        code, net = _net_code(h, tol, methods, origin, limit - d)
+    except codec.NoCodeError:
+        return None
+    if code.bound + d > limit:
+        return None
+    coded = replace(code, bound=code.bound + d)
+    return _rounded_weights(coded, h, replace(h, poles=net), wbits, limit)
 
 
 def _code_table(
@@ -225,11 +302,13 @@ def _code_table(
     uncodable: set[Rec] | None = None,
     wbits: int | None = None,
     kplan: knots.Plan | None = None,
+    removable: dict[Rec, tuple[int, ...]] | None = None,
 ) -> dict[Rec, tuple[codec.NetCode, Geometry]]:
     """Code each distinct B-spline record of ``table`` (see :func:`code_model`);
     ``anchors`` maps records to :func:`joins.anchors` points, ``limits``
     to a limit below :func:`feature_limit`'s.  A record no code is within its
-    limit for is left out (exact) and added to ``uncodable``."""
+    limit for is left out (exact) and added to ``uncodable``.  Records of
+    ``removable`` may lose inner knots (:func:`_code_one`)."""
     out: dict[Rec, tuple[codec.NetCode, Geometry]] = {}
     origin = None
     for k, g in zip(records(table, which), table):
@@ -239,7 +318,9 @@ def _code_table(
         limit = feature_limit(g.poles, tol)
         limit = min(limit, (limits or {}).get(k, limit))
         try:
-            out[k] = _code_one(g, tol, methods, paper, at, limit, wbits, kplan)
+            out[k] = _code_one(
+                g, tol, methods, paper, at, limit, wbits, kplan, (removable or {}).get(k, ())
+            )
         except codec.NoCodeError:  # doubles too coarse for the steps here: exact
             if uncodable is not None:
                 uncodable.add(k)
@@ -275,7 +356,15 @@ def tighten(coded: Coded, m: BRepModel, recs: Iterable[Rec], level: int = 1) -> 
             limit = min(feature_limit(g.poles, coded.tol) / TIGHTER**level, floor)
             try:
                 done[k] = _code_one(
-                    g, coded.tol, methods, False, code.origin, limit, coded.wbits, coded.kplan
+                    g,
+                    coded.tol,
+                    methods,
+                    False,
+                    code.origin,
+                    limit,
+                    coded.wbits,
+                    coded.kplan,
+                    coded.removable.get(k, ()),
                 )
             except codec.NoCodeError:  # as tight as doubles allow here: the code it has
                 continue
@@ -311,6 +400,7 @@ def plain(coded: Coded, m: BRepModel, recs: Iterable[Rec]) -> set[Rec]:
                 limit,
                 coded.wbits,
                 coded.kplan,
+                coded.removable.get(k, ()),
             )
         except codec.NoCodeError:
             continue
@@ -333,6 +423,7 @@ def code_model(
     paper: bool = False,
     points: np.ndarray | None = None,
     sewn: Sequence[tuple[int, int]] = (),
+    removal: bool = True,
 ) -> Coded:
     """Run the per-net search (:func:`codec.encode_net`) on every B-spline surface
     and 3-D curve of ``m`` that may move (not under an offset).
@@ -399,6 +490,17 @@ def code_model(
         [(m.curves3d[c], m.curves3d[t.leader]) for c, t in pairs.items()],
     )
     uncodable: set[Rec] = set()
+    # knots removed along no joined side (:mod:`.removal`): sides 0 and 1
+    # run along v, 2 and 3 along u
+    along: dict[int, set[int]] = collections.defaultdict(set)
+    for (b, j), v in sides.items():
+        along[b].add(j // 2)
+        along[v.leader[0]].add(v.leader[1] // 2)
+    removable = (
+        {srec[r]: tuple(axis for axis in (0, 1) if 1 - axis not in along[r]) for r in srows0}
+        if removal
+        else {}
+    )
     surfaces = _code_table(
         m.surfaces,
         Table.SURFACE,
@@ -410,6 +512,7 @@ def code_model(
         uncodable=uncodable,
         wbits=wbits,
         kplan=kplan,
+        removable=removable,
     )
     h = serialize.vertex_grid(tol)
     # vertices at one point (within TWIN_VERTEX) snap as one: to their first's grid point
@@ -451,7 +554,15 @@ def code_model(
                 assert isinstance(sg, BSplineSurface)
                 try:
                     surfaces[sk] = _code_one(
-                        sg, tol, searched, paper, code.origin, need, wbits, kplan
+                        sg,
+                        tol,
+                        searched,
+                        paper,
+                        code.origin,
+                        need,
+                        wbits,
+                        kplan,
+                        removable.get(sk, ()),
                     )
                 except codec.NoCodeError:
                     del surfaces[sk]
@@ -482,7 +593,14 @@ def code_model(
         uncodable=uncodable,
         wbits=wbits,
         kplan=kplan,
+        removable=removable,
     )
+    coded.removed = {
+        k
+        for k, (_, g) in surfaces.items()
+        if cast(BSplineSurface, g).poles.shape
+        != cast(BSplineSurface, m.surfaces[k.row]).poles.shape
+    }
     decoded = [coded.curves[k][1] if k in coded.curves else g for k, g in zip(crec, m.curves3d)]
     rows = {i for i, k in enumerate(crec) if k in coded.curves}
     for c in joins.overreaching(m, decoded, rows, tol) | joins.overreaching(

@@ -415,9 +415,8 @@ class _Plan:
         self.m, self.tol = m, tol
         self.knot_memo: dict[tuple[Any, ...], bool] = {}  # pcurves.unit_curves's answers
         every = list(range(len(m.edge_tol)))
-        self.coded = nets.code_model(
-            m, tol, points=occ.edge_points(source, every), sewn=occ.sewn_edge_pairs(source)
-        )
+        points, sewn = occ.edge_points(source, every), occ.sewn_edge_pairs(source)
+        self.coded = nets.code_model(m, tol, points=points, sewn=sewn)
         self.faces_rec, self.edges_rec = nets.face_records(m), nets.edge_records(m)
         self.faces_of = faces_around(m, ShapeType.EDGE)
         self.edges_of: list[list[int]] = [[] for _ in self.faces_rec]
@@ -448,7 +447,32 @@ class _Plan:
         self.through_s: frozenset[Rec] = frozenset()  # its planes, cylinders through a vertex
         self.plain_s: set[Rec] = set()  # records taken off a vertex, straightened still
         self._made: tuple[Any, ...] | None = None  # (state, grid, what _candidate made)
+        if self.coded.removed:
+            self._keep_removal(nets.code_model(m, tol, points=points, sewn=sewn, removal=False))
         self.grid = self._grid_pays()
+
+    def _keep_removal(self, without: nets.Coded) -> None:
+        """Keep the nets coded with inner knots removed (:mod:`.removal`) only
+        where they make the tables that change (SURF, SNET, CRV3, CNET)
+        smaller, compressed together as the container compresses them, than
+        ``without``: a net the DCT codes for little (a sphere's dense
+        rational patches, at 0.01 mm) can cost more with fewer poles and
+        weights of its own."""
+        sizes = []
+        tags = ("SURF", "SNET", "CRV3", "CNET")
+        with_removal = self.coded
+        for coded in (with_removal, without):
+            self.coded = coded
+            self.exact, self.reason = set(), {}
+            self.make_exact(set(coded.uncodable), "precision")
+            cand, codes, _ = self._candidate()
+            secs = dict(writer.model_to_sections(cand, {"tolerance_mm": self.tol}, codes, tags))
+            sizes.append(len(lzma.compress(b"".join(secs[t] for t in tags), preset=6)))
+        log.debug("knots removed: %d -> %d bytes", sizes[1], sizes[0])
+        if sizes[0] < sizes[1]:
+            self.coded = with_removal
+            self.exact, self.reason = set(), {}
+            self.make_exact(set(with_removal.uncodable), "precision")
 
     def _grid_pays(self) -> bool:
         """Whether analytic records on their grids make the tables that

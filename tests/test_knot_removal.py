@@ -1,0 +1,161 @@
+"""Inner knots removed within tol (``encode.removal``): the certified bound
+against evaluated points, what the removal keeps, and a dense surface that
+comes back with fewer poles."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import cadquery as cq
+import numpy as np
+import pytest
+
+from nurbscomp import bspline, container, occ, pipeline
+from nurbscomp.coons import full_knots
+from nurbscomp.encode import knots as K
+from nurbscomp.encode import removal
+from nurbscomp.model import BSplineSurface
+from nurbscomp.occ import topology
+
+from .conftest import assert_comes_back
+
+
+def _coarse(rng: np.random.Generator, rational: bool) -> BSplineSurface:
+    """A bicubic 6 x 5 net over a chord-length-like vector."""
+    poles = rng.normal(size=(6, 5, 3)) * [30.0, 20.0, 4.0]
+    poles[..., 0] += np.arange(6)[:, None] * 40.0
+    poles[..., 1] += np.arange(5)[None, :] * 30.0
+    w = rng.uniform(0.7, 1.4, (6, 5)) if rational else None
+    uk, um = np.array([0.0, 13.1, 29.4, 51.7]), np.array([4, 1, 1, 4])
+    vk, vm = np.array([2.0, 7.25, 10.9]), np.array([4, 1, 4])
+    return BSplineSurface(poles, w, uk, vk, um, vm, 3, 3, False, False)
+
+
+def _dense(g: BSplineSurface, noise: float, rng: np.random.Generator) -> BSplineSurface:
+    """``g`` with knots inserted (the same surface, more poles), its poles then
+    moved by up to ``noise`` (a fit's residue)."""
+    new_u = np.sort(np.r_[g.uknots, [4.0, 9.0, 20.0, 22.5, 40.0, 45.0]])
+    new_v = np.sort(np.r_[g.vknots, [4.0, 5.5, 9.0]])
+    um = np.r_[4, np.ones(len(new_u) - 2, int), 4]
+    vm = np.r_[4, np.ones(len(new_v) - 2, int), 4]
+    h = (
+        g.poles
+        if g.weights is None
+        else np.concatenate([g.poles * g.weights[..., None], g.weights[..., None]], -1)
+    )
+    h = bspline.refine(g.uknots, g.umults, h, 3, np.repeat(new_u, um))
+    h = np.swapaxes(
+        bspline.refine(g.vknots, g.vmults, np.swapaxes(h, 0, 1), 3, np.repeat(new_v, vm)), 0, 1
+    )
+    if g.weights is None:
+        poles, w = h, None
+    else:
+        poles, w = h[..., :3] / h[..., 3:], h[..., 3]
+    poles = poles + rng.uniform(-noise, noise, poles.shape)
+    return BSplineSurface(poles, w, new_u, new_v, um, vm, 3, 3, False, False)
+
+
+def _points(g: BSplineSurface, n: int = 41) -> np.ndarray:
+    tu, tv = full_knots(g.uknots, g.umults), full_knots(g.vknots, g.vmults)
+    xu = np.linspace(g.uknots[0], g.uknots[-1], n)
+    xv = np.linspace(g.vknots[0], g.vknots[-1], n)
+    h = (
+        g.poles
+        if g.weights is None
+        else np.concatenate([g.poles * g.weights[..., None], g.weights[..., None]], -1)
+    )
+    rows = np.stack([bspline.points(tv, h[i], g.vdegree, xv) for i in range(len(h))])
+    p = np.stack([bspline.points(tu, rows[:, k], g.udegree, xu) for k in range(n)])
+    return p if g.weights is None else p[..., :3] / p[..., 3:]
+
+
+@pytest.mark.parametrize("rational", [False, True])
+@pytest.mark.parametrize("seed", range(3))
+def test_removed_knots_stay_within_the_certified_bound(seed: int, rational: bool) -> None:
+    """Evaluated points (same parameters) move no further than the certified
+    move, which is within the budget; most of the inserted knots go."""
+    rng = np.random.default_rng(seed)
+    dense = _dense(_coarse(rng, rational), 1e-4, rng)
+    budget = 0.01
+    out = removal.removed(dense, budget)
+    assert out is not None
+    thin, bound = out
+    assert bound <= budget
+    assert K.moved(thin, dense) == bound
+    measured = np.linalg.norm(_points(thin) - _points(dense), axis=-1).max()
+    assert measured <= bound
+    assert thin.poles.shape[0] * thin.poles.shape[1] <= 0.6 * dense.poles[..., 0].size
+    # clamped ends: corners and the first and last rows of each direction stay
+    for a, b in ((thin.poles[0], dense.poles[0]), (thin.poles[:, -1], dense.poles[:, -1])):
+        if a.shape == b.shape:
+            np.testing.assert_allclose(a, b, rtol=0, atol=1e-9)
+    for i, j in ((0, 0), (0, -1), (-1, 0), (-1, -1)):
+        np.testing.assert_allclose(thin.poles[i, j], dense.poles[i, j], rtol=0, atol=1e-9)
+
+
+def test_a_surface_with_no_spare_knot_keeps_them() -> None:
+    """A net whose every knot carries shape (noise far above the budget) loses
+    none, and a tiny budget removes nothing."""
+    rng = np.random.default_rng(5)
+    g = _coarse(rng, False)
+    assert removal.removed(g, 1e-9) is None
+    assert removal.removed(_dense(g, 5.0, rng), 0.01) is None
+
+
+def test_only_the_directions_asked_lose_knots() -> None:
+    rng = np.random.default_rng(8)
+    dense = _dense(_coarse(rng, False), 0.0, rng)
+    out = removal.removed(dense, 0.01, axes=(1,))
+    assert out is not None
+    thin, _ = out
+    np.testing.assert_array_equal(thin.uknots, dense.uknots)
+    assert len(thin.vknots) < len(dense.vknots)
+    # v's first and last columns are the sides along u: they keep their poles
+    np.testing.assert_allclose(thin.poles[:, 0], dense.poles[:, 0], rtol=0, atol=1e-9)
+
+
+def test_raised_refuses_rows_that_are_not_a_part() -> None:
+    rng = np.random.default_rng(2)
+    dense = _dense(_coarse(rng, False), 0.0, rng)
+    thin, _ = removal.removed(dense, 0.01) or (None, 0)
+    assert thin is not None
+    assert K.raised(thin, dense) is not None
+    moved_knot = thin.uknots.copy()
+    moved_knot[1] += 0.5  # not a knot of the source
+    other = BSplineSurface(
+        thin.poles, None, moved_knot, thin.vknots, thin.umults, thin.vmults, 3, 3, False, False
+    )
+    assert K.raised(other, dense) is None
+    # the source has no fewer poles than itself: nothing to raise
+    assert K.raised(dense, dense) is None
+
+
+def _dense_face(path: Path) -> Path:
+    """A smooth wavy plate fitted through a 40 x 40 grid of points to 1e-6
+    mm (``makeSplineApprox``): far more poles than its shape needs at 0.1 mm."""
+    x = np.linspace(0.0, 80.0, 40)
+    y = np.linspace(0.0, 60.0, 40)
+    pts = [
+        [cq.Vector(a, b, 4.0 * np.sin(a / 25.0) * np.cos(b / 20.0)) for b in y.tolist()]
+        for a in x.tolist()
+    ]
+    face = cq.Face.makeSplineApprox(pts, tol=1e-6, minDeg=3, maxDeg=3)
+    cq.exporters.export(cq.Workplane().add(face), str(path))
+    return path
+
+
+def test_a_dense_fitted_face_comes_back_with_fewer_poles(tmp_path: Path) -> None:
+    src = _dense_face(tmp_path / "plate.step")
+    nzc = tmp_path / "plate.nzc"
+    rep = pipeline.compress_file(src, nzc, tol=0.1)
+    assert rep["verified"] and rep["max_bound_mm"] <= 0.1
+    back, _ = pipeline.decode(container.unpack(nzc.read_bytes()))
+    source, _ = topology.shape_to_model(occ.read_cad(src).shape)
+    pairs = [
+        (a, b)
+        for a, b in zip(source.surfaces, back.surfaces)
+        if isinstance(a, BSplineSurface) and isinstance(b, BSplineSurface)
+    ]
+    assert pairs
+    assert all(b.poles[..., 0].size < a.poles[..., 0].size / 2 for a, b in pairs)
+    assert_comes_back(src, nzc, 0.1, n=7)
