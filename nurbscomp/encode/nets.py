@@ -115,8 +115,13 @@ class Coded:
     #: surface record -> the directions (0: u) it may lose inner knots in
     #: (:mod:`.removal`)
     removable: dict[Rec, tuple[int, ...]] = field(default_factory=dict)
-    #: records that lost inner knots
-    removed: set[Rec] = field(default_factory=set)
+    #: record -> its code with every knot, for each record that lost knots
+    spares: dict[Rec, tuple[codec.NetCode, Geometry]] = field(default_factory=dict)
+
+    def with_every_knot(self) -> Coded:
+        """These codes with every record that lost knots back on its code
+        with every knot, and no knot removed from now on (:func:`tighten`)."""
+        return replace(self, surfaces={**self.surfaces, **self.spares}, removable={}, spares={})
 
 
 #: A coded net moves by at most this fraction of its size (:func:`feature_limit`).
@@ -174,6 +179,7 @@ def _code_one(
     wbits: int | None = None,
     kplan: knots.Plan | None = None,
     removable: tuple[int, ...] = (),
+    spare: list[tuple[codec.NetCode, Geometry]] | None = None,
 ) -> tuple[codec.NetCode, Geometry]:
     """One record's code (:func:`codec.encode_net`) and the record as decoded.
 
@@ -200,7 +206,7 @@ def _code_one(
     With ``removable`` (directions, 0: u), a surface is also coded with inner
     knots of those directions removed (:func:`_removed`, :mod:`.removal`),
     and that code is kept where its estimated size (:func:`_size`) is
-    smaller."""
+    smaller; the code with every knot is then appended to ``spare``."""
     tries = [(g, 0.0, limit)]
     if kplan:
         rounded, kterm = knots.apply(g, kplan, limit)
@@ -220,6 +226,8 @@ def _code_one(
     if removable and isinstance(g, BSplineSurface):
         fewer = _removed(g, tol, methods, origin, limit, wbits, removable)
         if fewer is not None and _size(fewer) < _size(out):
+            if spare is not None:
+                spare.append(out)
             return fewer
     return out
 
@@ -245,6 +253,9 @@ def _rounded_weights(
         return replace(code, bound=code.bound + wterm), replace(decoded, weights=w)
     return code, decoded
 
+
+#: Whether surfaces may lose inner knots (:mod:`.removal`).
+REMOVAL = True
 
 #: The share of a surface's limit its removed knots may take (:mod:`.removal`).
 REMOVAL_SHARE = 0.5
@@ -303,12 +314,14 @@ def _code_table(
     wbits: int | None = None,
     kplan: knots.Plan | None = None,
     removable: dict[Rec, tuple[int, ...]] | None = None,
+    spares: dict[Rec, tuple[codec.NetCode, Geometry]] | None = None,
 ) -> dict[Rec, tuple[codec.NetCode, Geometry]]:
     """Code each distinct B-spline record of ``table`` (see :func:`code_model`);
     ``anchors`` maps records to :func:`joins.anchors` points, ``limits``
     to a limit below :func:`feature_limit`'s.  A record no code is within its
     limit for is left out (exact) and added to ``uncodable``.  Records of
-    ``removable`` may lose inner knots (:func:`_code_one`)."""
+    ``removable`` may lose inner knots (:func:`_code_one`); where they do,
+    their code with every knot goes to ``spares``."""
     out: dict[Rec, tuple[codec.NetCode, Geometry]] = {}
     origin = None
     for k, g in zip(records(table, which), table):
@@ -318,9 +331,12 @@ def _code_table(
         limit = feature_limit(g.poles, tol)
         limit = min(limit, (limits or {}).get(k, limit))
         try:
+            spare: list[tuple[codec.NetCode, Geometry]] = []
             out[k] = _code_one(
-                g, tol, methods, paper, at, limit, wbits, kplan, (removable or {}).get(k, ())
+                g, tol, methods, paper, at, limit, wbits, kplan, (removable or {}).get(k, ()), spare
             )
+            if spare and spares is not None:
+                spares[k] = spare[0]
         except codec.NoCodeError:  # doubles too coarse for the steps here: exact
             if uncodable is not None:
                 uncodable.add(k)
@@ -423,7 +439,6 @@ def code_model(
     paper: bool = False,
     points: np.ndarray | None = None,
     sewn: Sequence[tuple[int, int]] = (),
-    removal: bool = True,
 ) -> Coded:
     """Run the per-net search (:func:`codec.encode_net`) on every B-spline surface
     and 3-D curve of ``m`` that may move (not under an offset).
@@ -496,9 +511,10 @@ def code_model(
     for (b, j), v in sides.items():
         along[b].add(j // 2)
         along[v.leader[0]].add(v.leader[1] // 2)
+    spares: dict[Rec, tuple[codec.NetCode, Geometry]] = {}
     removable = (
         {srec[r]: tuple(axis for axis in (0, 1) if 1 - axis not in along[r]) for r in srows0}
-        if removal
+        if REMOVAL
         else {}
     )
     surfaces = _code_table(
@@ -513,6 +529,7 @@ def code_model(
         wbits=wbits,
         kplan=kplan,
         removable=removable,
+        spares=spares,
     )
     h = serialize.vertex_grid(tol)
     # vertices at one point (within TWIN_VERTEX) snap as one: to their first's grid point
@@ -562,8 +579,8 @@ def code_model(
                         need,
                         wbits,
                         kplan,
-                        removable.get(sk, ()),
                     )
+                    spares.pop(sk, None)  # coded to suit, with every knot
                 except codec.NoCodeError:
                     del surfaces[sk]
                     uncodable.add(sk)
@@ -594,13 +611,8 @@ def code_model(
         wbits=wbits,
         kplan=kplan,
         removable=removable,
+        spares={k: v for k, v in spares.items() if k in surfaces},
     )
-    coded.removed = {
-        k
-        for k, (_, g) in surfaces.items()
-        if cast(BSplineSurface, g).poles.shape
-        != cast(BSplineSurface, m.surfaces[k.row]).poles.shape
-    }
     decoded = [coded.curves[k][1] if k in coded.curves else g for k, g in zip(crec, m.curves3d)]
     rows = {i for i, k in enumerate(crec) if k in coded.curves}
     for c in joins.overreaching(m, decoded, rows, tol) | joins.overreaching(

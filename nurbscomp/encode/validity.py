@@ -415,8 +415,9 @@ class _Plan:
         self.m, self.tol = m, tol
         self.knot_memo: dict[tuple[Any, ...], bool] = {}  # pcurves.unit_curves's answers
         every = list(range(len(m.edge_tol)))
-        points, sewn = occ.edge_points(source, every), occ.sewn_edge_pairs(source)
-        self.coded = nets.code_model(m, tol, points=points, sewn=sewn)
+        self.coded = nets.code_model(
+            m, tol, points=occ.edge_points(source, every), sewn=occ.sewn_edge_pairs(source)
+        )
         self.faces_rec, self.edges_rec = nets.face_records(m), nets.edge_records(m)
         self.faces_of = faces_around(m, ShapeType.EDGE)
         self.edges_of: list[list[int]] = [[] for _ in self.faces_rec]
@@ -447,8 +448,8 @@ class _Plan:
         self.through_s: frozenset[Rec] = frozenset()  # its planes, cylinders through a vertex
         self.plain_s: set[Rec] = set()  # records taken off a vertex, straightened still
         self._made: tuple[Any, ...] | None = None  # (state, grid, what _candidate made)
-        if self.coded.removed:
-            self._keep_removal(nets.code_model(m, tol, points=points, sewn=sewn, removal=False))
+        if self.coded.spares:
+            self._keep_removal(self.coded.with_every_knot())
         self.grid = self._grid_pays()
 
     def _keep_removal(self, without: nets.Coded) -> None:
