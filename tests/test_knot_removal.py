@@ -43,7 +43,7 @@ def _dense(g: BSplineSurface, noise: float, rng: np.random.Generator) -> BSpline
         if g.weights is None
         else np.concatenate([g.poles * g.weights[..., None], g.weights[..., None]], -1)
     )
-    h = bspline.refine(g.uknots, g.umults, h, 3, np.repeat(new_u, um))
+    h = bspline.refine(g.uknots, g.umults, K.homogeneous(g), 3, np.repeat(new_u, um))
     h = np.swapaxes(
         bspline.refine(g.vknots, g.vmults, np.swapaxes(h, 0, 1), 3, np.repeat(new_v, vm)), 0, 1
     )

@@ -147,6 +147,14 @@ def codable(g: object) -> bool:
     return False
 
 
+def homogeneous(g: Net) -> np.ndarray:
+    """A row's poles in homogeneous coordinates (w·P, w) where it is rational
+    (eq. 2), its poles as they are where not."""
+    if g.weights is None:
+        return g.poles
+    return np.concatenate([g.poles * g.weights[..., None], g.weights[..., None]], -1)
+
+
 def _merged(k1: np.ndarray, k2: np.ndarray, mults: np.ndarray) -> np.ndarray:
     """The expanded knot vector holding both ``k1`` and ``k2`` (distinct values,
     both with ``mults``), each value at the larger of its multiplicities."""
@@ -184,11 +192,7 @@ def move(g: Net, new: Net) -> float:
     if all(np.array_equal(a, b) for a, b in zip(old_v, new_v)):
         return 0.0
     # a rational row is refined in homogeneous coordinates (w·P, w)
-    h = (
-        g.poles
-        if g.weights is None
-        else np.concatenate([g.poles * g.weights[..., None], g.weights[..., None]], -1)
-    )
+    h = homogeneous(g)
     if isinstance(g, BSplineSurface):
         assert isinstance(new, BSplineSurface)
         a, b = _along(g.uknots, new.uknots, g.umults, h, g.udegree)
@@ -298,11 +302,7 @@ def raised(new: Net, original: Net) -> Net | None:
     at = [_within(a, b) for a, b, _ in pairs]
     if any(k is None for k in at):
         return None
-    h = (
-        new.poles
-        if new.weights is None
-        else np.concatenate([new.poles * new.weights[..., None], new.weights[..., None]], -1)
-    )
+    h = homogeneous(new)
     for axis, (k, ((_, m), (fk, fm), degree)) in enumerate(zip(at, pairs)):
         assert k is not None
         target = np.repeat(fk, fm)

@@ -350,6 +350,29 @@ def _code_table(
 TIGHTER = 8
 
 
+def _recode(
+    coded: Coded,
+    k: Rec,
+    g: BSplineSurface | BSplineCurve,
+    methods: tuple[codec.Method, ...],
+    origin: np.ndarray | None,
+    limit: float,
+) -> tuple[codec.NetCode, Geometry]:
+    """Record ``k`` (the source's row ``g``) coded again to ``limit``, as
+    ``coded`` codes its records (weights, knots rounded or removed)."""
+    return _code_one(
+        g,
+        coded.tol,
+        methods,
+        False,
+        origin,
+        limit,
+        coded.wbits,
+        coded.kplan,
+        coded.removable.get(k, ()),
+    )
+
+
 def tighten(coded: Coded, m: BRepModel, recs: Iterable[Rec], level: int = 1) -> None:
     """Code the records ``recs`` of ``m`` (the source) again to
     1/``TIGHTER``^``level`` of their limit, in place (those already that
@@ -371,17 +394,7 @@ def tighten(coded: Coded, m: BRepModel, recs: Iterable[Rec], level: int = 1) -> 
             floor = max(code.bound, coded.tol / 1024)
             limit = min(feature_limit(g.poles, coded.tol) / TIGHTER**level, floor)
             try:
-                done[k] = _code_one(
-                    g,
-                    coded.tol,
-                    methods,
-                    False,
-                    code.origin,
-                    limit,
-                    coded.wbits,
-                    coded.kplan,
-                    coded.removable.get(k, ()),
-                )
+                done[k] = _recode(coded, k, g, methods, code.origin, limit)
             except codec.NoCodeError:  # as tight as doubles allow here: the code it has
                 continue
             coded.fine.add(k)
@@ -407,17 +420,7 @@ def plain(coded: Coded, m: BRepModel, recs: Iterable[Rec]) -> set[Rec]:
         assert isinstance(g, BSplineSurface)
         limit = feature_limit(g.poles, coded.tol) / TIGHTER ** coded.tight.get(k, 0)
         try:
-            coded.surfaces[k] = _code_one(
-                g,
-                coded.tol,
-                codec.TIGHT_SEARCH,
-                False,
-                code.origin,
-                limit,
-                coded.wbits,
-                coded.kplan,
-                coded.removable.get(k, ()),
-            )
+            coded.surfaces[k] = _recode(coded, k, g, codec.TIGHT_SEARCH, code.origin, limit)
         except codec.NoCodeError:
             continue
         out.add(k)

@@ -65,12 +65,6 @@ def _fit(h: np.ndarray, a: np.ndarray) -> np.ndarray:
     return x.reshape((a.shape[1], *h.shape[1:]))
 
 
-def _homogeneous(g: BSplineSurface) -> np.ndarray:
-    if g.weights is None:
-        return g.poles
-    return np.concatenate([g.poles * g.weights[..., None], g.weights[..., None]], -1)
-
-
 def _from_homogeneous(g: BSplineSurface, h: np.ndarray) -> BSplineSurface | None:
     if g.weights is None:
         return replace(g, poles=h)
@@ -88,7 +82,7 @@ def _direction(
     ``source`` (:func:`knots.moved`) stays within ``budget``."""
     degree = g.udegree if axis == 0 else g.vdegree
     full_k, full_m = (g.uknots, g.umults) if axis == 0 else (g.vknots, g.vmults)
-    target = np.swapaxes(_homogeneous(g), 0, axis)  # fitted against, poles on full_k
+    target = np.swapaxes(knots.homogeneous(g), 0, axis)  # fitted against, poles on full_k
     flat_full = np.repeat(full_k, full_m)
     best, moved = g, knots.moved(g, source)
     kn, mu = full_k.copy(), full_m.copy()
