@@ -330,18 +330,17 @@ def moved(new: Net, original: Net) -> float:
     and weights' move, both rows on ``new``'s knots) plus :func:`term`
     (``original`` on both knot vectors).  A row with knots removed
     (:mod:`.removal`) is first :func:`raised` onto ``original``'s knots,
-    with ``ROUNDING`` ulps per term and direction for the insertion."""
+    with ``ROUNDING`` ulps per term and direction for the insertion; inf for
+    a row with other poles that is not such a row."""
+    if new.poles.shape == original.poles.shape:
+        return weights.moved(new, original) + term(original, new)
     up = raised(new, original)
-    if up is not None:
-        terms = sum(d + 1 for d in _degrees(original))
-        scale = float(np.abs(new.poles).max(initial=0.0))
-        ulps = ROUNDING * terms * scale * float(np.finfo(float).eps)
-        return weights.moved(up, original) + ulps * (2 if new.weights is not None else 1)
-    return weights.moved(new, original) + term(original, new)
-
-
-def _degrees(g: Net) -> list[int]:
-    return [g.udegree, g.vdegree] if isinstance(g, BSplineSurface) else [g.degree]
+    if up is None:
+        return float("inf")  # other poles, not on a part of the source's knots
+    degrees = [new.udegree, new.vdegree] if isinstance(new, BSplineSurface) else [new.degree]
+    scale = float(np.abs(new.poles).max(initial=0.0))
+    ulps = ROUNDING * sum(d + 1 for d in degrees) * scale * float(np.finfo(float).eps)
+    return weights.moved(up, original) + ulps * (2 if new.weights is not None else 1)
 
 
 def term(original: Net, new: Net) -> float:

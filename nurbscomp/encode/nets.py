@@ -574,14 +574,7 @@ def code_model(
                 assert isinstance(sg, BSplineSurface)
                 try:
                     surfaces[sk] = _code_one(
-                        sg,
-                        tol,
-                        searched,
-                        paper,
-                        code.origin,
-                        need,
-                        wbits,
-                        kplan,
+                        sg, tol, searched, paper, code.origin, need, wbits, kplan
                     )
                     spares.pop(sk, None)  # coded to suit, with every knot
                 except codec.NoCodeError:

@@ -455,30 +455,34 @@ class _Plan:
     def _keep_removal(self, without: nets.Coded) -> None:
         """Keep the nets coded with inner knots removed (:mod:`.removal`) only
         where they make the tables that change (SURF, SNET, CRV3, CNET)
-        smaller, compressed together as the container compresses them, than
-        ``without``: a net the DCT codes for little (a sphere's dense
-        rational patches, at 0.01 mm) can cost more with fewer poles and
-        weights of its own."""
+        smaller than ``without`` (:meth:`_packed`): a net the DCT codes for
+        little (a sphere's dense rational patches, at 0.01 mm) can cost more
+        with fewer poles and weights of its own."""
         sizes = []
-        tags = ("SURF", "SNET", "CRV3", "CNET")
         with_removal = self.coded
         for coded in (with_removal, without):
-            self.coded = coded
-            self.exact, self.reason = set(), {}
-            self.make_exact(set(coded.uncodable), "precision")
-            cand, codes, _ = self._candidate()
-            secs = dict(writer.model_to_sections(cand, {"tolerance_mm": self.tol}, codes, tags))
-            sizes.append(len(lzma.compress(b"".join(secs[t] for t in tags), preset=6)))
+            self._use(coded)
+            sizes.append(self._packed(self._candidate(), ("SURF", "SNET", "CRV3", "CNET")))
         log.debug("knots removed: %d -> %d bytes", sizes[1], sizes[0])
         if sizes[0] < sizes[1]:
-            self.coded = with_removal
-            self.exact, self.reason = set(), {}
-            self.make_exact(set(with_removal.uncodable), "precision")
+            self._use(with_removal)
+
+    def _use(self, coded: nets.Coded) -> None:
+        """Plan with ``coded``: only the records it cannot code exact."""
+        self.coded, self.exact, self.reason = coded, set(), {}
+        self.make_exact(set(coded.uncodable), "precision")
+
+    def _packed(self, made: tuple[BRepModel, dict[Rec, Any], Any], tags: tuple[str, ...]) -> int:
+        """Bytes of the sections ``tags`` of a candidate (:meth:`_candidate`'s
+        model and codes), compressed together as the container compresses them."""
+        cand, codes, _ = made
+        secs = dict(writer.model_to_sections(cand, {"tolerance_mm": self.tol}, codes, tags))
+        return len(lzma.compress(b"".join(secs[t] for t in tags), preset=6))
 
     def _grid_pays(self) -> bool:
         """Whether analytic records on their grids make the tables that
-        change (SURF, CRV3, VERT, EDGE: the widened tolerances) smaller,
-        compressed together as the container compresses them: a part whose
+        change (SURF, CRV3, VERT, EDGE: the widened tolerances) smaller
+        (:meth:`_packed`): a part whose
         frames share their coordinates with its vertices gains nothing from
         the grid and pays for the widening (featuretype at 0.01 mm: 218
         bytes more; NIST_MBE_PMI_2: 1.1 KB less)."""
@@ -486,11 +490,8 @@ class _Plan:
         made = {}
         for grid in (False, True):
             self.grid = grid
-            made[grid] = cand, codes, _ = self._candidate()
-            tags = ("SURF", "CRV3", "VERT", "EDGE")
-            secs = dict(writer.model_to_sections(cand, {"tolerance_mm": self.tol}, codes, tags))
-            raw = b"".join(secs[t] for t in tags)
-            sizes.append(len(lzma.compress(raw, preset=6)))
+            made[grid] = self._candidate()
+            sizes.append(self._packed(made[grid], ("SURF", "CRV3", "VERT", "EDGE")))
         log.debug("analytic grid: %d -> %d bytes", *sizes)
         pays = sizes[1] < sizes[0] - GRID_GAIN
         self._made = (self.state(), pays, made[pays])  # the first round's candidate
