@@ -88,6 +88,25 @@ def refinement(old: np.ndarray, new: np.ndarray, degree: int) -> tuple[np.ndarra
     return mu - k + 1, b
 
 
+def subdivision(knots: np.ndarray, mults: np.ndarray, degree: int, pieces: int) -> np.ndarray:
+    """The dense knot-insertion matrix (eq. 1, :func:`refinement`) that takes
+    the poles of a clamped B-spline on ``knots`` (distinct values, with
+    ``mults``) to those of the same B-spline with every span cut into
+    ``pieces`` equal parts: shape (n', n), each row ``degree`` + 1
+    non-negative weights summing to one.  The refined control polygon
+    converges to the curve as ``pieces`` grows (quadratically in the span's
+    length), so its poles bound the curve more tightly than the original's."""
+    k = np.asarray(knots, float)
+    flat = np.repeat(k, np.asarray(mults, int))
+    cuts = k[:-1, None] + (k[1:] - k[:-1])[:, None] * (np.arange(1, pieces) / pieces)[None, :]
+    new = np.sort(np.concatenate([flat, cuts.reshape(-1)]))
+    first, w = refinement(flat, new, degree)
+    a = np.zeros((len(first), len(flat) - degree - 1))
+    rows = np.arange(len(first))[:, None]
+    a[rows, first[:, None] + np.arange(w.shape[1])[None, :]] = w
+    return a
+
+
 def refine(
     knots: np.ndarray, mults: np.ndarray, poles: np.ndarray, degree: int, target: np.ndarray
 ) -> np.ndarray:

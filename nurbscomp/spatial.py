@@ -111,9 +111,11 @@ def eg_bits(r: np.ndarray) -> np.ndarray:
     return 2 * np.floor(np.log2(z + 1.0)) + 1
 
 
-def rd_extrapolate(p: np.ndarray, h: np.ndarray, bound: float, qo: np.ndarray) -> np.ndarray:
-    """Residuals (R, nu, nv, 3) of :func:`extrapolate` chosen within ``bound``,
-    on each grid step of ``h`` (R,) at once.
+def rd_extrapolate(
+    p: np.ndarray, h: np.ndarray, bound: float | np.ndarray, qo: np.ndarray
+) -> np.ndarray:
+    """Residuals (R, nu, nv, 3) of :func:`extrapolate` chosen within ``bound``
+    (one for all, or one per step), on each grid step of ``h`` (R,) at once.
 
     The closed loop of the decoder, run in its own order along the
     anti-diagonals (each pole's predictors lie on earlier ones, so a diagonal

@@ -50,6 +50,7 @@ from __future__ import annotations
 
 import functools
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from enum import IntEnum
 
@@ -156,7 +157,9 @@ class NetCode:
     dcs : ndarray of float64
         DC coefficients sent with the PAPER quantizer.
     bound : float
-        Certified max pole displacement.
+        Certified bound on how far the net's row moves: its largest pole
+        displacement, or the encoder's tighter measure
+        (``encode_net``'s ``measure``).
     bits : float
         Estimated coded size (Exp-Golomb length of the integers + 64 per float).
     origin : ndarray or None
@@ -165,6 +168,8 @@ class NetCode:
         The decoded first pole, the origin of the next net in its table.  Set
         by the caller; the decoded net may change afterwards (curve ends are
         pinned to vertices, :mod:`nurbscomp.rules.joins`) but the chain uses this.
+    limit : float or None
+        The bound the encoder held the code to (not stored in a container).
     """
 
     method: Method
@@ -177,6 +182,7 @@ class NetCode:
     bits: float
     origin: np.ndarray | None = None
     first: np.ndarray | None = None
+    limit: float | None = None
 
     @property
     def grid(self) -> float:
@@ -321,6 +327,16 @@ class _Memo:
     rung_chords: dict[tuple[float, ...], tuple[np.ndarray, np.ndarray]] = field(
         default_factory=dict
     )
+    #: the certified bound of error nets (R, *net shape) -> (R,): by default
+    #: each net's largest pole error; the encoder's is tighter
+    #: (``encode.deviation``: the error net refined on the row's knots)
+    measure: Callable[[np.ndarray], np.ndarray] | None = None
+
+    def bounds(self, err: np.ndarray) -> np.ndarray:
+        """The certified bound of each error net of ``err`` (R, ..., dim)."""
+        if self.measure is not None:
+            return self.measure(err)
+        return np.sqrt((err * err).sum(-1).reshape(len(err), -1).max(axis=1))
 
 
 class _Writer:

@@ -43,7 +43,7 @@ from ..model import (
 from ..rules import joins
 from ..serialize import SWEPT
 from ..serialize.vertices import TWIN_EXP, twin_offset
-from . import analytic, coincide, knots
+from . import analytic, coincide, knots, nets
 from .nets import TRIM_C, TRIM_S, Coded, feature_limit, first_rows, poles_of, resolve_row
 
 
@@ -94,6 +94,50 @@ def assemble(
     still: set[int] = frozenset(),  # type: ignore[assignment]
     grid: bool = True,
     plain: Set[Rec] = frozenset(),
+) -> tuple[BRepModel, dict[Rec, codec.NetCode], LossyReport]:
+    """:func:`_assembled`; where a pin or a joined side took a row coded to
+    the refined bound past its limit (:func:`_past_limits`), the rows to
+    blame are coded again with the pole bound (:func:`nets.rigid`, in
+    ``coded``, so later candidates start from them) and the model is
+    assembled again."""
+    while True:
+        out = _assembled(m, coded, exact, still, grid, plain)
+        if not nets.rigid(coded, m, _past_limits(m, coded, out[1])):
+            return out
+
+
+def _past_limits(m: BRepModel, coded: Coded, codes: dict[Rec, codec.NetCode]) -> set[Rec]:
+    """The coded records to code again with the pole bound: those whose
+    final bound is past the limit they were coded to (a copy's: its own
+    :func:`feature_limit`), or for a copy (an iso-boundary curve, a twin
+    curve) and a surface with joined sides, the rows it copies."""
+    srec, crec = records(m.surfaces, Table.SURFACE), records(m.curves3d, Table.CURVE3D)
+    leaders: dict[Rec, list[Rec]] = collections.defaultdict(list)
+    for (b, _), ((a, _), _) in coded.sides.items():
+        leaders[srec[b]].append(srec[a])
+    out: set[Rec] = set()
+    for k, code in codes.items():
+        g = (m.surfaces if k.table == Table.SURFACE else m.curves3d)[k.row]
+        limit = code.limit if code.limit is not None else feature_limit(poles_of(g), coded.tol)
+        if not code.bound > limit:
+            continue
+        if code.method == codec.Method.ISO:
+            out.add(srec[coded.iso[k][0]])
+        elif code.method == codec.Method.COPY:
+            out.add(crec[coded.twins[k][0]])
+        else:
+            out.add(k)
+            out.update(leaders.get(k, ()))
+    return out
+
+
+def _assembled(
+    m: BRepModel,
+    coded: Coded,
+    exact: set[Rec | None],
+    still: set[int],
+    grid: bool,
+    plain: Set[Rec],
 ) -> tuple[BRepModel, dict[Rec, codec.NetCode], LossyReport]:
     """The model the decoder will rebuild when every coded record but ``exact`` is used,
     and every vertex that may move (:func:`_snap_vertices`) but the rows in ``still``;

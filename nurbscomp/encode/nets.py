@@ -16,7 +16,7 @@ Still exact in this version: analytic geometry, and B-splines under an offset
 from __future__ import annotations
 
 import collections
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Sequence, Set
 from dataclasses import dataclass, field, replace
 from typing import Any, cast
 
@@ -42,7 +42,7 @@ from ..model import (
 from ..rules import joins
 from ..rules.nets import net_abscissae, net_basis
 from ..serialize import SWEPT
-from . import coincide, knots, removal, weights
+from . import coincide, deviation, knots, removal, weights
 
 
 def resolve_row(table: list[Geometry], i: int, through: tuple[Kind, ...]) -> int:
@@ -117,11 +117,25 @@ class Coded:
     removable: dict[Rec, tuple[int, ...]] = field(default_factory=dict)
     #: record -> its code with every knot, for each record that lost knots
     spares: dict[Rec, tuple[codec.NetCode, Geometry]] = field(default_factory=dict)
+    #: the surface methods searched (``codec.SURFACE_SEARCH``, or the paper's)
+    searched: tuple[codec.Method, ...] = codec.SURFACE_SEARCH
+    #: records coded with the pole bound, not the refined one (:func:`rigid`)
+    rigid: set[Rec] = field(default_factory=set)
+    #: surface records coded without ``SPATIAL2`` (:func:`plain`)
+    plained: set[Rec] = field(default_factory=set)
 
     def with_every_knot(self) -> Coded:
         """These codes with every record that lost knots back on its code
         with every knot, and no knot removed from now on (:func:`tighten`)."""
-        return replace(self, surfaces={**self.surfaces, **self.spares}, removable={}, spares={})
+        back = set(self.spares)
+        return replace(
+            self,
+            surfaces={**self.surfaces, **self.spares},
+            removable={},
+            spares={},
+            rigid=self.rigid - back,  # a spare is coded as the record first was
+            plained=self.plained - back,
+        )
 
 
 #: A coded net moves by at most this fraction of its size (:func:`feature_limit`).
@@ -150,20 +164,36 @@ def feature_limit(poles: np.ndarray, tol: float) -> float:
     return float(np.clip(FEATURE_FRACTION * size, tol / 1024, tol))
 
 
+#: Whether a code's bound is measured on the refined error net
+#: (:mod:`.deviation`) rather than as its largest pole error.
+SPREAD = True
+
+
 def _net_code(
     g: BSplineSurface | BSplineCurve,
     tol: float,
     methods: tuple[codec.Method, ...],
     origin: np.ndarray | None,
     limit: float,
+    spread: bool = True,
 ) -> tuple[codec.NetCode, np.ndarray]:
     """``g``'s poles coded within ``limit`` (:func:`codec.encode_net`, on the
-    abscissae and basis of ``g``'s knots, as the decoder's), and the decoded
-    poles."""
+    abscissae and basis of ``g``'s knots, as the decoder's; with ``SPREAD``,
+    and ``spread``, each trial's bound measured on its refined error net,
+    :mod:`.deviation`), and the decoded poles."""
     s, t = net_abscissae(g)
     basis = net_basis(g)
     code = codec.encode_net(
-        g.poles, s, t, tol, methods, paper=False, origin=origin, basis=basis, limit=limit
+        g.poles,
+        s,
+        t,
+        tol,
+        methods,
+        paper=False,
+        origin=origin,
+        basis=basis,
+        limit=limit,
+        measure=deviation.measure(g) if SPREAD and spread else None,
     )
     net, _ = codec.decode_net(code, g.poles.shape, s, t, tol, origin, basis)
     return replace(code, first=net.reshape(-1, net.shape[-1])[0]), net
@@ -180,6 +210,7 @@ def _code_one(
     kplan: knots.Plan | None = None,
     removable: tuple[int, ...] = (),
     spare: list[tuple[codec.NetCode, Geometry]] | None = None,
+    spread: bool = True,
 ) -> tuple[codec.NetCode, Geometry]:
     """One record's code (:func:`codec.encode_net`) and the record as decoded.
 
@@ -206,7 +237,10 @@ def _code_one(
     With ``removable`` (directions, 0: u), a surface is also coded with inner
     knots of those directions removed (:func:`_removed`, :mod:`.removal`),
     and that code is kept where its estimated size (:func:`_size`) is
-    smaller; the code with every knot is then appended to ``spare``."""
+    smaller; the code with every knot is then appended to ``spare``.
+
+    ``spread``: bounds measured on the refined error net (:func:`_net_code`).
+    The code returned remembers ``limit`` (``NetCode.limit``)."""
     tries = [(g, 0.0, limit)]
     if kplan:
         rounded, kterm = knots.apply(g, kplan, limit)
@@ -214,7 +248,7 @@ def _code_one(
             tries = [(rounded, kterm, limit), (rounded, kterm, limit - kterm), *tries]
     for h, kterm, room in tries:  # the last is g as it is
         try:
-            code, net = _net_code(h, tol, methods, origin, room)
+            code, net = _net_code(h, tol, methods, origin, room, spread)
         except codec.NoCodeError:
             if h is g:
                 raise
@@ -222,9 +256,9 @@ def _code_one(
         if code.bound + kterm <= limit:
             code = replace(code, bound=code.bound + kterm)
             break
-    out = _rounded_weights(code, g, replace(h, poles=net), wbits, limit)
+    out = _rounded_weights(replace(code, limit=limit), g, replace(h, poles=net), wbits, limit)
     if removable and isinstance(g, BSplineSurface):
-        fewer = _removed(g, tol, methods, origin, limit, wbits, removable)
+        fewer = _removed(g, tol, methods, origin, limit, wbits, removable, spread)
         if fewer is not None and _size(fewer) < _size(out):
             if spare is not None:
                 spare.append(out)
@@ -248,9 +282,13 @@ def _rounded_weights(
     if base.weights is None:
         return code, decoded
     w = weights.rounded(base.weights, wbits)
-    wterm = weights.weight_bound(base, w)  # of the poles before coding
-    if code.bound + wterm <= limit:
-        return replace(code, bound=code.bound + wterm), replace(decoded, weights=w)
+    if code.bound + weights.weight_bound(base, w) > limit:
+        return code, decoded  # (a shortcut: the poles' term hardly moves with the weights)
+    rounded = replace(decoded, weights=w)
+    # the poles' term on the rounded weights' basis, and the weights' own
+    bound = weights.moved(rounded, base)
+    if bound <= limit:
+        return replace(code, bound=bound), rounded
     return code, decoded
 
 
@@ -283,6 +321,7 @@ def _removed(
     limit: float,
     wbits: int | None,
     axes: tuple[int, ...],
+    spread: bool = True,
 ) -> tuple[codec.NetCode, Geometry] | None:
     """``g`` with inner knots of directions ``axes`` removed within
     ``REMOVAL_SHARE`` of ``limit`` (:func:`removal.removed`), coded to the
@@ -292,12 +331,12 @@ def _removed(
         return None
     h, d = r
     try:
-        code, net = _net_code(h, tol, methods, origin, limit - d)
+        code, net = _net_code(h, tol, methods, origin, limit - d, spread)
     except codec.NoCodeError:
         return None
     if code.bound + d > limit:
         return None
-    coded = replace(code, bound=code.bound + d)
+    coded = replace(code, bound=code.bound + d, limit=limit)
     return _rounded_weights(coded, h, replace(h, poles=net), wbits, limit)
 
 
@@ -315,8 +354,10 @@ def _code_table(
     kplan: knots.Plan | None = None,
     removable: dict[Rec, tuple[int, ...]] | None = None,
     spares: dict[Rec, tuple[codec.NetCode, Geometry]] | None = None,
+    rigid: Set[Rec] = frozenset(),
 ) -> dict[Rec, tuple[codec.NetCode, Geometry]]:
-    """Code each distinct B-spline record of ``table`` (see :func:`code_model`);
+    """Code each distinct B-spline record of ``table`` (see :func:`code_model`),
+    those of ``rigid`` with the pole bound;
     ``anchors`` maps records to :func:`joins.anchors` points, ``limits``
     to a limit below :func:`feature_limit`'s.  A record no code is within its
     limit for is left out (exact) and added to ``uncodable``.  Records of
@@ -333,7 +374,17 @@ def _code_table(
         try:
             spare: list[tuple[codec.NetCode, Geometry]] = []
             out[k] = _code_one(
-                g, tol, methods, paper, at, limit, wbits, kplan, (removable or {}).get(k, ()), spare
+                g,
+                tol,
+                methods,
+                paper,
+                at,
+                limit,
+                wbits,
+                kplan,
+                (removable or {}).get(k, ()),
+                spare,
+                spread=k not in rigid,
             )
             if spare and spares is not None:
                 spares[k] = spare[0]
@@ -370,6 +421,7 @@ def _recode(
         coded.wbits,
         coded.kplan,
         coded.removable.get(k, ()),
+        spread=k not in coded.rigid,
     )
 
 
@@ -424,7 +476,45 @@ def plain(coded: Coded, m: BRepModel, recs: Iterable[Rec]) -> set[Rec]:
         except codec.NoCodeError:
             continue
         out.add(k)
+        coded.plained.add(k)
     return out
+
+
+def rigid(coded: Coded, m: BRepModel, recs: Iterable[Rec]) -> bool:
+    """Code the records ``recs`` of ``m`` (the source) again with the pole
+    bound (each trial's bound its largest pole error, as the decoder's pins
+    and joined sides assume), to the limit each was coded to, in place;
+    whether any was.
+
+    A net coded to the refined bound (:mod:`.deviation`) may have poles far
+    past its limit where the basis averages their errors.  A pin that sets
+    a corner to its vertex, or a side set to its leader's, then changes
+    errors the average relied on, and the row may end past its limit
+    (``assembly.assemble`` finds those).  With the pole bound a pinned
+    corner or a copied side moves no pole further than the limit.
+    """
+    changed = False
+    for k in recs:
+        surface = k.table == Table.SURFACE
+        done = coded.surfaces if surface else coded.curves
+        if k in coded.rigid or k not in done:
+            continue
+        coded.rigid.add(k)
+        code = done[k][0]
+        g = m.surfaces[k.row] if surface else m.curves3d[k.row]
+        assert isinstance(g, (BSplineSurface, BSplineCurve))
+        limit = code.limit if code.limit is not None else feature_limit(g.poles, coded.tol)
+        methods: tuple[codec.Method, ...] = codec.CURVE_METHODS
+        if surface:
+            plain_only = k in coded.plained or k in coded.tight
+            methods = codec.TIGHT_SEARCH if plain_only else coded.searched
+        try:
+            done[k] = _recode(coded, k, g, methods, code.origin, limit)
+        except codec.NoCodeError:
+            continue
+        coded.spares.pop(k, None)
+        changed = True
+    return changed
 
 
 def _limit(g: Geometry, tol: float) -> float:
@@ -442,9 +532,14 @@ def code_model(
     paper: bool = False,
     points: np.ndarray | None = None,
     sewn: Sequence[tuple[int, int]] = (),
+    spread: bool = True,
 ) -> Coded:
     """Run the per-net search (:func:`codec.encode_net`) on every B-spline surface
     and 3-D curve of ``m`` that may move (not under an offset).
+
+    With ``spread``, a code's bound is measured on its refined error net
+    (:mod:`.deviation`) but for the surfaces with joined sides; without,
+    every record takes the pole bound (``Coded.rigid``).
 
     A curve whose ends the decoder would pin to vertices too far from the
     original ends (:func:`joins.overreaching`) is left exact.
@@ -489,6 +584,9 @@ def code_model(
     # sides; an iso-boundary curve takes its side's knots (assembly._copy_iso),
     # a twin its leader's (assembly._copy_twins)
     joined = {r for k, v in sides.items() for r in (k[0], v.leader[0])}
+    # a side set to its leader's keeps the leader's pole errors, which the
+    # follower's own refined bound did not average: both take the pole bound
+    rigid = {srec[r] for r in joined} if spread else {*srec, *crec}
     copied = coincide.iso_sources(m, crows, srows0)
     where = joins.curve_placements(m)
     pairs = coincide.twin_curves(m.curves3d, crows, eps, set(copied), where)
@@ -533,6 +631,7 @@ def code_model(
         kplan=kplan,
         removable=removable,
         spares=spares,
+        rigid=rigid,
     )
     h = serialize.vertex_grid(tol)
     # vertices at one point (within TWIN_VERTEX) snap as one: to their first's grid point
@@ -595,6 +694,7 @@ def code_model(
             uncodable,
             wbits,
             kplan,
+            rigid=rigid,
         ),
         tol,
         iso_recs,
@@ -608,6 +708,8 @@ def code_model(
         kplan=kplan,
         removable=removable,
         spares={k: v for k, v in spares.items() if k in surfaces},
+        searched=searched,
+        rigid=set(rigid),
     )
     decoded = [coded.curves[k][1] if k in coded.curves else g for k, g in zip(crec, m.curves3d)]
     rows = {i for i, k in enumerate(crec) if k in coded.curves}

@@ -411,12 +411,16 @@ GRID_GAIN = 16
 class _Plan:
     """Which records stay exact, which pcurves are kept, which vertices stay."""
 
-    def __init__(self, m: BRepModel, tol: float, source: Any) -> None:
+    def __init__(self, m: BRepModel, tol: float, source: Any, spread: bool = True) -> None:
         self.m, self.tol = m, tol
         self.knot_memo: dict[tuple[Any, ...], bool] = {}  # pcurves.unit_curves's answers
         every = list(range(len(m.edge_tol)))
         self.coded = nets.code_model(
-            m, tol, points=occ.edge_points(source, every), sewn=occ.sewn_edge_pairs(source)
+            m,
+            tol,
+            points=occ.edge_points(source, every),
+            sewn=occ.sewn_edge_pairs(source),
+            spread=spread,
         )
         self.faces_rec, self.edges_rec = nets.face_records(m), nets.edge_records(m)
         self.faces_of = faces_around(m, ShapeType.EDGE)
@@ -742,9 +746,15 @@ def _search(
     vr: ValidityReport,
     floor: _Floor | None,
     meanwhile: Meanwhile | None,
+    spread: bool = True,
 ) -> Target:
-    """The rounds and the fallbacks of :func:`lossy_target`."""
-    plan = _Plan(pcurves.natural_ends(m, tol), tol, source)
+    """The rounds and the fallbacks of :func:`lossy_target`.
+
+    The nets are first coded to the refined bound (``nets.code_model``'s
+    ``spread``); where no round passes with them, the rounds start again
+    from nets coded to the pole bound, before the fallbacks (trj7 at 0.1 mm:
+    a face BRepCheck rejected in every round, its records exact or not)."""
+    plan = _Plan(pcurves.natural_ends(m, tol), tol, source, spread)
     old_e, old_f = occ.failures(source)
     cache = occ.PcurveCache()  # the candidates differ from round to round in a few records
     for _ in range(MAX_ROUNDS):
@@ -774,6 +784,9 @@ def _search(
             plan.make_exact(nets.kinked_records(plan.m), "kinked")
         if plan.state() == before:
             break  # nothing left to try here: the fallbacks
+    if spread:
+        log.debug("no candidate passed with the refined bound: the pole bound")
+        return _search(m, source, tol, vr, floor, meanwhile, spread=False)
     # coded geometry with every pcurve stored, if that passes
     target, codes, report = assembly.assemble(
         plan.m, plan.coded, plan.exact, plan.still_v, plan.grid

@@ -39,6 +39,7 @@ from collections.abc import Iterable
 import numpy as np
 
 from ..model import BSplineCurve, BSplineSurface
+from . import deviation
 
 #: The share of a row's limit its rounded weights may take.
 SHARE = 1.0 / 32
@@ -98,10 +99,11 @@ def weight_bound(g: Net, w: np.ndarray | None) -> float:
 
 def moved(new: Net, original: Net) -> float:
     """Certified distance between ``new`` and ``original`` (the same row on the
-    same knots, its poles and weights moved): the largest pole move plus
-    :func:`weight_bound` (``knots.moved`` adds what moved knots add)."""
-    d = float(np.sqrt(((new.poles - original.poles) ** 2).sum(-1)).max())
-    return d + weight_bound(original, new.weights)
+    same knots, its poles and weights moved): the poles' move, measured on the
+    refined error net with ``new``'s weights (:func:`deviation.moved`; at most
+    the largest pole move), plus :func:`weight_bound` (``knots.moved`` adds
+    what moved knots add)."""
+    return deviation.moved(new, original) + weight_bound(original, new.weights)
 
 
 def _bits_for(g: Net, limit: float) -> int:
