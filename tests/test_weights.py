@@ -101,11 +101,12 @@ def test_the_bound_holds_on_evaluated_points(seed: int) -> None:
     assert measured <= bound
     assert W.weight_bound(g, new.weights) > b  # the weights' term is what dominates here
     assert measured > bound / 100
-    # poles alone: the bound is theirs
+    # poles alone: the bound is theirs (on the refined error net: at most b)
     same_w = BSplineSurface(
         g.poles + d, g.weights, g.uknots, g.vknots, g.umults, g.vmults, 3, 3, False, False
     )
-    assert W.moved(same_w, g) == pytest.approx(b)
+    alone = np.linalg.norm(_points(same_w) - _points(g), axis=-1).max()
+    assert alone <= W.moved(same_w, g) <= b * (1 + 1e-12)
 
 
 def test_file_bits_follow_the_limit_and_pay_only_where_noise_is() -> None:
