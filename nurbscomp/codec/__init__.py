@@ -41,6 +41,7 @@ from .coder import (
     cost_bits,
     decode_net,
     ladder,
+    pole_bounds,
     reorigin,
     segments,
 )
@@ -100,6 +101,7 @@ __all__ = [
     "_trial_boundaries",
     "_try",
     "cost_bits",
+    "pole_bounds",
     "decode_net",
     "encode_net",
     "ladder",

@@ -292,6 +292,12 @@ class _BoundaryRungs:
     ints: np.ndarray  # their integers, (R, K)
 
 
+def pole_bounds(err: np.ndarray) -> np.ndarray:
+    """The pole bound of each error net of ``err`` (R, ..., dim): its largest
+    pole error (a bound on every point's move by eq. 1's convex hull)."""
+    return np.sqrt((err * err).sum(-1).reshape(len(err), -1).max(axis=1))
+
+
 @dataclass
 class _Memo:
     """What the trials of one net share (encoder only).
@@ -334,9 +340,7 @@ class _Memo:
 
     def bounds(self, err: np.ndarray) -> np.ndarray:
         """The certified bound of each error net of ``err`` (R, ..., dim)."""
-        if self.measure is not None:
-            return self.measure(err)
-        return np.sqrt((err * err).sum(-1).reshape(len(err), -1).max(axis=1))
+        return (self.measure or pole_bounds)(err)
 
 
 class _Writer:

@@ -42,6 +42,7 @@ from .coder import (
     _Writer,
     cost_bits,
     ladder,
+    pole_bounds,
 )
 
 
@@ -66,7 +67,7 @@ def _try(
         return None
     ints = np.concatenate(w.ints) if w.ints else np.zeros(0, np.int64)
     dcs = np.concatenate(w.dcs) if w.dcs else np.zeros(0)
-    bound = float((memo or _Memo()).bounds((dec - p)[None])[0])
+    bound = float((memo.bounds if memo else pole_bounds)((dec - p)[None])[0])
     bits = w.bits() + 64 * len(dcs)
     return NetCode(method, st.quant, st.level, st.slope, ints, dcs, bound, bits, origin.copy())
 
@@ -213,7 +214,7 @@ class _Rungs(_Batch):
             head = np.concatenate([head, qc], axis=1)
             good = ok.tolist()
         # as in _try
-        bounds = (memo or _Memo()).bounds(dec - p).tolist()
+        bounds = (memo.bounds if memo else pole_bounds)(dec - p).tolist()
         for j, i in enumerate(use):
             if good[j]:
                 self.bounds[i] = bounds[j]

@@ -28,11 +28,12 @@ Periodic and unclamped rows, and nets too large to refine within
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 
 import numpy as np
 
-from .. import bspline
+from .. import bspline, codec
 from ..model import BSplineCurve, BSplineSurface
 from ..rules.joins import clamped_curve, clamped_surface
 
@@ -48,17 +49,19 @@ MAX_REFINED = 40_000
 #: summing to one).
 ROUNDING = 2.0**-40
 
-_cache: dict[tuple[bytes, bytes, int, int], np.ndarray] = {}
+
+@functools.lru_cache(maxsize=4096)
+def _subdivision(knots: bytes, mults: bytes, degree: int, pieces: int) -> np.ndarray:
+    """:func:`bspline.subdivision` of the vectors whose bytes are given
+    (rows of one knot vector share it: read-only)."""
+    a = bspline.subdivision(np.frombuffer(knots), np.frombuffer(mults, np.int64), degree, pieces)
+    a.flags.writeable = False
+    return a
 
 
 def _matrix(knots: np.ndarray, mults: np.ndarray, degree: int, pieces: int) -> np.ndarray:
-    key = (np.asarray(knots, float).tobytes(), np.asarray(mults).tobytes(), degree, pieces)
-    a = _cache.get(key)
-    if a is None:
-        if len(_cache) > 4096:
-            _cache.clear()
-        a = _cache[key] = bspline.subdivision(knots, mults, degree, pieces)
-    return a
+    k = np.asarray(knots, float).tobytes()
+    return _subdivision(k, np.asarray(mults, np.int64).tobytes(), degree, pieces)
 
 
 def matrices(g: Net) -> list[np.ndarray] | None:
@@ -100,13 +103,7 @@ def _refined(err: np.ndarray, mats: list[np.ndarray], w: np.ndarray | None) -> n
         if w is not None:
             r = r / (mats[0] @ w)[None, :, None]
     refined = np.sqrt((r * r).sum(-1)).reshape(len(r), -1).max(axis=1) * (1.0 + ROUNDING)
-    return np.minimum(refined, pole_bounds(err))  # each is a bound: the smaller
-
-
-def pole_bounds(err: np.ndarray) -> np.ndarray:
-    """The pole bound of each error net of ``err`` (R, ..., dim): its largest
-    pole error."""
-    return np.sqrt((err * err).sum(-1).reshape(len(err), -1).max(axis=1))
+    return np.minimum(refined, codec.pole_bounds(err))  # each is a bound: the smaller
 
 
 def measure(g: Net) -> Callable[[np.ndarray], np.ndarray]:
@@ -114,7 +111,7 @@ def measure(g: Net) -> Callable[[np.ndarray], np.ndarray]:
     ``g``'s poles, ``g``'s weights kept: for ``codec.encode_net``."""
     mats = matrices(g)
     if mats is None:
-        return pole_bounds
+        return codec.pole_bounds
     w = g.weights
 
     def bound(err: np.ndarray) -> np.ndarray:
@@ -130,5 +127,5 @@ def moved(new: Net, original: Net) -> float:
     err = (new.poles - original.poles)[None]
     mats = matrices(new)
     if mats is None:
-        return float(pole_bounds(err)[0])
+        return float(codec.pole_bounds(err)[0])
     return float(_refined(err, mats, new.weights)[0])

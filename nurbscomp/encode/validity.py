@@ -42,7 +42,7 @@ import functools
 import logging
 import lzma
 import tempfile
-from collections.abc import Callable, Iterable, Set
+from collections.abc import Callable, Iterable, Sequence, Set
 from dataclasses import dataclass, field
 from enum import IntEnum
 from pathlib import Path
@@ -408,20 +408,28 @@ class _Floor:
 GRID_GAIN = 16
 
 
+def _source_edges(m: BRepModel, source: Any) -> tuple[Any, list[tuple[int, int]]]:
+    """What ``nets.code_model`` needs of the source's shape: its edges sampled
+    (``occ.edge_points``) and the pairs its sewing joins (``occ.sewn_edge_pairs``)."""
+    return occ.edge_points(source, list(range(len(m.edge_tol)))), occ.sewn_edge_pairs(source)
+
+
 class _Plan:
     """Which records stay exact, which pcurves are kept, which vertices stay."""
 
-    def __init__(self, m: BRepModel, tol: float, source: Any, spread: bool = True) -> None:
+    def __init__(
+        self,
+        m: BRepModel,
+        tol: float,
+        source: Any,
+        spread: bool = True,
+        edges: tuple[Any, Sequence[tuple[int, int]]] | None = None,
+    ) -> None:
+        """``edges``: :func:`_source_edges` of ``source``, when already measured."""
         self.m, self.tol = m, tol
         self.knot_memo: dict[tuple[Any, ...], bool] = {}  # pcurves.unit_curves's answers
-        every = list(range(len(m.edge_tol)))
-        self.coded = nets.code_model(
-            m,
-            tol,
-            points=occ.edge_points(source, every),
-            sewn=occ.sewn_edge_pairs(source),
-            spread=spread,
-        )
+        points, sewn = edges if edges is not None else _source_edges(m, source)
+        self.coded = nets.code_model(m, tol, points=points, sewn=sewn, spread=spread)
         self.faces_rec, self.edges_rec = nets.face_records(m), nets.edge_records(m)
         self.faces_of = faces_around(m, ShapeType.EDGE)
         self.edges_of: list[list[int]] = [[] for _ in self.faces_rec]
@@ -746,17 +754,63 @@ def _search(
     vr: ValidityReport,
     floor: _Floor | None,
     meanwhile: Meanwhile | None,
-    spread: bool = True,
 ) -> Target:
     """The rounds and the fallbacks of :func:`lossy_target`.
 
     The nets are first coded to the refined bound (``nets.code_model``'s
     ``spread``); where no round passes with them, the rounds start again
     from nets coded to the pole bound, before the fallbacks (trj7 at 0.1 mm:
-    a face BRepCheck rejected in every round, its records exact or not)."""
-    plan = _Plan(pcurves.natural_ends(m, tol), tol, source, spread)
+    a face BRepCheck rejected in every round, its records exact or not).
+    What comes from the source is measured once for both."""
+    start = pcurves.natural_ends(m, tol)
+    edges = _source_edges(m, source)
     old_e, old_f = occ.failures(source)
     cache = occ.PcurveCache()  # the candidates differ from round to round in a few records
+    for spread in (True, False):
+        plan = _Plan(start, tol, source, spread, edges)
+        done = _rounds(plan, (old_e, old_f), floor, tol, vr, meanwhile, cache)
+        if done is not None:
+            return done
+        log.debug("no candidate passed with the %s bound", "refined" if spread else "pole")
+    # coded geometry with every pcurve stored, if that passes
+    target, codes, report = assembly.assemble(
+        plan.m, plan.coded, plan.exact, plan.still_v, plan.grid
+    )
+    shape = build(target, cache)
+    vr.rounds += 1
+    new_e, new_f, blamed, early = _check(
+        shape, old_e, old_f, floor, tol, _bind(meanwhile, target, codes)
+    )
+    if not new_e and not new_f and blamed is None:
+        vr.fallback = "pcurves"
+        vr.exact_faces = plan.exact_faces(report)
+        vr.pcurves_kept = len(m.face_surface)
+        vr.tightened = plan.tightened()
+        return Target(target, codes, report, shape, vr, 0, early)
+    # every record: coded ones, and analytic ones (straightened otherwise)
+    everything: set[Rec | None] = {
+        *records(m.surfaces, Table.SURFACE),
+        *records(m.curves3d, Table.CURVE3D),
+    }
+    target, codes, report = assembly.assemble(m, plan.coded, everything, grid=False)
+    vr.fallback = "exact"
+    vr.exact_faces = {"fallback": sum(1 for x in report.face_method if x == "exact")}
+    return Target(target, codes, report, build(target, cache), vr, 0)
+
+
+def _rounds(
+    plan: _Plan,
+    old: tuple[Any, Any],
+    floor: _Floor | None,
+    tol: float,
+    vr: ValidityReport,
+    meanwhile: Meanwhile | None,
+    cache: Any,
+) -> Target | None:
+    """The rounds of remedies of :func:`_search` on ``plan``: the first
+    candidate that passes, or None where a round changes nothing or after
+    ``MAX_ROUNDS``.  ``old``: the source's own faults (``occ.failures``)."""
+    old_e, old_f = old
     for _ in range(MAX_ROUNDS):
         before = plan.state()
         cand, codes, report = plan.candidate()
@@ -783,34 +837,8 @@ def _search(
         else:  # split or merged with no face to blame: C0 knots stay exact
             plan.make_exact(nets.kinked_records(plan.m), "kinked")
         if plan.state() == before:
-            break  # nothing left to try here: the fallbacks
-    if spread:
-        log.debug("no candidate passed with the refined bound: the pole bound")
-        return _search(m, source, tol, vr, floor, meanwhile, spread=False)
-    # coded geometry with every pcurve stored, if that passes
-    target, codes, report = assembly.assemble(
-        plan.m, plan.coded, plan.exact, plan.still_v, plan.grid
-    )
-    shape = build(target, cache)
-    vr.rounds += 1
-    new_e, new_f, blamed, early = _check(
-        shape, old_e, old_f, floor, tol, _bind(meanwhile, target, codes)
-    )
-    if not new_e and not new_f and blamed is None:
-        vr.fallback = "pcurves"
-        vr.exact_faces = plan.exact_faces(report)
-        vr.pcurves_kept = len(m.face_surface)
-        vr.tightened = plan.tightened()
-        return Target(target, codes, report, shape, vr, 0, early)
-    # every record: coded ones, and analytic ones (straightened otherwise)
-    everything: set[Rec | None] = {
-        *records(m.surfaces, Table.SURFACE),
-        *records(m.curves3d, Table.CURVE3D),
-    }
-    target, codes, report = assembly.assemble(m, plan.coded, everything, grid=False)
-    vr.fallback = "exact"
-    vr.exact_faces = {"fallback": sum(1 for x in report.face_method if x == "exact")}
-    return Target(target, codes, report, build(target, cache), vr, 0)
+            break  # nothing left to try here
+    return None
 
 
 def _done(
