@@ -49,10 +49,23 @@ MAGIC = CONTAINER_MAGIC  # b"\x89NZC", formats' (it tells a container apart from
 #: The version this writer writes (docs/format.md §0).  Format 1.x is frozen:
 #: 1.0, 1.1 and 1.2 decode forever, and no 1.3 will be written.
 MAJOR = 2
-MINOR = 7
+MINOR = 8
 #: Every version this reader reads, oldest first.  A file's *revision* is its
 #: index here (:attr:`Container.revision`); the sections' readers branch on it.
-VERSIONS = ((1, 0), (1, 1), (1, 2), (2, 0), (2, 1), (2, 2), (2, 3), (2, 4), (2, 5), (2, 6), (2, 7))
+VERSIONS = (
+    (1, 0),
+    (1, 1),
+    (1, 2),
+    (2, 0),
+    (2, 1),
+    (2, 2),
+    (2, 3),
+    (2, 4),
+    (2, 5),
+    (2, 6),
+    (2, 7),
+    (2, 8),
+)
 #: The revision this writer writes.
 REVISION = VERSIONS.index((MAJOR, MINOR))
 FLAG_LOSSLESS = 1
@@ -67,6 +80,7 @@ _KNOWN_FLAGS = (
     FLAG_LOSSLESS,
     FLAG_LOSSLESS,
     FLAG_LOSSLESS | FLAG_PASSTHROUGH,
+    FLAG_LOSSLESS | FLAG_PASSTHROUGH | FLAG_EXACT,
     FLAG_LOSSLESS | FLAG_PASSTHROUGH | FLAG_EXACT,
     FLAG_LOSSLESS | FLAG_PASSTHROUGH | FLAG_EXACT,
     FLAG_LOSSLESS | FLAG_PASSTHROUGH | FLAG_EXACT,

@@ -675,6 +675,7 @@ class _Plan:
         for f in sorted(blamed):
             r = Rung(self.rung.get(f, 0) + 1)
             self.rung[f] = r
+            log.debug("STEP check: face %d climbs to %s", f, r.name)
             recs = self.with_leaders({self.faces_rec[f], *self.edge_recs(f)})
             if r == Rung.STILL:
                 self.still_v |= set(self.verts_of[f])

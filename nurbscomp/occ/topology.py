@@ -38,13 +38,13 @@ from OCP.BRep import (
     BRep_TVertex,
 )
 from OCP.GeomAbs import GeomAbs_Shape
-from OCP.gp import gp_Pnt, gp_Pnt2d, gp_Trsf, gp_TrsfForm, gp_Vec
+from OCP.gp import gp_Pnt, gp_Pnt2d, gp_Trsf, gp_TrsfForm, gp_Vec, gp_Vec2d
 from OCP.ShapeAnalysis import ShapeAnalysis_Edge
-from OCP.ShapeExtend import ShapeExtend_DONE3, ShapeExtend_FAIL
+from OCP.ShapeExtend import ShapeExtend_DONE3, ShapeExtend_FAIL, ShapeExtend_WireData
 from OCP.ShapeFix import ShapeFix_Edge, ShapeFix_Wire
 from OCP.Standard import Standard_Failure
 from OCP.Storage import Storage_StreamFormatError, Storage_StreamReadError
-from OCP.TopAbs import TopAbs_FORWARD, TopAbs_Orientation, TopAbs_WIRE
+from OCP.TopAbs import TopAbs_FORWARD, TopAbs_Orientation, TopAbs_REVERSED, TopAbs_WIRE
 from OCP.TopExp import TopExp
 from OCP.TopLoc import TopLoc_Datum3D, TopLoc_Location
 from OCP.TopoDS import (
@@ -705,8 +705,71 @@ def rebuild_pcurves(
             w = it.Value()
             if w.ShapeType() == TopAbs_WIRE:
                 ShapeFix_Wire(TopoDS.Wire(w), f, 1e-7).FixShifted()
+                align_degenerated(f, TopoDS.Wire(w))
             it.Next()
     return handed
+
+
+def _oriented_pcurve(edge: Any, face: Any) -> tuple[Any, gp_Pnt2d, gp_Pnt2d] | None:
+    """The representation of ``edge``'s pcurve on ``face`` and its (u, v)
+    ends in the order the edge is walked in its wire (a seam: the pcurve of
+    its orientation); None if it has none."""
+    loc = TopLoc_Location()
+    surf = BRep_Tool.Surface_s(face, loc)
+    loc = loc.Predivided(edge.Location())
+    for cr in items(cast(BRep_TEdge, edge.TShape()).Curves()):
+        if cr.IsCurveOnSurface(surf, loc):
+            forward = edge.Orientation() != TopAbs_REVERSED
+            c = cr.PCurve2() if cr.IsCurveOnClosedSurface() and not forward else cr.PCurve()
+            a, b = c.Value(cr.First()), c.Value(cr.Last())
+            return (cr, a, b) if forward else (cr, b, a)
+    return None
+
+
+def align_degenerated(face: Any, wire: Any) -> int:
+    """Move the pcurve of each degenerated edge of ``wire`` (on ``face``, whose
+    surface is periodic) by the whole periods that make its ends meet its
+    neighbours' in the wire; returns how many moved.
+
+    ``FixShifted`` leaves degenerated edges where they are, and their
+    pcurves are stored: a sphere's corner patch u in [3π/2, 2π] (a filleted
+    box's) whose other edges are projected onto [−π/2, 0] kept its pole on
+    the first sheet, and BRepCheck rejected the face (an unorientable
+    wire).  A shift is made where it brings both ends closer, to within a
+    fifth of the period (``FixShifted``'s own bound); neighbours that are
+    degenerated too, or have no pcurve, leave the edge as it is."""
+    surf = BRep_Tool.Surface_s(face)
+    period = (
+        surf.UPeriod() if surf.IsUPeriodic() else 0.0,
+        surf.VPeriod() if surf.IsVPeriodic() else 0.0,
+    )
+    if not any(period):
+        return 0
+    wd = ShapeExtend_WireData(wire)
+    edges = [wd.Edge(i) for i in range(1, wd.NbEdges() + 1)]
+    n, moved = len(edges), 0
+    for i, edge in enumerate(edges):
+        if n < 3 or not BRep_Tool.Degenerated_s(edge):
+            continue
+        prev, nxt = edges[i - 1], edges[(i + 1) % n]
+        if BRep_Tool.Degenerated_s(prev) or BRep_Tool.Degenerated_s(nxt):
+            continue
+        me, before, after = (_oriented_pcurve(e, face) for e in (edge, prev, nxt))
+        if me is None or before is None or after is None or me[0].IsCurveOnClosedSurface():
+            continue
+        cr, start, end = me
+        gap = (before[2].XY() - start.XY(), after[1].XY() - end.XY())
+        shift = [p * round(gap[0].Coord(k) / p) if p else 0.0 for k, p in enumerate(period, 1)]
+        if not any(shift):
+            continue
+        old = max(g.Modulus() for g in gap)
+        new = max((g - gp_Vec2d(*shift).XY()).Modulus() for g in gap)
+        if new >= old or new > 0.2 * min(p for p in period if p):
+            continue
+        cr.PCurve(cr.PCurve().Translated(gp_Vec2d(*shift)))
+        cr.SetRange(cr.First(), cr.Last())  # the stored (u, v) ends follow
+        moved += 1
+    return moved
 
 
 #: What a projection left on its edge, to be replayed: the pcurve, the second
