@@ -271,6 +271,11 @@ def apply(m: BRepModel, t: Tables, tol: float, revision: int) -> None:
     _fill_copies(copies, m)
 
 
+#: Format 2.8: the first revision whose degenerated edges' pcurves follow
+#: their computed neighbours (docs/format.md §2.8).
+POLES_FOLLOW = container.VERSIONS.index((2, 8))
+
+
 def sections_to_model(
     get: Any,
     revision: int | None = None,
@@ -284,6 +289,7 @@ def sections_to_model(
     """
     revision = container.REVISION if revision is None else revision
     m, meta, t = serialize.read_sections(get, revision, limits)
+    m.poles_follow = revision >= POLES_FOLLOW
     with np.errstate(all="ignore"):  # overflows become non-finite values, refused by name
         apply(m, t, serialize.tolerance(meta), revision)
     if limits is not None:

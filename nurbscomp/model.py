@@ -390,6 +390,10 @@ class BRepModel:
     unit: str = "MM"
     source_format: str = "STEP"
     product: Any = None
+    #: Whether the pcurves of degenerated edges follow their computed
+    #: neighbours (``occ.topology.align_degenerated``, format 2.8): a
+    #: container an earlier writer made is built without, as it was.
+    poles_follow: bool = True
 
     def type_index(self) -> np.ndarray:
         """Position of each shape within the rows of its own type, shape (S,).

@@ -58,3 +58,40 @@ def test_filleted_box_compresses_in_one_round(tmp_path: Path) -> None:
     assert report["validity"]["rounds"] == 1
     assert report["validity"]["pcurves_kept"] == 0
     assert occ.is_valid(pipeline.decode_file(nzc)[0])
+
+
+def test_a_pole_off_its_neighbours_is_snapped_to_them(tmp_path: Path) -> None:
+    """A pole whose stored pcurve misses its projected neighbours along the
+    pole (as a revolved B-spline's did in NIST_MBE_PMI_2: 0.009 in v) becomes
+    the segment between their ends; one that meets them is left alone."""
+    from OCP.BRep import BRep_Tool
+    from OCP.gp import gp_Vec2d
+    from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE, TopAbs_WIRE
+    from OCP.TopExp import TopExp_Explorer
+    from OCP.TopoDS import TopoDS
+
+    box = _read_back(tmp_path / "box.step")
+    m, _ = occ.shape_to_model(box)
+    plan = validity._Plan(pcurves.natural_ends(m, 0.01), 0.01, box)
+    shape = validity.build(plan.candidate()[0])
+    corners = []
+    ex = TopExp_Explorer(shape, TopAbs_FACE)
+    while ex.More():
+        face = TopoDS.Face_s(ex.Current())
+        ee = TopExp_Explorer(face, TopAbs_EDGE)
+        while ee.More():
+            if BRep_Tool.Degenerated_s(TopoDS.Edge_s(ee.Current())):
+                corners.append((face, TopoDS.Edge_s(ee.Current())))
+            ee.Next()
+        ex.Next()
+    assert len(corners) == 8
+    face, pole = corners[0]
+    wire = TopoDS.Wire_s(TopExp_Explorer(face, TopAbs_WIRE).Current())
+    assert topology.align_degenerated(face, wire) == 0  # it meets them already
+    cr, start, end = topology._oriented_pcurve(pole, face)  # type: ignore[misc]
+    cr.PCurve(cr.PCurve().Translated(gp_Vec2d(0.01, 0.0)))  # along the pole line
+    cr.SetRange(cr.First(), cr.Last())
+    assert topology.align_degenerated(face, wire) == 1
+    _, start2, end2 = topology._oriented_pcurve(pole, face)  # type: ignore[misc]
+    assert start2.Distance(start) < 1e-12 and end2.Distance(end) < 1e-12
+    assert occ.is_valid(face)

@@ -95,11 +95,14 @@ def _refined(err: np.ndarray, mats: list[np.ndarray], w: np.ndarray | None) -> n
     we = err if w is None else err * w[None, ..., None]
     if len(mats) == 2:
         a, b = mats
-        r = np.einsum("ai,rijc,bj->rabc", a, we, b, optimize=True)
+        n, i, j, c = we.shape
+        # r[k, a, b] = Σ_ij A[a, i] we[k, i, j] B[b, j]: two matrix products
+        # (einsum's path search cost more than the products on small nets)
+        r = b @ (a @ we.reshape(n, i, j * c)).reshape(n, len(a), j, c)
         if w is not None:
             r = r / (a @ w @ b.T)[None, ..., None]
     else:
-        r = np.einsum("ai,ric->rac", mats[0], we)
+        r = mats[0] @ we
         if w is not None:
             r = r / (mats[0] @ w)[None, :, None]
     refined = np.sqrt((r * r).sum(-1)).reshape(len(r), -1).max(axis=1) * (1.0 + ROUNDING)

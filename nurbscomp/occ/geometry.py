@@ -141,6 +141,17 @@ def _tcol_points1(x: np.ndarray) -> Any:
     return out2
 
 
+def segment2d(p: tuple[float, float], q: tuple[float, float], first: float, last: float) -> Any:
+    """The 2-D segment from ``p`` at ``first`` to ``q`` at ``last``, at a
+    constant speed: a degree-1 B-spline (a ``Geom2d_Line`` has unit speed)."""
+    return Geom2d_BSplineCurve(
+        _tcol_points1(np.array([p, q], float)),
+        _tcol_reals(np.array([first, last], float)),
+        _tcol_ints(np.array([2, 2])),
+        1,
+    )
+
+
 def _tcol_points2(x: np.ndarray) -> TColgp_Array2OfPnt:
     nu, nv, _ = x.shape
     out = TColgp_Array2OfPnt(1, nu, 1, nv)

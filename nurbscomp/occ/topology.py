@@ -77,7 +77,7 @@ from ..model import (
     Table,
 )
 from . import bintools
-from .geometry import GeometryBuilder, GeometryReader, record_key
+from .geometry import GeometryBuilder, GeometryReader, record_key, segment2d
 from .isolated import ReaderCrash, RoundTrip, can_fork, spare_core
 from .lists import items
 
@@ -479,7 +479,7 @@ def _fast_build(m: BRepModel, cache: PcurveCache | None) -> Any:
         wanted = {(srow, loc) for _, srow, loc, _, _ in pending}
         rows = list(zip(m.face_surface.tolist(), m.face_loc.tolist()))
         faces = [bintools.face(ss, s) for s in face_shape]
-        rebuild_pcurves(pending, faces, rows, cache, keys)
+        rebuild_pcurves(pending, faces, rows, cache, keys, m.poles_follow)
         # the flags of every shape a projection or FixShifted may have marked
         touched = {face_shape[k] for k, r in enumerate(rows) if r in wanted}
         touched |= {int(edge_shape[k]) for k in edges}
@@ -623,7 +623,7 @@ def slow_model_to_shape(m: BRepModel, cache: PcurveCache | None = None) -> Any:
         faces = [sh for sh, t in zip(built, m.shape_type.tolist()) if t == _FACE]
         rows = list(zip(m.face_surface.tolist(), m.face_loc.tolist()))
         keys = _PcurveKeys(m, ereps) if cache is not None else None
-        rebuild_pcurves(pending, faces, rows, cache, keys)
+        rebuild_pcurves(pending, faces, rows, cache, keys, m.poles_follow)
     for sh, fl in zip(built, m.shape_flags.tolist()):
         _set_flags(sh.TShape(), fl)
     root = built[m.root_shape]
@@ -649,6 +649,7 @@ def rebuild_pcurves(
     rows: list[tuple[int, int]],
     cache: PcurveCache | None = None,
     keys: _PcurveKeys | None = None,
+    poles_follow: bool = True,
 ) -> int:
     """Compute the pcurves a model left out, on the faces whose surface they name.
 
@@ -656,7 +657,9 @@ def rebuild_pcurves(
     is projected onto the face's surface (``ShapeFix_Edge.FixAddPCurve``, two
     pcurves for a seam), then each touched face's wires are shifted by whole
     periods where they ended up on another sheet (``ShapeFix_Wire.FixShifted``),
-    as OCCT's own STEP reader does.  Deterministic: the same model gives the
+    as OCCT's own STEP reader does, and (``poles_follow``, format 2.8) the
+    pcurves of their degenerated edges made to meet them
+    (:func:`align_degenerated`).  Deterministic: the same model gives the
     same pcurves.  With a ``cache`` (and the ``keys`` of the model) a
     projection made before from the same data is replayed
     (:meth:`PcurveCache.add`) instead of made again.  Without one, or with
@@ -705,7 +708,8 @@ def rebuild_pcurves(
             w = it.Value()
             if w.ShapeType() == TopAbs_WIRE:
                 ShapeFix_Wire(TopoDS.Wire(w), f, 1e-7).FixShifted()
-                align_degenerated(f, TopoDS.Wire(w))
+                if poles_follow:
+                    align_degenerated(f, TopoDS.Wire(w))
             it.Next()
     return handed
 
@@ -727,27 +731,37 @@ def _oriented_pcurve(edge: Any, face: Any) -> tuple[Any, gp_Pnt2d, gp_Pnt2d] | N
 
 
 def align_degenerated(face: Any, wire: Any) -> int:
-    """Move the pcurve of each degenerated edge of ``wire`` (on ``face``, whose
-    surface is periodic) by the whole periods that make its ends meet its
-    neighbours' in the wire; returns how many moved.
+    """Make the pcurve of each degenerated edge of ``wire`` (on ``face``) meet
+    its neighbours' in the wire, which were projected; returns how many it
+    changed (docs/format.md §2.8, format 2.8).
 
-    ``FixShifted`` leaves degenerated edges where they are, and their
-    pcurves are stored: a sphere's corner patch u in [3π/2, 2π] (a filleted
-    box's) whose other edges are projected onto [−π/2, 0] kept its pole on
-    the first sheet, and BRepCheck rejected the face (an unorientable
-    wire).  A shift is made where it brings both ends closer, to within a
-    fifth of the period (``FixShifted``'s own bound); neighbours that are
-    degenerated too, or have no pcurve, leave the edge as it is."""
+    A degenerated edge's pcurve is stored, and ``FixShifted`` leaves it where
+    it is.  Two ways it can miss its projected neighbours:
+
+    * on another sheet of a periodic surface: a sphere's corner patch u in
+      [3π/2, 2π] (a filleted box's) whose meridians project onto [−π/2, 0].
+      It is moved by the whole periods that bring both its ends nearer
+      theirs, to within a fifth of the period (``FixShifted``'s own bound);
+    * at a pole, where a projection's parameter along the pole is anyone's
+      guess: a revolved B-spline's meridians ended at v = 3.1324 and 2.1043
+      on a pole stored from 3.1416 to 2.1066.  Then (and after a move) where
+      an end is still more than ``SNAP_MIN`` from its neighbour's, and no
+      end further than ``SNAP`` times its own length, the pcurve becomes the
+      segment from the previous edge's end to the next edge's start
+      (:func:`geometry.segment2d`, on the edge's range).
+
+    BRepCheck rejected both kinds of face (an unorientable wire).
+    Neighbours that are degenerated too, or have no pcurve, leave the edge
+    as it is.
+    """
     surf = BRep_Tool.Surface_s(face)
     period = (
         surf.UPeriod() if surf.IsUPeriodic() else 0.0,
         surf.VPeriod() if surf.IsVPeriodic() else 0.0,
     )
-    if not any(period):
-        return 0
     wd = ShapeExtend_WireData(wire)
     edges = [wd.Edge(i) for i in range(1, wd.NbEdges() + 1)]
-    n, moved = len(edges), 0
+    n, changed = len(edges), 0
     for i, edge in enumerate(edges):
         if n < 3 or not BRep_Tool.Degenerated_s(edge):
             continue
@@ -758,18 +772,35 @@ def align_degenerated(face: Any, wire: Any) -> int:
         if me is None or before is None or after is None or me[0].IsCurveOnClosedSurface():
             continue
         cr, start, end = me
-        gap = (before[2].XY() - start.XY(), after[1].XY() - end.XY())
-        shift = [p * round(gap[0].Coord(k) / p) if p else 0.0 for k, p in enumerate(period, 1)]
-        if not any(shift):
-            continue
-        old = max(g.Modulus() for g in gap)
-        new = max((g - gp_Vec2d(*shift).XY()).Modulus() for g in gap)
-        if new >= old or new > 0.2 * min(p for p in period if p):
-            continue
-        cr.PCurve(cr.PCurve().Translated(gp_Vec2d(*shift)))
-        cr.SetRange(cr.First(), cr.Last())  # the stored (u, v) ends follow
-        moved += 1
-    return moved
+        p, q = before[2].XY(), after[1].XY()
+        gap = (p - start.XY(), q - end.XY())
+        shift = [t * round(gap[0].Coord(k) / t) if t else 0.0 for k, t in enumerate(period, 1)]
+        if any(shift):
+            s = gp_Vec2d(*shift).XY()
+            old = max(g.Modulus() for g in gap)
+            new = max((g - s).Modulus() for g in gap)
+            if new < old and new <= 0.2 * min(t for t in period if t):
+                cr.PCurve(cr.PCurve().Translated(gp_Vec2d(*shift)))
+                cr.SetRange(cr.First(), cr.Last())  # the stored (u, v) ends follow
+                gap = (gap[0] - s, gap[1] - s)
+                changed += 1
+        worst = max(g.Modulus() for g in gap)
+        length = (end.XY() - start.XY()).Modulus()
+        if SNAP_MIN < worst <= SNAP * length:
+            forward = edge.Orientation() != TopAbs_REVERSED
+            a, b = ((p.X(), p.Y()), (q.X(), q.Y()))
+            first, last = cr.First(), cr.Last()
+            cr.PCurve(segment2d(a, b, first, last) if forward else segment2d(b, a, first, last))
+            cr.SetRange(first, last)
+            changed += 1
+    return changed
+
+
+#: :func:`align_degenerated` leaves a pole whose ends are within this of its
+#: neighbours' (in parameter space) as it is ...
+SNAP_MIN = 1e-9
+#: ... and snaps one no further than this times its own length from them.
+SNAP = 0.25
 
 
 #: What a projection left on its edge, to be replayed: the pcurve, the second
