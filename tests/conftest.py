@@ -44,10 +44,15 @@ def in_corpus(name: str):
 
 
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    """The tests marked slow first (each worker starts on a long one and the
-    run ends on short ones, not with one worker alone on a long test); without
-    the corpus, skip what needs it."""
-    items.sort(key=lambda item: item.get_closest_marker("slow") is None)  # stable
+    """The tests marked long first, then the ones marked slow (each worker
+    starts on a long one and the run ends on short ones, not with one worker
+    alone on a long test); without the corpus, skip what needs it."""
+    items.sort(  # stable
+        key=lambda item: (
+            item.get_closest_marker("long") is None,
+            item.get_closest_marker("slow") is None,
+        )
+    )
     if have_corpus():
         return
     skip = pytest.mark.skip(reason="needs the corpus (NURBSCOMP_CORPUS; see the last line)")

@@ -243,6 +243,7 @@ def test_an_invalid_re_read_fails_the_step_check_with_no_faulty_face() -> None:
 
 @pytest.mark.corpus
 @pytest.mark.slow
+@pytest.mark.long
 def test_multibody_assembly_keeps_what_occts_round_trip_keeps(tmp_path: Path) -> None:
     """An assembly written by OCCT's XDE writer whose one part is a compound
     of trj7's solid and sixty small filleted boxes, placed twice.  OCCT's own
