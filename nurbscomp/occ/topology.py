@@ -732,8 +732,8 @@ def _oriented_pcurve(edge: Any, face: Any) -> tuple[Any, gp_Pnt2d, gp_Pnt2d] | N
 
 def align_degenerated(face: Any, wire: Any) -> int:
     """Make the pcurve of each degenerated edge of ``wire`` (on ``face``) meet
-    its neighbours' in the wire, which were projected; returns how many it
-    changed (docs/format.md §2.8, format 2.8).
+    its neighbours' in the wire, which were projected; returns how many edges
+    it changed (docs/format.md §2.8, format 2.8).
 
     A degenerated edge's pcurve is stored, and ``FixShifted`` leaves it where
     it is.  Two ways it can miss its projected neighbours:
@@ -772,6 +772,7 @@ def align_degenerated(face: Any, wire: Any) -> int:
         if me is None or before is None or after is None or me[0].IsCurveOnClosedSurface():
             continue
         cr, start, end = me
+        moved = False
         p, q = before[2].XY(), after[1].XY()
         gap = (p - start.XY(), q - end.XY())
         shift = [t * round(gap[0].Coord(k) / t) if t else 0.0 for k, t in enumerate(period, 1)]
@@ -783,7 +784,7 @@ def align_degenerated(face: Any, wire: Any) -> int:
                 cr.PCurve(cr.PCurve().Translated(gp_Vec2d(*shift)))
                 cr.SetRange(cr.First(), cr.Last())  # the stored (u, v) ends follow
                 gap = (gap[0] - s, gap[1] - s)
-                changed += 1
+                moved = True
         worst = max(g.Modulus() for g in gap)
         length = (end.XY() - start.XY()).Modulus()
         if SNAP_MIN < worst <= SNAP * length:
@@ -792,7 +793,8 @@ def align_degenerated(face: Any, wire: Any) -> int:
             first, last = cr.First(), cr.Last()
             cr.PCurve(segment2d(a, b, first, last) if forward else segment2d(b, a, first, last))
             cr.SetRange(first, last)
-            changed += 1
+            moved = True
+        changed += moved
     return changed
 
 
