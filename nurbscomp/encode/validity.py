@@ -782,6 +782,12 @@ def _search(
     new_e, new_f, blamed, early = _check(
         shape, old_e, old_f, floor, tol, _bind(meanwhile, target, codes)
     )
+    log.debug(
+        "fallback with every pcurve stored: new faults on %d edges, %d faces; STEP losses %s",
+        len(new_e),
+        len(new_f),
+        blamed,
+    )
     if not new_e and not new_f and blamed is None:
         vr.fallback = "pcurves"
         vr.exact_faces = plan.exact_faces(report)
