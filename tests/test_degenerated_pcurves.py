@@ -95,3 +95,16 @@ def test_a_pole_off_its_neighbours_is_snapped_to_them(tmp_path: Path) -> None:
     _, start2, end2 = topology._oriented_pcurve(pole, face)  # type: ignore[misc]
     assert start2.Distance(start) < 1e-12 and end2.Distance(end) < 1e-12
     assert occ.is_valid(face)
+
+
+def test_the_rule_follows_the_format_minor() -> None:
+    """A 2.7 container is built as it was written to be (without the rule);
+    a 2.8 one with it (``decode.POLES_FOLLOW``)."""
+    from nurbscomp import container
+    from nurbscomp.stages import decompress
+
+    golden = Path(__file__).resolve().parent / "golden"
+    for name, follows in (("bracket.v2_7.tol0.01.nzc", False), ("bracket.v2_8.tol0.01.nzc", True)):
+        c = container.unpack((golden / name).read_bytes())
+        m, _ = decompress.decode(c, None, None)
+        assert m.poles_follow is follows, name
