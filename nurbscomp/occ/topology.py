@@ -714,20 +714,28 @@ def rebuild_pcurves(
     return handed
 
 
+def _curve_on(edge: Any, surf: Any, loc: Any) -> Any:
+    """``edge``'s first representation on surface ``surf`` at ``loc`` (a
+    pcurve, or a seam's pair), or None."""
+    for cr in items(cast(BRep_TEdge, edge.TShape()).Curves()):
+        if cr.IsCurveOnSurface(surf, loc):
+            return cr
+    return None
+
+
 def _oriented_pcurve(edge: Any, face: Any) -> tuple[Any, gp_Pnt2d, gp_Pnt2d] | None:
     """The representation of ``edge``'s pcurve on ``face`` and its (u, v)
     ends in the order the edge is walked in its wire (a seam: the pcurve of
     its orientation); None if it has none."""
     loc = TopLoc_Location()
     surf = BRep_Tool.Surface_s(face, loc)
-    loc = loc.Predivided(edge.Location())
-    for cr in items(cast(BRep_TEdge, edge.TShape()).Curves()):
-        if cr.IsCurveOnSurface(surf, loc):
-            forward = edge.Orientation() != TopAbs_REVERSED
-            c = cr.PCurve2() if cr.IsCurveOnClosedSurface() and not forward else cr.PCurve()
-            a, b = c.Value(cr.First()), c.Value(cr.Last())
-            return (cr, a, b) if forward else (cr, b, a)
-    return None
+    cr = _curve_on(edge, surf, loc.Predivided(edge.Location()))
+    if cr is None:
+        return None
+    forward = edge.Orientation() != TopAbs_REVERSED
+    c = cr.PCurve2() if cr.IsCurveOnClosedSurface() and not forward else cr.PCurve()
+    a, b = c.Value(cr.First()), c.Value(cr.Last())
+    return (cr, a, b) if forward else (cr, b, a)
 
 
 def align_degenerated(face: Any, wire: Any) -> int:
@@ -754,20 +762,21 @@ def align_degenerated(face: Any, wire: Any) -> int:
     Neighbours that are degenerated too, or have no pcurve, leave the edge
     as it is.
     """
+    wd = ShapeExtend_WireData(wire)
+    edges = [wd.Edge(i) for i in range(1, wd.NbEdges() + 1)]
+    n, changed = len(edges), 0
+    deg = [BRep_Tool.Degenerated_s(e) for e in edges]
+    if n < 3 or not any(deg):
+        return 0
     surf = BRep_Tool.Surface_s(face)
     period = (
         surf.UPeriod() if surf.IsUPeriodic() else 0.0,
         surf.VPeriod() if surf.IsVPeriodic() else 0.0,
     )
-    wd = ShapeExtend_WireData(wire)
-    edges = [wd.Edge(i) for i in range(1, wd.NbEdges() + 1)]
-    n, changed = len(edges), 0
     for i, edge in enumerate(edges):
-        if n < 3 or not BRep_Tool.Degenerated_s(edge):
+        if not deg[i] or deg[i - 1] or deg[(i + 1) % n]:
             continue
         prev, nxt = edges[i - 1], edges[(i + 1) % n]
-        if BRep_Tool.Degenerated_s(prev) or BRep_Tool.Degenerated_s(nxt):
-            continue
         me, before, after = (_oriented_pcurve(e, face) for e in (edge, prev, nxt))
         if me is None or before is None or after is None or me[0].IsCurveOnClosedSurface():
             continue
@@ -840,15 +849,12 @@ def _project(
     if not done or fix.Status(ShapeExtend_FAIL) or fix.Projector().Status(ShapeExtend_DONE3):
         dirty.add(k)
         return None
-    te = cast(BRep_TEdge, edge.TShape())
-    for cr in items(te.Curves()):
-        if cr.IsCurveOnSurface(surf, surf_loc):
-            closed = cr.IsCurveOnClosedSurface()
-            if closed != bool(seam):
-                break
-            return cr.PCurve(), cr.PCurve2() if closed else None, cr.First(), cr.Last()
-    dirty.add(k)
-    return None
+    cr = _curve_on(edge, surf, surf_loc)
+    if cr is None or cr.IsCurveOnClosedSurface() != bool(seam):
+        dirty.add(k)
+        return None
+    closed = cr.IsCurveOnClosedSurface()
+    return cr.PCurve(), cr.PCurve2() if closed else None, cr.First(), cr.Last()
 
 
 def _replay(b: Any, edge: Any, at: Any, kept: _Kept) -> None:
