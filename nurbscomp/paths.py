@@ -17,7 +17,7 @@ import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 
-from . import container
+from . import container, signals
 from .errors import InputError, OutputError
 
 #: Longest file name a temporary name's stem keeps, in bytes: the name
@@ -90,7 +90,8 @@ def atomic_output(dst: Path, force: bool, inputs: tuple[Path, ...] = ()) -> Iter
 
     The temporary name is ``.NAME.XXXXXXXX.tmp`` (NAME shortened so that it
     fits 255 bytes); it is removed on any failure or interrupt (the CLI turns
-    SIGTERM and SIGHUP into interrupts).
+    SIGTERM and SIGHUP into interrupts), and is not renamed once a stop signal
+    has come (``signals.check``), even one whose interrupt was lost.
 
     Raises
     ------
@@ -119,6 +120,7 @@ def atomic_output(dst: Path, force: bool, inputs: tuple[Path, ...] = ()) -> Iter
         os.umask(umask)
         os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; outputs get the usual mode
         check_output(dst, force, inputs)  # the input may have been linked there meanwhile
+        signals.check()  # a stop signal that came, even one Python swallowed: no output
         os.replace(tmp, dst)
     except OSError as e:
         raise OutputError(f"cannot write {dst}: {_os_message(e)}") from None

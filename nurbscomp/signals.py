@@ -11,11 +11,23 @@ module's initialisation comes out as ``ImportError: initialization failed``,
 which a reader wrapping every failure of OCCT would report as a bad input.
 :func:`check`, called wherever a failure is about to be reported, raises the
 interrupt instead.
+
+Why deliver again: Python swallows an exception raised where nothing can
+catch it (a weakref callback such as the import system's module-lock
+cleanup, a ``__del__``, a garbage-collector callback) and only prints
+``Exception ignored in ...``.  A signal whose handler runs there would be lost,
+and the command would go on to finish and exit 0.  ``install`` therefore also
+wraps ``sys.unraisablehook``: an :class:`Interrupted` that reaches it is
+delivered to the main thread again a moment later (``REDELIVER_S``), out of
+the context that swallowed it.
 """
 
 from __future__ import annotations
 
+import _thread
 import signal
+import sys
+import threading
 from typing import Any
 
 #: The signals handled, with the exit status each gives (128 + its number).
@@ -23,6 +35,10 @@ HANDLED = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 
 #: The first signal received since :func:`install` (None: none).
 received: int | None = None
+
+#: Delay before a swallowed interrupt is delivered again, in seconds: long
+#: enough for the main thread to leave the callback that swallowed it.
+REDELIVER_S = 0.05
 
 
 class Interrupted(KeyboardInterrupt):
@@ -40,12 +56,38 @@ def _handler(signum: int, frame: Any) -> None:
     raise Interrupted(signum)
 
 
+def _redeliver(signum: int) -> None:
+    """Deliver ``signum`` to the main thread again, as if it came once more
+    (the handler installed for it runs there)."""
+    _thread.interrupt_main(signal.Signals(signum))
+
+
+class _UnraisableHook:
+    """``sys.unraisablehook`` that delivers a swallowed :class:`Interrupted`
+    again instead of printing it, and hands anything else to the hook it
+    replaced."""
+
+    def __init__(self, previous: Any) -> None:
+        self.previous = previous
+
+    def __call__(self, args: Any) -> None:
+        if isinstance(args.exc_value, Interrupted):
+            timer = threading.Timer(REDELIVER_S, _redeliver, (args.exc_value.signum,))
+            timer.daemon = True
+            timer.start()
+            return
+        self.previous(args)
+
+
 def install() -> None:
     """Handle SIGINT, SIGTERM and SIGHUP, unless they are ignored (a
-    background job's SIGINT, ``nohup``'s SIGHUP stay ignored)."""
+    background job's SIGINT, ``nohup``'s SIGHUP stay ignored); deliver again an
+    interrupt that Python swallowed (:class:`_UnraisableHook`)."""
     for sig in HANDLED:
         if signal.getsignal(sig) is not signal.SIG_IGN:
             signal.signal(sig, _handler)
+    if not isinstance(sys.unraisablehook, _UnraisableHook):
+        sys.unraisablehook = _UnraisableHook(sys.unraisablehook)
 
 
 def signum_of(e: KeyboardInterrupt) -> int:

@@ -106,3 +106,63 @@ def test_settled_outputs_count_as_done(tmp_path: Path) -> None:
     assert [(r["input"], r["status"], r["output_bytes"]) for r in done] == [(str(src[0]), "ok", 15)]
     assert done[0]["interrupted"] and done[0]["input_bytes"] == 10
     assert runner.settled() == []  # reported once
+
+
+#: A program that installs the CLI's handlers, then has SIGTERM arrive while a
+#: weakref callback runs, where Python swallows any exception (CI once saw it
+#: in the import system's module-lock callback: the compress went on and
+#: exited 0).  It then works for 5 s; the interrupt must stop it long before.
+_SWALLOWED = """
+import os, signal, sys, time, weakref
+from nurbscomp import signals
+signals.install()
+class Thing: pass
+def callback(ref):
+    os.kill(os.getpid(), signal.SIGTERM)
+    for _ in range(1000):  # the handler runs here, inside the callback
+        pass
+t = Thing()
+r = weakref.ref(t, callback)
+try:
+    del t
+    deadline = time.monotonic() + 5.0
+    while time.monotonic() < deadline:
+        time.sleep(0.01)
+except KeyboardInterrupt as e:
+    print("interrupted", signals.signum_of(e), signals.received)
+    sys.exit(128 + signals.signum_of(e))
+print("finished")
+"""
+
+
+def test_an_interrupt_python_swallows_is_delivered_again(tmp_path: Path) -> None:
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    t0 = time.monotonic()
+    p = subprocess.run(
+        [sys.executable, "-c", _SWALLOWED],
+        cwd=tmp_path,
+        env=env,
+        capture_output=True,
+        timeout=60,
+        preexec_fn=default_signals,
+    )
+    took = time.monotonic() - t0
+    out, err = p.stdout.decode(), p.stderr.decode()
+    assert p.returncode == 143, (out, err)
+    assert out.split() == ["interrupted", "15", "15"], out
+    assert "Exception ignored" not in err, err
+    assert took < 4.5, took  # stopped by the signal, not at the end of the work
+
+
+def test_no_output_is_renamed_into_place_after_a_stop_signal(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A signal whose interrupt was lost still keeps the output from landing."""
+    from nurbscomp import paths, signals
+
+    monkeypatch.setattr(signals, "received", signal.SIGTERM)
+    dst = tmp_path / "out.nzc"
+    with pytest.raises(signals.Interrupted):
+        with paths.atomic_output(dst, force=False) as tmp:
+            tmp.write_bytes(b"half")
+    assert sorted(p.name for p in tmp_path.iterdir()) == []
