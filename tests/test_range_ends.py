@@ -69,3 +69,56 @@ def test_a_range_cut_short_goes_to_the_curve_end(blob, cut: float, back: bool) -
         assert (out.vertex_tol[vs] >= m.vertex_tol[vs] + moved).all()
     else:
         assert out is m
+
+
+@pytest.fixture(scope="module")
+def bracket():
+    """bracket's first pcurve that is a B-spline over its whole edge, whose
+    edge's 3-D curve has a speed bound."""
+    m, _ = occ.shape_to_model(occ.read_cad(SAMPLES / "bracket.step").shape)
+    reps = m.edge_reps
+    for q in np.flatnonzero(reps[:, EC.KIND] == RepKind.ON_SURFACE).tolist():
+        g = m.curves2d[int(reps[q, EC.CURVE])]
+        e = int(reps[q, EC.EDGE])
+        q3 = [p for p in np.flatnonzero(reps[:, EC.EDGE] == e).tolist() if reps[p, EC.KIND] == 0]
+        if not isinstance(g, BSplineCurve) or g.periodic or g.bezier or len(q3) != 1:
+            continue
+        speed = pcurves.curve_speed(m.curves3d[int(reps[q3[0], EC.CURVE])])
+        if np.isfinite(speed) and np.allclose(g.knots[[0, -1]], m.edge_rep_range[q], 0, 1e-12):
+            return m, q, e, speed
+    raise AssertionError("bracket has no such pcurve")
+
+
+def test_a_stored_pcurve_short_of_its_range_is_stretched_onto_it(bracket) -> None:
+    """A pcurve stored over a range that passes its end by more than BRepCheck
+    allows (an edge that ``natural_ends`` took to its curve's end, from a STEP
+    file that cut both a hair short): BRepCheck rejects it (InvalidRange)
+    until ``stretch_short`` maps the pcurve onto the range and widens the
+    edge's tolerance by what that moves."""
+    m, q, e, speed = bracket
+    g = m.curves2d[int(m.edge_reps[q, EC.CURVE])]
+    assert isinstance(g, BSplineCurve)
+    lo, hi = float(g.knots[0]), float(g.knots[-1])
+    cut = 4e-7 * (hi - lo)  # past BRepCheck's 1e-9, within REACH_SLACK
+    short_knots = lo + (g.knots - lo) * ((hi - cut - lo) / (hi - lo))
+    short_knots[-1] = hi - cut
+    curves2d = [*m.curves2d, replace(g, knots=short_knots)]  # a row of its own
+    reps = m.edge_reps.copy()
+    reps[q, EC.CURVE] = len(curves2d) - 1
+    rng = m.edge_rep_range.copy()
+    rng[m.edge_reps[:, EC.EDGE] == e] = (lo, hi)
+    tol = m.edge_tol
+    out = replace(m, curves2d=curves2d, edge_reps=reps, edge_rep_range=rng)
+    assert occ.failures(occ.model_to_shape(m)) == (set(), set())
+    assert occ.failures(occ.model_to_shape(out)) != (set(), set())  # its face, on a plane
+
+    fixed = pcurves.stretch_short(out)
+    assert occ.failures(occ.model_to_shape(fixed)) == (set(), set())
+    h = fixed.curves2d[int(fixed.edge_reps[q, EC.CURVE])]
+    assert isinstance(h, BSplineCurve) and (h.knots[0], h.knots[-1]) == (lo, hi)
+    assert fixed.edge_tol[e] >= tol[e] + cut * speed
+    others = np.arange(len(tol)) != e
+    np.testing.assert_array_equal(fixed.edge_tol[others], out.edge_tol[others])
+    assert pcurves.stretch_short(fixed) is fixed  # nothing left past its ends
+    # a pcurve shared with another edge's representation is copied, not changed
+    assert all(fixed.curves2d[i] is out.curves2d[i] for i in range(len(m.curves2d)))

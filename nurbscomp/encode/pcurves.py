@@ -594,5 +594,88 @@ def _reaches(m: BRepModel, q: int, t: np.ndarray) -> bool:
 
 #: A pcurve may be used this fraction of its own range past its ends (OCCT
 #: evaluates a B-spline past its ends by its end span; STEP files carry such
-#: pcurves, cut 1e-7 short like their edges' curves).
+#: pcurves, cut 1e-7 short like their edges' curves).  That holds for a
+#: pcurve the decoder computes again; a stored one is stretched onto its
+#: range (:func:`stretch_short`).
 REACH_SLACK = 1e-6
+#: How far BRepCheck lets a range pass the ends of a curve that is not
+#: periodic (``Precision::PConfusion``; ``BRepCheck_Edge``'s InvalidRange).
+PCONFUSION = 1e-9
+
+
+def stretch_short(m: BRepModel) -> BRepModel:
+    """``m`` (a candidate: :func:`drop_pcurves` has said which pcurves are
+    stored) with each stored B-spline pcurve whose edge's range passes its
+    ends by more than :data:`PCONFUSION` reparametrized onto that range, and
+    the edge's tolerance widened to cover it.
+
+    :func:`natural_ends` moves a range end onto its 3-D curve's end with the
+    pcurves that reach it within :data:`REACH_SLACK`.  A pcurve the decoder
+    computes is then made over the new range, but a stored one keeps its
+    own ends, and BRepCheck rejects a range past them (InvalidRange): on
+    trj7 at 0.1 mm a pcurve cut 4e-7 short, stored by the validity stage,
+    faulted in every round, its records exact or not, and the fallback that
+    stores every pcurve faulted on some 100 edges.
+
+    The knots are mapped by the affine map of [d0, d1] (its ends) onto
+    [min(d0, t0), max(d1, t1)] (with the range's): the same curve, point
+    for point, at parameters that move by at most ``s`` = the larger end
+    move, so the 3-D curve and the pcurve part by at most ``s`` times the
+    3-D curve's speed (:func:`curve_speed`), added to the edge's tolerance
+    (its vertices took that much when :func:`natural_ends` moved the end).
+    A 2-D row that anything else uses is copied first.  Where the 3-D curve's
+    speed has no bound, the pcurve stays as it is."""
+    reps = m.edge_reps.copy()
+    kind = reps[:, EC.KIND]
+    rng = m.edge_rep_range
+    stored = np.isin(kind, PCURVE_KINDS) & (reps[:, EC.CURVE] >= 0)
+    speed: dict[int, float] = {}
+    for q in np.flatnonzero((kind == RepKind.CURVE3D) & (reps[:, EC.CURVE] >= 0)).tolist():
+        c = int(reps[q, EC.CURVE])
+        if 0 <= c < len(m.curves3d):
+            speed.setdefault(int(reps[q, EC.EDGE]), curve_speed(m.curves3d[c]))
+    uses = collections.Counter(reps[stored, EC.CURVE].tolist())
+    uses.update(reps[stored & (kind == RepKind.ON_CLOSED_SURFACE), EC.CURVE2].tolist())
+    vr = m.vertex_reps
+    held = set(vr[vr[:, VC.KIND] == PointRepKind.ON_CURVE_ON_SURFACE, VC.CURVE].tolist())
+    table = list(m.curves2d)
+    widen = np.zeros(len(m.edge_tol))
+    for q in np.flatnonzero(stored).tolist():
+        t0, t1 = float(rng[q, 0]), float(rng[q, 1])
+        e = int(reps[q, EC.EDGE])
+        cols = (EC.CURVE, EC.CURVE2) if kind[q] == RepKind.ON_CLOSED_SURFACE else (EC.CURVE,)
+        for col in cols:
+            i = int(reps[q, col])
+            g = table[i] if 0 <= i < len(table) else None
+            if not isinstance(g, BSplineCurve) or g.bezier or g.periodic:
+                continue
+            d0, d1 = float(g.knots[0]), float(g.knots[-1])
+            if t0 >= d0 - PCONFUSION and t1 <= d1 + PCONFUSION:
+                continue
+            n0, n1 = min(d0, t0), max(d1, t1)
+            s = max(d0 - n0, n1 - d1)
+            if not (
+                d1 > d0
+                and math.isfinite(speed.get(e, math.inf))
+                and s < REACH_SLACK * (d1 - d0) + PCONFUSION
+            ):
+                continue
+            knots = n0 + (g.knots - d0) * ((n1 - n0) / (d1 - d0))
+            knots[0], knots[-1] = n0, n1
+            if not (np.diff(knots) > 0).all():
+                continue
+            new = replace(g, knots=knots)
+            if uses[i] > 1 or i in held:
+                uses[i] -= 1
+                table.append(new)
+                reps[q, col] = len(table) - 1
+            else:
+                table[i] = new
+            widen[e] = max(widen[e], s * speed[e])
+    if not widen.any():
+        return m
+    out: Any = replace(m)
+    out.curves2d = table
+    out.edge_reps = reps
+    out.edge_tol = np.where(widen > 0, round_up(m.edge_tol + MARGIN * widen), m.edge_tol)
+    return out

@@ -539,7 +539,8 @@ class _Plan:
         target, codes, report = assembly.assemble(
             self.m, self.coded, self.exact, self.still_v, self.grid, self.plain_s
         )
-        cand = assembly.unthread(pcurves.drop_pcurves(target, self.keep_e, self.keep_f), self.m)
+        kept = pcurves.stretch_short(pcurves.drop_pcurves(target, self.keep_e, self.keep_f))
+        cand = assembly.unthread(kept, self.m)
         cand = pcurves.unit_curves(
             pcurves.unit_surfaces(cand, codes, self.knot_memo), self.knot_memo
         )
@@ -777,6 +778,7 @@ def _search(
     target, codes, report = assembly.assemble(
         plan.m, plan.coded, plan.exact, plan.still_v, plan.grid
     )
+    target = pcurves.stretch_short(target)
     shape = build(target, cache)
     vr.rounds += 1
     new_e, new_f, blamed, early = _check(
