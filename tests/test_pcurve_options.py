@@ -40,3 +40,47 @@ def test_drop_pcurves_stores_iso_lines_when_asked(store: bool, monkeypatch) -> N
     dropped = out.edge_reps[:, 2] == REBUILD
     assert dropped.any()
     assert (dropped & iso).any() != store  # iso lines left out only when not stored
+
+
+@pytest.mark.corpus
+def test_pcurve_pairs_on_a_trimmed_surface_are_stored(monkeypatch) -> None:
+    """bug32596 (an ABC part) has surfaces of revolution cut into two faces
+    that share one trimmed surface: the edges between them carry two pcurves
+    a period apart, which a projection onto the trimmed surface puts on one
+    side.  They are stored (a cylinder's seam is still left to the decoder).
+    The first candidate at 0.01 mm then has one faulty face where it had
+    two."""
+    from nurbscomp import occ
+    from nurbscomp.encode import validity
+    from nurbscomp.model import EC, Derived
+
+    from .conftest import CORPUS
+
+    cad = occ.read_cad(CORPUS / "occt__bug32596_abc_0_13.step")
+    m, _ = shape_to_model(cad.shape)
+    reps = m.edge_reps
+    closed = np.flatnonzero(reps[:, EC.KIND] == RepKind.ON_CLOSED_SURFACE)
+    on_trimmed = np.array(
+        [
+            isinstance(g, Derived) and g.kind == Kind.TRIMMED_SURFACE
+            for g in (m.surfaces[int(reps[q, EC.SURFACE])] for q in closed.tolist())
+        ]
+    )
+    assert len(closed) and on_trimmed.all()
+    kept = pcurves.drop_pcurves(m, set(), set()).edge_reps[closed, EC.CURVE] != REBUILD
+    assert kept.all()
+    cyl, _ = shape_to_model(cq.Workplane().cylinder(10, 3).val().wrapped)
+    seams = cyl.edge_reps[:, EC.KIND] == RepKind.ON_CLOSED_SURFACE
+    assert seams.any()
+    dropped = pcurves.drop_pcurves(cyl, set(), set()).edge_reps[seams, EC.CURVE] == REBUILD
+    assert dropped.all()
+
+    def faulty_faces() -> int:
+        plan = validity._Plan(pcurves.natural_ends(m, 0.01), 0.01, cad.shape)
+        cand, _, _ = plan.candidate()
+        _, bad = occ.failures(validity.build(cand))
+        return len(bad - occ.failures(cad.shape)[1])
+
+    assert faulty_faces() == 1
+    monkeypatch.setattr(pcurves, "KEEP_TRIMMED_PAIRS", False)
+    assert faulty_faces() == 2
