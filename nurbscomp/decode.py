@@ -274,6 +274,9 @@ def apply(m: BRepModel, t: Tables, tol: float, revision: int) -> None:
 #: Format 2.8: the first revision whose degenerated edges' pcurves follow
 #: their computed neighbours (docs/format.md §2.8).
 POLES_FOLLOW = container.VERSIONS.index((2, 8))
+#: Format 2.9: the first revision whose computed pcurves on a trimmed
+#: surface of a periodic basis are moved into its bounds (docs/format.md §2.9).
+PERIODS_IN_RANGE = container.VERSIONS.index((2, 9))
 
 
 def sections_to_model(
@@ -290,6 +293,7 @@ def sections_to_model(
     revision = container.REVISION if revision is None else revision
     m, meta, t = serialize.read_sections(get, revision, limits)
     m.poles_follow = revision >= POLES_FOLLOW
+    m.periods_in_range = revision >= PERIODS_IN_RANGE
     with np.errstate(all="ignore"):  # overflows become non-finite values, refused by name
         apply(m, t, serialize.tolerance(meta), revision)
     if limits is not None:

@@ -394,6 +394,9 @@ class BRepModel:
     #: neighbours (``occ.topology.align_degenerated``, format 2.8): a
     #: container an earlier writer made is built without, as it was.
     poles_follow: bool = True
+    #: Whether the computed pcurves on a trimmed surface of a periodic basis
+    #: are moved into its bounds (``occ.topology.into_range``, format 2.9).
+    periods_in_range: bool = True
 
     def type_index(self) -> np.ndarray:
         """Position of each shape within the rows of its own type, shape (S,).

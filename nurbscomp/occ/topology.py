@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import collections
 import dataclasses
+import math
 import struct
 from collections.abc import Callable
 from typing import Any, cast
@@ -37,6 +38,7 @@ from OCP.BRep import (
     BRep_Tool,
     BRep_TVertex,
 )
+from OCP.Geom import Geom_RectangularTrimmedSurface
 from OCP.GeomAbs import GeomAbs_Shape
 from OCP.gp import gp_Pnt, gp_Pnt2d, gp_Trsf, gp_TrsfForm, gp_Vec, gp_Vec2d
 from OCP.ShapeAnalysis import ShapeAnalysis_Edge
@@ -60,7 +62,7 @@ from OCP.TopoDS import (
     TopoDS_Vertex,
     TopoDS_Wire,
 )
-from OCP.TopTools import TopTools_IndexedMapOfShape
+from OCP.TopTools import TopTools_IndexedMapOfShape, TopTools_MapOfShape
 
 from ..errors import UnsupportedError
 from ..model import (
@@ -479,7 +481,7 @@ def _fast_build(m: BRepModel, cache: PcurveCache | None) -> Any:
         wanted = {(srow, loc) for _, srow, loc, _, _ in pending}
         rows = list(zip(m.face_surface.tolist(), m.face_loc.tolist()))
         faces = [bintools.face(ss, s) for s in face_shape]
-        rebuild_pcurves(pending, faces, rows, cache, keys, m.poles_follow)
+        rebuild_pcurves(pending, faces, rows, cache, keys, m.poles_follow, m.periods_in_range)
         # the flags of every shape a projection or FixShifted may have marked
         touched = {face_shape[k] for k, r in enumerate(rows) if r in wanted}
         touched |= {int(edge_shape[k]) for k in edges}
@@ -623,7 +625,7 @@ def slow_model_to_shape(m: BRepModel, cache: PcurveCache | None = None) -> Any:
         faces = [sh for sh, t in zip(built, m.shape_type.tolist()) if t == _FACE]
         rows = list(zip(m.face_surface.tolist(), m.face_loc.tolist()))
         keys = _PcurveKeys(m, ereps) if cache is not None else None
-        rebuild_pcurves(pending, faces, rows, cache, keys, m.poles_follow)
+        rebuild_pcurves(pending, faces, rows, cache, keys, m.poles_follow, m.periods_in_range)
     for sh, fl in zip(built, m.shape_flags.tolist()):
         _set_flags(sh.TShape(), fl)
     root = built[m.root_shape]
@@ -650,6 +652,7 @@ def rebuild_pcurves(
     cache: PcurveCache | None = None,
     keys: _PcurveKeys | None = None,
     poles_follow: bool = True,
+    in_range: bool = True,
 ) -> int:
     """Compute the pcurves a model left out, on the faces whose surface they name.
 
@@ -657,9 +660,11 @@ def rebuild_pcurves(
     is projected onto the face's surface (``ShapeFix_Edge.FixAddPCurve``, two
     pcurves for a seam), then each touched face's wires are shifted by whole
     periods where they ended up on another sheet (``ShapeFix_Wire.FixShifted``),
-    as OCCT's own STEP reader does, and (``poles_follow``, format 2.8) the
-    pcurves of their degenerated edges made to meet them
-    (:func:`align_degenerated`).  Deterministic: the same model gives the
+    as OCCT's own STEP reader does; (``in_range``, format 2.9) on a trimmed
+    surface of a periodic basis, which ``FixShifted`` takes for not periodic,
+    the projected pcurves are moved into its range (:func:`into_range`); and
+    (``poles_follow``, format 2.8) the pcurves of their degenerated edges
+    are made to meet them (:func:`align_degenerated`).  Deterministic: the same model gives the
     same pcurves.  With a ``cache`` (and the ``keys`` of the model) a
     projection made before from the same data is replayed
     (:meth:`PcurveCache.add`) instead of made again.  Without one, or with
@@ -675,11 +680,13 @@ def rebuild_pcurves(
         by_row.setdefault(key, []).append(f)
     jobs = []
     touched: dict[int, Any] = {}
+    projected: dict[int, Any] = {}  # per touched face, the edges projected onto it
     for edge, srow, loc, seam, k in pending:
         for face in by_row.get((srow, loc), []):
             # TopoDS.Face/Wire are TopoDS.Face_s/Wire_s in OCP 7.9; the stubs lack the _s names.
             jobs.append((edge, TopoDS.Face(face), seam, k, srow, loc))
             touched[id(face)] = face
+            projected.setdefault(id(face), TopTools_MapOfShape()).Add(edge)
     fix = ShapeFix_Edge()
     handed = 0
     dirty: set[int] = set()  # edges whose 3-D curve a projection replaced
@@ -701,17 +708,89 @@ def rebuild_pcurves(
     else:
         for edge, face, seam, _, _, _ in jobs:
             fix.FixAddPCurve(edge, face, seam, BRep_Tool.Tolerance_s(edge))
-    for face in touched.values():
+    for at, face in touched.items():
         f = TopoDS.Face(face)
+        periods = trimmed_periods(f) if in_range else None
         it = TopoDS_Iterator(face, False, False)
         while it.More():
             w = it.Value()
             if w.ShapeType() == TopAbs_WIRE:
                 ShapeFix_Wire(TopoDS.Wire(w), f, 1e-7).FixShifted()
+                if periods is not None:
+                    into_range(f, TopoDS.Wire(w), periods, projected[at])
                 if poles_follow:
                     align_degenerated(f, TopoDS.Wire(w))
             it.Next()
     return handed
+
+
+#: Per parameter direction, (period, first, last) of a face's trimmed
+#: surface where its basis is periodic in that direction, else None.
+_Periods = tuple[tuple[float, float, float] | None, tuple[float, float, float] | None]
+
+
+def trimmed_periods(face: Any) -> _Periods | None:
+    """(u, v) periods and bounds of ``face``'s surface where it is a trimmed
+    surface whose basis is periodic (:data:`_Periods`); None for any other."""
+    surf = BRep_Tool.Surface_s(face)
+    if not isinstance(surf, Geom_RectangularTrimmedSurface):
+        return None
+    basis = surf.BasisSurface()
+    u0, u1, v0, v1 = surf.Bounds()
+    out = (
+        (basis.UPeriod(), u0, u1) if basis.IsUPeriodic() else None,
+        (basis.VPeriod(), v0, v1) if basis.IsVPeriodic() else None,
+    )
+    return out if any(out) else None
+
+
+def into_range(face: Any, wire: Any, periods: _Periods, projected: Any) -> int:
+    """Move each pcurve of ``wire`` that was projected onto ``face``
+    (``projected``, a ``TopTools_MapOfShape``) by the whole periods of the
+    trimmed surface's basis (``periods``: :func:`trimmed_periods`) that
+    bring the point at the middle of its range within the surface's bounds,
+    in each periodic direction where its middle lies outside them by more
+    than ``RANGE_SLACK`` of the period (docs/format.md §2.9, format 2.9).
+    Degenerated edges and pairs of pcurves (two faces on one surface) are
+    left as they are.  Returns how many pcurves it moved.
+
+    The trimmed surface is not periodic itself, so ``FixShifted`` does not
+    move a pcurve that the projection put a period beyond its bounds: a
+    surface of revolution trimmed to a full turn, an arc of its edge
+    projected onto u in [2π, 3π] rather than [0, π] (bug32596, an ABC
+    part): BRepCheck called the face unorientable."""
+    wd = ShapeExtend_WireData(wire)
+    moved = 0
+    for i in range(1, wd.NbEdges() + 1):
+        edge = wd.Edge(i)
+        if BRep_Tool.Degenerated_s(edge) or not projected.Contains(edge):
+            continue
+        got = _oriented_pcurve(edge, face)
+        if got is None or got[0].IsCurveOnClosedSurface():
+            continue
+        cr = got[0]
+        mid = cr.PCurve().Value(0.5 * (cr.First() + cr.Last()))
+        shift = [0.0, 0.0]
+        for k, (x, p) in enumerate(((mid.X(), periods[0]), (mid.Y(), periods[1]))):
+            if p is None:
+                continue
+            period, lo, hi = p
+            slack = RANGE_SLACK * period
+            if lo - slack <= x <= hi + slack:
+                continue
+            d = -period * math.floor((x - lo) / period)
+            if lo <= x + d <= hi:
+                shift[k] = d
+        if any(shift):
+            cr.PCurve(cr.PCurve().Translated(gp_Vec2d(*shift)))
+            cr.SetRange(cr.First(), cr.Last())  # the stored (u, v) ends follow
+            moved += 1
+    return moved
+
+
+#: :func:`into_range` leaves a pcurve whose middle is this fraction of the
+#: period or less outside the bounds where it is (a line along a bound).
+RANGE_SLACK = 1e-6
 
 
 def _curve_on(edge: Any, surf: Any, loc: Any) -> Any:
