@@ -74,8 +74,11 @@ class _UnraisableHook:
         if isinstance(args.exc_value, Interrupted):
             timer = threading.Timer(REDELIVER_S, _redeliver, (args.exc_value.signum,))
             timer.daemon = True
-            timer.start()
-            return
+            try:
+                timer.start()
+                return
+            except RuntimeError:  # no new thread at interpreter shutdown: exiting anyway
+                pass
         self.previous(args)
 
 

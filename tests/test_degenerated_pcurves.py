@@ -97,14 +97,22 @@ def test_a_pole_off_its_neighbours_is_snapped_to_them(tmp_path: Path) -> None:
     assert occ.is_valid(face)
 
 
-def test_the_rule_follows_the_format_minor() -> None:
-    """A 2.7 container is built as it was written to be (without the rule);
-    a 2.8 one with it (``decode.POLES_FOLLOW``)."""
+@pytest.mark.parametrize(
+    "name, poles, periods",
+    [
+        ("bracket.v2_7.tol0.01.nzc", False, False),
+        ("bracket.v2_8.tol0.01.nzc", True, False),
+        ("bracket.v2_9.tol0.01.nzc", True, True),
+    ],
+)
+def test_the_rules_follow_the_format_minor(name: str, poles: bool, periods: bool) -> None:
+    """A container is built as it was written to be: the poles' rule from 2.8
+    (``decode.POLES_FOLLOW``), the trimmed surfaces' periods from 2.9
+    (``decode.PERIODS_IN_RANGE``, tests/test_trimmed_periods.py)."""
     from nurbscomp import container
     from nurbscomp.stages import decompress
 
     golden = Path(__file__).resolve().parent / "golden"
-    for name, follows in (("bracket.v2_7.tol0.01.nzc", False), ("bracket.v2_8.tol0.01.nzc", True)):
-        c = container.unpack((golden / name).read_bytes())
-        m, _ = decompress.decode(c, None, None)
-        assert m.poles_follow is follows, name
+    c = container.unpack((golden / name).read_bytes())
+    m, _ = decompress.decode(c, None, None)
+    assert (m.poles_follow, m.periods_in_range) == (poles, periods)

@@ -6,7 +6,6 @@ within them (``occ.topology.into_range``)."""
 from __future__ import annotations
 
 from dataclasses import replace
-from pathlib import Path
 
 import pytest
 
@@ -32,17 +31,3 @@ def test_a_pcurve_a_period_beyond_a_trimmed_surface_comes_back() -> None:
     assert (e - source_faults[0], f - source_faults[1]) == (set(), set())
     e, f = occ.failures(validity.build(replace(cand, periods_in_range=False)))
     assert not e - source_faults[0] and len(f - source_faults[1]) == 1
-
-
-def test_the_rule_follows_the_format_minor() -> None:
-    """A 2.8 container is built as it was written to be (without the rule);
-    a 2.9 one with it (``decode.PERIODS_IN_RANGE``)."""
-    from nurbscomp import container
-    from nurbscomp.stages import decompress
-
-    golden = Path(__file__).resolve().parent / "golden"
-    for name, moves in (("bracket.v2_8.tol0.01.nzc", False), ("bracket.v2_9.tol0.01.nzc", True)):
-        c = container.unpack((golden / name).read_bytes())
-        m, _ = decompress.decode(c, None, None)
-        assert m.periods_in_range is moves, name
-        assert m.poles_follow, name

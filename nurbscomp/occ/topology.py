@@ -662,11 +662,12 @@ def rebuild_pcurves(
     periods where they ended up on another sheet (``ShapeFix_Wire.FixShifted``),
     as OCCT's own STEP reader does; (``in_range``, format 2.9) on a trimmed
     surface of a periodic basis, which ``FixShifted`` takes for not periodic,
-    the projected pcurves are moved into its range (:func:`into_range`); and
-    (``poles_follow``, format 2.8) the pcurves of their degenerated edges
-    are made to meet them (:func:`align_degenerated`).  Deterministic: the same model gives the
-    same pcurves.  With a ``cache`` (and the ``keys`` of the model) a
-    projection made before from the same data is replayed
+    the projected pcurves are moved into its bounds (:func:`into_range`);
+    and (``poles_follow``, format 2.8) the pcurves of their degenerated
+    edges are made to meet them (:func:`align_degenerated`).
+    Deterministic: the same model gives the same pcurves.  With a ``cache``
+    (and the ``keys`` of the model) a projection made before from the same
+    data is replayed
     (:meth:`PcurveCache.add`) instead of made again.  Without one, or with
     an empty one, and with :data:`SPLIT_PROJECTIONS`, at least
     :data:`SPLIT_MIN` projections and a core to spare (:func:`spare_core`),
@@ -750,7 +751,7 @@ def into_range(face: Any, wire: Any, periods: _Periods, projected: Any) -> int:
     trimmed surface's basis (``periods``: :func:`trimmed_periods`) that
     bring the point at the middle of its range within the surface's bounds,
     in each periodic direction where its middle lies outside them by more
-    than ``RANGE_SLACK`` of the period (docs/format.md §2.9, format 2.9).
+    than ``RANGE_SLACK`` of the period (docs/format.md §2.8, *(2.9)*).
     Degenerated edges and pairs of pcurves (two faces on one surface) are
     left as they are.  Returns how many pcurves it moved.
 
