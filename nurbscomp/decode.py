@@ -275,7 +275,7 @@ def apply(m: BRepModel, t: Tables, tol: float, revision: int) -> None:
 #: their computed neighbours (docs/format.md §2.8).
 POLES_FOLLOW = container.VERSIONS.index((2, 8))
 #: Format 2.9: the first revision whose computed pcurves on a trimmed
-#: surface of a periodic basis are moved into its bounds (docs/format.md §2.9).
+#: surface of a periodic basis are moved into its bounds (docs/format.md §2.8, *(2.9)*).
 PERIODS_IN_RANGE = container.VERSIONS.index((2, 9))
 
 

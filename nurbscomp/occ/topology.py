@@ -687,7 +687,8 @@ def rebuild_pcurves(
             # TopoDS.Face/Wire are TopoDS.Face_s/Wire_s in OCP 7.9; the stubs lack the _s names.
             jobs.append((edge, TopoDS.Face(face), seam, k, srow, loc))
             touched[id(face)] = face
-            projected.setdefault(id(face), TopTools_MapOfShape()).Add(edge)
+            if in_range:
+                projected.setdefault(id(face), TopTools_MapOfShape()).Add(edge)
     fix = ShapeFix_Edge()
     handed = 0
     dirty: set[int] = set()  # edges whose 3-D curve a projection replaced
@@ -783,10 +784,16 @@ def into_range(face: Any, wire: Any, periods: _Periods, projected: Any) -> int:
             if lo <= x + d <= hi:
                 shift[k] = d
         if any(shift):
-            cr.PCurve(cr.PCurve().Translated(gp_Vec2d(*shift)))
-            cr.SetRange(cr.First(), cr.Last())  # the stored (u, v) ends follow
+            _translate(cr, shift)
             moved += 1
     return moved
+
+
+def _translate(cr: Any, shift: list[float]) -> None:
+    """Translate the pcurve of representation ``cr`` by ``shift`` in (u, v);
+    its stored (u, v) ends follow."""
+    cr.PCurve(cr.PCurve().Translated(gp_Vec2d(*shift)))
+    cr.SetRange(cr.First(), cr.Last())
 
 
 #: :func:`into_range` leaves a pcurve whose middle is this fraction of the
@@ -870,8 +877,7 @@ def align_degenerated(face: Any, wire: Any) -> int:
             old = max(g.Modulus() for g in gap)
             new = max((g - s).Modulus() for g in gap)
             if new < old and new <= 0.2 * min(t for t in period if t):
-                cr.PCurve(cr.PCurve().Translated(gp_Vec2d(*shift)))
-                cr.SetRange(cr.First(), cr.Last())  # the stored (u, v) ends follow
+                _translate(cr, shift)
                 gap = (gap[0] - s, gap[1] - s)
                 moved = True
         worst = max(g.Modulus() for g in gap)
