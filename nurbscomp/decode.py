@@ -92,7 +92,8 @@ def twin_copy(
 
 def _check_headers(t: NetTable, tag: str, tol: float, revision: int = container.REVISION) -> None:
     """The quantizer settings and methods of a net table (docs/format.md §2.4):
-    surface method 10 (``SPATIAL2``) from revision 3 (format 2.0) only."""
+    surface method 10 (``SPATIAL2``) from revision 3 (format 2.0) only, curve
+    method 11 (``ANCHORED``) from format 2.10 only."""
     n = len(t.method)
     if n and not 0 < tol < MAX_COORD:
         raise SectionError(f"{tag}: coded nets need a positive, finite tolerance")
@@ -105,7 +106,10 @@ def _check_headers(t: NetTable, tag: str, tol: float, revision: int = container.
     if n and np.abs(t.level).max() > MAX_LEVEL:
         raise SectionError(f"{tag}: quantizer level out of range")
     surface = codec.SURFACE_METHODS_2 if revision >= 3 else codec.SURFACE_METHODS
-    allowed = surface if tag == "SNET" else codec.CURVE_COPIES
+    curve: tuple[codec.Method, ...] = codec.CURVE_COPIES
+    if revision < ANCHORED_CURVES:
+        curve = tuple(m for m in curve if m != codec.Method.ANCHORED)
+    allowed = surface if tag == "SNET" else curve
     if n and not np.isin(t.method, [int(x) for x in allowed]).all():
         raise SectionError(f"{tag}: a coding method that does not apply to this table")
 
@@ -277,6 +281,9 @@ POLES_FOLLOW = container.VERSIONS.index((2, 8))
 #: Format 2.9: the first revision whose computed pcurves on a trimmed
 #: surface of a periodic basis are moved into its bounds (docs/format.md §2.8, *(2.9)*).
 PERIODS_IN_RANGE = container.VERSIONS.index((2, 9))
+#: Format 2.10: the first revision whose ``CNET`` may hold curves coded between
+#: their anchors (method 11, docs/format.md §2.4, *(2.10)*).
+ANCHORED_CURVES = container.VERSIONS.index((2, 10))
 
 
 def sections_to_model(

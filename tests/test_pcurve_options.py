@@ -48,8 +48,9 @@ def test_pcurve_pairs_on_a_trimmed_surface_are_stored(monkeypatch) -> None:
     that share one trimmed surface: the edges between them carry two pcurves
     a period apart, which a projection onto the trimmed surface puts on one
     side.  They are stored (a cylinder's seam is still left to the decoder).
-    The first candidate at 0.01 mm is then valid; without them one face is
-    not (the other one the 2.9 rule mends: tests/test_trimmed_periods.py)."""
+    The first candidate at 0.01 mm is then valid; without them it is not
+    (one face, two since format 2.10's curves coded between their vertices;
+    another one the 2.9 rule mends: tests/test_trimmed_periods.py)."""
     from nurbscomp import occ
     from nurbscomp.encode import validity
     from nurbscomp.model import EC, Derived
@@ -83,4 +84,4 @@ def test_pcurve_pairs_on_a_trimmed_surface_are_stored(monkeypatch) -> None:
 
     assert faulty_faces() == 0
     monkeypatch.setattr(pcurves, "KEEP_TRIMMED_PAIRS", False)
-    assert faulty_faces() == 1
+    assert faulty_faces() >= 1

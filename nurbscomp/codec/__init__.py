@@ -12,6 +12,7 @@ from __future__ import annotations
 from .coder import (
     BICUBIC,
     CURVE,
+    CURVE_CODES,
     CURVE_COPIES,
     CURVE_METHODS,
     E_LADDER,
@@ -63,6 +64,7 @@ from .search import (
 __all__ = [
     "BICUBIC",
     "CURVE",
+    "CURVE_CODES",
     "CURVE_COPIES",
     "CURVE_METHODS",
     "DMAP_MAX_INTERIOR",

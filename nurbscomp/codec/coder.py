@@ -75,6 +75,9 @@ class Method(IntEnum):
     # surfaces: linear extrapolation along u and v on the grid, residuals chosen
     # within the bound (spatial.rd_extrapolate); format 2.0
     SPATIAL2 = 10
+    # curves: ends at the row's two anchors (its edge's vertices, as decoded),
+    # chord differences + DCT (eq. 5-10) between them; format 2.10
+    ANCHORED = 11
 
 
 SURFACE_METHODS = (
@@ -99,9 +102,14 @@ TIGHT_SEARCH = tuple(m for m in SURFACE_SEARCH if m != Method.SPATIAL2)
 SURFACE_METHODS_2 = (*SURFACE_METHODS, Method.SPATIAL2)
 #: Methods that predict the interior with the bicubically blended Coons net.
 BICUBIC = (Method.BOUNDARY3, Method.DDMAP3)
+#: The curve methods the encoder searches with a row's origin or anchors.
 CURVE_METHODS = (Method.DELTA, Method.CHORD)
-#: Every method a CNET row may hold: the coders, and copies of decoded poles.
-CURVE_COPIES = (*CURVE_METHODS, Method.ISO, Method.COPY)
+#: Every method whose integers code a curve's poles: with ``ANCHORED``, which
+#: the encoder tries once the vertices are final (``encode.assembly``).
+CURVE_CODES = (*CURVE_METHODS, Method.ANCHORED)
+#: Every method a CNET row may hold: the coders, and copies of decoded poles
+#: (``ANCHORED`` from format 2.10 only: ``decode``).
+CURVE_COPIES = (*CURVE_CODES, Method.ISO, Method.COPY)
 
 
 class Quant(IntEnum):
@@ -197,10 +205,15 @@ def reorigin(code: NetCode, origin: np.ndarray | None, tol: float) -> NetCode:
     its first ``dim`` integers, and the decoded net does not depend on the
     origin, so only those integers change.  The chord method codes its last
     pole against a second origin row when there is one: the next ``dim``.
-    Both codes' origins must then have two rows.
+    Both codes' origins must then have two rows.  An ``ANCHORED`` code's net
+    is made from its anchors: they must stay the same, bit for bit.
     """
     old = np.zeros(3) if code.origin is None else code.origin
     new = np.zeros(_first(old).shape) if origin is None else origin
+    if code.method == Method.ANCHORED:  # its net is made from its anchors: they stay
+        if not np.array_equal(old, new):
+            raise ValueError("an anchored curve's anchors cannot move")
+        return replace(code, origin=new.copy())
     dim = len(_first(old))
     h = tol * code.grid
     ints = code.ints.copy()
@@ -728,6 +741,8 @@ def _code(
         ends = p[[0, -1]]
         c = io.grid(ends if isinstance(io, _Writer) else np.empty_like(ends), origin, "ends")
         return _curve(io, p, c[0], c[1], "chord")
+    if method == Method.ANCHORED:  # the ends are the anchors themselves: no integers
+        return _curve(io, p, origin[0], origin[1], "anchored")
     assert s is not None and t is not None
     return _coons_code(io, p, s, t, method, origin, basis)
 
@@ -768,7 +783,7 @@ def segments(method: int, quant: int, shape: tuple[int, ...]) -> list[tuple[int,
         if surface:
             raise ValueError(f"method {m.name} does not apply to this net")
         return [(REF, 3 if m == Method.ISO else 2)]
-    if m in CURVE_METHODS and surface or m not in CURVE_METHODS and not surface:
+    if m in CURVE_CODES and surface or m not in CURVE_CODES and not surface:
         raise ValueError(f"method {m.name} does not apply to this net")
     size = int(np.prod(shape))
     if m in (Method.SPATIAL, Method.SPATIAL2, Method.DELTA):
@@ -776,6 +791,9 @@ def segments(method: int, quant: int, shape: tuple[int, ...]) -> list[tuple[int,
     if m == Method.CHORD:
         n = shape[0]
         return [(POS, 2 * dim), (CURVE, coeffs(n - 2, dim) if n > 2 else 0)]
+    if m == Method.ANCHORED:
+        n = shape[0]
+        return [(CURVE, coeffs(n - 2, dim) if n > 2 else 0)]
     nu, nv = shape[:2]
     out = [(POS, 12)]
     for n in (nv, nv, nu, nu):
@@ -814,8 +832,10 @@ def decode_net(
         The code's integers do not fit the net's shape, or the method does not.
     """
     curve = len(shape) == 2
-    if (code.method in CURVE_METHODS) != curve or (code.method == Method.SPATIAL2 and curve):
+    if (code.method in CURVE_CODES) != curve or (code.method == Method.SPATIAL2 and curve):
         raise ValueError(f"method {code.method.name} does not apply to this net")
+    if code.method == Method.ANCHORED and (origin is None or np.ndim(origin) != 2):
+        raise ValueError("an anchored curve needs its two anchors")
     o = np.zeros(shape[-1]) if origin is None else origin
     rd = _Reader(_Stepper(code.quant, code.level, code.slope, tol), code.ints, code.dcs)
     net = _code(rd, np.empty(shape), code.method, s, t, o, basis)

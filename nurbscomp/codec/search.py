@@ -126,12 +126,17 @@ RUNGS_MAX = 768
 
 def _rungs_apply(p: np.ndarray, method: Method, settings: Sequence[_Stepper]) -> bool:
     """Whether :class:`_Rungs` computes this ladder (else :class:`_Trials`)."""
-    if method not in (Method.SPATIAL, Method.DELTA, Method.CHORD) or p.size > RUNGS_MAX:
+    if method not in (*_GRID_METHODS, *_CHORDS) or p.size > RUNGS_MAX:
         return False
     if not _tol_ladder(tuple(settings)):
         return False
     # a chord's DCT by the matrix product only (dct.dct1)
-    return method != Method.CHORD or (p.ndim == 2 and len(p) - 2 <= dct.MATRIX_MAX)
+    return method not in _CHORDS or (p.ndim == 2 and len(p) - 2 <= dct.MATRIX_MAX)
+
+
+_GRID_METHODS = (Method.SPATIAL, Method.DELTA)
+#: Curve methods that code the inner poles against the chord of the ends.
+_CHORDS = (Method.CHORD, Method.ANCHORED)
 
 
 class _Batch:
@@ -170,7 +175,7 @@ class _Batch:
 
 
 class _Rungs(_Batch):
-    """Every rung of a ``SPATIAL``, ``DELTA`` or ``CHORD`` ladder with the
+    """Every rung of a ``SPATIAL``, ``DELTA``, ``CHORD`` or ``ANCHORED`` ladder with the
     tolerance quantizer, computed at once: on small nets numpy's cost per
     call, not the arithmetic, is what a trial costs.
 
@@ -191,6 +196,9 @@ class _Rungs(_Batch):
     ) -> None:
         super().__init__(method, settings, origin)
         hs = [st.grid for st in settings]
+        if method == Method.ANCHORED:  # the ends are the anchors on every rung
+            self._anchored(p, settings, origin, memo)
+            return
         chord = method == Method.CHORD
         pts = p[[0, -1]] if chord else p
         amax = np.abs(pts).max()
@@ -219,6 +227,22 @@ class _Rungs(_Batch):
             if good[j]:
                 self.bounds[i] = bounds[j]
                 self.ints[i] = head[j]
+
+    def _anchored(
+        self, p: np.ndarray, settings: Sequence[_Stepper], origin: np.ndarray, memo: _Memo | None
+    ) -> None:
+        """The rungs of an ``ANCHORED`` ladder: :func:`_curve_rungs` between
+        the anchors, which no rung moves."""
+        h = np.array([st.grid for st in settings])
+        r = len(h)
+        a = np.broadcast_to(origin[0], (r, p.shape[1]))
+        b = np.broadcast_to(origin[1], (r, p.shape[1]))
+        slope = SLOPES[settings[0].slope]
+        dec, qc, ok = _curve_rungs(p, a, b, h, slope, memo, "anchored")
+        bounds = (memo.bounds if memo else pole_bounds)(dec - p).tolist()
+        for i in np.flatnonzero(ok).tolist():
+            self.bounds[i] = bounds[i]
+            self.ints[i] = qc[i]
 
 
 def _grid_rungs(

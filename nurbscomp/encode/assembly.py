@@ -194,6 +194,7 @@ def _assembled(
     gridded |= curves_gridded
     source = m
     m, moved_v, loose_v, bound_v = _snap_vertices(m, coded, surfaces, curves, codes, exact, still)
+    _anchor_curves(source, m, coded, curves, codes)
     # planes and cylinders first: a circle through a vertex takes its cylinder's axis
     threaded = _surfaces_through(
         source, m, surfaces, srec, exact | set(plain), coded.tol, reach_s, coded.same
@@ -1091,6 +1092,73 @@ def _pin_curves(
         code = codes.pop(recs[c])
         codes[recs[c]] = replace(code, bound=max(code.bound, moved))
         rows.replace(c, new)
+
+
+#: Whether curves are coded between their vertices where that is cheaper
+#: (format 2.10, :func:`_anchor_curves`).
+ANCHOR_CURVES = True
+
+
+def _anchor_curves(
+    source: BRepModel,
+    m: BRepModel,
+    coded: Coded,
+    curves: list[Geometry],
+    codes: dict[Rec, codec.NetCode],
+) -> None:
+    """Code again between its two anchors (``codec.Method.ANCHORED``, format
+    2.10), in place in ``curves`` and ``codes``, each coded curve whose ends
+    the decoder pins to its edge's two vertices (:func:`joins.anchors` on
+    ``m``, whose vertices are where the container puts them), where that
+    costs fewer bits (:func:`codec.cost_bits`) than its code, re-based on the
+    same vertices as the container will store it.
+
+    A ``CHORD`` code's ends are on its grid, coded against the vertices: a
+    vertex snapped to the vertex grid (or rounded) is a grid point of another
+    step, so they cost bits, and the pins then move them onto the vertices
+    anyway.  An ``ANCHORED`` code's ends are the vertices: no integers (a
+    2-pole curve costs nothing), its bound counting the vertices' moves.  Its
+    limit is the code's own (``NetCode.limit``), and ``source`` (the model
+    before any vertex moved) gives the row it is coded from.  The codes are
+    kept in ``coded.anchored`` by the anchors' bits: later candidates whose
+    vertices stay reuse them.
+    """
+    if not ANCHOR_CURVES:
+        return
+    crec = records(curves, Table.CURVE3D)
+    mine = {k.row: k for k, c in codes.items() if k.table == Table.CURVE3D}
+    rows = {r for r, k in mine.items() if codes[k].method in codec.CURVE_METHODS}
+    for row, a in joins.anchors(m, curves, rows).items():
+        if a.ndim != 2:
+            continue
+        k = mine[row]
+        code = codes[k]
+        if code.limit is None:
+            continue
+        key = (k, a.tobytes(), code.limit)
+        if key not in coded.anchored:
+            g = source.curves3d[row]
+            assert isinstance(g, BSplineCurve)
+            try:
+                hit = nets.recode(coded, k, g, (codec.Method.ANCHORED,), a, code.limit)
+            except codec.NoCodeError:
+                hit = None
+            coded.anchored[key] = hit
+        hit = coded.anchored[key]
+        if hit is None or not _same_knots(hit[1], curves[row]):
+            continue
+        if hit[0].bits < codec.cost_bits(codec.reorigin(code, a, coded.tol).ints):
+            codes[k] = hit[0]
+            for i, kk in enumerate(crec):
+                if kk == k:
+                    curves[i] = hit[1]
+
+
+def _same_knots(a: Geometry, b: Geometry) -> bool:
+    """Whether two B-spline curves have the same knots and multiplicities
+    (the anchors of :func:`joins.anchors` follow from them)."""
+    assert isinstance(a, BSplineCurve) and isinstance(b, BSplineCurve)
+    return np.array_equal(a.knots, b.knots) and np.array_equal(a.mults, b.mults)
 
 
 #: BRepCheck measures an edge's distance to its surfaces with a 5% margin

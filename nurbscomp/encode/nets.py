@@ -123,6 +123,12 @@ class Coded:
     rigid: set[Rec] = field(default_factory=set)
     #: surface records coded without ``SPATIAL2`` (:func:`plain`)
     plained: set[Rec] = field(default_factory=set)
+    #: (curve record, its anchors' bytes, limit) -> its code between those
+    #: anchors (``codec.Method.ANCHORED``), or None: none fits
+    #: (``assembly._anchor_curves``; kept from candidate to candidate)
+    anchored: dict[tuple[Rec, bytes, float], tuple[codec.NetCode, Geometry] | None] = field(
+        default_factory=dict
+    )
 
     def with_every_knot(self) -> Coded:
         """These codes with every record that lost knots back on its code
@@ -401,7 +407,7 @@ def _code_table(
 TIGHTER = 8
 
 
-def _recode(
+def recode(
     coded: Coded,
     k: Rec,
     g: BSplineSurface | BSplineCurve,
@@ -446,7 +452,7 @@ def tighten(coded: Coded, m: BRepModel, recs: Iterable[Rec], level: int = 1) -> 
             floor = max(code.bound, coded.tol / 1024)
             limit = min(feature_limit(g.poles, coded.tol) / TIGHTER**level, floor)
             try:
-                done[k] = _recode(coded, k, g, methods, code.origin, limit)
+                done[k] = recode(coded, k, g, methods, code.origin, limit)
             except codec.NoCodeError:  # as tight as doubles allow here: the code it has
                 continue
             coded.fine.add(k)
@@ -472,7 +478,7 @@ def plain(coded: Coded, m: BRepModel, recs: Iterable[Rec]) -> set[Rec]:
         assert isinstance(g, BSplineSurface)
         limit = feature_limit(g.poles, coded.tol) / TIGHTER ** coded.tight.get(k, 0)
         try:
-            coded.surfaces[k] = _recode(coded, k, g, codec.TIGHT_SEARCH, code.origin, limit)
+            coded.surfaces[k] = recode(coded, k, g, codec.TIGHT_SEARCH, code.origin, limit)
         except codec.NoCodeError:
             continue
         out.add(k)
@@ -509,7 +515,7 @@ def rigid(coded: Coded, m: BRepModel, recs: Iterable[Rec]) -> bool:
             plain_only = k in coded.plained or k in coded.tight
             methods = codec.TIGHT_SEARCH if plain_only else coded.searched
         try:
-            done[k] = _recode(coded, k, g, methods, code.origin, limit)
+            done[k] = recode(coded, k, g, methods, code.origin, limit)
         except codec.NoCodeError:
             continue
         coded.spares.pop(k, None)

@@ -93,10 +93,14 @@ GOLDEN = [
     ("bracket.step", "v2_8.tol0.01", {"tol": 0.01}),
     # format 2.9: pcurves projected a period beyond a trimmed surface's bounds moved back
     ("bracket.step", "v2_9.tol0.01", {"tol": 0.01}),
+    # format 2.10: a curve coded between its anchors (CNET method 11)
+    ("loft.step", "v2_10.tol0.01", {"tol": 0.01}),
 ]
 
 
 def _version(sample: str, mode: str) -> str:
+    if mode.startswith("v2_10."):
+        return "2.10"
     if mode.startswith("v2_9."):
         return "2.9"
     if mode.startswith("v2_8."):

@@ -15,7 +15,7 @@ if TYPE_CHECKING:
     from .reader import Model
 
 SURFACE_METHODS = {0, 1, 2, 5, 7, 8, 10}
-CURVE_METHODS = {3, 4, 6, 9}
+CURVE_METHODS = {3, 4, 6, 9, 11}
 SLOPES = (0.0, 1.0)
 
 
@@ -294,6 +294,10 @@ def decode_curve(net: Net, n: int, o: np.ndarray) -> np.ndarray:
     if m == 4:
         ends = net.grid(2, o)
         return net.curve(n, ends[0], ends[1])
+    if m == 11:  # (2.10) the ends are the two anchors themselves
+        if len(o) != 2:
+            raise ReadError("CNET: method 11 on a row without two anchors")
+        return net.curve(n, o[0], o[1])
     raise ReadError(f"CNET method {m}")
 
 
@@ -326,6 +330,8 @@ class Table:
                 raise ReadError(f"{tag}: quantizer {self.quant[k]} is reserved")
             if tag == "SNET" and self.method[k] == 10 and revision < 3:
                 raise ReadError("SNET: method 10 before 2.0")
+            if tag == "CNET" and self.method[k] == 11 and revision < 13:
+                raise ReadError("CNET: method 11 before 2.10")
 
     def code(self, k: int, shape: tuple[int, ...]) -> Code:
         """The k-th code's integers, for a row of poles of ``shape`` (n, 3) or (nu, nv, 3)."""
@@ -338,9 +344,10 @@ class Table:
         parts: list[np.ndarray] = []
         if m in (0, 10, 3):
             parts += [pts(min(c, size)), res(size - min(c, size))]
-        elif m == 4:
+        elif m in (4, 11):
             n = shape[0]
-            parts.append(pts(2 * c))
+            if m == 4:
+                parts.append(pts(2 * c))
             if n > 2:
                 parts.append(cco((n - 2) * c))
         elif m in (1, 2, 5, 7, 8):
