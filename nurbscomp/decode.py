@@ -122,6 +122,7 @@ def _decode_nets(
     anchors: dict[int, np.ndarray] | None = None,
     surfaces: list[Geometry] | None = None,
     revision: int = container.REVISION,
+    corners: dict[int, dict[int, np.ndarray]] | None = None,
 ) -> list[tuple[int, int, codec.NetCode]]:
     """Decode a net table into the poles of the coded rows, in row order.
 
@@ -129,7 +130,8 @@ def _decode_nets(
     (net number, row, code).
 
     Each net's first pole is coded against the previous net's decoded first
-    pole (the origin chain of :func:`codec.encode_net`).
+    pole (the origin chain of :func:`codec.encode_net`), or its anchor;
+    ``corners`` (format 2.10): per row, corners coded against vertices.
     """
     _check_headers(t, tag, tol, revision)
     rows = coded_rows(records)
@@ -158,7 +160,10 @@ def _decode_nets(
             else:
                 at = (anchors or {}).get(row, origin)
                 shape = cast(BSplineCurve | BSplineSurface, g).poles.shape
-                net, used = codec.decode_net(code, shape, s, u, tol, at, net_basis(g))
+                at_corners = (corners or {}).get(row)
+                if at_corners and code.method not in codec.CORNERED:
+                    raise ValueError(f"method {code.method.name} has no corners to anchor")
+                net, used = codec.decode_net(code, shape, s, u, tol, at, net_basis(g), at_corners)
         except (ValueError, ArithmeticError) as e:  # LinAlgError is a ValueError
             raise SectionError(f"{tag}: net {k} (table row {row}): {e}") from None
         finite(net, f"{tag}: net {k} (table row {row})", MAX_COORD)
@@ -224,22 +229,34 @@ def check_location_matrices(m: BRepModel) -> None:
             raise SectionError(f"LOCS: location {k}'s matrix is not finite or out of range")
 
 
-def _surface_anchors(m: BRepModel, t: NetTable, rows: list[int]) -> dict[int, np.ndarray]:
+def _surface_anchors(
+    m: BRepModel, t: NetTable, rows: list[int]
+) -> tuple[dict[int, np.ndarray], dict[int, dict[int, np.ndarray]]]:
     """The points a format 2.1 ``SNET`` codes first poles against: per row
-    whose anchor k > 0, the k-th vertex of :func:`joins.surface_anchor_candidates`
-    (a k past them, or below 0, is a ``SectionError``)."""
+    whose anchor k > 0, the k-th vertex of :func:`joins.surface_anchor_candidates`;
+    and (format 2.10) per row, its corners coded against such a vertex (corner
+    1-3 -> point).  A k past them, or below 0, is a ``SectionError``."""
     if t.anchor is None:
-        return {}
+        return {}, {}
     cands = joins.surface_anchor_candidates(m, rows)
-    out = {}
-    for k, (row, a) in enumerate(zip(rows, t.anchor.tolist(), strict=True)):
-        if a == 0:
-            continue
+
+    def vertex(k: int, row: int, a: int) -> np.ndarray:
         verts = cands.get(row, [])
         if not 0 < a <= len(verts):
             raise SectionError(f"SNET: net {k} (table row {row}): no anchor vertex {a}")
-        out[row] = m.vertex_point[verts[a - 1]]
-    return out
+        return m.vertex_point[verts[a - 1]]
+
+    out = {}
+    for k, (row, a) in enumerate(zip(rows, t.anchor.tolist(), strict=True)):
+        if a != 0:
+            out[row] = vertex(k, row, a)
+    corners: dict[int, dict[int, np.ndarray]] = {}
+    if t.corners is not None:
+        for k, (row, picks) in enumerate(zip(rows, t.corners.tolist(), strict=True)):
+            at = {c: vertex(k, row, a) for c, a in enumerate(picks, 1) if a != 0}
+            if at:
+                corners[row] = at
+    return out, corners
 
 
 def apply(m: BRepModel, t: Tables, tol: float, revision: int) -> None:
@@ -252,9 +269,8 @@ def apply(m: BRepModel, t: Tables, tol: float, revision: int) -> None:
     resolve_ranges(m, t.range_how)
     srows = coded_rows(m.surfaces)
     coded_surfaces = set(srows)
-    _decode_nets(
-        t.snet, m.surfaces, tol, "SNET", _surface_anchors(m, t.snet, srows), None, revision
-    )
+    anchors, corners = _surface_anchors(m, t.snet, srows)
+    _decode_nets(t.snet, m.surfaces, tol, "SNET", anchors, None, revision, corners)
     radius = None  # before 1.2: every corner within tol of a vertex of its face
     if revision >= 2:
         radius = {

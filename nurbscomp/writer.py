@@ -43,6 +43,7 @@ def _net_table(
     anchors = anchors or {}
     order = []
     picked = []
+    cornered = []
     origin = None
     for row, first in enumerate(first_row(records)):
         if row == first and Rec(which, row) in codes:
@@ -51,16 +52,24 @@ def _net_table(
             if code.method == codec.Method.COPY:  # filled last: not on the origin chain
                 order.append(code)
                 picked.append(0)
+                cornered.append([0, 0, 0])
                 continue
-            k = 0
+            k, corners = 0, [0, 0, 0]
             if code.method != codec.Method.ISO:  # an ISO code holds references, no point
                 code = codec.reorigin(code, anchors.get(row, origin), tol)
                 if choices is not None and len(choices.get(row, ())):
                     k = _anchor_choice(code, choices[row], tol)
                     if k:
                         code = codec.reorigin(code, choices[row][k - 1], tol)
+                    shape = cast(BSplineSurface, records[row]).poles.shape
+                    if code.method in codec.CORNERED:
+                        grid = codec.corner_grid(code, shape, tol)
+                        corners = _corner_choice(code, shape, grid, choices[row], tol)
+                        at = {c: choices[row][j - 1] for c, j in enumerate(corners, 1) if j}
+                        code = codec.recorner(code, shape, at, tol, grid)
             order.append(code)
             picked.append(k)
+            cornered.append(corners)
             poles = cast(BSplineCurve | BSplineSurface, g).poles
             origin = poles.reshape(-1, poles.shape[-1])[0] if code.first is None else code.first
 
@@ -75,6 +84,7 @@ def _net_table(
         [c.ints for c in order],
         np.concatenate([c.dcs for c in order]) if order else np.zeros(0),
         None if choices is None else np.array(picked, np.int64),
+        None if choices is None else np.array(cornered, np.int64).reshape(-1, 3),
     )
 
 
@@ -92,6 +102,31 @@ def _anchor_choice(code: codec.NetCode, points: np.ndarray, tol: float) -> int:
         if bits < best:
             best, pick = bits, k
     return pick
+
+
+def _corner_choice(
+    code: codec.NetCode,
+    shape: tuple[int, ...],
+    q: np.ndarray,
+    points: np.ndarray,
+    tol: float,
+) -> list[int]:
+    """Per corner P0m, Pn0, Pnm of a surface code (format 2.10) whose corners'
+    grid integers are ``q`` (:func:`codec.corner_grid`): 0, or k > 0 for the
+    k-th of ``points`` (k, 3), the vertex that codes its integers in the
+    fewest bits (:func:`codec.cost_bits`, the pick's own counted; as they
+    are on a tie)."""
+    h = tol * code.grid
+    snapped = spatial.snap(points, h)
+    out = []
+    for c in (1, 2, 3):
+        best, pick = codec.cost_bits(codec.corner_ints(code, shape, c)) + 1, 0
+        for k, g in enumerate(snapped, 1):
+            bits = codec.cost_bits(q[c] - g) + codec.cost_bits(np.array([k]))
+            if bits < best:
+                best, pick = bits, k
+        out.append(pick)
+    return out
 
 
 def _surface_choices(m: BRepModel, codes: dict[Rec, codec.NetCode]) -> dict[int, np.ndarray]:

@@ -118,7 +118,7 @@ def test_a_changed_residual_changes_the_poles() -> None:
     for k, a in arrays:
         (w.floats if k == "f" else w.ints)(a)
     secs = [(s.tag, bytes(w) if s.tag == "SNET" else s.raw) for s in c.sections]
-    changed = container.pack(secs, c.flags)
+    changed = container.pack(secs, c.flags, version=(c.major, c.minor))
     before = reader.read(data).floats()["poles"]
     after = reader.read(changed).floats()["poles"]
     assert before.shape == after.shape and not np.array_equal(before, after)

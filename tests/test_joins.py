@@ -383,13 +383,26 @@ def test_surface_nets_anchored_at_their_face_vertices(tmp_path: Path) -> None:
     assert t.snet.anchor is not None and (t.snet.anchor > 0).sum() > len(t.snet.anchor) // 2
     rows = serialize.coded_rows(m.surfaces)
     cands = joins.surface_anchor_candidates(m, rows)
-    at = decode._surface_anchors(m, t.snet, rows)
+    at, corners = decode._surface_anchors(m, t.snet, rows)
     for k, row in enumerate(rows):
         a = int(t.snet.anchor[k])
         if a:
             assert np.array_equal(at[row], m.vertex_point[cands[row][a - 1]])
         else:
             assert row not in at
+    # format 2.10: corners coded against vertices of the same candidates
+    assert t.snet.corners is not None and (t.snet.corners > 0).sum() > len(rows)
+    for k, row in enumerate(rows):
+        for c, a in enumerate(t.snet.corners[k].tolist(), 1):
+            if a:
+                assert np.array_equal(corners[row][c], m.vertex_point[cands[row][a - 1]])
+            else:
+                assert c not in corners.get(row, {})
+    bad = replace(t.snet, corners=t.snet.corners.copy())
+    k = int(np.flatnonzero(bad.corners[:, 2] > 0)[0])
+    bad.corners[k, 2] = len(cands[rows[k]]) + 1
+    with pytest.raises(SectionError, match=f"net {k} .* no anchor vertex"):
+        decode._surface_anchors(m, bad, rows)
     bad = replace(t.snet, anchor=t.snet.anchor.copy())
     k = int(np.flatnonzero(bad.anchor > 0)[0])
     bad.anchor[k] = len(cands[rows[k]]) + 1

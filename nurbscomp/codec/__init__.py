@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from .coder import (
     BICUBIC,
+    CORNERED,
     CURVE,
     CURVE_CODES,
     CURVE_COPIES,
@@ -39,10 +40,13 @@ from .coder import (
     _Memo,
     _Stepper,
     _Writer,
+    corner_grid,
+    corner_ints,
     cost_bits,
     decode_net,
     ladder,
     pole_bounds,
+    recorner,
     reorigin,
     segments,
 )
@@ -64,6 +68,7 @@ from .search import (
 __all__ = [
     "BICUBIC",
     "CURVE",
+    "CORNERED",
     "CURVE_CODES",
     "CURVE_COPIES",
     "CURVE_METHODS",
@@ -107,6 +112,9 @@ __all__ = [
     "decode_net",
     "encode_net",
     "ladder",
+    "corner_grid",
+    "corner_ints",
+    "recorner",
     "reorigin",
     "segments",
 ]

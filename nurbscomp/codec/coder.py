@@ -102,6 +102,11 @@ TIGHT_SEARCH = tuple(m for m in SURFACE_SEARCH if m != Method.SPATIAL2)
 SURFACE_METHODS_2 = (*SURFACE_METHODS, Method.SPATIAL2)
 #: Methods that predict the interior with the bicubically blended Coons net.
 BICUBIC = (Method.BOUNDARY3, Method.DDMAP3)
+#: Methods that code a net's corners, its boundary curves between them, and a
+#: Coons net of those (with or without difference data).
+COONS_METHODS = (Method.BOUNDARY, Method.DDMAP, Method.DMAP, Method.BOUNDARY3, Method.DDMAP3)
+#: Surface methods whose corners may be coded against vertices (format 2.10).
+CORNERED = (Method.SPATIAL, Method.SPATIAL2, *COONS_METHODS)
 #: The curve methods the encoder searches with a row's origin or anchors.
 CURVE_METHODS = (Method.DELTA, Method.CHORD)
 #: Every method whose integers code a curve's poles: with ``ANCHORED``, which
@@ -475,12 +480,22 @@ class _Writer:
 
 
 class _Reader:
-    """Decoder side: the same calls as ``_Writer``, fed from the stored integers."""
+    """Decoder side: the same calls as ``_Writer``, fed from the stored integers.
 
-    def __init__(self, stepper: _Stepper, ints: np.ndarray, dcs: np.ndarray) -> None:
+    ``corners`` (format 2.10): surface corners 1-3 (``CORNERS`` order) whose
+    integers are coded against these points' grid points."""
+
+    def __init__(
+        self,
+        stepper: _Stepper,
+        ints: np.ndarray,
+        dcs: np.ndarray,
+        corners: dict[int, np.ndarray] | None = None,
+    ) -> None:
         self.st = stepper
         self.ints, self.ipos = ints, 0
         self.dcs, self.dpos = dcs, 0
+        self.corners = {k: spatial.snap(v, stepper.grid) for k, v in (corners or {}).items()}
 
     def _take(self, n: int) -> np.ndarray:
         if self.ipos + n > len(self.ints):
@@ -507,25 +522,122 @@ class _Reader:
     def grid(self, like: np.ndarray, origin: np.ndarray, which: str = "") -> np.ndarray:
         h = self.st.grid
         d = self._take(like.size).reshape(like.shape)
-        return _unagainst(d, spatial.snap(origin, h)) * h
+        q = _unagainst(d, spatial.snap(origin, h))
+        if which == "corners":  # a Coons net's corners P00, P0m, Pn0, Pnm
+            for k, g in self.corners.items():
+                q[k] = d[k] + g
+        return q * h
 
     def predicted(self, like: np.ndarray, origin: np.ndarray) -> np.ndarray:
         h = self.st.grid
         r = self._take(like.size).reshape(like.shape).copy()
         r.reshape(-1, like.shape[-1])[0] += spatial.snap(_first(origin), h)
+        if self.corners and r.ndim == 3:
+            r = _cornered(r, spatial.integrate, self.corners)
         return _integrate(r) * h
 
     def extrapolated(self, like: np.ndarray, origin: np.ndarray) -> np.ndarray:
-        return _unextrapolated(self._take(like.size), like.shape, origin, self.st.grid)
+        return _unextrapolated(
+            self._take(like.size), like.shape, origin, self.st.grid, self.corners
+        )
+
+
+#: Where each corner of ``CORNERS`` order (P00, P0m, Pn0, Pnm) is in a net (nu, nv).
+def corner_at(k: int, nu: int, nv: int) -> tuple[int, int]:
+    return ((0, 0), (0, nv - 1), (nu - 1, 0), (nu - 1, nv - 1))[k]
+
+
+def _cornered(
+    r: np.ndarray, integrate: Callable[[np.ndarray], np.ndarray], corners: dict[int, np.ndarray]
+) -> np.ndarray:
+    """Grid residuals (nu, nv, 3) of a ``SPATIAL`` or ``SPATIAL2`` net whose
+    anchored corners (format 2.10; k -> its vertex's grid point) hold the
+    corner's grid point minus that point: the residuals ``integrate`` takes.
+
+    Corner by corner in net order, its residual is set so that the integrated
+    value there is the vertex's grid point plus what was stored (each
+    integration gives a residual weight 1 at its own place, and a corner
+    depends on no later one)."""
+    r = r.copy()
+    nu, nv = r.shape[:2]
+    with np.errstate(over="ignore"):  # a wrapped sum fails the checks of the poles
+        for k in sorted(corners):
+            i, j = corner_at(k, nu, nv)
+            stored = r[i, j].copy()
+            r[i, j] = 0
+            r[i, j] = corners[k] + stored - integrate(r)[i, j]
+    return r
+
+
+def corner_grid(code: NetCode, shape: tuple[int, ...], tol: float) -> np.ndarray:
+    """The grid integers (4, 3) of a surface code's corners, in ``CORNERS``
+    order, as decoded against ``code.origin`` (:func:`reorigin`)."""
+    h = tol * code.grid
+    o = spatial.snap(_first(np.zeros(3) if code.origin is None else code.origin), h)
+    nu, nv = shape[:2]
+    if code.method in (Method.SPATIAL, Method.SPATIAL2):
+        r = code.ints.reshape(shape).copy()
+        r[0, 0] += o
+        with np.errstate(over="ignore"):
+            q = (spatial.integrate if code.method == Method.SPATIAL else spatial.unextrapolate)(r)
+        return np.array([q[corner_at(k, nu, nv)] for k in range(4)])
+    if code.method in COONS_METHODS:
+        head = code.ints[:3] + o
+        return np.concatenate([head[None], code.ints[3:12].reshape(3, 3) + head])
+    raise ValueError(f"method {code.method.name} has no corners to anchor")
+
+
+def recorner(
+    code: NetCode,
+    shape: tuple[int, ...],
+    corners: dict[int, np.ndarray],
+    tol: float,
+    grid: np.ndarray | None = None,
+) -> NetCode:
+    """The same surface code with corners ``k`` of ``corners`` (1-3, in
+    ``CORNERS`` order -> a point) coded against those points' grid points
+    (format 2.10): the decoded net is the same.  ``code.origin`` must be the
+    origin the container codes it against (:func:`reorigin`); ``grid``: its
+    :func:`corner_grid`, if known."""
+    if not corners:
+        return code
+    h = tol * code.grid
+    q = corner_grid(code, shape, tol) if grid is None else grid
+    ints = code.ints.copy()
+    for k, v in corners.items():
+        at = _corner_place(code, shape, k)
+        ints[at : at + 3] = q[k] - spatial.snap(v, h)
+    return replace(code, ints=ints)
+
+
+def _corner_place(code: NetCode, shape: tuple[int, ...], k: int) -> int:
+    """Where the three integers of corner ``k`` (1-3) of a surface code start."""
+    if code.method in (Method.SPATIAL, Method.SPATIAL2):
+        i, j = corner_at(k, *shape[:2])
+        return (i * shape[1] + j) * 3
+    return 3 * k
+
+
+def corner_ints(code: NetCode, shape: tuple[int, ...], k: int) -> np.ndarray:
+    """The three integers that code corner ``k`` (1-3) of a surface code."""
+    at = _corner_place(code, shape, k)
+    return code.ints[at : at + 3]
 
 
 def _unextrapolated(
-    ints: np.ndarray, shape: tuple[int, ...], origin: np.ndarray, h: float
+    ints: np.ndarray,
+    shape: tuple[int, ...],
+    origin: np.ndarray,
+    h: float,
+    corners: dict[int, np.ndarray] | None = None,
 ) -> np.ndarray:
     """The net of a ``SPATIAL2`` code's integers (docs/format.md §2.4): the
-    decoder's side, run by the encoder on what it stores too."""
+    decoder's side, run by the encoder on what it stores too (``corners``:
+    see :func:`_cornered`)."""
     r = ints.reshape(shape).copy()
     r[0, 0] += spatial.snap(_first(origin), h)
+    if corners:
+        r = _cornered(r, spatial.unextrapolate, corners)
     return spatial.unextrapolate(r) * h
 
 
@@ -818,8 +930,12 @@ def decode_net(
     tol: float,
     origin: np.ndarray | None = None,
     basis: dmap.Basis | None = None,
+    corners: dict[int, np.ndarray] | None = None,
 ) -> tuple[np.ndarray, int]:
     """The decoded net of a code (the decoder's only entry point), and the DCs it used.
+
+    ``corners`` (format 2.10, surface nets): corners 1-3 (``CORNERS`` order)
+    coded against these points (:func:`recorner`).
 
     ``shape`` is (nu, nv, 3) for a surface net, (n, dim) for a curve.
     ``origin`` must be the point the encoder was given (the previous net's
@@ -837,7 +953,10 @@ def decode_net(
     if code.method == Method.ANCHORED and (origin is None or np.ndim(origin) != 2):
         raise ValueError("an anchored curve needs its two anchors")
     o = np.zeros(shape[-1]) if origin is None else origin
-    rd = _Reader(_Stepper(code.quant, code.level, code.slope, tol), code.ints, code.dcs)
+    if corners and (curve or not set(corners) <= {1, 2, 3}):
+        raise ValueError("only a surface net's corners 1-3 are anchored")
+    st = _Stepper(code.quant, code.level, code.slope, tol)
+    rd = _Reader(st, code.ints, code.dcs, corners)
     net = _code(rd, np.empty(shape), code.method, s, t, o, basis)
     if rd.ipos != len(code.ints):
         raise ValueError("net code has unread values")

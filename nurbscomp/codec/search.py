@@ -19,6 +19,7 @@ import numpy as np
 from .. import coons, dct, dmap, spatial
 from .coder import (
     BICUBIC,
+    COONS_METHODS,
     MAX_INT,
     PAPER_BITS,
     SLOPES,
@@ -425,7 +426,7 @@ class _CoonsRungs(_Batch):
 
 
 #: Methods that code a net's boundary first (:func:`_boundary`).
-_COONS_METHODS = (Method.BOUNDARY, Method.DDMAP, Method.DMAP, Method.BOUNDARY3, Method.DDMAP3)
+_COONS_METHODS = COONS_METHODS
 #: Those whose ladders :class:`_CoonsRungs` computes at once (the D-map's
 #: least squares go rung by rung).
 _BATCHED_COONS = (Method.BOUNDARY, Method.DDMAP, Method.BOUNDARY3, Method.DDMAP3)

@@ -45,7 +45,10 @@ class NetTable:
     takes is known only as it is decoded: ``decode.apply``).  ``anchor``
     (``SNET`` from format 2.1): per row, 0 where its first pole is coded
     against the previous net's, k > 0 against the k-th vertex of the first
-    face on it (:func:`joins.surface_anchor_candidates`)."""
+    face on it (:func:`joins.surface_anchor_candidates`).  ``corners``
+    (``SNET`` from format 2.10): per row, for its corners P0m, Pn0, Pnm, 0 or
+    k > 0 as ``anchor`` (n, 3): the corner's integers are coded against that
+    vertex."""
 
     method: np.ndarray
     quant: np.ndarray
@@ -54,8 +57,11 @@ class NetTable:
     ints: list[np.ndarray]
     dcs: np.ndarray
     anchor: np.ndarray | None = None
+    corners: np.ndarray | None = None
 
 
+#: Format 2.10: the first revision whose ``SNET`` has the corners column.
+CORNERS = container.VERSIONS.index((2, 10))
 #: Names of the integer streams of a 2.1 net table (``codec.segments``), in order.
 NET_STREAMS = ("points", "residuals", "curve coefficients", "map coefficients", "references")
 
@@ -79,6 +85,9 @@ def _write_nets(
         return bytes(w)
     if anchors:
         w.ints(np.zeros(len(t.ints), np.int64) if t.anchor is None else t.anchor)
+        if revision >= CORNERS:
+            corners = np.zeros(3 * len(t.ints), np.int64) if t.corners is None else t.corners
+            w.ints(np.asarray(corners).reshape(-1))
     parts: list[list[np.ndarray]] = [[] for _ in range(codec.STREAMS)]
     prev = 0  # an ISO code's surface row is stored against the previous one's
     for k, ints in enumerate(t.ints):
@@ -123,6 +132,7 @@ def _read_nets(
         raise ValueError("a net table from format 2.1 is read with its rows' shapes")
     method, quant, level, slope = (r.ints(n) for _ in range(4))
     anchor = r.ints(n) if tag == "SNET" else None
+    corners = r.ints(3 * n).reshape(n, 3) if tag == "SNET" and revision >= CORNERS else None
     streams = [_Cursor(r.ints(), f"{tag} {name}") for name in NET_STREAMS]
     dcs = r.floats()
     r.done()
@@ -143,7 +153,7 @@ def _read_nets(
         per.append(one)
     for c in streams:
         c.done()
-    return NetTable(method, quant, level, slope, per, dcs, anchor)
+    return NetTable(method, quant, level, slope, per, dcs, anchor, corners)
 
 
 @dataclass

@@ -243,28 +243,64 @@ def dmap_normals(net: np.ndarray, g: Spline) -> np.ndarray:
     return np.divide(n, length, out=np.zeros_like(n), where=length > 1e-300)
 
 
+def _cumsum2(r: np.ndarray) -> np.ndarray:
+    return np.cumsum(np.cumsum(r, axis=0), axis=1)
+
+
+def _unextrapolate(r: np.ndarray) -> np.ndarray:
+    for axis in (1, 0):
+        w = np.moveaxis(r, axis, 0).copy()
+        for k in range(2, w.shape[0]):
+            w[k] = w[k] + w[k - 1]
+        r = np.moveaxis(np.cumsum(w, axis=0), 0, axis)
+    return r
+
+
+def _with_corners(r: np.ndarray, integrate, corners: dict[int, np.ndarray]) -> np.ndarray:
+    """§2.4.1 (2.10): each anchored corner, in order P0m, Pn0, Pnm, gets the
+    residual that makes its integrated value snap(vertex) + what was stored."""
+    nu, nv = r.shape[:2]
+    at = {1: (0, nv - 1), 2: (nu - 1, 0), 3: (nu - 1, nv - 1)}
+    for k in (1, 2, 3):
+        if k in corners:
+            i, j = at[k]
+            stored = r[i, j].copy()
+            r[i, j] = 0
+            r[i, j] = corners[k] + stored - integrate(r)[i, j]
+    return r
+
+
 def decode_surface(
-    net: Net, shape: tuple[int, int], o: np.ndarray, s, t, g: Spline | None = None
+    net: Net,
+    shape: tuple[int, int],
+    o: np.ndarray,
+    s,
+    t,
+    g: Spline | None = None,
+    corners: dict[int, np.ndarray] | None = None,
 ) -> np.ndarray:
+    """``corners`` (2.10): corner k (1-3) -> its vertex's point."""
     nu, nv = shape
     m = net.method
+    snapped = {k: net.snap(v) for k, v in (corners or {}).items()}
     if m == 0:
         r = net.code.take(nu * nv * 3).reshape(nu, nv, 3).copy()
         r[0, 0] += net.snap(o[0])
-        return np.cumsum(np.cumsum(r, axis=0), axis=1) * net.h
+        return _cumsum2(_with_corners(r, _cumsum2, snapped)) * net.h
     if m == 10:
         if net.quant != 0 or net.S != 0.0:
             raise ReadError("method 10 with quant or slope other than 0")
         r = net.code.take(nu * nv * 3).reshape(nu, nv, 3).copy()
         r[0, 0] += net.snap(o[0])
-        for axis in (1, 0):
-            w = np.moveaxis(r, axis, 0).copy()
-            for k in range(2, w.shape[0]):
-                w[k] = w[k] + w[k - 1]
-            r = np.moveaxis(np.cumsum(w, axis=0), 0, axis)
-        return r * net.h
+        return _unextrapolate(_with_corners(r, _unextrapolate, snapped)) * net.h
     if m in (1, 2, 5, 7, 8):
-        c = net.grid(4, o)
+        d = net.code.take(12).reshape(4, 3)
+        q = d.copy()
+        q[0] = d[0] + net.snap(o[0])
+        q[1:] = d[1:] + q[0]
+        for k, v in snapped.items():
+            q[k] = d[k] + v
+        c = q * net.h
         u0 = net.curve(nv, c[0], c[1])
         u1 = net.curve(nv, c[2], c[3])
         v0 = net.curve(nu, c[0], c[2])
@@ -311,6 +347,7 @@ class Table:
         self.n = len(self.method)
         self.revision = revision
         self.anchor = [0] * self.n
+        self.corners = [[0, 0, 0] for _ in range(self.n)]
         self.counts: list[int] | None = None
         if revision < 4 or self.n == 0:
             self.counts = a.ints().tolist()
@@ -318,6 +355,11 @@ class Table:
         else:
             if tag == "SNET":
                 self.anchor = a.ints().tolist()
+                if revision >= 13:  # (2.10) corners P0m, Pn0, Pnm against vertices
+                    flat = a.ints().tolist()
+                    if len(flat) != 3 * self.n:
+                        raise ReadError("SNET corners: not three per net")
+                    self.corners = [flat[3 * k : 3 * k + 3] for k in range(self.n)]
             self.streams = [Take(a.ints(), f"{tag} stream {k}") for k in range(5)]
         self.dcs = Take(a.floats(), f"{tag} dcs")
         a.end()
@@ -465,7 +507,16 @@ def decode(m: Model) -> None:
         t = abscissae(g.knots[1], g.mults[1], g.degrees[1], g.periodic[1], nv)
         net = Net(snet.code(k, (nu, nv, 3)), snet.method[k], snet.quant[k], snet.level[k],
                   snet.slope[k], tol)  # fmt: skip
-        p = decode_surface(net, (nu, nv), o, s, t, g)
+        corners = {}
+        for c, a in enumerate(snet.corners[k], 1):  # (2.10)
+            if a:
+                cand = next(
+                    (vsets[f] for f in range(len(vsets)) if int(m.faces.surface[f]) == row), []
+                )
+                if not 0 < a <= len(cand):
+                    raise ReadError("SNET corner pick past the candidates")
+                corners[c] = points[cand[a - 1]]
+        p = decode_surface(net, (nu, nv), o, s, t, g, corners)
         net.code.ints.end()
         g.poles = p
         origin = p[0, 0][None].copy()
