@@ -1125,7 +1125,9 @@ def _anchor_curves(
     """
     if not ANCHOR_CURVES:
         return
-    crec = records(curves, Table.CURVE3D)
+    rows_of: dict[Rec, list[int]] = collections.defaultdict(list)
+    for i, k in enumerate(records(curves, Table.CURVE3D)):
+        rows_of[k].append(i)
     mine = {k.row: k for k, c in codes.items() if k.table == Table.CURVE3D}
     rows = {r for r, k in mine.items() if codes[k].method in codec.CURVE_METHODS}
     for row, a in joins.anchors(m, curves, rows).items():
@@ -1149,9 +1151,8 @@ def _anchor_curves(
             continue
         if hit[0].bits < codec.cost_bits(codec.reorigin(code, a, coded.tol).ints):
             codes[k] = hit[0]
-            for i, kk in enumerate(crec):
-                if kk == k:
-                    curves[i] = hit[1]
+            for i in rows_of[k]:
+                curves[i] = hit[1]
 
 
 def _same_knots(a: Geometry, b: Geometry) -> bool:
