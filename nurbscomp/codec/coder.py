@@ -542,8 +542,9 @@ class _Reader:
         )
 
 
-#: Where each corner of ``CORNERS`` order (P00, P0m, Pn0, Pnm) is in a net (nu, nv).
 def corner_at(k: int, nu: int, nv: int) -> tuple[int, int]:
+    """Where corner ``k`` of a net (nu, nv) is, in the order P00, P0m, Pn0, Pnm
+    (``rules.joins.CORNERS``)."""
     return ((0, 0), (0, nv - 1), (nu - 1, 0), (nu - 1, nv - 1))[k]
 
 
