@@ -161,8 +161,6 @@ def _decode_nets(
                 at = (anchors or {}).get(row, origin)
                 shape = cast(BSplineCurve | BSplineSurface, g).poles.shape
                 at_corners = (corners or {}).get(row)
-                if at_corners and code.method not in codec.CORNERED:
-                    raise ValueError(f"method {code.method.name} has no corners to anchor")
                 net, used = codec.decode_net(code, shape, s, u, tol, at, net_basis(g), at_corners)
         except (ValueError, ArithmeticError) as e:  # LinAlgError is a ValueError
             raise SectionError(f"{tag}: net {k} (table row {row}): {e}") from None

@@ -96,9 +96,17 @@ def _anchor_choice(code: codec.NetCode, points: np.ndarray, tol: float) -> int:
     h = tol * code.grid
     old = np.zeros(3) if code.origin is None else code.origin
     head = code.ints[:3] + spatial.snap(old, h)
-    best, pick = codec.cost_bits(code.ints[:3]) + 1, 0
-    for k, pt in enumerate(points, 1):
-        bits = codec.cost_bits(head - spatial.snap(pt, h)) + codec.cost_bits(np.array([k]))
+    return _cheapest(code.ints[:3], head, spatial.snap(points, h))
+
+
+def _cheapest(own: np.ndarray, q: np.ndarray, snapped: np.ndarray) -> int:
+    """0, or k > 0 for the k-th of the grid points ``snapped`` (k, 3): what
+    codes the grid point ``q`` in the fewest bits (:func:`codec.cost_bits`),
+    its integers ``own`` as they are (one bit more, for a pick of 0) or ``q``
+    minus that point (plus the pick's own bits); the first on a tie."""
+    best, pick = codec.cost_bits(own) + 1, 0
+    for k, g in enumerate(snapped, 1):
+        bits = codec.cost_bits(q - g) + codec.cost_bits(np.array([k]))
         if bits < best:
             best, pick = bits, k
     return pick
@@ -116,17 +124,8 @@ def _corner_choice(
     k-th of ``points`` (k, 3), the vertex that codes its integers in the
     fewest bits (:func:`codec.cost_bits`, the pick's own counted; as they
     are on a tie)."""
-    h = tol * code.grid
-    snapped = spatial.snap(points, h)
-    out = []
-    for c in (1, 2, 3):
-        best, pick = codec.cost_bits(codec.corner_ints(code, shape, c)) + 1, 0
-        for k, g in enumerate(snapped, 1):
-            bits = codec.cost_bits(q[c] - g) + codec.cost_bits(np.array([k]))
-            if bits < best:
-                best, pick = bits, k
-        out.append(pick)
-    return out
+    snapped = spatial.snap(points, tol * code.grid)
+    return [_cheapest(codec.corner_ints(code, shape, c), q[c], snapped) for c in (1, 2, 3)]
 
 
 def _surface_choices(m: BRepModel, codes: dict[Rec, codec.NetCode]) -> dict[int, np.ndarray]:

@@ -954,7 +954,7 @@ def decode_net(
     if code.method == Method.ANCHORED and (origin is None or np.ndim(origin) != 2):
         raise ValueError("an anchored curve needs its two anchors")
     o = np.zeros(shape[-1]) if origin is None else origin
-    if corners and (curve or not set(corners) <= {1, 2, 3}):
+    if corners and (code.method not in CORNERED or not set(corners) <= {1, 2, 3}):
         raise ValueError("only a surface net's corners 1-3 are anchored")
     st = _Stepper(code.quant, code.level, code.slope, tol)
     rd = _Reader(st, code.ints, code.dcs, corners)

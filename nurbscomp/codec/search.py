@@ -425,16 +425,15 @@ class _CoonsRungs(_Batch):
                 self.ints[i] = ints[j]
 
 
-#: Methods that code a net's boundary first (:func:`_boundary`).
-_COONS_METHODS = COONS_METHODS
-#: Those whose ladders :class:`_CoonsRungs` computes at once (the D-map's
+#: The methods of ``COONS_METHODS`` (a net's boundary first, :func:`_boundary`) whose
+#: ladders :class:`_CoonsRungs` computes at once (the D-map's
 #: least squares go rung by rung).
 _BATCHED_COONS = (Method.BOUNDARY, Method.DDMAP, Method.BOUNDARY3, Method.DDMAP3)
 
 
 def _boundary_rungs_apply(p: np.ndarray, method: Method, settings: Sequence[_Stepper]) -> bool:
     """Whether :func:`_boundary_rungs` codes this ladder's boundaries."""
-    if method not in _COONS_METHODS or p.ndim != 3 or p.size > RUNGS_MAX:
+    if method not in COONS_METHODS or p.ndim != 3 or p.size > RUNGS_MAX:
         return False
     if not _tol_ladder(tuple(settings)):
         return False

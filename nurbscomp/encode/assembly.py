@@ -1128,7 +1128,7 @@ def _anchor_curves(
     rows_of: dict[Rec, list[int]] = collections.defaultdict(list)
     for i, k in enumerate(records(curves, Table.CURVE3D)):
         rows_of[k].append(i)
-    mine = {k.row: k for k, c in codes.items() if k.table == Table.CURVE3D}
+    mine = {k.row: k for k in codes if k.table == Table.CURVE3D}
     rows = {r for r, k in mine.items() if codes[k].method in codec.CURVE_METHODS}
     for row, a in joins.anchors(m, curves, rows).items():
         if a.ndim != 2:

@@ -496,8 +496,8 @@ def decode(m: Model) -> None:
         assert isinstance(g, Spline)
         nu, nv = g.shape
         o = origin
+        cand = next((vsets[f] for f in range(len(vsets)) if int(m.faces.surface[f]) == row), [])
         if snet.anchor[k] > 0:
-            cand = next((vsets[f] for f in range(len(vsets)) if int(m.faces.surface[f]) == row), [])
             if snet.anchor[k] > len(cand):
                 raise ReadError("SNET anchor past the candidates")
             o = points[cand[snet.anchor[k] - 1]][None]
@@ -510,9 +510,6 @@ def decode(m: Model) -> None:
         corners = {}
         for c, a in enumerate(snet.corners[k], 1):  # (2.10)
             if a:
-                cand = next(
-                    (vsets[f] for f in range(len(vsets)) if int(m.faces.surface[f]) == row), []
-                )
                 if not 0 < a <= len(cand):
                     raise ReadError("SNET corner pick past the candidates")
                 corners[c] = points[cand[a - 1]]
