@@ -7,10 +7,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .. import container
 from ..errors import BadReferenceError, LimitError, SectionError
 from ..model import (
     EC,
+    Analytic,
     BRepModel,
+    Kind,
     RepKind,
     ShapeType,
 )
@@ -18,11 +21,22 @@ from ..streams import BlockReader, BlockWriter
 from .limits import MAX_COORD, _counts, _tolerances, finite
 from .vertices import _read_tolerances, _write_tolerances
 
+#: How an edge representation's range is stored (EDGE, format 0.3; VERTICES 0.4).
+RANGE_STORED, RANGE_NATURAL, RANGE_OF_3D, RANGE_ZERO, RANGE_VERTICES = 0, 1, 2, 3, 4
+#: How many range kinds there are: format 2.11 stores a range kind less its
+#: prediction, modulo this.
+RANGE_KINDS = RANGE_VERTICES + 1
+#: Format 2.11: the first revision whose EDGE predicts its representations'
+#: kinds and range kinds and leaves out the end points of computed pcurves.
+PREDICTED = container.VERSIONS.index((2, 11))
 
-def edge_candidates(m: BRepModel, cap: float = np.inf) -> list[list[int]]:
-    """Format 2.0: per edge row, the surface rows of the faces it bounds (faces
-    in ``FACE`` order, each surface row at its first appearance): the
-    candidates an ``EDGE`` surface pick names (docs/format.md §2.7).
+
+def edge_uses(m: BRepModel, cap: float = np.inf) -> list[list[tuple[int, int]]]:
+    """Per edge row, the faces it bounds, in ``FACE`` order, each with how
+    many times its walk references the edge (2 for a seam): the walk from a
+    face's shape visits every shape below it once (wires, and shells or
+    compounds in between; not edges' vertices) and counts each reference to
+    the edge in their child lists (docs/format.md §2.7).
 
     Raises
     ------
@@ -35,12 +49,12 @@ def edge_candidates(m: BRepModel, cap: float = np.inf) -> list[list[int]]:
     types = m.shape_type.tolist()
     start, kids = m.child_start.tolist(), m.child_shape.tolist()
     edge, vertex = int(ShapeType.EDGE), int(ShapeType.VERTEX)
-    out: list[list[int]] = [[] for _ in range(types.count(edge))]
+    out: list[list[tuple[int, int]]] = [[] for _ in range(types.count(edge))]
     work = 0
     faces = [i for i, t in enumerate(types) if t == int(ShapeType.FACE)]
     for f, s in enumerate(faces):
-        r = int(m.face_surface[f])
         seen, stack = {s}, [s]
+        count: dict[int, int] = {}
         while stack:
             x = stack.pop()
             work += start[x + 1] - start[x]
@@ -49,15 +63,118 @@ def edge_candidates(m: BRepModel, cap: float = np.inf) -> list[list[int]]:
                     f"EDGE: the faces' walks to their edges pass more than {cap:g} references"
                 )
             for c in kids[start[x] : start[x + 1]]:
-                if c in seen:
-                    continue
-                seen.add(c)
                 if types[c] == edge:
-                    cands = out[tidx[c]]
-                    if r not in cands:
-                        cands.append(r)
-                elif types[c] < edge and types[c] != vertex:
+                    count[c] = count.get(c, 0) + 1
+                elif c not in seen and types[c] < edge and types[c] != vertex:
+                    seen.add(c)
                     stack.append(c)
+        for c, n in count.items():
+            out[tidx[c]].append((f, n))
+    return out
+
+
+def edge_candidates(
+    m: BRepModel, cap: float = np.inf, uses: list[list[tuple[int, int]]] | None = None
+) -> list[list[int]]:
+    """Format 2.0: per edge row, the surface rows of the faces it bounds (faces
+    in ``FACE`` order, each surface row at its first appearance): the
+    candidates an ``EDGE`` surface pick names (docs/format.md §2.7).
+    ``cap``: as :func:`edge_uses`; ``uses``: its result, if already made."""
+    out: list[list[int]] = []
+    for u in edge_uses(m, cap) if uses is None else uses:
+        cands: list[int] = []
+        for f, _ in u:
+            r = int(m.face_surface[f])
+            if r not in cands:
+                cands.append(r)
+        out.append(cands)
+    return out
+
+
+def _pcurve_faces(m: BRepModel, uses: list[list[tuple[int, int]]]) -> list[list[tuple[int, int]]]:
+    """Format 2.11: per edge row, the faces of ``uses`` (:func:`edge_uses`)
+    predicted to hold a pcurve of it, with their uses: those that reference
+    it twice or more, and those whose surface row is not a plane."""
+    plane = [isinstance(g, Analytic) and g.kind == Kind.PLANE for g in m.surfaces]
+
+    def flat(f: int) -> bool:
+        r = int(m.face_surface[f])
+        return 0 <= r < len(plane) and plane[r]
+
+    return [[(f, n) for f, n in u if n >= 2 or not flat(f)] for u in uses]
+
+
+def predicted_kinds(m: BRepModel, uses: list[list[tuple[int, int]]]) -> list[list[int]]:
+    """Format 2.11: per edge row, the kinds its representations are predicted
+    to have (docs/format.md §2.7, "Predicted representations"): a 3-D curve;
+    per face it bounds (``uses``, :func:`edge_uses`), a pcurve on a closed
+    surface where the face references it twice or more, else a pcurve
+    unless the face's surface row is a plane; and a regularity record where
+    it bounds exactly two faces."""
+    out = []
+    for u, faces in zip(uses, _pcurve_faces(m, uses)):
+        kinds = [int(RepKind.CURVE3D)]
+        kinds += [
+            int(RepKind.ON_CLOSED_SURFACE if n >= 2 else RepKind.ON_SURFACE) for _, n in faces
+        ]
+        if len(u) == 2:
+            kinds.append(int(RepKind.ON_TWO_SURFACES))
+        out.append(kinds)
+    return out
+
+
+def predicted_picks(
+    m: BRepModel, uses: list[list[tuple[int, int]]], cands: list[list[int]]
+) -> tuple[np.ndarray, np.ndarray]:
+    """Format 2.11: the predicted surface picks of the representations of
+    kinds 1-3 and of the second surfaces of kind 3, in representation order:
+    the j-th pcurve of an edge on the j-th face predicted to hold one
+    (:func:`_pcurve_faces`; 0 past them), a regularity record's on
+    candidates 0 and 1 (0 if there is one)."""
+    faces = _pcurve_faces(m, uses)
+    reps = m.edge_reps
+    kind, edge = reps[:, EC.KIND].tolist(), reps[:, EC.EDGE].tolist()
+    first: list[int] = []
+    second: list[int] = []
+    seen: dict[int, int] = {}
+    for k, e in zip(kind, edge):
+        if k == RepKind.CURVE3D:
+            continue
+        if k == RepKind.ON_TWO_SURFACES:
+            first.append(0)
+            second.append(int(len(cands[e]) > 1))
+            continue
+        j = seen.get(e, 0)
+        seen[e] = j + 1
+        fs = faces[e]
+        first.append(cands[e].index(int(m.face_surface[fs[j][0]])) if j < len(fs) else 0)
+    return np.array(first, np.int64), np.array(second, np.int64)
+
+
+def _unpredict(
+    p: np.ndarray, pred: np.ndarray, edges: np.ndarray, cands: list[list[int]]
+) -> np.ndarray:
+    """Format 2.11: picks as stored: −1 (escaped) as it is, another pick as
+    its difference from its prediction modulo the edge's candidates."""
+    n = np.array([len(cands[e]) for e in edges.tolist()], np.int64)
+    return np.where(p < 0, p, (p - pred) % np.maximum(n, 1))
+
+
+def predicted_ranges(m: BRepModel, kind: np.ndarray, curve: np.ndarray) -> np.ndarray:
+    """Format 2.11: per representation, its predicted range kind: zeros
+    (``RANGE_ZERO``) for a pcurve, from the vertices (``RANGE_VERTICES``) for
+    a 3-D curve whose ``CRV3`` row is a line or a circle, the curve's own
+    (``RANGE_NATURAL``) for another 3-D curve, stored for none (−1)."""
+    out = np.full(len(kind), RANGE_ZERO, np.int64)
+    n3 = len(m.curves3d)
+    for q in np.flatnonzero(kind == RepKind.CURVE3D).tolist():
+        c = int(curve[q])
+        if not 0 <= c < n3:
+            out[q] = RANGE_STORED
+            continue
+        g = m.curves3d[c]
+        conic = isinstance(g, Analytic) and g.kind in (Kind.LINE, Kind.CIRCLE)
+        out[q] = RANGE_VERTICES if conic else RANGE_NATURAL
     return out
 
 
@@ -71,43 +188,64 @@ def _picks(values: np.ndarray, edges: np.ndarray, cands: list[list[int]]) -> np.
     return out
 
 
-def _write_edges(m: BRepModel, how: np.ndarray) -> bytes:
-    """EDGE (format 2.0); ``how`` is each representation's range kind
+def _write_edges(m: BRepModel, how: np.ndarray, revision: int = container.REVISION) -> bytes:
+    """EDGE (format 2.0; from revision ``PREDICTED``, 2.11, kinds and range
+    kinds by prediction); ``how`` is each representation's range kind
     (``rules.ranges.range_kinds``)."""
     w = BlockWriter()
     _write_tolerances(w, m.edge_tol)
     w.ints(m.edge_flags)
     reps = m.edge_reps
-    w.ints(np.bincount(reps[:, EC.EDGE], minlength=len(m.edge_tol)) if len(reps) else [])
     kind = reps[:, EC.KIND]
-    w.ints(kind)
+    uses = edge_uses(m)
+    on = (kind == RepKind.ON_SURFACE) | (kind == RepKind.ON_CLOSED_SURFACE)
+    if revision >= PREDICTED:
+        # a pcurve of range kind 3 has no end points in 2.11: one whose end
+        # points are not zeros has its range (zeros) stored instead
+        how = np.where(on & (how == RANGE_ZERO) & (m.edge_rep_uv != 0).any(1), RANGE_STORED, how)
+        per = np.bincount(reps[:, EC.EDGE], minlength=len(m.edge_tol))
+        first = np.concatenate([[0], np.cumsum(per)]).tolist()
+        kinds = [kind[a:b].tolist() for a, b in zip(first[:-1], first[1:])]
+        odd = [e for e, k in enumerate(predicted_kinds(m, uses)) if kinds[e] != k]
+        w.deltas(odd)
+        w.ints(per[odd])
+        w.ints([k for e in odd for k in kinds[e]])
+    else:
+        w.ints(np.bincount(reps[:, EC.EDGE], minlength=len(m.edge_tol)) if len(reps) else [])
+        w.ints(kind)
     # each column only where the representation kind uses it
     w.deltas(reps[kind == RepKind.CURVE3D, EC.CURVE])  # 3-D curve
-    w.deltas(
-        reps[(kind == RepKind.ON_SURFACE) | (kind == RepKind.ON_CLOSED_SURFACE), EC.CURVE]
-    )  # pcurve
+    w.deltas(reps[on, EC.CURVE])  # pcurve
     w.ints(reps[kind == RepKind.ON_CLOSED_SURFACE, EC.CURVE2])  # second pcurve
     # surfaces (2.0): picked among the surfaces of the edge's faces, or escaped
-    cands = edge_candidates(m)
+    cands = edge_candidates(m, uses=uses)
     s1, e1 = reps[kind != RepKind.CURVE3D, EC.SURFACE], reps[kind != RepKind.CURVE3D, EC.EDGE]
     s2, e2 = (
         reps[kind == RepKind.ON_TWO_SURFACES, EC.SURFACE2],
         reps[kind == RepKind.ON_TWO_SURFACES, EC.EDGE],
     )
     p1, p2 = _picks(s1, e1, cands), _picks(s2, e2, cands)
-    w.ints(p1)
-    w.ints(p2)
+    if revision >= PREDICTED:
+        pred1, pred2 = predicted_picks(m, uses, cands)
+        w.ints(_unpredict(p1, pred1, e1, cands))
+        w.ints(_unpredict(p2, pred2, e2, cands))
+    else:
+        w.ints(p1)
+        w.ints(p2)
     w.deltas(np.concatenate([s1[p1 < 0], s2[p2 < 0]]))
     w.ints(reps[:, EC.LOC])  # location
     w.ints(reps[kind == RepKind.ON_TWO_SURFACES, EC.LOC2])  # second location
     cont = (kind == RepKind.ON_CLOSED_SURFACE) | (kind == RepKind.ON_TWO_SURFACES)
     w.ints(m.edge_rep_cont[cont])
     ranged = kind != RepKind.ON_TWO_SURFACES
-    w.ints(how[ranged])
+    if revision >= PREDICTED:
+        w.ints(((how - predicted_ranges(m, kind, reps[:, EC.CURVE])) % RANGE_KINDS)[ranged])
+        on &= how != RANGE_ZERO
+    else:
+        w.ints(how[ranged])
     w.floats(m.edge_rep_range[ranged & (how == RANGE_STORED)].reshape(-1))
-    on = (kind == RepKind.ON_SURFACE) | (kind == RepKind.ON_CLOSED_SURFACE)
     w.floats(m.edge_rep_uv[on, :4].reshape(-1))
-    w.floats(m.edge_rep_uv[kind == RepKind.ON_CLOSED_SURFACE, 4:].reshape(-1))
+    w.floats(m.edge_rep_uv[on & (kind == RepKind.ON_CLOSED_SURFACE), 4:].reshape(-1))
     return bytes(w)
 
 
@@ -118,13 +256,20 @@ class _Picks:
     first: np.ndarray
     second: np.ndarray
     escaped: np.ndarray
+    #: (2.11) the faces' uses of the edges (:func:`edge_uses`): the picks are
+    #: stored against their predictions (:func:`predicted_picks`)
+    uses: list[list[tuple[int, int]]] | None = None
 
 
-def _read_edges(data: bytes, m: BRepModel, revision: int = 3) -> tuple[np.ndarray, _Picks | None]:
+def _read_edges(
+    data: bytes, m: BRepModel, revision: int = 3, cap: float = np.inf
+) -> tuple[np.ndarray, _Picks | None]:
     """Fill ``m``'s edge tables; return the range kinds (``rules.ranges.range_kinds``:
     ranges of any kind but ``RANGE_STORED`` are left for ``rules.ranges.resolve_ranges``)
     and, from revision 3, the surface picks (:func:`_resolve_picks`; the
-    surfaces are 0 until then)."""
+    surfaces are 0 until then).  From revision ``PREDICTED`` (2.11) the
+    predictions need ``SURF``, ``CRV3``, ``SHAP`` and ``FACE`` read first;
+    ``cap`` bounds the faces' walks (:func:`edge_uses`)."""
     r = BlockReader(data, "EDGE")
     m.edge_tol = _read_tolerances(r, None, "EDGE") if revision >= 3 else r.floats()
     _tolerances(m.edge_tol, "EDGE tolerances")
@@ -133,11 +278,15 @@ def _read_edges(data: bytes, m: BRepModel, revision: int = 3) -> tuple[np.ndarra
     if ne and (flags.min() < 0 or flags.max() > 7):
         raise SectionError("EDGE: unknown edge flags")
     m.edge_flags = flags.astype(np.uint8)
-    per = r.ints()
-    if len(per) not in (0, ne):
-        raise SectionError("EDGE: bad representation counts")
-    q = _counts(per, r, "EDGE representation counts")
-    kind = r.ints(q)
+    uses = None
+    if revision >= PREDICTED:
+        per, kind, uses = _read_kinds(r, m, ne, cap)
+    else:
+        per = r.ints()
+        if len(per) not in (0, ne):
+            raise SectionError("EDGE: bad representation counts")
+        kind = r.ints(_counts(per, r, "EDGE representation counts"))
+    q = len(kind)
     if q and (kind.min() < 0 or kind.max() > 3):
         raise SectionError("EDGE: unknown representation kind")
     reps = np.full((q, 8), -1, np.int64)
@@ -156,7 +305,7 @@ def _read_edges(data: bytes, m: BRepModel, revision: int = 3) -> tuple[np.ndarra
         if (first < -1).any() or (second < -1).any():
             raise SectionError("EDGE: a surface pick below -1")
         n_esc = int((first == -1).sum() + (second == -1).sum())
-        picks = _Picks(first, second, r.deltas(n_esc))
+        picks = _Picks(first, second, r.deltas(n_esc), uses)
         reps[~c3, EC.SURFACE] = 0
         reps[two, EC.SURFACE2] = 0
     else:
@@ -175,13 +324,16 @@ def _read_edges(data: bytes, m: BRepModel, revision: int = 3) -> tuple[np.ndarra
     how[~two] = r.ints(int((~two).sum()))
     if ((how < 0) | (how > RANGE_VERTICES)).any():
         raise SectionError("EDGE: unknown range kind")
+    on = (kind == RepKind.ON_SURFACE) | closed
+    if revision >= PREDICTED:  # (2.11) a range kind less its prediction
+        how[~two] = ((how + predicted_ranges(m, kind, reps[:, EC.CURVE])) % RANGE_KINDS)[~two]
+        on &= how != RANGE_ZERO  # a computed pcurve's end points are zeros
     m.edge_rep_range = np.zeros((q, 2))
     stored = how == RANGE_STORED
     m.edge_rep_range[stored] = r.floats(2 * int(stored.sum())).reshape(-1, 2)
     m.edge_rep_uv = np.zeros((q, 8))
-    on = (kind == RepKind.ON_SURFACE) | closed
     m.edge_rep_uv[on, :4] = r.floats(4 * int(on.sum())).reshape(-1, 4)
-    m.edge_rep_uv[closed, 4:] = r.floats(4 * int(closed.sum())).reshape(-1, 4)
+    m.edge_rep_uv[on & closed, 4:] = r.floats(4 * int((on & closed).sum())).reshape(-1, 4)
     r.done()
     # an edge without a 3-D curve (degenerated) has OCCT's default range, ±DBL_MAX
     curveless = (kind == RepKind.CURVE3D) & (reps[:, EC.CURVE] == -1)
@@ -191,18 +343,46 @@ def _read_edges(data: bytes, m: BRepModel, revision: int = 3) -> tuple[np.ndarra
     return how, picks
 
 
+def _read_kinds(
+    r: BlockReader, m: BRepModel, ne: int, cap: float
+) -> tuple[np.ndarray, np.ndarray, list[list[tuple[int, int]]]]:
+    """Format 2.11: the representations per edge and their kinds, from the
+    predictions (:func:`predicted_kinds`) and the edges that differ from them
+    (docs/format.md §2.7, "Predicted representations")."""
+    n_faces = int((m.shape_type == ShapeType.FACE).sum())
+    if len(m.face_surface) != n_faces or ne != int((m.shape_type == ShapeType.EDGE).sum()):
+        raise BadReferenceError("edge or face table does not match the shapes table")
+    uses = edge_uses(m, cap)
+    kinds = predicted_kinds(m, uses)
+    odd = r.deltas()
+    if len(odd) and (odd.min() < 0 or odd.max() >= ne or (np.diff(odd) <= 0).any()):
+        raise SectionError("EDGE: the edges off their prediction are not increasing edge rows")
+    per = r.ints(len(odd))
+    given = r.ints(_counts(per, r, "EDGE representation counts"))
+    at = 0
+    for e, n in zip(odd.tolist(), per.tolist()):
+        kinds[e] = given[at : at + n].tolist()
+        at += n
+    counts = np.array([len(k) for k in kinds], np.int64)
+    if int(counts.sum()) > r.remaining:  # every representation stores its location
+        raise SectionError("EDGE: more representations than the section holds")
+    return counts, np.array([k for ks in kinds for k in ks], np.int64), uses
+
+
 def _resolve_picks(m: BRepModel, p: _Picks, cap: float) -> None:
     """Set EDGE's surfaces from their picks (format 2.0, docs/format.md §2.7)."""
-    cands = edge_candidates(m, cap)
+    cands = edge_candidates(m, cap, p.uses)
     reps = m.edge_reps
     esc = iter(p.escaped.tolist())
     kind = reps[:, EC.KIND]
-    for col, sel, pick in (
-        (EC.SURFACE, kind != RepKind.CURVE3D, p.first),
-        (EC.SURFACE2, kind == RepKind.ON_TWO_SURFACES, p.second),
+    zero = np.zeros(len(reps), np.int64)
+    pred1, pred2 = (zero, zero) if p.uses is None else predicted_picks(m, p.uses, cands)
+    for col, sel, pick, pred in (
+        (EC.SURFACE, kind != RepKind.CURVE3D, p.first, pred1),
+        (EC.SURFACE2, kind == RepKind.ON_TWO_SURFACES, p.second, pred2),
     ):
         rows = np.flatnonzero(sel).tolist()
-        for q, k in zip(rows, pick.tolist()):
+        for q, k, d in zip(rows, pick.tolist(), pred.tolist()):
             if k == -1:
                 reps[q, col] = next(esc)  # as many as the picks of -1: read so
                 continue
@@ -211,11 +391,7 @@ def _resolve_picks(m: BRepModel, p: _Picks, cap: float) -> None:
                 raise BadReferenceError(
                     f"EDGE: representation {q} picks surface {k} of an edge on {len(c)}"
                 )
-            reps[q, col] = c[k]
-
-
-#: How an edge representation's range is stored (EDGE, format 0.3; VERTICES 0.4).
-RANGE_STORED, RANGE_NATURAL, RANGE_OF_3D, RANGE_ZERO, RANGE_VERTICES = 0, 1, 2, 3, 4
+            reps[q, col] = c[(k + d) % len(c)]
 
 
 def _write_faces(m: BRepModel) -> bytes:

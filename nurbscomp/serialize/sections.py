@@ -163,13 +163,14 @@ def _read_sections(
     m.curves2d = _read_geometry(get("CRV2"), "CRV2", 2, revision)
     _read_shapes(get("SHAP"), m, revision, limits)
     _read_vertices(get("VERT"), m, tol, revision)
-    range_how, picks = _read_edges(get("EDGE"), m, revision)
-    _read_faces(get("FACE"), m)
+    cap = np.inf if limits is None else limits.references
+    _read_faces(get("FACE"), m)  # before EDGE: 2.11 predicts from the faces
+    range_how, picks = _read_edges(get("EDGE"), m, revision, cap)
     if picks is not None:
         counts = m.counts()
         if len(m.face_surface) != counts["face"] or len(m.edge_tol) != counts["edge"]:
             raise BadReferenceError("edge or face table does not match the shapes table")
-        _resolve_picks(m, picks, np.inf if limits is None else limits.references)
+        _resolve_picks(m, picks, cap)
     check_references(m)
     if limits is not None:
         budget.check_structure(m, limits)

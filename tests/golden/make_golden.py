@@ -95,10 +95,15 @@ GOLDEN = [
     ("bracket.step", "v2_9.tol0.01", {"tol": 0.01}),
     # format 2.10: a curve coded between its anchors (CNET method 11)
     ("loft.step", "v2_10.tol0.01", {"tol": 0.01}),
+    # format 2.11: EDGE's kinds, range kinds and surface picks by prediction
+    ("bracket.step", "v2_11.tol0.01", {"tol": 0.01}),
+    ("teapot.step", "v2_11.faces.tol0.1", {"tol": 0.1}),
 ]
 
 
 def _version(sample: str, mode: str) -> str:
+    if mode.startswith("v2_11."):
+        return "2.11"
     if mode.startswith("v2_10."):
         return "2.10"
     if mode.startswith("v2_9."):

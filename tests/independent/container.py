@@ -27,6 +27,7 @@ REVISION = {
     (2, 8): 11,
     (2, 9): 12,
     (2, 10): 13,
+    (2, 11): 14,
 }
 #: §1.2 (2.6): the tags of the directory's one-byte codes
 TAGS = "META LOCS SURF SNET CRV3 CNET CRV2 SHAP VERT EDGE FACE SIDE PROD FILE TEXT".split()

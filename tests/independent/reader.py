@@ -163,8 +163,46 @@ def below(shapes: Shapes) -> list[set[int]]:
     return out
 
 
-def resolve_picks(shapes: Shapes, faces: Faces, edges: Edges) -> None:
-    """§2.7, surfaces by prediction (2.0)."""
+def face_uses(shapes: Shapes, faces: Faces) -> list[list[tuple[int, int]]]:
+    """§2.7 (2.11): per edge row, (face row, references) of each face whose
+    walk reaches it: the references to it in the child lists of the shapes
+    of types 0-5 reached from the face, the face included."""
+    reach = below(shapes)
+    edge_shapes = shapes.of(6)
+    out: list[list[tuple[int, int]]] = [[] for _ in edge_shapes]
+    for f, fs in enumerate(shapes.of(4)):
+        count: dict[int, int] = {}
+        for x in reach[fs]:
+            if shapes.type[x] <= 5:
+                for ch, _, _ in shapes.children[x]:
+                    if shapes.type[ch] == 6:
+                        count[ch] = count.get(ch, 0) + 1
+        for ch in sorted(count, key=lambda e: shapes.row_of[e]):
+            out[shapes.row_of[ch]].append((f, count[ch]))
+    return out
+
+
+def pcurve_faces(
+    uses: list[list[tuple[int, int]]], faces: Faces, surfaces: list[Record]
+) -> list[list[tuple[int, int]]]:
+    """§2.7 (2.11): the faces predicted to hold a pcurve of each edge: two
+    references or more, or a surface row that is not a plane (kind 0)."""
+
+    def plane(f: int) -> bool:
+        g = surfaces[int(faces.surface[f])]
+        return isinstance(g, Analytic) and g.kind == 0
+
+    return [[(f, n) for f, n in u if n >= 2 or not plane(f)] for u in uses]
+
+
+def resolve_picks(
+    shapes: Shapes,
+    faces: Faces,
+    edges: Edges,
+    with_pcurve: list[list[tuple[int, int]]] | None = None,
+) -> None:
+    """§2.7, surfaces by prediction (2.0); from 2.11 (``with_pcurve`` given)
+    each pick stored less its prediction, modulo the edge's candidates."""
     if edges.picks is None:
         return
     p1, p2, esc = edges.picks
@@ -183,14 +221,31 @@ def resolve_picks(shapes: Shapes, faces: Faces, edges: Edges) -> None:
             cache[e] = lst
         return cache[e]
 
+    nth: dict[int, int] = {}
+
+    def guess(r: int, col: int) -> int:
+        e, k = int(edges.reps[r, 0]), int(edges.reps[r, 1])
+        if with_pcurve is None:
+            return 0
+        if k == 3:
+            return 0 if col == 4 else int(len(cand(e)) > 1)
+        j = nth.get(e, 0)
+        nth[e] = j + 1
+        pf = with_pcurve[e]
+        return cand(e).index(int(faces.surface[pf[j][0]])) if j < len(pf) else 0
+
     it1, it2, ie = iter(p1), iter(p2), iter(esc)
     for col, it, kinds in ((4, it1, (1, 2, 3)), (5, it2, (3,))):
         for r in range(len(edges.reps)):
             if edges.reps[r, 1] not in kinds:
                 continue
             k = next(it)
+            g = guess(r, col)
             if k >= 0:
-                edges.reps[r, col] = cand(int(edges.reps[r, 0]))[k]
+                lst = cand(int(edges.reps[r, 0]))
+                if k >= len(lst):
+                    raise ReadError("EDGE: pick past the candidates")
+                edges.reps[r, col] = lst[(k + g) % len(lst)]
             elif k == -1:
                 edges.reps[r, col] = next(ie)
             else:
@@ -416,9 +471,15 @@ def read(data: bytes) -> Model:
     curves2d, _ = read_geometry(c.sections["CRV2"], "CRV2", 2, rev)
     shapes = read_shap(c.sections["SHAP"], rev)
     vertices = read_vertices(c.sections["VERT"], rev, shapes, tol)
-    edges = read_edges(c.sections["EDGE"], rev)
     faces = read_faces(c.sections["FACE"])
-    resolve_picks(shapes, faces, edges)
+    uses = face_uses(shapes, faces)
+    with_pcurve = pcurve_faces(uses, faces, surfaces)
+    predicted = [
+        [0] + [2 if n >= 2 else 1 for _, n in pf] + ([3] if len(u) == 2 else [])
+        for u, pf in zip(uses, with_pcurve)
+    ]
+    edges = read_edges(c.sections["EDGE"], rev, predicted, curves3d)
+    resolve_picks(shapes, faces, edges, with_pcurve if rev >= 14 else None)
     sides = read_sides(c.sections["SIDE"]) if "SIDE" in c.sections else []
     m = Model(rev, meta, tol, forms, datums, locs, surfaces, curves3d, curves2d, shapes,
               vertices, edges, faces, sides, c.sections["SNET"], c.sections["CNET"],

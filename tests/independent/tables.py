@@ -487,12 +487,34 @@ class Edges:
     picks: tuple[list[int], list[int], list[int]] | None = None  # 2.0: surface, surface2, escaped
 
 
-def read_edges(raw: bytes, revision: int) -> Edges:
+def read_edges(
+    raw: bytes,
+    revision: int,
+    predicted: list[list[int]] | None = None,
+    curves3d: list[Record] | None = None,
+) -> Edges:
+    """``predicted`` (2.11): each edge's predicted representation kinds;
+    ``curves3d``: the CRV3 rows, whose lines and circles predict range kind 4."""
     a = Arrays(raw, "EDGE")
     etol = tolerances(a, None, revision)
     flags = a.ints()
-    nreps = a.ints()
-    kind = a.ints()
+    if revision >= 14:  # (2.11) the edges off their prediction, then theirs
+        assert predicted is not None and curves3d is not None
+        if len(predicted) != len(etol):
+            raise ReadError("EDGE: edges against the shapes table")
+        odd, counts = a.deltas(), a.ints()
+        given = Take(a.ints(), "EDGE odd kinds")
+        lists = [list(k) for k in predicted]
+        if len(counts) != len(odd) or any(b <= x for x, b in zip(odd, odd[1:])):
+            raise ReadError("EDGE: odd edges")
+        for e, n in zip(odd.tolist(), counts.tolist()):
+            lists[e] = [int(given()) for _ in range(n)]
+        given.end()
+        nreps = np.array([len(k) for k in lists], np.int64)
+        kind = np.array([k for ks in lists for k in ks], np.int64)
+    else:
+        nreps = a.ints()
+        kind = a.ints()
     q = len(kind)
     curve = Take(a.deltas(), "EDGE curve")
     pcurve = Take(a.deltas(), "EDGE pcurve")
@@ -537,12 +559,21 @@ def read_edges(raw: bytes, revision: int) -> Edges:
             out_cont[r] = cont()
         if k in (0, 1, 2):
             out_rk[r] = rkind()
+            if revision >= 14:  # (2.11) stored less its prediction, modulo 5
+                if k == 0:
+                    c = int(reps[r, 2])
+                    g = curves3d[c] if curves3d is not None and 0 <= c < len(curves3d) else None
+                    line = isinstance(g, Analytic) and g.kind in (16, 17)
+                    guess = 0 if g is None else 4 if line else 1
+                else:
+                    guess = 3
+                out_rk[r] = (out_rk[r] + guess) % 5
             if out_rk[r] == 0:
                 out_range[r] = rng(2)
-        if k in (1, 2):
+        if k in (1, 2) and (revision < 14 or out_rk[r] != 3):
             out_uv[r, :4] = uv(4)
-        if k == 2:
-            out_uv[r, 4:] = uv2(4)
+            if k == 2:
+                out_uv[r, 4:] = uv2(4)
     takes = [curve, pcurve, curve2, loc2, cont, rkind, rng, uv, uv2]
     if picks is None:
         takes += [surf, surf2]
