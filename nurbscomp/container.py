@@ -190,10 +190,10 @@ def pack(
         if len(tag.encode("ascii")) != 4:
             raise ValueError(f"section tag must be 4 ASCII bytes: {tag!r}")
     body = b"".join(raw for _, raw in sections)
-    if version < (2, 4):  # coder 4 (the dictionary) is format 2.4's
-        coders = tuple(c for c in coders if c != entropy.Coder.ZSTD_DICT)
-        if not coders:
-            raise ValueError(f"coder 4 is format 2.4's, not {version[0]}.{version[1]}'s")
+    # a dictionary is its format's: a version before it has no such coder
+    coders = tuple(c for c in coders if version >= CODER_SINCE.get(c, (0, 0)))
+    if not coders:
+        raise ValueError(f"no coder given is format {version[0]}.{version[1]}'s")
     coder, stored = entropy.compress(body, coders, thorough)
     return frame(sections, flags, version, coder, stored)
 
@@ -308,8 +308,7 @@ def unpack(data: bytes) -> Container:
         if tag in tags:
             raise CorruptError(f"section {tag} appears twice (entry at offset {at})")
         tags.append(tag)
-    if coder == entropy.Coder.ZSTD_DICT and rev < VERSIONS.index((2, 4)):
-        raise CorruptError(f"unknown coder id {coder} in a {major}.{minor} file")
+    _check_coder(coder, major, minor)
     body = entropy.decompress(coder, stored, raw_len)
     sections = []
     at = 0
@@ -322,6 +321,17 @@ def unpack(data: bytes) -> Container:
             )
         sections.append(Section(tag, raw))
     return Container(major, minor, flags, coder, stored_len, sections, start)
+
+
+#: The first version of each coder that a format defines after 2.0.
+CODER_SINCE = {entropy.Coder.ZSTD_DICT: (2, 4), entropy.Coder.ZSTD_DICT_11: (2, 11)}
+
+
+def _check_coder(coder: int, major: int, minor: int) -> None:
+    """Refuse a dictionary coder in a file older than the version defining it."""
+    since = CODER_SINCE.get(entropy.Coder(coder)) if coder in CODER_SINCE else None
+    if since is not None and revision(major, minor) < VERSIONS.index(since):
+        raise CorruptError(f"unknown coder id {coder} in a {major}.{minor} file")
 
 
 def _unpack_compact(data: bytes, major: int, minor: int, flags: int, nsec: int) -> Container:
@@ -370,6 +380,7 @@ def _unpack_compact(data: bytes, major: int, minor: int, flags: int, nsec: int) 
             f"directory at offset {pos} declares {raw_len} bytes, more than the {MAX_RAW} "
             "a reader inflates"
         )
+    _check_coder(coder, major, minor)
     body = entropy.decompress(coder, stored, raw_len)
     if zlib.crc32(body) != raw_crc:
         raise ChecksumError(f"decoded body checksum mismatch (body at offset {body_at})")

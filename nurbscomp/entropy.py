@@ -61,6 +61,7 @@ class Coder(IntEnum):
     ZSTD = 2  # zstd frame, level 19
     BROTLI = 3  # brotli, quality 11
     ZSTD_DICT = 4  # (format 2.4) zstd frame, level 19, with the format's dictionary
+    ZSTD_DICT_11 = 5  # (format 2.11) zstd frame, level 19, with format 2.11's dictionary
 
 
 #: Format 2.4's zstd dictionary (coder 4, docs/format.md §1.3): 64 KiB that
@@ -70,17 +71,28 @@ class Coder(IntEnum):
 #: 105 generated files of kinds it was not trained on, 6% less in all.
 DICT_PATH = Path(__file__).resolve().parent / "data" / "nzc-2.4.dict"
 DICT_SHA256 = "30e3c3d0ad34adc918eaee5b4d660937e579efe9615552e845b2faa883dec582"
-#: Largest body coder 4 is tried on: past it the dictionary's share is small
-#: (on the corpus it won on one container, of a 38 kB body).
+#: Format 2.11's zstd dictionary (coder 5): made the same way from the
+#: containers of 2.11 (``EDGE`` by prediction changed what small containers
+#: share; with coder 4, 39 of 77 generated parts came out up to 16 bytes
+#: larger than in 2.10).  On 44 generated parts of the stress corpus that it
+#: was not made from, 3.3 % smaller than with coder 4.
+DICT_11_PATH = Path(__file__).resolve().parent / "data" / "nzc-2.11.dict"
+DICT_11_SHA256 = "e1097dd6ba27c2344260f99380c18549178eeac37663c7cc7dc22b89636b583f"
+#: Largest body coders 4 and 5 are tried on: past it the dictionary's share
+#: is small (on the corpus coder 4 won on one container, of a 38 kB body).
 DICT_MAX = 128 * 1024
 
 
 @functools.cache
-def dictionary() -> zstandard.ZstdCompressionDict:
-    """The dictionary of coder 4, checked against :data:`DICT_SHA256`."""
-    raw = DICT_PATH.read_bytes()
-    if hashlib.sha256(raw).hexdigest() != DICT_SHA256:
-        raise RuntimeError(f"{DICT_PATH} is not format 2.4's dictionary (reinstall nurbscomp)")
+def dictionary(coder: int = 4) -> zstandard.ZstdCompressionDict:
+    """The dictionary of coder 4 (format 2.4's) or 5 (format 2.11's), checked
+    against its SHA-256."""
+    path, sha, version = (
+        (DICT_PATH, DICT_SHA256, "2.4") if coder == 4 else (DICT_11_PATH, DICT_11_SHA256, "2.11")
+    )
+    raw = path.read_bytes()
+    if hashlib.sha256(raw).hexdigest() != sha:
+        raise RuntimeError(f"{path} is not format {version}'s dictionary (reinstall nurbscomp)")
     return zstandard.ZstdCompressionDict(raw, dict_type=zstandard.DICT_TYPE_FULLDICT)
 
 
@@ -126,7 +138,7 @@ LZMA_FINALISTS = 2
 #: Largest body brotli is tried on.
 BROTLI_MAX = 256 * 1024
 #: Largest body each coder with a limit is tried on (in a search with more than one).
-_LARGEST = {Coder.BROTLI: BROTLI_MAX, Coder.ZSTD_DICT: DICT_MAX}
+_LARGEST = {Coder.BROTLI: BROTLI_MAX, Coder.ZSTD_DICT: DICT_MAX, Coder.ZSTD_DICT_11: DICT_MAX}
 #: Bodies up to this size get every stream at full strength (cheap there).
 FULL_SEARCH_MAX = 16 * 1024
 #: A quick search treats bodies up to this size as a thorough one does.
@@ -204,9 +216,9 @@ def _compress(
         return lzma_raw(raw, tuning, preset)
     if coder == Coder.ZSTD:
         return zstandard.ZstdCompressor(level=19, write_content_size=False).compress(raw)
-    if coder == Coder.ZSTD_DICT:
+    if coder in (Coder.ZSTD_DICT, Coder.ZSTD_DICT_11):
         z = zstandard.ZstdCompressor(
-            level=19, dict_data=dictionary(), write_content_size=False, write_dict_id=False
+            level=19, dict_data=dictionary(coder), write_content_size=False, write_dict_id=False
         )
         return z.compress(raw)
     return brotli.compress(raw, quality=11)
@@ -257,8 +269,8 @@ def decompress(coder: int, data: bytes, raw_length: int) -> bytes:
             out = d.decompress(data, max_length=limit)
         elif coder == Coder.ZSTD:
             out = _zstd_bounded(data, limit)
-        elif coder == Coder.ZSTD_DICT:
-            out = _zstd_bounded(data, limit, dictionary())
+        elif coder in (Coder.ZSTD_DICT, Coder.ZSTD_DICT_11):
+            out = _zstd_bounded(data, limit, dictionary(coder))
         elif coder == Coder.BROTLI:
             out = _brotli_bounded(data, limit)
         else:

@@ -274,7 +274,12 @@ def mutate_sections(data: bytes, rng: random.Random, others: list[bytes]) -> byt
         out = pack_raw(secs, flags, c.minor, c.major)
     else:
         # one coder, mostly the fast ones: packing with all of them is slow
-        usable = [k for k in entropy.Coder if k != entropy.Coder.ZSTD_DICT or c.revision >= 7]
+        usable = [
+            k
+            for k in entropy.Coder
+            if (k != entropy.Coder.ZSTD_DICT or c.revision >= 7)
+            and (k != entropy.Coder.ZSTD_DICT_11 or c.revision >= 14)
+        ]
         coder = rng.choice([*[entropy.Coder.STORED] * 3, *usable])
         out = container.pack(secs, flags, (coder,), version=(c.major, c.minor))
     if c.major == 1 and rng.random() < 0.05:  # a 1.y past 1.2: read as 1.2

@@ -4,6 +4,7 @@ import hashlib
 import json
 import struct
 import zlib
+from pathlib import Path
 
 import pytest
 from hypothesis import given, settings
@@ -181,17 +182,21 @@ def test_decompression_bomb_is_not_inflated(coder: entropy.Coder) -> None:
         entropy.Coder.ZSTD_DICT: lambda: zstandard.ZstdCompressor(
             level=1, dict_data=entropy.dictionary()
         ).compress(zeros),
+        entropy.Coder.ZSTD_DICT_11: lambda: zstandard.ZstdCompressor(
+            level=1, dict_data=entropy.dictionary(5)
+        ).compress(zeros),
     }[coder]()
     assert len(bomb) < len(zeros) // 100
     with pytest.raises(CorruptError, match="1001 bytes, header says 1000"):
         entropy.decompress(coder, bomb, 1000)
     # a declared size above the reader's limit is refused before inflating
     sections = [("BOMB", zeros[:1000])]
-    data = bytearray(container.pack(sections, coders=(coder,), version=(2, 5)))
-    data[16 + 12 + 4 : 16 + 12 + 8] = struct.pack("<I", container.MAX_RAW + 1)
-    data[16 + 4 : 16 + 8] = struct.pack("<I", container.MAX_RAW + 1)
-    with pytest.raises(LimitError):
-        container.unpack(_fix_crcs(bytes(data)))
+    if coder != entropy.Coder.ZSTD_DICT_11:  # (a 2.5 layout cannot hold coder 5)
+        data = bytearray(container.pack(sections, coders=(coder,), version=(2, 5)))
+        data[16 + 12 + 4 : 16 + 12 + 8] = struct.pack("<I", container.MAX_RAW + 1)
+        data[16 + 4 : 16 + 8] = struct.pack("<I", container.MAX_RAW + 1)
+        with pytest.raises(LimitError):
+            container.unpack(_fix_crcs(bytes(data)))
     # from 2.6, by the directory's varint lengths: one entry at offset 16,
     # the escape code and the 4-byte tag, then the length (1000: two bytes)
     data = container.pack(sections, coders=(coder,))
@@ -294,9 +299,10 @@ def test_a_small_body_takes_the_dictionary_and_round_trips() -> None:
     sections = [("META", body), ("LOCS", b"\x01\x01\x00\x00\x00\x00")]
     data = container.pack(sections)
     c = container.unpack(data)
-    assert c.coder == entropy.Coder.ZSTD_DICT  # smaller than any other coder here
+    # smaller with a dictionary than with any other coder here
+    assert c.coder in (entropy.Coder.ZSTD_DICT, entropy.Coder.ZSTD_DICT_11)
     assert [c.get(t) for t in c.tags()] == [s for _, s in sections]
-    plain = container.pack(sections, coders=tuple(c for c in entropy.Coder if c != 4))
+    plain = container.pack(sections, coders=tuple(c for c in entropy.Coder if c < 4))
     assert len(data) < len(plain)
     for coder in entropy.Coder:
         stored = entropy._compress(coder, body)
@@ -317,12 +323,53 @@ def test_the_dictionary_coder_only_from_2_4() -> None:
         container.unpack(bytes(data))
 
 
-def test_a_text_stream_never_takes_the_dictionary_coder() -> None:
+@pytest.mark.parametrize("coder", [4, 5])
+def test_a_text_stream_never_takes_a_dictionary_coder(coder: int) -> None:
     from nurbscomp.text import coding
 
-    stream = bytes([1, 4, 3, 3]) + b"abc"  # one stream, coder 4
-    with pytest.raises(CorruptError, match="text stream coder 4"):
+    stream = bytes([1, coder, 3, 3]) + b"abc"  # one stream, coder 4 or 5
+    with pytest.raises(CorruptError, match=f"text stream coder {coder}"):
         coding.unpack(stream, 100)
+
+
+# ------------------------------------------- coder 5 (2.11): zstd with 2.11's dictionary
+
+
+def test_the_2_11_dictionary_is_the_format_s() -> None:
+    raw = entropy.DICT_11_PATH.read_bytes()
+    assert len(raw) == 65536 and raw[:4] == bytes.fromhex("37a430ec")
+    assert hashlib.sha256(raw).hexdigest() == entropy.DICT_11_SHA256
+
+
+def test_a_small_part_takes_the_2_11_dictionary() -> None:
+    """A generated part's container (the golden bracket at 0.01 mm, written
+    again): coder 5 is smaller than coder 4 on it, and what is written."""
+    from . import fuzz
+
+    golden = Path(__file__).resolve().parent / "golden" / "bracket.v2_11.tol0.01.nzc"
+    m, meta = fuzz.decoded(golden.read_bytes())
+    c = container.unpack(golden.read_bytes())
+    body = b"".join(c.get(t) for t in c.tags())
+    five = len(entropy._compress(entropy.Coder.ZSTD_DICT_11, body))
+    four = len(entropy._compress(entropy.Coder.ZSTD_DICT, body))
+    assert five < four
+    assert c.coder == entropy.Coder.ZSTD_DICT_11 and c.stored_length == five
+    assert m is not None and meta
+
+
+def test_the_2_11_dictionary_coder_only_from_2_11() -> None:
+    sections = [("META", b'{"mode":"tolerance"}')]
+    for version in ((2, 5), (2, 10)):
+        old = container.pack(sections, version=version)
+        assert container.unpack(old).coder != entropy.Coder.ZSTD_DICT_11
+    with pytest.raises(ValueError, match="no coder given"):
+        container.pack(sections, coders=(entropy.Coder.ZSTD_DICT_11,), version=(2, 10))
+    data = bytearray(container.pack(sections, coders=(entropy.Coder.ZSTD_DICT_11,)))
+    assert container.unpack(bytes(data)).coder == entropy.Coder.ZSTD_DICT_11
+    data[5] = 10  # the same body in a 2.10 header (2.6 layout: one CRC over the header)
+    fixed = _fix_crcs(bytes(data))
+    with pytest.raises(CorruptError, match="unknown coder id 5"):
+        container.unpack(fixed)
 
 
 # --------------------------------------------- format 2.6: compact directory and body header

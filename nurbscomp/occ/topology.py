@@ -233,8 +233,9 @@ class _Reader:
         first names it, and the column is a permutation (about 5 bits a
         face once compressed)."""
         ex = TopExp_Explorer(root, TopAbs_FACE)
+        loc = TopLoc_Location()
         while ex.More():
-            s = ex.Current().TShape().Surface()
+            s = BRep_Tool.Surface_s(TopoDS.Face(ex.Current()), loc)  # the TFace's own
             if s is not None:
                 self.geo.surface(s)
             ex.Next()

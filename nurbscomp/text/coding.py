@@ -238,7 +238,7 @@ def unpack(data: bytes, limit: int, count: int | None = None) -> list[bytes]:
             raise LimitError(f"text streams inflate to more than {limit} bytes")
         if pos + stored > len(view):
             raise TruncatedError(f"text stream at offset {pos} runs past the end")
-        if coder == Coder.ZSTD_DICT:  # a container's coder, not a text stream's
+        if coder in (Coder.ZSTD_DICT, Coder.ZSTD_DICT_11):  # a container's, not a text stream's
             raise CorruptError(f"text stream coder {coder} at offset {pos}")
         out.append(decompress(coder, bytes(view[pos : pos + stored]), raw_len))
         pos += stored

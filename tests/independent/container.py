@@ -44,6 +44,8 @@ META_WORDS = (
 
 #: §1.3 (2.4): the dictionary of coder 4, a file of the format
 DICTIONARY = Path(__file__).resolve().parents[2] / "nurbscomp" / "data" / "nzc-2.4.dict"
+#: §1.3 (2.11): the dictionary of coder 5
+DICTIONARY_11 = DICTIONARY.with_name("nzc-2.11.dict")
 
 
 class ReadError(Exception):
@@ -67,10 +69,11 @@ def _inflate(coder: int, payload: bytes, raw_length: int, revision: int) -> byte
         import brotli
 
         out = brotli.decompress(payload)
-    elif coder == 4 and revision >= 7:  # §1.3 (2.4): zstd with the format's dictionary
-        import zstandard
+    elif (coder == 4 and revision >= 7) or (coder == 5 and revision >= 14):
+        import zstandard  # §1.3 (2.4, 2.11): zstd with the format's dictionary
 
-        d = zstandard.ZstdCompressionDict(DICTIONARY.read_bytes())
+        path = DICTIONARY if coder == 4 else DICTIONARY_11
+        d = zstandard.ZstdCompressionDict(path.read_bytes())
         reader = zstandard.ZstdDecompressor(dict_data=d).stream_reader(payload)
         out = reader.read(raw_length + 1)
     else:
