@@ -50,6 +50,7 @@ def _odd(raw: bytes) -> np.ndarray:
     r = BlockReader(raw, "EDGE")
     n = len(E._read_tolerances(r, None, "EDGE"))
     r.ints(n)
+    r.ints(2)  # the settings
     return r.deltas()
 
 
@@ -123,6 +124,7 @@ def _hostile(m, edit) -> bytes:  # type: ignore[no-untyped-def]
     w = BlockWriter()
     E._write_tolerances(w, E._read_tolerances(r, None, "EDGE"))
     w.ints(r.ints(len(m.edge_tol)))
+    w.ints(r.ints(2))
     r.deltas(), r.ints(), r.ints()
     odd, per, kinds = edit()
     w.deltas(odd)
@@ -173,3 +175,38 @@ def test_a_seam_is_predicted_on_a_closed_surface(name: str) -> None:
     first = np.concatenate([[0], np.cumsum(per)])
     got = [m.edge_reps[a:b, EC.KIND].tolist() for a, b in zip(first[:-1], first[1:])]
     assert got == kinds
+
+
+def test_a_modelled_shape_sets_its_own_predictions() -> None:
+    """A shape made by OCCT's modelling algorithms (cadquery, not read from a
+    file) has pcurves on its planes and regularity records only on its
+    tangent edges: the writer's settings say so, and few edges are odd."""
+    import cadquery as cq
+
+    from nurbscomp import occ
+
+    shape = cq.Workplane().box(20, 10, 5).edges("|Z").fillet(2).faces(">Z").hole(3).val()
+    m, _ = occ.shape_to_model(shape.wrapped)
+    uses = E.edge_uses(m)
+    assert E.bare_kinds(m, uses) == 0 and E.regular_edges(m, uses) == 0
+    raw = E._write_edges(m, _how(m), container.REVISION)
+    assert len(_odd(raw)) <= len(m.edge_tol) // 2  # the tangent edges' regularity
+    back, _, _ = _round_trip(m)
+    _same_edges(m, back)
+
+
+@pytest.mark.parametrize("settings", [[1, 2], [-1, 1], [1 << 40, 0]])
+def test_hostile_settings_are_refused(settings: list[int]) -> None:
+    from copy import copy
+
+    m = _model("bracket.v2_11.tol0.01.nzc")
+    raw = E._write_edges(m, _how(m), container.REVISION)
+    r = BlockReader(raw, "EDGE")
+    w = BlockWriter()
+    E._write_tolerances(w, E._read_tolerances(r, None, "EDGE"))
+    w.ints(r.ints(len(m.edge_tol)))
+    r.ints(2)
+    w.ints(settings)
+    bad = bytes(w) + raw[len(raw) - r.remaining :]
+    with pytest.raises(SectionError, match="settings"):
+        E._read_edges(bad, copy(m), container.REVISION)

@@ -13,6 +13,8 @@ from ..model import (
     EC,
     Analytic,
     BRepModel,
+    Derived,
+    Geometry,
     Kind,
     RepKind,
     ShapeType,
@@ -91,47 +93,89 @@ def edge_candidates(
     return out
 
 
-def _pcurve_faces(m: BRepModel, uses: list[list[tuple[int, int]]]) -> list[list[tuple[int, int]]]:
+#: Format 2.11: the surface kinds whose faces a writer predicts to hold no
+#: pcurve, as a mask of bits ``1 << Kind`` (the default: planes, as OCCT's
+#: STEP reader leaves them; a shape made by OCCT's modelling algorithms has
+#: pcurves on planes too, and takes 0: :func:`bare_kinds`).
+BARE = 1 << Kind.PLANE
+
+
+def _surface_kind(g: Geometry) -> int:
+    return int(g.kind) if isinstance(g, (Analytic, Derived)) else int(Kind.BSPLINE_SURFACE)
+
+
+def _pcurve_faces(
+    m: BRepModel, uses: list[list[tuple[int, int]]], bare: int = BARE
+) -> list[list[tuple[int, int]]]:
     """Format 2.11: per edge row, the faces of ``uses`` (:func:`edge_uses`)
     predicted to hold a pcurve of it, with their uses: those that reference
-    it twice or more, and those whose surface row is not a plane."""
-    plane = [isinstance(g, Analytic) and g.kind == Kind.PLANE for g in m.surfaces]
+    it twice or more, and those whose surface row's kind is not in ``bare``."""
+    kinds = [_surface_kind(g) for g in m.surfaces]
 
-    def flat(f: int) -> bool:
+    def held(f: int) -> bool:
         r = int(m.face_surface[f])
-        return 0 <= r < len(plane) and plane[r]
+        return not (0 <= r < len(kinds) and bare >> kinds[r] & 1)
 
-    return [[(f, n) for f, n in u if n >= 2 or not flat(f)] for u in uses]
+    return [[(f, n) for f, n in u if n >= 2 or held(f)] for u in uses]
 
 
-def predicted_kinds(m: BRepModel, uses: list[list[tuple[int, int]]]) -> list[list[int]]:
+def bare_kinds(m: BRepModel, uses: list[list[tuple[int, int]]]) -> int:
+    """Format 2.11: the mask of surface kinds whose faces mostly hold no pcurve
+    of the edges they reference once (a writer's choice: any mask decodes)."""
+    kinds = [_surface_kind(g) for g in m.surfaces]
+    reps = m.edge_reps
+    on = np.flatnonzero(reps[:, EC.KIND] == RepKind.ON_SURFACE)
+    has = set(zip(reps[on, EC.EDGE].tolist(), reps[on, EC.SURFACE].tolist()))
+    votes = np.zeros((32, 2), np.int64)
+    for e, u in enumerate(uses):
+        for f, n in u:
+            r = int(m.face_surface[f])
+            if n == 1 and 0 <= r < len(kinds):
+                votes[kinds[r], int((e, r) in has)] += 1
+    return sum(1 << k for k in range(32) if votes[k, 0] > votes[k, 1])
+
+
+def regular_edges(m: BRepModel, uses: list[list[tuple[int, int]]]) -> int:
+    """Format 2.11: 1 if most edges between two faces have a regularity record
+    (OCCT's STEP and IGES readers encode one on every such edge; a shape
+    made by its modelling algorithms has none), else 0."""
+    two = np.zeros(len(uses), bool)
+    reps = m.edge_reps
+    two[reps[reps[:, EC.KIND] == RepKind.ON_TWO_SURFACES, EC.EDGE]] = True
+    between = np.array([len(u) == 2 for u in uses], bool)
+    return int(2 * int((two & between).sum()) >= int(between.sum()))
+
+
+def predicted_kinds(
+    m: BRepModel, uses: list[list[tuple[int, int]]], bare: int = BARE, regular: int = 1
+) -> list[list[int]]:
     """Format 2.11: per edge row, the kinds its representations are predicted
     to have (docs/format.md §2.7, "Predicted representations"): a 3-D curve;
     per face it bounds (``uses``, :func:`edge_uses`), a pcurve on a closed
     surface where the face references it twice or more, else a pcurve
-    unless the face's surface row is a plane; and a regularity record where
-    it bounds exactly two faces."""
+    unless the face's surface row's kind is in ``bare``; and, if
+    ``regular``, a regularity record where it bounds exactly two faces."""
     out = []
-    for u, faces in zip(uses, _pcurve_faces(m, uses)):
+    for u, faces in zip(uses, _pcurve_faces(m, uses, bare)):
         kinds = [int(RepKind.CURVE3D)]
         kinds += [
             int(RepKind.ON_CLOSED_SURFACE if n >= 2 else RepKind.ON_SURFACE) for _, n in faces
         ]
-        if len(u) == 2:
+        if regular and len(u) == 2:
             kinds.append(int(RepKind.ON_TWO_SURFACES))
         out.append(kinds)
     return out
 
 
 def predicted_picks(
-    m: BRepModel, uses: list[list[tuple[int, int]]], cands: list[list[int]]
+    m: BRepModel, uses: list[list[tuple[int, int]]], cands: list[list[int]], bare: int = BARE
 ) -> tuple[np.ndarray, np.ndarray]:
     """Format 2.11: the predicted surface picks of the representations of
     kinds 1-3 and of the second surfaces of kind 3, in representation order:
     the j-th pcurve of an edge on the j-th face predicted to hold one
     (:func:`_pcurve_faces`; 0 past them), a regularity record's on
     candidates 0 and 1 (0 if there is one)."""
-    faces = _pcurve_faces(m, uses)
+    faces = _pcurve_faces(m, uses, bare)
     reps = m.edge_reps
     kind, edge = reps[:, EC.KIND].tolist(), reps[:, EC.EDGE].tolist()
     first: list[int] = []
@@ -206,7 +250,10 @@ def _write_edges(m: BRepModel, how: np.ndarray, revision: int = container.REVISI
         per = np.bincount(reps[:, EC.EDGE], minlength=len(m.edge_tol))
         first = np.concatenate([[0], np.cumsum(per)]).tolist()
         kinds = [kind[a:b].tolist() for a, b in zip(first[:-1], first[1:])]
-        odd = [e for e, k in enumerate(predicted_kinds(m, uses)) if kinds[e] != k]
+        bare, regular = bare_kinds(m, uses), regular_edges(m, uses)
+        predicted = predicted_kinds(m, uses, bare, regular)
+        odd = [e for e, k in enumerate(predicted) if kinds[e] != k]
+        w.ints([bare, regular])
         w.deltas(odd)
         w.ints(per[odd])
         w.ints([k for e in odd for k in kinds[e]])
@@ -226,7 +273,7 @@ def _write_edges(m: BRepModel, how: np.ndarray, revision: int = container.REVISI
     )
     p1, p2 = _picks(s1, e1, cands), _picks(s2, e2, cands)
     if revision >= PREDICTED:
-        pred1, pred2 = predicted_picks(m, uses, cands)
+        pred1, pred2 = predicted_picks(m, uses, cands, bare)
         w.ints(_unpredict(p1, pred1, e1, cands))
         w.ints(_unpredict(p2, pred2, e2, cands))
     else:
@@ -259,6 +306,7 @@ class _Picks:
     #: (2.11) the faces' uses of the edges (:func:`edge_uses`): the picks are
     #: stored against their predictions (:func:`predicted_picks`)
     uses: list[list[tuple[int, int]]] | None = None
+    bare: int = BARE
 
 
 def _read_edges(
@@ -278,9 +326,9 @@ def _read_edges(
     if ne and (flags.min() < 0 or flags.max() > 7):
         raise SectionError("EDGE: unknown edge flags")
     m.edge_flags = flags.astype(np.uint8)
-    uses = None
+    uses, bare = None, BARE
     if revision >= PREDICTED:
-        per, kind, uses = _read_kinds(r, m, ne, cap)
+        per, kind, uses, bare = _read_kinds(r, m, ne, cap)
     else:
         per = r.ints()
         if len(per) not in (0, ne):
@@ -305,7 +353,7 @@ def _read_edges(
         if (first < -1).any() or (second < -1).any():
             raise SectionError("EDGE: a surface pick below -1")
         n_esc = int((first == -1).sum() + (second == -1).sum())
-        picks = _Picks(first, second, r.deltas(n_esc), uses)
+        picks = _Picks(first, second, r.deltas(n_esc), uses, bare)
         reps[~c3, EC.SURFACE] = 0
         reps[two, EC.SURFACE2] = 0
     else:
@@ -345,7 +393,7 @@ def _read_edges(
 
 def _read_kinds(
     r: BlockReader, m: BRepModel, ne: int, cap: float
-) -> tuple[np.ndarray, np.ndarray, list[list[tuple[int, int]]]]:
+) -> tuple[np.ndarray, np.ndarray, list[list[tuple[int, int]]], int]:
     """Format 2.11: the representations per edge and their kinds, from the
     predictions (:func:`predicted_kinds`) and the edges that differ from them
     (docs/format.md §2.7, "Predicted representations")."""
@@ -353,7 +401,10 @@ def _read_kinds(
     if len(m.face_surface) != n_faces or ne != int((m.shape_type == ShapeType.EDGE).sum()):
         raise BadReferenceError("edge or face table does not match the shapes table")
     uses = edge_uses(m, cap)
-    kinds = predicted_kinds(m, uses)
+    bare, regular = r.ints(2).tolist()
+    if not (0 <= bare < 1 << 32 and regular in (0, 1)):
+        raise SectionError("EDGE: the predictions' settings are out of range")
+    kinds = predicted_kinds(m, uses, bare, regular)
     odd = r.deltas()
     if len(odd) and (odd.min() < 0 or odd.max() >= ne or (np.diff(odd) <= 0).any()):
         raise SectionError("EDGE: the edges off their prediction are not increasing edge rows")
@@ -366,7 +417,7 @@ def _read_kinds(
     counts = np.array([len(k) for k in kinds], np.int64)
     if int(counts.sum()) > r.remaining:  # every representation stores its location
         raise SectionError("EDGE: more representations than the section holds")
-    return counts, np.array([k for ks in kinds for k in ks], np.int64), uses
+    return counts, np.array([k for ks in kinds for k in ks], np.int64), uses, bare
 
 
 def _resolve_picks(m: BRepModel, p: _Picks, cap: float) -> None:
@@ -376,7 +427,7 @@ def _resolve_picks(m: BRepModel, p: _Picks, cap: float) -> None:
     esc = iter(p.escaped.tolist())
     kind = reps[:, EC.KIND]
     zero = np.zeros(len(reps), np.int64)
-    pred1, pred2 = (zero, zero) if p.uses is None else predicted_picks(m, p.uses, cands)
+    pred1, pred2 = (zero, zero) if p.uses is None else predicted_picks(m, p.uses, cands, p.bare)
     for col, sel, pick, pred in (
         (EC.SURFACE, kind != RepKind.CURVE3D, p.first, pred1),
         (EC.SURFACE2, kind == RepKind.ON_TWO_SURFACES, p.second, pred2),

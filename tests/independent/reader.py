@@ -183,16 +183,18 @@ def face_uses(shapes: Shapes, faces: Faces) -> list[list[tuple[int, int]]]:
 
 
 def pcurve_faces(
-    uses: list[list[tuple[int, int]]], faces: Faces, surfaces: list[Record]
+    uses: list[list[tuple[int, int]]], faces: Faces, surfaces: list[Record], bare: int
 ) -> list[list[tuple[int, int]]]:
     """§2.7 (2.11): the faces predicted to hold a pcurve of each edge: two
-    references or more, or a surface row that is not a plane (kind 0)."""
+    references or more, or a surface whose kind (a Bezier or B-spline: 10)
+    is not in the mask ``bare``."""
 
-    def plane(f: int) -> bool:
+    def held(f: int) -> bool:
         g = surfaces[int(faces.surface[f])]
-        return isinstance(g, Analytic) and g.kind == 0
+        kind = g.kind if isinstance(g, (Analytic, Derived)) else 10
+        return not bare >> kind & 1
 
-    return [[(f, n) for f, n in u if n >= 2 or not plane(f)] for u in uses]
+    return [[(f, n) for f, n in u if n >= 2 or held(f)] for u in uses]
 
 
 def resolve_picks(
@@ -472,14 +474,17 @@ def read(data: bytes) -> Model:
     shapes = read_shap(c.sections["SHAP"], rev)
     vertices = read_vertices(c.sections["VERT"], rev, shapes, tol)
     faces = read_faces(c.sections["FACE"])
-    uses = face_uses(shapes, faces)
-    with_pcurve = pcurve_faces(uses, faces, surfaces)
-    predicted = [
-        [0] + [2 if n >= 2 else 1 for _, n in pf] + ([3] if len(u) == 2 else [])
-        for u, pf in zip(uses, with_pcurve)
-    ]
-    edges = read_edges(c.sections["EDGE"], rev, predicted, curves3d)
-    resolve_picks(shapes, faces, edges, with_pcurve if rev >= 14 else None)
+    uses = face_uses(shapes, faces) if rev >= 14 else []
+
+    def predict(bare: int, regular: int) -> list[list[int]]:
+        return [
+            [0] + [2 if n >= 2 else 1 for _, n in pf] + ([3] if regular and len(u) == 2 else [])
+            for u, pf in zip(uses, pcurve_faces(uses, faces, surfaces, bare))
+        ]
+
+    edges = read_edges(c.sections["EDGE"], rev, predict, curves3d)
+    with_pcurve = pcurve_faces(uses, faces, surfaces, edges.settings[0]) if rev >= 14 else None
+    resolve_picks(shapes, faces, edges, with_pcurve)
     sides = read_sides(c.sections["SIDE"]) if "SIDE" in c.sections else []
     m = Model(rev, meta, tol, forms, datums, locs, surfaces, curves3d, curves2d, shapes,
               vertices, edges, faces, sides, c.sections["SNET"], c.sections["CNET"],

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 import struct
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -485,21 +486,29 @@ class Edges:
     range: np.ndarray  # (Q, 2); kinds 1, 2, 4 filled by fill_ranges
     uv: np.ndarray  # (Q, 8)
     picks: tuple[list[int], list[int], list[int]] | None = None  # 2.0: surface, surface2, escaped
+    settings: tuple[int, int] = (1, 1)  # 2.11: bare surface kinds, regularity records
 
 
 def read_edges(
     raw: bytes,
     revision: int,
-    predicted: list[list[int]] | None = None,
+    predict: Callable[[int, int], list[list[int]]] | None = None,
     curves3d: list[Record] | None = None,
 ) -> Edges:
-    """``predicted`` (2.11): each edge's predicted representation kinds;
-    ``curves3d``: the CRV3 rows, whose lines and circles predict range kind 4."""
+    """``predict`` (2.11): each edge's predicted representation kinds from the
+    settings (bare, regular); ``curves3d``: the CRV3 rows, whose lines and
+    circles predict range kind 4."""
     a = Arrays(raw, "EDGE")
     etol = tolerances(a, None, revision)
     flags = a.ints()
-    if revision >= 14:  # (2.11) the edges off their prediction, then theirs
-        assert predicted is not None and curves3d is not None
+    settings = (1, 1)
+    if revision >= 14:  # (2.11) the settings, the edges off their prediction, then theirs
+        assert predict is not None and curves3d is not None
+        bare, regular = (int(x) for x in a.ints())
+        if not (0 <= bare < 1 << 32 and regular in (0, 1)):
+            raise ReadError("EDGE: settings")
+        settings = (bare, regular)
+        predicted = predict(bare, regular)
         if len(predicted) != len(etol):
             raise ReadError("EDGE: edges against the shapes table")
         odd, counts = a.deltas(), a.ints()
@@ -579,7 +588,7 @@ def read_edges(
         takes += [surf, surf2]
     for t in takes:
         t.end()
-    return Edges(etol, flags, reps, out_cont, out_rk, out_range, out_uv, picks)
+    return Edges(etol, flags, reps, out_cont, out_rk, out_range, out_uv, picks, settings)
 
 
 # ---------------------------------------------------------------- FACE
