@@ -50,7 +50,7 @@ def _odd(raw: bytes) -> np.ndarray:
     r = BlockReader(raw, "EDGE")
     n = len(E._read_tolerances(r, None, "EDGE"))
     r.ints(n)
-    r.ints(2)  # the settings
+    r.ints(3)  # the settings
     return r.deltas()
 
 
@@ -124,7 +124,7 @@ def _hostile(m, edit) -> bytes:  # type: ignore[no-untyped-def]
     w = BlockWriter()
     E._write_tolerances(w, E._read_tolerances(r, None, "EDGE"))
     w.ints(r.ints(len(m.edge_tol)))
-    w.ints(r.ints(2))
+    w.ints(r.ints(3))
     r.deltas(), r.ints(), r.ints()
     odd, per, kinds = edit()
     w.deltas(odd)
@@ -195,7 +195,7 @@ def test_a_modelled_shape_sets_its_own_predictions() -> None:
     _same_edges(m, back)
 
 
-@pytest.mark.parametrize("settings", [[1, 2], [-1, 1], [1 << 40, 0]])
+@pytest.mark.parametrize("settings", [[1, 2, 0], [-1, 1, 0], [1 << 40, 0, 0], [1, 1, 2]])
 def test_hostile_settings_are_refused(settings: list[int]) -> None:
     from copy import copy
 
@@ -205,8 +205,31 @@ def test_hostile_settings_are_refused(settings: list[int]) -> None:
     w = BlockWriter()
     E._write_tolerances(w, E._read_tolerances(r, None, "EDGE"))
     w.ints(r.ints(len(m.edge_tol)))
-    r.ints(2)
+    r.ints(3)
     w.ints(settings)
     bad = bytes(w) + raw[len(raw) - r.remaining :]
     with pytest.raises(SectionError, match="settings"):
         E._read_edges(bad, copy(m), container.REVISION)
+
+
+def test_3d_curves_listed_last_are_a_setting() -> None:
+    """An edge of a trimmed surface as OCCT's IGES reader builds it lists its
+    pcurve first and the 3-D curve after: with every edge so, the writer's
+    setting predicts them all."""
+    m = _model("bracket.v2_11.tol0.01.nzc")
+    reps = m.edge_reps
+    order = []
+    for e in range(len(m.edge_tol)):
+        rows = np.flatnonzero(reps[:, EC.EDGE] == e)
+        three = [q for q in rows if reps[q, EC.KIND] == RepKind.CURVE3D]
+        pcs = [
+            q for q in rows if reps[q, EC.KIND] in (RepKind.ON_SURFACE, RepKind.ON_CLOSED_SURFACE)
+        ]
+        rest = [q for q in rows if q not in three and q not in pcs]
+        order += pcs + three + rest
+    m.edge_reps, m.edge_rep_range = reps[order], m.edge_rep_range[order]
+    m.edge_rep_uv, m.edge_rep_cont = m.edge_rep_uv[order], m.edge_rep_cont[order]
+    assert E.curves_last(m) == 1
+    back, raw, _ = _round_trip(m)
+    _same_edges(m, back)
+    assert len(_odd(raw)) == 0

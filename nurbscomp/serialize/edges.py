@@ -146,21 +146,41 @@ def regular_edges(m: BRepModel, uses: list[list[tuple[int, int]]]) -> int:
     return int(2 * int((two & between).sum()) >= int(between.sum()))
 
 
+def curves_last(m: BRepModel) -> int:
+    """Format 2.11: 1 if most edges with a 3-D curve and a pcurve list the
+    3-D curve after their pcurves (OCCT's IGES reader builds an edge of a
+    trimmed surface from its pcurve and adds the 3-D curve after), else 0."""
+    reps = m.edge_reps
+    kind, edge = reps[:, EC.KIND], reps[:, EC.EDGE]
+    pc = (kind == RepKind.ON_SURFACE) | (kind == RepKind.ON_CLOSED_SURFACE)
+    first_pc = np.full(len(m.edge_tol), -1, np.int64)
+    first_3d = np.full(len(m.edge_tol), -1, np.int64)
+    rows = np.arange(len(reps))
+    for sel, out in ((pc, first_pc), (kind == RepKind.CURVE3D, first_3d)):
+        e, at = np.unique(edge[sel], return_index=True)  # each edge's first such row
+        out[e] = rows[sel][at]
+    both = (first_pc >= 0) & (first_3d >= 0)
+    return int(2 * int((first_3d[both] > first_pc[both]).sum()) > int(both.sum()))
+
+
 def predicted_kinds(
-    m: BRepModel, uses: list[list[tuple[int, int]]], bare: int = BARE, regular: int = 1
+    m: BRepModel,
+    uses: list[list[tuple[int, int]]],
+    bare: int = BARE,
+    regular: int = 1,
+    last: int = 0,
 ) -> list[list[int]]:
     """Format 2.11: per edge row, the kinds its representations are predicted
     to have (docs/format.md §2.7, "Predicted representations"): a 3-D curve;
     per face it bounds (``uses``, :func:`edge_uses`), a pcurve on a closed
     surface where the face references it twice or more, else a pcurve
     unless the face's surface row's kind is in ``bare``; and, if
-    ``regular``, a regularity record where it bounds exactly two faces."""
+    ``regular``, a regularity record where it bounds exactly two faces; the
+    3-D curve after the pcurves if ``last``."""
     out = []
     for u, faces in zip(uses, _pcurve_faces(m, uses, bare)):
-        kinds = [int(RepKind.CURVE3D)]
-        kinds += [
-            int(RepKind.ON_CLOSED_SURFACE if n >= 2 else RepKind.ON_SURFACE) for _, n in faces
-        ]
+        kinds = [int(RepKind.ON_CLOSED_SURFACE if n >= 2 else RepKind.ON_SURFACE) for _, n in faces]
+        kinds.insert(len(kinds) if last else 0, int(RepKind.CURVE3D))
         if regular and len(u) == 2:
             kinds.append(int(RepKind.ON_TWO_SURFACES))
         out.append(kinds)
@@ -250,10 +270,10 @@ def _write_edges(m: BRepModel, how: np.ndarray, revision: int = container.REVISI
         per = np.bincount(reps[:, EC.EDGE], minlength=len(m.edge_tol))
         first = np.concatenate([[0], np.cumsum(per)]).tolist()
         kinds = [kind[a:b].tolist() for a, b in zip(first[:-1], first[1:])]
-        bare, regular = bare_kinds(m, uses), regular_edges(m, uses)
-        predicted = predicted_kinds(m, uses, bare, regular)
+        bare, regular, last = bare_kinds(m, uses), regular_edges(m, uses), curves_last(m)
+        predicted = predicted_kinds(m, uses, bare, regular, last)
         odd = [e for e, k in enumerate(predicted) if kinds[e] != k]
-        w.ints([bare, regular])
+        w.ints([bare, regular, last])
         w.deltas(odd)
         w.ints(per[odd])
         w.ints([k for e in odd for k in kinds[e]])
@@ -401,10 +421,10 @@ def _read_kinds(
     if len(m.face_surface) != n_faces or ne != int((m.shape_type == ShapeType.EDGE).sum()):
         raise BadReferenceError("edge or face table does not match the shapes table")
     uses = edge_uses(m, cap)
-    bare, regular = r.ints(2).tolist()
-    if not (0 <= bare < 1 << 32 and regular in (0, 1)):
+    bare, regular, last = r.ints(3).tolist()
+    if not (0 <= bare < 1 << 32 and regular in (0, 1) and last in (0, 1)):
         raise SectionError("EDGE: the predictions' settings are out of range")
-    kinds = predicted_kinds(m, uses, bare, regular)
+    kinds = predicted_kinds(m, uses, bare, regular, last)
     odd = r.deltas()
     if len(odd) and (odd.min() < 0 or odd.max() >= ne or (np.diff(odd) <= 0).any()):
         raise SectionError("EDGE: the edges off their prediction are not increasing edge rows")

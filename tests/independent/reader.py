@@ -476,11 +476,13 @@ def read(data: bytes) -> Model:
     faces = read_faces(c.sections["FACE"])
     uses = face_uses(shapes, faces) if rev >= 14 else []
 
-    def predict(bare: int, regular: int) -> list[list[int]]:
-        return [
-            [0] + [2 if n >= 2 else 1 for _, n in pf] + ([3] if regular and len(u) == 2 else [])
-            for u, pf in zip(uses, pcurve_faces(uses, faces, surfaces, bare))
-        ]
+    def predict(bare: int, regular: int, last: int) -> list[list[int]]:
+        out = []
+        for u, pf in zip(uses, pcurve_faces(uses, faces, surfaces, bare)):
+            pcs = [2 if n >= 2 else 1 for _, n in pf]
+            kinds = pcs + [0] if last else [0] + pcs
+            out.append(kinds + ([3] if regular and len(u) == 2 else []))
+        return out
 
     edges = read_edges(c.sections["EDGE"], rev, predict, curves3d)
     with_pcurve = pcurve_faces(uses, faces, surfaces, edges.settings[0]) if rev >= 14 else None

@@ -486,13 +486,13 @@ class Edges:
     range: np.ndarray  # (Q, 2); kinds 1, 2, 4 filled by fill_ranges
     uv: np.ndarray  # (Q, 8)
     picks: tuple[list[int], list[int], list[int]] | None = None  # 2.0: surface, surface2, escaped
-    settings: tuple[int, int] = (1, 1)  # 2.11: bare surface kinds, regularity records
+    settings: tuple[int, int, int] = (1, 1, 0)  # 2.11: bare kinds, regularity, 3-D curve last
 
 
 def read_edges(
     raw: bytes,
     revision: int,
-    predict: Callable[[int, int], list[list[int]]] | None = None,
+    predict: Callable[[int, int, int], list[list[int]]] | None = None,
     curves3d: list[Record] | None = None,
 ) -> Edges:
     """``predict`` (2.11): each edge's predicted representation kinds from the
@@ -501,14 +501,14 @@ def read_edges(
     a = Arrays(raw, "EDGE")
     etol = tolerances(a, None, revision)
     flags = a.ints()
-    settings = (1, 1)
+    settings = (1, 1, 0)
     if revision >= 14:  # (2.11) the settings, the edges off their prediction, then theirs
         assert predict is not None and curves3d is not None
-        bare, regular = (int(x) for x in a.ints())
-        if not (0 <= bare < 1 << 32 and regular in (0, 1)):
+        bare, regular, last = (int(x) for x in a.ints())
+        if not (0 <= bare < 1 << 32 and regular in (0, 1) and last in (0, 1)):
             raise ReadError("EDGE: settings")
-        settings = (bare, regular)
-        predicted = predict(bare, regular)
+        settings = (bare, regular, last)
+        predicted = predict(bare, regular, last)
         if len(predicted) != len(etol):
             raise ReadError("EDGE: edges against the shapes table")
         odd, counts = a.deltas(), a.ints()
