@@ -98,6 +98,8 @@ _KNOWN_FLAGS = (
 )
 #: Format 2.6: the first revision with the compact directory and body header.
 COMPACT = VERSIONS.index((2, 6))
+#: The first version of each coder that a format defines after 2.0.
+CODER_SINCE = {int(c): since for c, (_, _, since) in entropy.DICTIONARIES.items()}
 #: Format 2.6: the tags a directory entry names by a one-byte code (its index);
 #: code :data:`TAG_ESCAPE` is followed by the tag's 4 ASCII bytes.
 TAGS = (
@@ -323,13 +325,9 @@ def unpack(data: bytes) -> Container:
     return Container(major, minor, flags, coder, stored_len, sections, start)
 
 
-#: The first version of each coder that a format defines after 2.0.
-CODER_SINCE = {entropy.Coder.ZSTD_DICT: (2, 4), entropy.Coder.ZSTD_DICT_11: (2, 11)}
-
-
 def _check_coder(coder: int, major: int, minor: int) -> None:
     """Refuse a dictionary coder in a file older than the version defining it."""
-    since = CODER_SINCE.get(entropy.Coder(coder)) if coder in CODER_SINCE else None
+    since = CODER_SINCE.get(coder)
     if since is not None and revision(major, minor) < VERSIONS.index(since):
         raise CorruptError(f"unknown coder id {coder} in a {major}.{minor} file")
 

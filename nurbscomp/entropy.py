@@ -83,16 +83,24 @@ DICT_11_SHA256 = "e1097dd6ba27c2344260f99380c18549178eeac37663c7cc7dc22b89636b58
 DICT_MAX = 128 * 1024
 
 
+#: The dictionary coders: per coder, its dictionary's file, SHA-256 and the
+#: format version that defines it (``container`` refuses it in older files).
+DICTIONARIES = {
+    Coder.ZSTD_DICT: (DICT_PATH, DICT_SHA256, (2, 4)),
+    Coder.ZSTD_DICT_11: (DICT_11_PATH, DICT_11_SHA256, (2, 11)),
+}
+
+
 @functools.cache
-def dictionary(coder: int = 4) -> zstandard.ZstdCompressionDict:
+def dictionary(coder: int = Coder.ZSTD_DICT) -> zstandard.ZstdCompressionDict:
     """The dictionary of coder 4 (format 2.4's) or 5 (format 2.11's), checked
     against its SHA-256."""
-    path, sha, version = (
-        (DICT_PATH, DICT_SHA256, "2.4") if coder == 4 else (DICT_11_PATH, DICT_11_SHA256, "2.11")
-    )
+    path, sha, (major, minor) = DICTIONARIES[Coder(coder)]
     raw = path.read_bytes()
     if hashlib.sha256(raw).hexdigest() != sha:
-        raise RuntimeError(f"{path} is not format {version}'s dictionary (reinstall nurbscomp)")
+        raise RuntimeError(
+            f"{path} is not format {major}.{minor}'s dictionary (reinstall nurbscomp)"
+        )
     return zstandard.ZstdCompressionDict(raw, dict_type=zstandard.DICT_TYPE_FULLDICT)
 
 
@@ -138,7 +146,7 @@ LZMA_FINALISTS = 2
 #: Largest body brotli is tried on.
 BROTLI_MAX = 256 * 1024
 #: Largest body each coder with a limit is tried on (in a search with more than one).
-_LARGEST = {Coder.BROTLI: BROTLI_MAX, Coder.ZSTD_DICT: DICT_MAX, Coder.ZSTD_DICT_11: DICT_MAX}
+_LARGEST = {Coder.BROTLI: BROTLI_MAX, **{c: DICT_MAX for c in DICTIONARIES}}
 #: Bodies up to this size get every stream at full strength (cheap there).
 FULL_SEARCH_MAX = 16 * 1024
 #: A quick search treats bodies up to this size as a thorough one does.
@@ -216,7 +224,7 @@ def _compress(
         return lzma_raw(raw, tuning, preset)
     if coder == Coder.ZSTD:
         return zstandard.ZstdCompressor(level=19, write_content_size=False).compress(raw)
-    if coder in (Coder.ZSTD_DICT, Coder.ZSTD_DICT_11):
+    if coder in DICTIONARIES:
         z = zstandard.ZstdCompressor(
             level=19, dict_data=dictionary(coder), write_content_size=False, write_dict_id=False
         )
@@ -269,7 +277,7 @@ def decompress(coder: int, data: bytes, raw_length: int) -> bytes:
             out = d.decompress(data, max_length=limit)
         elif coder == Coder.ZSTD:
             out = _zstd_bounded(data, limit)
-        elif coder in (Coder.ZSTD_DICT, Coder.ZSTD_DICT_11):
+        elif coder in DICTIONARIES:
             out = _zstd_bounded(data, limit, dictionary(coder))
         elif coder == Coder.BROTLI:
             out = _brotli_bounded(data, limit)

@@ -74,7 +74,7 @@ def test_predictions_hold_on_the_golden_models(name: str) -> None:
     ranged = kind != RepKind.ON_TWO_SURFACES
     assert (pred[ranged] == _how(m)[ranged]).mean() > 0.9
     cands = E.edge_candidates(m, uses=uses)
-    p1, _ = E.predicted_picks(m, uses, cands)
+    p1, _ = E.predicted_picks(m, E.pcurve_faces(m, uses), cands)
     on = kind != RepKind.CURVE3D
     got = E._picks(m.edge_reps[on, EC.SURFACE], m.edge_reps[on, EC.EDGE], cands)
     assert (got == p1).all()
@@ -166,7 +166,7 @@ def test_a_seam_is_predicted_on_a_closed_surface(name: str) -> None:
     twice is predicted as a pcurve on a closed surface (kind 2)."""
     m = _model(name)
     uses = E.edge_uses(m)
-    kinds = E.predicted_kinds(m, uses)
+    kinds = E.predicted_kinds(uses, E.pcurve_faces(m, uses))
     twice = [e for e, u in enumerate(uses) if any(n >= 2 for _, n in u)]
     assert twice
     for e in twice:

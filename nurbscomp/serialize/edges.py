@@ -31,6 +31,8 @@ RANGE_KINDS = RANGE_VERTICES + 1
 #: Format 2.11: the first revision whose EDGE predicts its representations'
 #: kinds and range kinds and leaves out the end points of computed pcurves.
 PREDICTED = container.VERSIONS.index((2, 11))
+#: Per edge row, faces and their references (:func:`edge_uses`, :func:`pcurve_faces`).
+Uses = list[list[tuple[int, int]]]
 
 
 def edge_uses(m: BRepModel, cap: float = np.inf) -> list[list[tuple[int, int]]]:
@@ -104,7 +106,7 @@ def _surface_kind(g: Geometry) -> int:
     return int(g.kind) if isinstance(g, (Analytic, Derived)) else int(Kind.BSPLINE_SURFACE)
 
 
-def _pcurve_faces(
+def pcurve_faces(
     m: BRepModel, uses: list[list[tuple[int, int]]], bare: int = BARE
 ) -> list[list[tuple[int, int]]]:
     """Format 2.11: per edge row, the faces of ``uses`` (:func:`edge_uses`)
@@ -164,22 +166,21 @@ def curves_last(m: BRepModel) -> int:
 
 
 def predicted_kinds(
-    m: BRepModel,
     uses: list[list[tuple[int, int]]],
-    bare: int = BARE,
+    faces: list[list[tuple[int, int]]],
     regular: int = 1,
     last: int = 0,
 ) -> list[list[int]]:
     """Format 2.11: per edge row, the kinds its representations are predicted
     to have (docs/format.md §2.7, "Predicted representations"): a 3-D curve;
-    per face it bounds (``uses``, :func:`edge_uses`), a pcurve on a closed
-    surface where the face references it twice or more, else a pcurve
-    unless the face's surface row's kind is in ``bare``; and, if
+    per face it bounds (``uses``, :func:`edge_uses`) predicted to hold one
+    (``faces``, :func:`pcurve_faces`), a pcurve on a closed surface where
+    the face references it twice or more, else a pcurve; and, if
     ``regular``, a regularity record where it bounds exactly two faces; the
     3-D curve after the pcurves if ``last``."""
     out = []
-    for u, faces in zip(uses, _pcurve_faces(m, uses, bare)):
-        kinds = [int(RepKind.ON_CLOSED_SURFACE if n >= 2 else RepKind.ON_SURFACE) for _, n in faces]
+    for u, held in zip(uses, faces):
+        kinds = [int(RepKind.ON_CLOSED_SURFACE if n >= 2 else RepKind.ON_SURFACE) for _, n in held]
         kinds.insert(len(kinds) if last else 0, int(RepKind.CURVE3D))
         if regular and len(u) == 2:
             kinds.append(int(RepKind.ON_TWO_SURFACES))
@@ -188,14 +189,13 @@ def predicted_kinds(
 
 
 def predicted_picks(
-    m: BRepModel, uses: list[list[tuple[int, int]]], cands: list[list[int]], bare: int = BARE
+    m: BRepModel, faces: list[list[tuple[int, int]]], cands: list[list[int]]
 ) -> tuple[np.ndarray, np.ndarray]:
     """Format 2.11: the predicted surface picks of the representations of
     kinds 1-3 and of the second surfaces of kind 3, in representation order:
     the j-th pcurve of an edge on the j-th face predicted to hold one
-    (:func:`_pcurve_faces`; 0 past them), a regularity record's on
+    (``faces``, :func:`pcurve_faces`; 0 past them), a regularity record's on
     candidates 0 and 1 (0 if there is one)."""
-    faces = _pcurve_faces(m, uses, bare)
     reps = m.edge_reps
     kind, edge = reps[:, EC.KIND].tolist(), reps[:, EC.EDGE].tolist()
     first: list[int] = []
@@ -271,7 +271,8 @@ def _write_edges(m: BRepModel, how: np.ndarray, revision: int = container.REVISI
         first = np.concatenate([[0], np.cumsum(per)]).tolist()
         kinds = [kind[a:b].tolist() for a, b in zip(first[:-1], first[1:])]
         bare, regular, last = bare_kinds(m, uses), regular_edges(m, uses), curves_last(m)
-        predicted = predicted_kinds(m, uses, bare, regular, last)
+        faces = pcurve_faces(m, uses, bare)
+        predicted = predicted_kinds(uses, faces, regular, last)
         odd = [e for e, k in enumerate(predicted) if kinds[e] != k]
         w.ints([bare, regular, last])
         w.deltas(odd)
@@ -293,7 +294,7 @@ def _write_edges(m: BRepModel, how: np.ndarray, revision: int = container.REVISI
     )
     p1, p2 = _picks(s1, e1, cands), _picks(s2, e2, cands)
     if revision >= PREDICTED:
-        pred1, pred2 = predicted_picks(m, uses, cands, bare)
+        pred1, pred2 = predicted_picks(m, faces, cands)
         w.ints(_unpredict(p1, pred1, e1, cands))
         w.ints(_unpredict(p2, pred2, e2, cands))
     else:
@@ -323,10 +324,11 @@ class _Picks:
     first: np.ndarray
     second: np.ndarray
     escaped: np.ndarray
-    #: (2.11) the faces' uses of the edges (:func:`edge_uses`): the picks are
-    #: stored against their predictions (:func:`predicted_picks`)
+    #: (2.11) the faces' uses of the edges (:func:`edge_uses`), and those
+    #: predicted to hold pcurves (:func:`pcurve_faces`): the picks are stored
+    #: against their predictions (:func:`predicted_picks`)
     uses: list[list[tuple[int, int]]] | None = None
-    bare: int = BARE
+    faces: list[list[tuple[int, int]]] | None = None
 
 
 def _read_edges(
@@ -346,9 +348,9 @@ def _read_edges(
     if ne and (flags.min() < 0 or flags.max() > 7):
         raise SectionError("EDGE: unknown edge flags")
     m.edge_flags = flags.astype(np.uint8)
-    uses, bare = None, BARE
+    uses = faces = None
     if revision >= PREDICTED:
-        per, kind, uses, bare = _read_kinds(r, m, ne, cap)
+        per, kind, uses, faces = _read_kinds(r, m, ne, cap)
     else:
         per = r.ints()
         if len(per) not in (0, ne):
@@ -373,7 +375,7 @@ def _read_edges(
         if (first < -1).any() or (second < -1).any():
             raise SectionError("EDGE: a surface pick below -1")
         n_esc = int((first == -1).sum() + (second == -1).sum())
-        picks = _Picks(first, second, r.deltas(n_esc), uses, bare)
+        picks = _Picks(first, second, r.deltas(n_esc), uses, faces)
         reps[~c3, EC.SURFACE] = 0
         reps[two, EC.SURFACE2] = 0
     else:
@@ -413,7 +415,7 @@ def _read_edges(
 
 def _read_kinds(
     r: BlockReader, m: BRepModel, ne: int, cap: float
-) -> tuple[np.ndarray, np.ndarray, list[list[tuple[int, int]]], int]:
+) -> tuple[np.ndarray, np.ndarray, Uses, Uses]:
     """Format 2.11: the representations per edge and their kinds, from the
     predictions (:func:`predicted_kinds`) and the edges that differ from them
     (docs/format.md §2.7, "Predicted representations")."""
@@ -424,7 +426,8 @@ def _read_kinds(
     bare, regular, last = r.ints(3).tolist()
     if not (0 <= bare < 1 << 32 and regular in (0, 1) and last in (0, 1)):
         raise SectionError("EDGE: the predictions' settings are out of range")
-    kinds = predicted_kinds(m, uses, bare, regular, last)
+    faces = pcurve_faces(m, uses, bare)
+    kinds = predicted_kinds(uses, faces, regular, last)
     odd = r.deltas()
     if len(odd) and (odd.min() < 0 or odd.max() >= ne or (np.diff(odd) <= 0).any()):
         raise SectionError("EDGE: the edges off their prediction are not increasing edge rows")
@@ -437,7 +440,7 @@ def _read_kinds(
     counts = np.array([len(k) for k in kinds], np.int64)
     if int(counts.sum()) > r.remaining:  # every representation stores its location
         raise SectionError("EDGE: more representations than the section holds")
-    return counts, np.array([k for ks in kinds for k in ks], np.int64), uses, bare
+    return counts, np.array([k for ks in kinds for k in ks], np.int64), uses, faces
 
 
 def _resolve_picks(m: BRepModel, p: _Picks, cap: float) -> None:
@@ -447,7 +450,7 @@ def _resolve_picks(m: BRepModel, p: _Picks, cap: float) -> None:
     esc = iter(p.escaped.tolist())
     kind = reps[:, EC.KIND]
     zero = np.zeros(len(reps), np.int64)
-    pred1, pred2 = (zero, zero) if p.uses is None else predicted_picks(m, p.uses, cands, p.bare)
+    pred1, pred2 = (zero, zero) if p.faces is None else predicted_picks(m, p.faces, cands)
     for col, sel, pick, pred in (
         (EC.SURFACE, kind != RepKind.CURVE3D, p.first, pred1),
         (EC.SURFACE2, kind == RepKind.ON_TWO_SURFACES, p.second, pred2),

@@ -31,7 +31,7 @@ from concurrent.futures import ThreadPoolExecutor
 import brotli
 import numpy as np
 
-from ..entropy import Coder, decompress, lzma_raw
+from ..entropy import DICTIONARIES, Coder, decompress, lzma_raw
 from ..errors import CorruptError, LimitError, TruncatedError
 from ..streams import read_varint, varint
 
@@ -238,7 +238,7 @@ def unpack(data: bytes, limit: int, count: int | None = None) -> list[bytes]:
             raise LimitError(f"text streams inflate to more than {limit} bytes")
         if pos + stored > len(view):
             raise TruncatedError(f"text stream at offset {pos} runs past the end")
-        if coder in (Coder.ZSTD_DICT, Coder.ZSTD_DICT_11):  # a container's, not a text stream's
+        if coder in DICTIONARIES:  # a container's coder, not a text stream's
             raise CorruptError(f"text stream coder {coder} at offset {pos}")
         out.append(decompress(coder, bytes(view[pos : pos + stored]), raw_len))
         pos += stored
