@@ -11,7 +11,7 @@ import pytest
 
 from nurbscomp import bspline, occ
 from nurbscomp.encode import pcurves
-from nurbscomp.model import EC, BSplineCurve, RepKind, ShapeType, below
+from nurbscomp.model import EC, REBUILD, BSplineCurve, RepKind, ShapeType, below
 from nurbscomp.rules import ranges
 
 from .conftest import SAMPLES
@@ -31,8 +31,14 @@ def test_speed_bounds_the_derivative(seed: int) -> None:
     bound = pcurves.curve_speed(g)
     assert measured <= bound * (1 + 1e-9)
     assert measured > bound / 20  # a bound, not a guess far above it
-    rational = replace(g, weights=np.ones(n))
-    assert pcurves.curve_speed(rational) == np.inf  # no bound claimed
+    w = rng.uniform(0.3, 3.0, n)
+    rational = replace(g, weights=w)
+    tw = np.linspace(0, 3, 40001)
+    hom = bspline.points(np.repeat(knots, mults), np.c_[g.poles * w[:, None], w], p, tw)
+    pts = hom[:, :3] / hom[:, 3:]
+    measured = (np.linalg.norm(np.diff(pts, axis=0), axis=-1) / np.diff(tw)).max()
+    assert measured <= pcurves.curve_speed(rational) * (1 + 1e-9)
+    assert pcurves.curve_speed(replace(rational, weights=-w)) == np.inf  # no bound claimed
 
 
 @pytest.fixture(scope="module")
@@ -122,3 +128,73 @@ def test_a_stored_pcurve_short_of_its_range_is_stretched_onto_it(bracket) -> Non
     assert pcurves.stretch_short(fixed) is fixed  # nothing left past its ends
     # a pcurve shared with another edge's representation is copied, not changed
     assert all(fixed.curves2d[i] is out.curves2d[i] for i in range(len(m.curves2d)))
+
+
+def _cut(m, q: int, t: tuple[float, float]):
+    """``m`` with the range of representation ``q`` and of its edge's
+    representations that had the same set to ``t``, its pcurves computed by
+    the decoder (as ``drop_pcurves`` leaves them), and their ranges zeros."""
+    e = int(m.edge_reps[q, EC.EDGE])
+    rng, reps = m.edge_rep_range.copy(), m.edge_reps.copy()
+    mine = (reps[:, EC.EDGE] == e) & (rng == rng[q]).all(-1)
+    rng[mine] = t
+    pcs = (reps[:, EC.EDGE] == e) & np.isin(reps[:, EC.KIND], pcurves.PCURVE_KINDS)
+    reps[pcs, EC.CURVE] = REBUILD
+    rng[pcs] = 0.0
+    return replace(m, edge_rep_range=rng, edge_reps=reps), e
+
+
+def test_a_stored_range_is_rounded_inwards_within_its_share(blob) -> None:
+    """``rounded_ranges``: a range cut mid-curve ends on multiples of a power
+    of two that moves each end by at most RANGE_ROUND·tol along the curve,
+    inside the range it had (every pcurve reaches it); the edge's vertices
+    cover the move; an edge in ``keep`` stays."""
+    m, q, g = blob
+    lo, hi = float(g.knots[0]), float(g.knots[-1])
+    t = (lo + 0.1234567891234 * (hi - lo), lo + 0.8765432198765 * (hi - lo))
+    cut, e = _cut(m, q, t)
+    assert ranges.range_kinds(cut)[q] == ranges.RANGE_STORED
+    tol = 0.01
+    out = pcurves.rounded_ranges(cut, tol)
+    new = out.edge_rep_range[q]
+    speed = pcurves.curve_speed(g)
+    step = 2.0 ** np.floor(np.log2(pcurves.RANGE_ROUND * tol / speed))
+    assert t[0] <= new[0] < new[1] <= t[1]
+    np.testing.assert_array_equal(new % step, 0.0)
+    moved = float(np.abs(new - np.array(t)).max()) * speed
+    assert 0 < moved <= pcurves.RANGE_ROUND * tol
+    tidx = cut.type_index()
+    s = int(np.flatnonzero(cut.shape_type == ShapeType.EDGE)[e])
+    vs = [tidx[v] for v in below(cut, s, ShapeType.VERTEX)]
+    assert (out.vertex_tol[vs] >= cut.vertex_tol[vs] + moved).all()
+    others = np.ones(len(cut.edge_reps), bool)
+    others[q] = False
+    np.testing.assert_array_equal(out.edge_rep_range[others], cut.edge_rep_range[others])
+    assert pcurves.rounded_ranges(cut, tol, keep={e}) is cut
+    assert pcurves.rounded_ranges(out, tol) is out  # rounded once and for all
+
+
+def test_a_stored_pcurve_over_its_own_range_keeps_the_edge(blob) -> None:
+    """Moved with its edge, a pcurve stored over its own range would need its
+    range stored too: ``rounded_ranges`` leaves such an edge alone, and
+    rounds it once the pcurve is left to the decoder."""
+    m, q, g = blob
+    lo, hi = float(g.knots[0]), float(g.knots[-1])
+    t = (lo + 0.1234567891234 * (hi - lo), lo + 0.8765432198765 * (hi - lo))
+    cut, e = _cut(m, q, t)
+    reps = cut.edge_reps.copy()
+    p = next(
+        p
+        for p in np.flatnonzero(reps[:, EC.EDGE] == e).tolist()
+        if reps[p, EC.KIND] == RepKind.ON_SURFACE
+    )
+    line = BSplineCurve(
+        np.array([[0.0, 0.0], [1.0, 1.0]]), None, np.array(t), np.array([2, 2]), 1, False
+    )
+    reps[p, EC.CURVE] = len(cut.curves2d)
+    rng = cut.edge_rep_range.copy()
+    rng[p] = t
+    kept = replace(cut, curves2d=[*cut.curves2d, line], edge_reps=reps, edge_rep_range=rng)
+    assert ranges.range_kinds(kept)[p] == ranges.RANGE_NATURAL
+    assert pcurves.rounded_ranges(kept, 0.01) is kept
+    assert pcurves.rounded_ranges(cut, 0.01) is not cut

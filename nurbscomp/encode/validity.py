@@ -545,7 +545,7 @@ class _Plan:
             pcurves.unit_surfaces(cand, codes, self.knot_memo), self.knot_memo
         )
         ranged = pcurves.vertex_ranges(cand, self.tol, self.as_read_e, self.m.vertex_point)
-        return ranged, codes, report
+        return pcurves.rounded_ranges(ranged, self.tol, self.as_read_e), codes, report
 
     def with_leaders(self, recs: set[Rec | None]) -> set[Rec | None]:
         """``recs`` with the records their copies follow: a copied curve's leader
