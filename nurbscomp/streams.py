@@ -160,6 +160,13 @@ class BlockReader:
             )
         return np.frombuffer(raw, "<f8").copy()
 
+    def next_is_ints(self) -> bool:
+        """Whether the next array is an integer array (where a layout lets an
+        array be either)."""
+        if self._pos + _HEAD.size > len(self._data):
+            return False
+        return bool(_HEAD.unpack_from(self._data, self._pos)[0] == INT)
+
     def done(self) -> None:
         if self._pos != len(self._data):
             raise SectionError(

@@ -72,6 +72,11 @@ MAX_GRID_INT = 1 << 53
 #: of an earlier vector, evenly spaced (ends and ulp residuals); plus
 #: ``SIMPLE``: multiplicities e, 1, ..., 1, e coded as e.
 K_EXPLICIT, K_REPEAT, K_EVEN, K_SIMPLE = 0, 1, 2, 4
+#: Knot form bit (format 2.12): the vector runs from 0.0 to 1.0, ends not
+#: stored (``pcurves.unit_curves`` maps free curves onto [0, 1]).
+K_UNIT = 8
+#: Format 2.12: the first revision with :data:`K_UNIT` and weights on a grid.
+UNIT_KNOTS = container.VERSIONS.index((2, 12))
 #: Largest |residual| (ulps) the writer codes an evenly spaced vector with.
 EVEN_WRITE = 1 << 15
 #: Largest |residual| (ulps) a reader accepts.
@@ -97,6 +102,10 @@ CYLINDER_THROUGH = 180
 #: Format 2.7: the first revision with :data:`PLANE_THROUGH` and
 #: :data:`CYLINDER_THROUGH` rows.
 PLANES_THROUGH = container.VERSIONS.index((2, 7))
+
+
+#: The ends of a :data:`K_UNIT` vector, bit for bit (+0.0 and 1.0).
+_UNIT_ENDS = np.array([0.0, 1.0], "<f8").tobytes()
 
 
 def _keys(x: np.ndarray) -> list[int]:
@@ -144,8 +153,9 @@ class _KnotWriter:
     forms, repeat distances and weight references go to the header stream
     ``hdr``, the residuals of evenly spaced vectors to ``res``."""
 
-    def __init__(self, hdr: list[int]) -> None:
+    def __init__(self, hdr: list[int], revision: int = container.REVISION) -> None:
         self.hdr = hdr
+        self.unit = revision >= UNIT_KNOTS
         self.res: list[int] = []
         self._n = 0
         self._seen: dict[tuple[bytes, bytes], int] = {}
@@ -153,7 +163,12 @@ class _KnotWriter:
         self._nw = 0
 
     def vector(
-        self, k: np.ndarray, mu: np.ndarray, knots: list[np.ndarray], mults: list[int]
+        self,
+        k: np.ndarray,
+        mu: np.ndarray,
+        knots: list[np.ndarray],
+        mults: list[int],
+        degree: int,
     ) -> None:
         n, nk = self._n, len(k)
         self._n += 1
@@ -165,16 +180,23 @@ class _KnotWriter:
             return
         m = [int(x) for x in mu.tolist()]
         form = K_EXPLICIT
+        ends = k[[0, -1]]
+        unit = self.unit and ends.astype("<f8").tobytes() == _UNIT_ENDS
         r = _even_residuals(k)
         if r is not None:
             form = K_EVEN
-            knots.append(k[[0, -1]])
+            if not unit:
+                knots.append(ends)
             self.res += r
         if form == K_EXPLICIT:
-            knots.append(k)
+            knots.append(k[1:-1] if unit else k)
+        if unit:
+            form |= K_UNIT
         if m[0] == m[-1] and all(x == 1 for x in m[1:-1]):
             form |= K_SIMPLE
-            mults.append(m[0])
+            mults.append(m[0] - (degree + 1) if self.unit else m[0])
+        elif self.unit:
+            mults += [m[0] - (degree + 1), *m[1:-1], m[-1] - (degree + 1)]
         else:
             mults += m
         self.hdr.append(form)
@@ -185,7 +207,7 @@ class _KnotWriter:
         self._weights[key] = self._nw
         self.hdr.append(0 if j is None else self._nw - j)
         if j is None:
-            out.append(w.reshape(-1))
+            out.append(np.atleast_2d(w))  # a set's shape: its grid prediction runs by rows
         self._nw += 1
 
 
@@ -209,7 +231,7 @@ def _write_geometry(
     hdr: list[int] = []
     basis: list[int] = []
     mults: list[int] = []
-    kw = _KnotWriter(hdr) if revision >= 3 else None
+    kw = _KnotWriter(hdr, revision) if revision >= 3 else None
     gridded = revision >= 3 and dim == 3  # SURF, CRV3: analytic rows may be on a grid
     aval: list[int] = []
     frames: list[np.ndarray] = []
@@ -273,8 +295,8 @@ def _write_geometry(
             if not r.bezier:
                 hdr += [r.udegree, r.vdegree, len(r.uknots), len(r.vknots)]
                 if kw is not None:
-                    kw.vector(r.uknots, r.umults, knots, mults)
-                    kw.vector(r.vknots, r.vmults, knots, mults)
+                    kw.vector(r.uknots, r.umults, knots, mults, r.udegree)
+                    kw.vector(r.vknots, r.vmults, knots, mults, r.vdegree)
                 else:
                     knots += [r.uknots, r.vknots]
                     mults += [*r.umults.tolist(), *r.vmults.tolist()]
@@ -291,7 +313,7 @@ def _write_geometry(
             if not r.bezier:
                 hdr += [r.degree, len(r.knots)]
                 if kw is not None:
-                    kw.vector(r.knots, r.mults, knots, mults)
+                    kw.vector(r.knots, r.mults, knots, mults, r.degree)
                 else:
                     knots.append(r.knots)
                     mults += r.mults.tolist()
@@ -312,9 +334,89 @@ def _write_geometry(
         w.ints(kw.res)
     if gridded:
         w.ints(aval)
-    for group in (frames, params, poles, weights, knots):
+    for group in (frames, params, poles):
         w.floats(np.concatenate(group) if group else np.zeros(0))
+    flat = np.concatenate([x.reshape(-1) for x in weights]) if weights else np.zeros(0)
+    b = weight_grid(weights) if revision >= UNIT_KNOTS and weights else None
+    if b is not None:
+        res = np.concatenate([grid_residuals(x, b).reshape(-1) for x in weights])
+        b = b if _lzma_size(res, True) < _lzma_size(flat, False) else None
+    if b is None:
+        w.floats(flat)
+    else:  # 2.12: the grid, then the residuals
+        w.ints(np.r_[b, res])
+    w.floats(np.concatenate(knots) if knots else np.zeros(0))
     return bytes(w)
+
+
+#: Weight grids 2^-b a table may take (2.12): b in 0 ... 1074.
+WEIGHT_GRID_MAX = 1074
+
+
+def weight_grid(sets: list[np.ndarray]) -> int | None:
+    """The least ``b`` (0 ... :data:`WEIGHT_GRID_MAX`) with every weight of
+    ``sets`` an integer multiple ``k`` of 2^-b, |k| < 2^53, or None."""
+    w = np.concatenate([x.reshape(-1) for x in sets])
+    if not len(w) or not np.isfinite(w).all() or (w == 0).any():
+        return None
+    mant, exp = np.frexp(w)  # w = mant * 2^exp, 0.5 <= |mant| < 1: a 53-bit integer * 2^(exp - 53)
+    m = np.abs(mant * 2.0**53).astype(np.int64)
+    tz = np.array([(int(x) & -int(x)).bit_length() - 1 for x in m.tolist()])
+    b = max(0, int((53 - exp - tz).max()))
+    if b > WEIGHT_GRID_MAX:
+        return None
+    with np.errstate(over="ignore"):  # a grid fine enough for one weight overflows another
+        k = np.ldexp(w, b)
+    if not (np.abs(k) < 2.0**53).all() or (np.rint(k) != k).any():
+        return None
+    return b
+
+
+def _one(b: int) -> int:
+    """The prediction of a weight set's first integer on the grid 2^-b: the
+    weight 1.0 where it is on the grid within range (b ≤ 52), else 0."""
+    return 1 << b if b <= 52 else 0
+
+
+def grid_residuals(w: np.ndarray, b: int) -> np.ndarray:
+    """The residuals of a weight set (rows of a 2-D array) on the grid 2^-b
+    (docs/format.md §2.3, "Weights on a grid"): the inverse of
+    :func:`grid_weights`."""
+    k = np.ldexp(w, b).astype(np.int64)
+    r = k.copy()
+    r[:, 0] -= np.r_[_one(b), k[:-1, 0]]
+    r[:, 1:2] -= k[:, :1]
+    r[:, 2:] -= 2 * k[:, 1:-1] - k[:, :-2]
+    return r
+
+
+def grid_weights(r: np.ndarray, b: int, where: str) -> np.ndarray:
+    """A weight set (rows of a 2-D array) from its residuals ``r`` on the grid
+    2^-b: each row's first integer predicted by the row before's first (the
+    first by :func:`_one`), its second by its first, the others by
+    linear extrapolation; 64-bit sums, wrapping."""
+    r = np.asarray(r, np.int64)
+    with np.errstate(over="ignore"):
+        k = np.empty_like(r)
+        k[:, 0] = np.cumsum(r[:, 0]) + np.int64(_one(b))
+        steps = np.cumsum(r[:, 1:], axis=1)  # first differences along the row
+        k[:, 1:] = k[:, :1] + np.cumsum(steps, axis=1)
+    if not (np.abs(k) < (1 << 53)).all():
+        raise SectionError(f"{where}: a weight on its grid is out of range")
+    return np.ldexp(k.astype(np.float64), -b)
+
+
+def _lzma_size(a: np.ndarray, ints: bool) -> int:
+    """Bytes of one array, written as the writer would and LZMA-compressed
+    alone: the writer's choice between floats and a weight grid."""
+    import lzma
+
+    w = BlockWriter()
+    if ints:
+        w.ints(a)
+    else:
+        w.floats(a)
+    return len(lzma.compress(bytes(w), format=lzma.FORMAT_RAW, filters=[{"id": lzma.FILTER_LZMA2}]))
 
 
 def _on_grid(r: Analytic) -> list[int]:
@@ -358,15 +460,24 @@ class _KnotReader:
 
     def __init__(self, r: BlockReader, revision: int, tag: str, hdr: _Cursor) -> None:
         self.new = revision >= 3
+        self.unit = revision >= UNIT_KNOTS
         self.hdr = hdr
         self.knots = _Cursor(np.zeros(0), f"{tag} knot")  # set by the caller
         self.mults = _Cursor(np.zeros(0, np.int64), f"{tag} mults")  # set by the caller
         self.res = _Cursor(r.ints() if self.new else np.zeros(0, np.int64), f"{tag} kres")
         self.vectors: list[tuple[np.ndarray, np.ndarray]] = []
         self.wsets: list[np.ndarray] = []
+        #: the table's weight grid b (2.12), None: weights as floats
+        self.wgrid: int | None = None
 
-    def vector(self, nk: int, where: str) -> tuple[np.ndarray, np.ndarray]:
-        """The next vector's knots and multiplicities (``nk`` of each)."""
+    @property
+    def _unit(self) -> int:
+        """The form bits besides :data:`K_SIMPLE` this file may set."""
+        return K_UNIT if self.unit else 0
+
+    def vector(self, nk: int, where: str, degree: int) -> tuple[np.ndarray, np.ndarray]:
+        """The next vector's knots and multiplicities (``nk`` of each), of a
+        row of ``degree``."""
         if not self.new:
             return self.knots.take(nk), self.mults.take(nk).copy()
         n = len(self.vectors)
@@ -379,13 +490,18 @@ class _KnotReader:
             if len(k) != nk:
                 raise SectionError(f"{where}: a repeated knot vector has {len(k)} knots, not {nk}")
             mu = mu.copy()
-        elif form & ~K_SIMPLE == K_EXPLICIT:
-            k = self.knots.take(nk)
-            mu = self._mults(form, nk)
-        elif form & ~K_SIMPLE == K_EVEN:
+        elif form & ~(K_SIMPLE | self._unit) == K_EXPLICIT:
+            if form & K_UNIT:
+                if nk < 2:
+                    raise SectionError(f"{where}: a unit knot vector of {nk} knots")
+                k = np.concatenate([[0.0], self.knots.take(nk - 2), [1.0]])
+            else:
+                k = self.knots.take(nk)
+            mu = self._mults(form, nk, degree)
+        elif form & ~(K_SIMPLE | self._unit) == K_EVEN:
             if nk < 3:
                 raise SectionError(f"{where}: an evenly spaced knot vector of {nk} knots")
-            a, b = self.knots.take(2).tolist()
+            a, b = (0.0, 1.0) if form & K_UNIT else self.knots.take(2).tolist()
             r = self.res.take(nk - 2)
             if len(r) and int(np.abs(r).max()) >= EVEN_READ:
                 raise SectionError(f"{where}: a knot residual is out of range")
@@ -395,26 +511,33 @@ class _KnotReader:
                 raise SectionError(f"{where}: evenly spaced knots are not finite")
             inner = _unkeys([x + y for x, y in zip(_keys(p), r.tolist())], where)
             k = np.concatenate([[a], inner, [b]])
-            mu = self._mults(form, nk)
+            mu = self._mults(form, nk, degree)
         else:
             raise SectionError(f"{where}: unknown knot vector form {form}")
         self.vectors.append((k, mu))
         return k, mu
 
-    def _mults(self, form: int, nk: int) -> np.ndarray:
+    def _mults(self, form: int, nk: int, degree: int) -> np.ndarray:
         if not form & K_SIMPLE:
-            return self.mults.take(nk).copy()
-        e = self.mults.one()
+            mu = self.mults.take(nk).copy()
+            if self.unit:  # the ends as offsets from degree + 1 (2.12)
+                mu[[0, -1]] += degree + 1
+            return mu
+        e = self.mults.one() + (degree + 1 if self.unit else 0)
         mu = np.ones(nk, np.int64)
         mu[0] = mu[-1] = e
         return mu
 
-    def weights(self, n: int, where: str, take: _Cursor) -> np.ndarray:
-        """The next rational row's ``n`` weights."""
+    def weights(self, shape: tuple[int, int], where: str, take: _Cursor) -> np.ndarray:
+        """The next rational row's weights, (nu, nv) of a surface, (1, n) of a
+        curve, flat."""
+        n = shape[0] * shape[1]
         if not self.new:
             return take.take(n)
         d = self.hdr.one()
-        if d == 0:
+        if d == 0 and self.wgrid is not None:
+            w = grid_weights(take.take(n).reshape(shape), self.wgrid, where)
+        elif d == 0:
             w = take.take(n)
         elif 1 <= d <= len(self.wsets):
             w = self.wsets[len(self.wsets) - d]
@@ -449,9 +572,16 @@ def _read_geometry(
     kr = _KnotReader(r, revision, tag, hdr)
     gridded = revision >= 3 and dim == 3
     aval = _Cursor(r.ints() if gridded else np.zeros(0, np.int64), f"{tag} grid values")
-    frames, params, poles, weights, knots = (
-        _Cursor(r.floats(), f"{tag} {n}") for n in ("frame", "param", "pole", "weight", "knot")
-    )
+    frames, params, poles = (_Cursor(r.floats(), f"{tag} {n}") for n in ("frame", "param", "pole"))
+    if revision >= UNIT_KNOTS and r.next_is_ints():  # 2.12: weights on a grid
+        wints = r.ints()
+        if not len(wints) or not 0 <= int(wints[0]) <= WEIGHT_GRID_MAX:
+            raise SectionError(f"{tag}: a weight grid of {wints[:1].tolist()}")
+        kr.wgrid = int(wints[0])
+        weights = _Cursor(wints[1:], f"{tag} weight")
+    else:
+        weights = _Cursor(r.floats(), f"{tag} weight")
+    knots = _Cursor(r.floats(), f"{tag} knot")
     r.done()
     kr.knots, kr.mults = knots, mults
     finite(frames.a, f"{tag} frames", MAX_COORD)
@@ -550,8 +680,8 @@ def _read_geometry(
                 uk, vk = np.array([0.0, 1.0]), np.array([0.0, 1.0])
                 um, vm = np.array([nu, nu]), np.array([nv, nv])
             else:
-                uk, um = kr.vector(ku, f"{where} (u)")
-                vk, vm = kr.vector(kv, f"{where} (v)")
+                uk, um = kr.vector(ku, f"{where} (u)", ud)
+                vk, vm = kr.vector(kv, f"{where} (v)", vd)
                 _check_bspline(f"{where} (u)", nu, ud, uk, um, bool(flags & 2))
                 _check_bspline(f"{where} (v)", nv, vd, vk, vm, bool(flags & 4))
             if flags & 8:  # coded net: filled in from SNET
@@ -561,7 +691,7 @@ def _read_geometry(
                 p = np.full((nu, nv, 3), np.nan)
             else:
                 p = poles.take(nu * nv * 3).reshape(nu, nv, 3)
-            wts = kr.weights(nu * nv, where, weights).reshape(nu, nv) if flags & 1 else None
+            wts = kr.weights((nu, nv), where, weights).reshape(nu, nv) if flags & 1 else None
             if wts is not None and not _weights_ok(wts):
                 raise SectionError(
                     f"{where}: weights must be within [{1 / MAX_COORD:g}, {MAX_COORD:g}]"
@@ -582,7 +712,7 @@ def _read_geometry(
             if bez:
                 kn, mu = np.array([0.0, 1.0]), np.array([n, n])
             else:
-                kn, mu = kr.vector(nk, where)
+                kn, mu = kr.vector(nk, where, deg)
             if not bez:
                 _check_bspline(where, n, deg, kn, mu, bool(flags & 2))
             if flags & 4:  # coded net: filled in from CNET
@@ -592,7 +722,7 @@ def _read_geometry(
                 cp = np.full((n, dim), np.nan)
             else:
                 cp = poles.take(n * dim).reshape(n, dim)
-            wts = kr.weights(n, where, weights) if flags & 1 else None
+            wts = kr.weights((1, n), where, weights) if flags & 1 else None
             if wts is not None and not _weights_ok(wts):
                 raise SectionError(
                     f"{where}: weights must be within [{1 / MAX_COORD:g}, {MAX_COORD:g}]"

@@ -98,10 +98,15 @@ GOLDEN = [
     # format 2.11: EDGE's kinds, range kinds and surface picks by prediction
     ("bracket.step", "v2_11.tol0.01", {"tol": 0.01}),
     ("teapot.step", "v2_11.faces.tol0.1", {"tol": 0.1}),
+    # format 2.12: unit knot vectors, end multiplicities less degree + 1, weight grids
+    ("bracket.step", "v2_12.tol0.01", {"tol": 0.01}),
+    ("loft.step", "v2_12.lossless", {"lossless": True}),
 ]
 
 
 def _version(sample: str, mode: str) -> str:
+    if mode.startswith("v2_12."):
+        return "2.12"
     if mode.startswith("v2_11."):
         return "2.11"
     if mode.startswith("v2_10."):

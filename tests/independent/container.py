@@ -28,6 +28,7 @@ REVISION = {
     (2, 9): 12,
     (2, 10): 13,
     (2, 11): 14,
+    (2, 12): 15,
 }
 #: §1.2 (2.6): the tags of the directory's one-byte codes
 TAGS = "META LOCS SURF SNET CRV3 CNET CRV2 SHAP VERT EDGE FACE SIDE PROD FILE TEXT".split()
@@ -287,6 +288,10 @@ class Arrays:
         half = (u >> np.uint64(1)).astype(np.int64)
         neg = (u & np.uint64(1)).astype(bool)
         return np.where(neg, -half - 1, half).astype(np.int64)
+
+    def next_kind(self) -> str:
+        """ "int" or "float": the kind of the next array (§2.1)."""
+        return "int" if self._header()[0] == 0 else "float"
 
     def floats(self) -> np.ndarray:
         kind, width, count = self._header()

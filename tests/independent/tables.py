@@ -138,7 +138,15 @@ def read_geometry(raw: bytes, tag: str, dim: int, revision: int) -> tuple[list[R
     frames = Take(a.floats(), f"{tag} frames")
     params = Take(a.floats(), f"{tag} params")
     poles = Take(a.floats(), f"{tag} poles")
-    weights = Take(a.floats(), f"{tag} weights")
+    wgrid = None  # §2.3 (2.12): weights as integers on a grid 2^-b, first value b
+    if revision >= 15 and a.next_kind() == "int":
+        ints = a.ints()
+        if len(ints) == 0 or not 0 <= int(ints[0]) <= 1074:
+            raise ReadError(f"{tag}: weight grid")
+        wgrid = int(ints[0])
+        weights = Take(ints[1:], f"{tag} weights")
+    else:
+        weights = Take(a.floats(), f"{tag} weights")
     knots = Take(a.floats(), f"{tag} knots")
     a.end()
     vectors: list[tuple[np.ndarray, np.ndarray]] = []  # knot vectors by number (2.0)
@@ -146,11 +154,15 @@ def read_geometry(raw: bytes, tag: str, dim: int, revision: int) -> tuple[list[R
     rows: list[Record] = []
     copies: list[bool] = []
 
-    def vector(nk: int) -> tuple[np.ndarray, np.ndarray]:
+    def vector(nk: int, degree: int) -> tuple[np.ndarray, np.ndarray]:
         if revision < 3:
             out = (knots(nk).copy(), mults(nk).copy())
         else:
             f = header()
+            unit = revision >= 15 and f in (8, 10, 12, 14)  # §2.3 (2.12): ends 0 and 1
+            if unit:
+                f -= 8
+            end = degree + 1 if revision >= 15 else 0  # end multiplicities stored less this
             if f == 1:
                 d = header()
                 if not 1 <= d <= len(vectors):
@@ -160,14 +172,18 @@ def read_geometry(raw: bytes, tag: str, dim: int, revision: int) -> tuple[list[R
                     raise ReadError(f"{tag}: repeated knot count")
             elif f in (0, 4, 2, 6):
                 if f in (0, 4):
-                    kv = knots(nk).copy()
+                    kv = np.r_[0.0, knots(nk - 2), 1.0] if unit else knots(nk).copy()
                 else:
-                    ab = knots(2)
+                    if nk < 3:
+                        raise ReadError(f"{tag}: evenly spaced vector of {nk}")
+                    ab = [0.0, 1.0] if unit else knots(2)
                     kv = evenly_spaced(float(ab[0]), float(ab[1]), kres(nk - 2))
                 if f in (0, 2):
                     mv = mults(nk).copy()
+                    mv[0] += end
+                    mv[-1] += end
                 else:
-                    e = mults()
+                    e = mults() + end
                     mv = np.ones(nk, np.int64)
                     mv[0] = mv[-1] = e
                 out = (kv, mv)
@@ -176,11 +192,32 @@ def read_geometry(raw: bytes, tag: str, dim: int, revision: int) -> tuple[list[R
         vectors.append(out)
         return out
 
-    def weights_of(count: int) -> np.ndarray:
+    def grid_weights(r: np.ndarray, b: int) -> np.ndarray:
+        """§2.3 (2.12): a weight set's integers from its residuals, rows first."""
+        k = np.zeros(r.shape, np.int64)
+        one = 2**b if b <= 52 else 0
+        for i in range(r.shape[0]):
+            for j in range(r.shape[1]):
+                if j == 0:
+                    p = k[i - 1, 0] if i > 0 else one
+                elif j == 1:
+                    p = k[i, 0]
+                else:
+                    p = 2 * int(k[i, j - 1]) - int(k[i, j - 2])
+                v = (int(p) + int(r[i, j]) + 2**63) % 2**64 - 2**63  # 64-bit, wrapping
+                k[i, j] = v
+        if (np.abs(k.astype(float)) >= 2.0**53).any():
+            raise ReadError(f"{tag}: a weight on its grid out of range")
+        return np.ldexp(k.astype(np.float64), -b)
+
+    def weights_of(shape: tuple[int, int]) -> np.ndarray:
+        count = shape[0] * shape[1]
         if revision < 3:
             return weights(count).copy()
         d = header()
-        if d == 0:
+        if d == 0 and wgrid is not None:
+            w = grid_weights(weights(count).reshape(shape), wgrid).reshape(-1)
+        elif d == 0:
             w = weights(count).copy()
         else:
             if not 1 <= d <= len(rational):
@@ -252,13 +289,13 @@ def read_geometry(raw: bytes, tag: str, dim: int, revision: int) -> tuple[list[R
             nu, nv, flags = header(), header(), header()
             if kind == 10:
                 udeg, vdeg, nku, nkv = header(), header(), header(), header()
-                uk, um = vector(nku)
-                vk, vm = vector(nkv)
+                uk, um = vector(nku, udeg)
+                vk, vm = vector(nkv, vdeg)
             else:
                 udeg, vdeg = nu - 1, nv - 1
                 uk, vk = np.array([0.0, 1.0]), np.array([0.0, 1.0])
                 um, vm = np.array([nu, nu]), np.array([nv, nv])
-            w = weights_of(nu * nv).reshape(nu, nv) if flags & 1 else None
+            w = weights_of((nu, nv)).reshape(nu, nv) if flags & 1 else None
             coded = bool(flags & 8)
             p = None if coded else poles(nu * nv * 3).reshape(nu, nv, 3).copy()
             rows.append(
@@ -280,10 +317,10 @@ def read_geometry(raw: bytes, tag: str, dim: int, revision: int) -> tuple[list[R
             n, flags = header(), header()
             if kind == 22:
                 deg, nk = header(), header()
-                kv, mv = vector(nk)
+                kv, mv = vector(nk, deg)
             else:
                 deg, kv, mv = n - 1, np.array([0.0, 1.0]), np.array([n, n])
-            w = weights_of(n) if flags & 1 else None
+            w = weights_of((1, n)) if flags & 1 else None
             coded = bool(flags & 4)
             p = None if coded else poles(n * dim).reshape(n, dim).copy()
             rows.append(
