@@ -71,6 +71,9 @@ def show(x: Any) -> str:
 def _interrupted(e: KeyboardInterrupt, names: list[str]) -> None:
     """Report an interrupt (one line per file being worked on) and exit 128 + signal."""
     signum = signals.signum_of(e)
+    made = sys.modules.get("nurbscomp.paths")  # loaded by whatever wrote an output
+    if made is not None:
+        made.remove_leftovers()
     for path in names or ["batch"]:
         click.echo(f"error: {show(path)}: {signals.describe(signum)}", err=True)
     sys.exit(128 + signum)

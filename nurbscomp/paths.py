@@ -11,9 +11,9 @@ from __future__ import annotations
 
 import contextlib
 import os
+import secrets
 import signal
 import stat
-import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -78,7 +78,8 @@ def _not_regular(path: Path) -> str:
 
 
 def _tmp_prefix(name: str) -> str:
-    """``.NAME.``, NAME cut to ``_TMP_STEM_BYTES`` bytes (mkstemp adds the unique part)."""
+    """``.NAME.``, NAME cut to ``_TMP_STEM_BYTES`` bytes (:func:`_make_temporary`
+    adds the unique part)."""
     while len(os.fsencode(name)) > _TMP_STEM_BYTES:  # whole characters only
         name = name[: -1 - (len(os.fsencode(name)) - _TMP_STEM_BYTES) // 4]
     return f".{name}."
@@ -104,17 +105,19 @@ def atomic_output(dst: Path, force: bool, inputs: tuple[Path, ...] = ()) -> Iter
     if not folder.is_dir():
         raise OutputError(f"output folder {folder} does not exist")
     # no interrupt between making the file and the try that removes it: the
-    # signals the CLI turns into interrupts wait until the try is entered
+    # signals the CLI turns into interrupts wait until the try is entered.
+    # The mask holds this thread only: a signal another thread takes still
+    # runs its handler here, so the name is also listed before the file is
+    # made, and the CLI removes what is listed on its way out (remove_leftovers)
     held = {signal.SIGINT, signal.SIGTERM, signal.SIGHUP}
     old_mask = signal.pthread_sigmask(signal.SIG_BLOCK, held)
     try:
-        fd, tmp = tempfile.mkstemp(prefix=_tmp_prefix(dst.name), suffix=".tmp", dir=folder)
+        tmp = _make_temporary(folder, _tmp_prefix(dst.name))
     except OSError as e:
         signal.pthread_sigmask(signal.SIG_SETMASK, old_mask)
         raise OutputError(f"cannot write in {folder}: {_os_message(e)}") from None
     try:
         signal.pthread_sigmask(signal.SIG_SETMASK, old_mask)
-        os.close(fd)
         yield Path(tmp)
         umask = os.umask(0)
         os.umask(umask)
@@ -127,6 +130,38 @@ def atomic_output(dst: Path, force: bool, inputs: tuple[Path, ...] = ()) -> Iter
     finally:
         with contextlib.suppress(FileNotFoundError):
             os.unlink(tmp)
+        _LIVE.discard(tmp)
+
+
+#: Temporary outputs that exist or are being made (:func:`atomic_output`).
+_LIVE: set[str] = set()
+
+
+def _make_temporary(folder: Path, prefix: str) -> str:
+    """Make an empty file ``folder/prefix<random>.tmp`` (mode 0600), listed in
+    ``_LIVE`` before it exists; its name."""
+    for _ in range(100):
+        tmp = str(folder / f"{prefix}{secrets.token_hex(4)}.tmp")
+        _LIVE.add(tmp)
+        try:
+            os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600))
+            return tmp
+        except FileExistsError:
+            _LIVE.discard(tmp)
+        except BaseException:
+            _LIVE.discard(tmp)
+            raise
+    raise FileExistsError(f"no free temporary name in {folder}")
+
+
+def remove_leftovers() -> None:
+    """Remove the temporary outputs still listed: an interrupt that came
+    between a file's making and the ``try`` that removes it (a signal taken
+    by another thread is not held by this thread's mask)."""
+    for tmp in list(_LIVE):
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        _LIVE.discard(tmp)
 
 
 def read_input(path: Path) -> bytes:

@@ -3,6 +3,7 @@ and an existing output is never touched without --force (nor by a failed --force
 
 from __future__ import annotations
 
+import os
 import shutil
 from pathlib import Path
 from typing import Any
@@ -140,13 +141,16 @@ def test_os_errors_on_output_are_output_errors(work: Path, monkeypatch: pytest.M
     """A folder that cannot be written (the test runs as root, so the OS's
     refusal is simulated where it happens), and a full disk mid-write."""
     import errno
-    import tempfile
 
-    def refuse(*a: Any, **k: Any) -> Any:
-        raise PermissionError(errno.EACCES, "Permission denied")
+    real_open = os.open
+
+    def refuse(path: Any, flags: int, *a: Any, **k: Any) -> Any:
+        if flags & os.O_CREAT and str(path).endswith(".tmp"):  # the temporary output
+            raise PermissionError(errno.EACCES, "Permission denied")
+        return real_open(path, flags, *a, **k)
 
     with monkeypatch.context() as mp:
-        mp.setattr(tempfile, "mkstemp", refuse)
+        mp.setattr(os, "open", refuse)
         r = CliRunner().invoke(cli, ["decompress", str(work / "part.step.nzc")])
     assert r.exit_code == EXIT_OUTPUT
     assert r.stderr.strip().endswith("Permission denied"), r.stderr
@@ -222,3 +226,20 @@ def test_signal_mid_write_leaves_nothing(work: Path, sig: str, code: int) -> Non
     assert p.returncode == code, err
     assert err.strip().splitlines()[-1] == f"error: {src}: interrupted ({sig})"
     assert _names(work) == ["loft.step", "part.step.nzc"]
+
+
+def test_an_interrupt_before_the_cleanup_removes_the_temporary(work: Path) -> None:
+    """The signal mask holds the thread that makes the temporary file only: a
+    stop signal taken by another thread (a thread pool's, OCCT's) runs its
+    handler in the main thread, perhaps before the ``try`` that would remove
+    the file.  The file is listed before it exists, and the command line's
+    interrupt removes what is listed (a SIGHUP left one under load)."""
+    from nurbscomp import cli as cli_module
+
+    tmp = Path(paths._make_temporary(work, ".part.step.nzc."))
+    assert tmp.exists() and str(tmp) in paths._LIVE
+    with pytest.raises(SystemExit) as stop:
+        cli_module._interrupted(KeyboardInterrupt(), [str(work / "part.step")])
+    assert stop.value.code == 128 + 2
+    assert not tmp.exists() and str(tmp) not in paths._LIVE
+    assert _names(work) == ["part.step.nzc"]

@@ -9,7 +9,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from nurbscomp import serialize
+from nurbscomp import container, serialize
 from nurbscomp.encode import analytic
 from nurbscomp.errors import FormatError
 from nurbscomp.model import Analytic, BRepModel, BSplineCurve, BSplineSurface, Kind, differences
@@ -76,20 +76,27 @@ def test_knots_round_trip_bit_for_bit(knots, mults, degree, periodic, revision) 
     assert back[0].knots.tobytes() == np.array(knots).tobytes()
 
 
-def test_forms_chosen() -> None:
-    """Evenly spaced vectors are coded as two ends and residuals, repeats by distance."""
+@pytest.mark.parametrize("revision", [container.VERSIONS.index((2, 11)), container.REVISION])
+def test_forms_chosen(revision: int) -> None:
+    """Evenly spaced vectors are coded as two ends and residuals, repeats by
+    distance; from 2.12 a vector from 0 to 1 stores no ends, and end
+    multiplicities are stored less degree + 1."""
     hdr: list[int] = []
-    kw = serialize._KnotWriter(hdr)
+    kw = serialize._KnotWriter(hdr, revision)
     knots: list[np.ndarray] = []
     mults: list[int] = []
     k = np.array(UNIFORM)
     mu = np.array([4, 1, 1, 1, 1, 1, 1, 4])
-    kw.vector(k, mu, knots, mults)
-    kw.vector(k.copy(), mu.copy(), knots, mults)
-    kw.vector(np.array(NON_UNIFORM), np.array([3, 1, 2, 1, 3]), knots, mults)
+    kw.vector(k, mu, knots, mults, 3)
+    kw.vector(k.copy(), mu.copy(), knots, mults, 3)
+    kw.vector(np.array(NON_UNIFORM), np.array([3, 1, 2, 1, 3]), knots, mults, 2)
     even, rep, exp = serialize.K_EVEN | serialize.K_SIMPLE, serialize.K_REPEAT, serialize.K_EXPLICIT
-    assert hdr == [even, rep, 1, exp]
-    assert [len(x) for x in knots] == [2, 5] and mults == [4, 3, 1, 2, 1, 3]
+    if revision < container.REVISION:
+        assert hdr == [even, rep, 1, exp]
+        assert [len(x) for x in knots] == [2, 5] and mults == [4, 3, 1, 2, 1, 3]
+    else:  # NON_UNIFORM runs from 0 to 1
+        assert hdr == [even, rep, 1, exp | serialize.K_UNIT]
+        assert [len(x) for x in knots] == [2, 3] and mults == [0, 0, 1, 2, 1, 0]
 
 
 def test_surface_knots_and_weights() -> None:

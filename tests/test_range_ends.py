@@ -146,7 +146,7 @@ def _cut(m, q: int, t: tuple[float, float]):
 
 def test_a_stored_range_is_rounded_inwards_within_its_share(blob) -> None:
     """``rounded_ranges``: a range cut mid-curve ends on multiples of a power
-    of two that moves each end by at most RANGE_ROUND·tol along the curve,
+    of two that moves each end by at most RANGE_STEP·tol along the curve,
     inside the range it had (every pcurve reaches it); the edge's vertices
     cover the move; an edge in ``keep`` stays."""
     m, q, g = blob
@@ -158,11 +158,11 @@ def test_a_stored_range_is_rounded_inwards_within_its_share(blob) -> None:
     out = pcurves.rounded_ranges(cut, tol)
     new = out.edge_rep_range[q]
     speed = pcurves.curve_speed(g)
-    step = 2.0 ** np.floor(np.log2(pcurves.RANGE_ROUND * tol / speed))
+    step = 2.0 ** np.floor(np.log2(pcurves.RANGE_STEP * tol / speed))
     assert t[0] <= new[0] < new[1] <= t[1]
     np.testing.assert_array_equal(new % step, 0.0)
     moved = float(np.abs(new - np.array(t)).max()) * speed
-    assert 0 < moved <= pcurves.RANGE_ROUND * tol
+    assert 0 < moved <= pcurves.RANGE_STEP * tol
     tidx = cut.type_index()
     s = int(np.flatnonzero(cut.shape_type == ShapeType.EDGE)[e])
     vs = [tidx[v] for v in below(cut, s, ShapeType.VERTEX)]

@@ -41,12 +41,10 @@ import numpy as np
 from ..model import BSplineCurve, BSplineSurface
 from . import deviation
 
-#: The share of a row's limit its rounded weights may take.  At 0.01 mm,
-#: 1/16 against 1/32: ec_turbine 13,917 -> 13,758 bytes, bug32596 and
-#: occ22470 about 10 less each, NIST_MBE_PMI_2 +2; 1/8 saved a little more on
-#: ec_turbine, 1/4 made it 2.3 kB larger (its nets lose a quarter of their
-#: limit).
-SHARE = 1.0 / 16
+#: The share of a row's limit its rounded weights may take.  (1/16 saved
+#: 159 bytes on ec_turbine at 0.01 mm but cost it 2.4 kB at 0.1 mm: 14,557
+#: against 12,198 bytes, in the validity stage's rounds.)
+SHARE = 1.0 / 32
 
 #: The file's rounded weights must save at least this many bytes (LZMA of the
 #: weights alone) to be used: the nets' limits shrink by up to ``SHARE``.
