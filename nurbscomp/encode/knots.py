@@ -60,13 +60,12 @@ surface's (or one a surface has too) to significant bits.
 from __future__ import annotations
 
 import hashlib
-import lzma
 from collections.abc import Iterable
 from dataclasses import fields, replace
 
 import numpy as np
 
-from .. import bspline
+from .. import bspline, entropy
 from ..model import BSplineCurve, BSplineSurface, Geometry
 from ..rules.joins import clamped_curve, clamped_surface
 from ..serialize.geometry import evenly_spaced
@@ -80,10 +79,6 @@ BITS = tuple(range(6, 41, 2))
 
 #: Rounding must save at least this many bytes of the vectors (LZMA alone).
 MIN_SAVING = 32
-
-#: LZMA2 as the container's, with a dictionary for vectors, not for files
-#: (a 64 MiB one costs 50 ms a call to set up)
-_LZMA = [{"id": lzma.FILTER_LZMA2, "preset": 9 | lzma.PRESET_EXTREME, "dict_size": 1 << 20}]
 
 #: ulps of the largest pole coordinate added per term of a refined pole
 #: (degree + 1 per direction, :func:`move`), and the ulps of a knot vector's
@@ -506,7 +501,7 @@ def _join(want: dict[bytes, int | None], links: Iterable[tuple[Geometry, Geometr
 
 def _packed(vs: Iterable[np.ndarray]) -> int:
     raw = b"".join(np.ascontiguousarray(k, "<f8").tobytes() for k in vs)
-    return len(lzma.compress(raw, format=lzma.FORMAT_RAW, filters=_LZMA))
+    return entropy.lzma_size(raw, strong=True)
 
 
 def apply(g: Net, kplan: Plan, limit: float) -> tuple[Net, float]:

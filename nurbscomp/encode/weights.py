@@ -33,11 +33,11 @@ where the rounded weights compress to less than the exact ones.
 
 from __future__ import annotations
 
-import lzma
 from collections.abc import Iterable
 
 import numpy as np
 
+from .. import entropy
 from ..model import BSplineCurve, BSplineSurface
 from . import deviation
 
@@ -120,8 +120,7 @@ def _bits_for(g: Net, limit: float) -> int:
 
 
 def _packed(ws: Iterable[np.ndarray]) -> int:
-    raw = b"".join(np.ascontiguousarray(w, "<f8").tobytes() for w in ws)
-    return len(lzma.compress(raw, format=lzma.FORMAT_RAW, filters=[{"id": lzma.FILTER_LZMA2}]))
+    return entropy.lzma_size(b"".join(np.ascontiguousarray(w, "<f8").tobytes() for w in ws))
 
 
 def file_bits(rows: Iterable[tuple[Net, float]]) -> int | None:

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .. import container
+from .. import container, entropy
 from ..errors import LimitError, SectionError
 from ..model import (
     Analytic,
@@ -409,14 +409,12 @@ def grid_weights(r: np.ndarray, b: int, where: str) -> np.ndarray:
 def _lzma_size(a: np.ndarray, ints: bool) -> int:
     """Bytes of one array, written as the writer would and LZMA-compressed
     alone: the writer's choice between floats and a weight grid."""
-    import lzma
-
     w = BlockWriter()
     if ints:
         w.ints(a)
     else:
         w.floats(a)
-    return len(lzma.compress(bytes(w), format=lzma.FORMAT_RAW, filters=[{"id": lzma.FILTER_LZMA2}]))
+    return entropy.lzma_size(bytes(w))
 
 
 def _on_grid(r: Analytic) -> list[int]:
