@@ -1,6 +1,7 @@
 """How format 2.4's zstd dictionary (``nurbscomp/data/nzc-2.4.dict``, coder 4
-of docs/format.md §1.3) and format 2.11's (``nzc-2.11.dict``, coder 5: the
-same script on the code of 2.11) were made; kept to be read, not rerun: the format
+of docs/format.md §1.3), format 2.11's (``nzc-2.11.dict``, coder 5) and 2.12's
+(``nzc-2.12.dict``, coder 6: the same script on the code of 2.11 and of
+2.12) were made; kept to be read, not rerun: the format
 fixes the file's bytes (its SHA-256 is ``entropy.DICT_SHA256``), not how they
 were made, and a dictionary made again from other containers would be another
 coder.

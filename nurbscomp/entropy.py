@@ -62,6 +62,7 @@ class Coder(IntEnum):
     BROTLI = 3  # brotli, quality 11
     ZSTD_DICT = 4  # (format 2.4) zstd frame, level 19, with the format's dictionary
     ZSTD_DICT_11 = 5  # (format 2.11) zstd frame, level 19, with format 2.11's dictionary
+    ZSTD_DICT_12 = 6  # (format 2.12) zstd frame, level 19, with format 2.12's dictionary
 
 
 #: Format 2.4's zstd dictionary (coder 4, docs/format.md §1.3): 64 KiB that
@@ -78,7 +79,13 @@ DICT_SHA256 = "30e3c3d0ad34adc918eaee5b4d660937e579efe9615552e845b2faa883dec582"
 #: was not made from, 3.3 % smaller than with coder 4.
 DICT_11_PATH = Path(__file__).resolve().parent / "data" / "nzc-2.11.dict"
 DICT_11_SHA256 = "e1097dd6ba27c2344260f99380c18549178eeac37663c7cc7dc22b89636b583f"
-#: Largest body coders 4 and 5 are tried on: past it the dictionary's share
+#: Format 2.12's zstd dictionary (coder 6): made the same way from the
+#: containers of 2.12 (its knot forms and multiplicities changed what small
+#: containers share; with coder 5, generated parts the 2.11 dictionary was
+#: made from came out up to 216 bytes larger than in 2.11).
+DICT_12_PATH = Path(__file__).resolve().parent / "data" / "nzc-2.12.dict"
+DICT_12_SHA256 = "0eeb1e99cb3c0ddc555df2f3c7e0b4e756dd482b5deed095f8a40e1b7b6ee6c6"
+#: Largest body the dictionary coders are tried on: past it the dictionary's share
 #: is small (on the corpus coder 4 won on one container, of a 38 kB body).
 DICT_MAX = 128 * 1024
 
@@ -88,13 +95,14 @@ DICT_MAX = 128 * 1024
 DICTIONARIES = {
     Coder.ZSTD_DICT: (DICT_PATH, DICT_SHA256, (2, 4)),
     Coder.ZSTD_DICT_11: (DICT_11_PATH, DICT_11_SHA256, (2, 11)),
+    Coder.ZSTD_DICT_12: (DICT_12_PATH, DICT_12_SHA256, (2, 12)),
 }
 
 
 @functools.cache
 def dictionary(coder: int = Coder.ZSTD_DICT) -> zstandard.ZstdCompressionDict:
-    """The dictionary of coder 4 (format 2.4's) or 5 (format 2.11's), checked
-    against its SHA-256."""
+    """The dictionary of coder 4 (format 2.4's), 5 (2.11's) or 6 (2.12's),
+    checked against its SHA-256."""
     path, sha, (major, minor) = DICTIONARIES[Coder(coder)]
     raw = path.read_bytes()
     if hashlib.sha256(raw).hexdigest() != sha:

@@ -277,8 +277,7 @@ def mutate_sections(data: bytes, rng: random.Random, others: list[bytes]) -> byt
         usable = [
             k
             for k in entropy.Coder
-            if (k != entropy.Coder.ZSTD_DICT or c.revision >= 7)
-            and (k != entropy.Coder.ZSTD_DICT_11 or c.revision >= 14)
+            if container.CODER_SINCE.get(int(k), (0, 0)) <= (c.major, c.minor)
         ]
         coder = rng.choice([*[entropy.Coder.STORED] * 3, *usable])
         out = container.pack(secs, flags, (coder,), version=(c.major, c.minor))

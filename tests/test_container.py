@@ -185,13 +185,17 @@ def test_decompression_bomb_is_not_inflated(coder: entropy.Coder) -> None:
         entropy.Coder.ZSTD_DICT_11: lambda: zstandard.ZstdCompressor(
             level=1, dict_data=entropy.dictionary(5)
         ).compress(zeros),
+        entropy.Coder.ZSTD_DICT_12: lambda: zstandard.ZstdCompressor(
+            level=1, dict_data=entropy.dictionary(6)
+        ).compress(zeros),
     }[coder]()
     assert len(bomb) < len(zeros) // 100
     with pytest.raises(CorruptError, match="1001 bytes, header says 1000"):
         entropy.decompress(coder, bomb, 1000)
     # a declared size above the reader's limit is refused before inflating
     sections = [("BOMB", zeros[:1000])]
-    if coder != entropy.Coder.ZSTD_DICT_11:  # (a 2.5 layout cannot hold coder 5)
+    if coder not in (entropy.Coder.ZSTD_DICT_11, entropy.Coder.ZSTD_DICT_12):
+        # (a 2.5 layout cannot hold coders 5 and 6)
         data = bytearray(container.pack(sections, coders=(coder,), version=(2, 5)))
         data[16 + 12 + 4 : 16 + 12 + 8] = struct.pack("<I", container.MAX_RAW + 1)
         data[16 + 4 : 16 + 8] = struct.pack("<I", container.MAX_RAW + 1)
@@ -323,7 +327,7 @@ def test_the_dictionary_coder_only_from_2_4() -> None:
         container.unpack(bytes(data))
 
 
-@pytest.mark.parametrize("coder", [4, 5])
+@pytest.mark.parametrize("coder", [4, 5, 6])
 def test_a_text_stream_never_takes_a_dictionary_coder(coder: int) -> None:
     from nurbscomp.text import coding
 
@@ -418,3 +422,35 @@ def test_the_decoded_body_crc_is_checked() -> None:
     data[-1] ^= 1  # the payload, then the body CRC made right again
     with pytest.raises(ChecksumError, match="decoded body checksum"):
         container.unpack(fix_crcs(bytes(data)))
+
+
+# ------------------------------------------- coder 6 (2.12): zstd with 2.12's dictionary
+
+
+def test_the_2_12_dictionary_is_the_format_s() -> None:
+    raw = entropy.DICT_12_PATH.read_bytes()
+    assert len(raw) == 65536 and raw[:4] == bytes.fromhex("37a430ec")
+    assert hashlib.sha256(raw).hexdigest() == entropy.DICT_12_SHA256
+
+
+def test_a_small_part_takes_the_2_12_dictionary() -> None:
+    """The golden bracket of 2.12 at 0.01 mm: coder 6 is smaller than coders
+    4 and 5 on its body, and what was written."""
+    golden = Path(__file__).resolve().parent / "golden" / "bracket.v2_12.tol0.01.nzc"
+    c = container.unpack(golden.read_bytes())
+    body = b"".join(c.get(t) for t in c.tags())
+    six = len(entropy._compress(entropy.Coder.ZSTD_DICT_12, body))
+    assert six < len(entropy._compress(entropy.Coder.ZSTD_DICT_11, body))
+    assert six < len(entropy._compress(entropy.Coder.ZSTD_DICT, body))
+    assert c.coder == entropy.Coder.ZSTD_DICT_12 and c.stored_length == six
+
+
+def test_the_2_12_dictionary_coder_only_from_2_12() -> None:
+    sections = [("META", b'{"mode":"tolerance"}')]
+    with pytest.raises(ValueError, match="no coder given"):
+        container.pack(sections, coders=(entropy.Coder.ZSTD_DICT_12,), version=(2, 11))
+    data = bytearray(container.pack(sections, coders=(entropy.Coder.ZSTD_DICT_12,)))
+    assert container.unpack(bytes(data)).coder == entropy.Coder.ZSTD_DICT_12
+    data[5] = 11  # the same body in a 2.11 header
+    with pytest.raises(CorruptError, match="unknown coder id 6"):
+        container.unpack(_fix_crcs(bytes(data)))

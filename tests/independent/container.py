@@ -47,6 +47,7 @@ META_WORDS = (
 DICTIONARY = Path(__file__).resolve().parents[2] / "nurbscomp" / "data" / "nzc-2.4.dict"
 #: §1.3 (2.11): the dictionary of coder 5
 DICTIONARY_11 = DICTIONARY.with_name("nzc-2.11.dict")
+DICTIONARY_12 = DICTIONARY.with_name("nzc-2.12.dict")
 
 
 class ReadError(Exception):
@@ -70,10 +71,14 @@ def _inflate(coder: int, payload: bytes, raw_length: int, revision: int) -> byte
         import brotli
 
         out = brotli.decompress(payload)
-    elif (coder == 4 and revision >= 7) or (coder == 5 and revision >= 14):
-        import zstandard  # §1.3 (2.4, 2.11): zstd with the format's dictionary
+    elif (
+        (coder == 4 and revision >= 7)
+        or (coder == 5 and revision >= 14)
+        or (coder == 6 and revision >= 15)
+    ):
+        import zstandard  # §1.3 (2.4, 2.11, 2.12): zstd with the format's dictionary
 
-        path = DICTIONARY if coder == 4 else DICTIONARY_11
+        path = {4: DICTIONARY, 5: DICTIONARY_11, 6: DICTIONARY_12}[coder]
         d = zstandard.ZstdCompressionDict(path.read_bytes())
         reader = zstandard.ZstdDecompressor(dict_data=d).stream_reader(payload)
         out = reader.read(raw_length + 1)
