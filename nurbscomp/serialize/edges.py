@@ -35,7 +35,7 @@ PREDICTED = container.VERSIONS.index((2, 11))
 Uses = list[list[tuple[int, int]]]
 
 
-def edge_uses(m: BRepModel, cap: float = np.inf) -> list[list[tuple[int, int]]]:
+def edge_uses(m: BRepModel, cap: float = np.inf) -> Uses:
     """Per edge row, the faces it bounds, in ``FACE`` order, each with how
     many times its walk references the edge (2 for a seam): the walk from a
     face's shape visits every shape below it once (wires, and shells or
@@ -53,7 +53,7 @@ def edge_uses(m: BRepModel, cap: float = np.inf) -> list[list[tuple[int, int]]]:
     types = m.shape_type.tolist()
     start, kids = m.child_start.tolist(), m.child_shape.tolist()
     edge, vertex = int(ShapeType.EDGE), int(ShapeType.VERTEX)
-    out: list[list[tuple[int, int]]] = [[] for _ in range(types.count(edge))]
+    out: Uses = [[] for _ in range(types.count(edge))]
     work = 0
     faces = [i for i, t in enumerate(types) if t == int(ShapeType.FACE)]
     for f, s in enumerate(faces):
@@ -77,9 +77,7 @@ def edge_uses(m: BRepModel, cap: float = np.inf) -> list[list[tuple[int, int]]]:
     return out
 
 
-def edge_candidates(
-    m: BRepModel, cap: float = np.inf, uses: list[list[tuple[int, int]]] | None = None
-) -> list[list[int]]:
+def edge_candidates(m: BRepModel, cap: float = np.inf, uses: Uses | None = None) -> list[list[int]]:
     """Format 2.0: per edge row, the surface rows of the faces it bounds (faces
     in ``FACE`` order, each surface row at its first appearance): the
     candidates an ``EDGE`` surface pick names (docs/format.md §2.7).
@@ -102,42 +100,42 @@ def edge_candidates(
 BARE = 1 << Kind.PLANE
 
 
-def _surface_kind(g: Geometry) -> int:
-    return int(g.kind) if isinstance(g, (Analytic, Derived)) else int(Kind.BSPLINE_SURFACE)
+def _face_kinds(m: BRepModel) -> list[int]:
+    """Per face row, the kind of its surface row (a B-spline or Bezier
+    surface counted as a B-spline), -1 where the row is outside the table."""
+
+    def kind(g: Geometry) -> int:
+        return int(g.kind) if isinstance(g, (Analytic, Derived)) else int(Kind.BSPLINE_SURFACE)
+
+    kinds = [kind(g) for g in m.surfaces]
+    return [kinds[r] if 0 <= r < len(kinds) else -1 for r in m.face_surface.tolist()]
 
 
-def pcurve_faces(
-    m: BRepModel, uses: list[list[tuple[int, int]]], bare: int = BARE
-) -> list[list[tuple[int, int]]]:
+def pcurve_faces(m: BRepModel, uses: Uses, bare: int = BARE) -> Uses:
     """Format 2.11: per edge row, the faces of ``uses`` (:func:`edge_uses`)
     predicted to hold a pcurve of it, with their uses: those that reference
     it twice or more, and those whose surface row's kind is not in ``bare``."""
-    kinds = [_surface_kind(g) for g in m.surfaces]
-
-    def held(f: int) -> bool:
-        r = int(m.face_surface[f])
-        return not (0 <= r < len(kinds) and bare >> kinds[r] & 1)
-
-    return [[(f, n) for f, n in u if n >= 2 or held(f)] for u in uses]
+    kinds = _face_kinds(m)
+    held = [k < 0 or not bare >> k & 1 for k in kinds]
+    return [[(f, n) for f, n in u if n >= 2 or held[f]] for u in uses]
 
 
-def bare_kinds(m: BRepModel, uses: list[list[tuple[int, int]]]) -> int:
+def bare_kinds(m: BRepModel, uses: Uses) -> int:
     """Format 2.11: the mask of surface kinds whose faces mostly hold no pcurve
     of the edges they reference once (a writer's choice: any mask decodes)."""
-    kinds = [_surface_kind(g) for g in m.surfaces]
+    kinds = _face_kinds(m)
     reps = m.edge_reps
     on = np.flatnonzero(reps[:, EC.KIND] == RepKind.ON_SURFACE)
     has = set(zip(reps[on, EC.EDGE].tolist(), reps[on, EC.SURFACE].tolist()))
     votes = np.zeros((32, 2), np.int64)
     for e, u in enumerate(uses):
         for f, n in u:
-            r = int(m.face_surface[f])
-            if n == 1 and 0 <= r < len(kinds):
-                votes[kinds[r], int((e, r) in has)] += 1
+            if n == 1 and kinds[f] >= 0:
+                votes[kinds[f], int((e, int(m.face_surface[f])) in has)] += 1
     return sum(1 << k for k in range(32) if votes[k, 0] > votes[k, 1])
 
 
-def regular_edges(m: BRepModel, uses: list[list[tuple[int, int]]]) -> int:
+def regular_edges(m: BRepModel, uses: Uses) -> int:
     """Format 2.11: 1 if most edges between two faces have a regularity record
     (OCCT's STEP and IGES readers encode one on every such edge; a shape
     made by its modelling algorithms has none), else 0."""
@@ -166,8 +164,8 @@ def curves_last(m: BRepModel) -> int:
 
 
 def predicted_kinds(
-    uses: list[list[tuple[int, int]]],
-    faces: list[list[tuple[int, int]]],
+    uses: Uses,
+    faces: Uses,
     regular: int = 1,
     last: int = 0,
 ) -> list[list[int]]:
@@ -189,7 +187,7 @@ def predicted_kinds(
 
 
 def predicted_picks(
-    m: BRepModel, faces: list[list[tuple[int, int]]], cands: list[list[int]]
+    m: BRepModel, faces: Uses, cands: list[list[int]]
 ) -> tuple[np.ndarray, np.ndarray]:
     """Format 2.11: the predicted surface picks of the representations of
     kinds 1-3 and of the second surfaces of kind 3, in representation order:
@@ -327,8 +325,8 @@ class _Picks:
     #: (2.11) the faces' uses of the edges (:func:`edge_uses`), and those
     #: predicted to hold pcurves (:func:`pcurve_faces`): the picks are stored
     #: against their predictions (:func:`predicted_picks`)
-    uses: list[list[tuple[int, int]]] | None = None
-    faces: list[list[tuple[int, int]]] | None = None
+    uses: Uses | None = None
+    faces: Uses | None = None
 
 
 def _read_edges(
