@@ -19,6 +19,16 @@ and from format 2.6 (what every container pays, some 140 bytes less)::
                | crc32 u32 of the directory, the 5 body-header bytes and the payload
                | payload: to the end of the file
 
+and from format 2.13 (some 24 bytes less again: one CRC, no reserved fields,
+the usual sections named by a mask)::
+
+    header     magic "\\x89NZC" | major u8 | minor u8 | flags u8
+    directory  (flag bit 3) mask u16, a bit per TAGS entry present, in TAGS order
+               | (otherwise) nsections varint | 2.6's entries (tag code [| tag 4s])
+               | raw_length varint per section, in body order
+    body       coder u8 | crc32 u32 of every byte before it and the payload
+               | payload: to the end of the file
+
 The sections are compressed together, not one by one: B-rep data repeats
 across tables (a vertex is the end pole of its curves, which are boundary
 poles of their surfaces) and one LZ window sees those repeats.  Measured on
@@ -49,7 +59,7 @@ MAGIC = CONTAINER_MAGIC  # b"\x89NZC", formats' (it tells a container apart from
 #: The version this writer writes (docs/format.md §0).  Format 1.x is frozen:
 #: 1.0, 1.1 and 1.2 decode forever, and no 1.3 will be written.
 MAJOR = 2
-MINOR = 12
+MINOR = 13
 #: Every version this reader reads, oldest first.  A file's *revision* is its
 #: index here (:attr:`Container.revision`); the sections' readers branch on it.
 VERSIONS = (
@@ -69,6 +79,7 @@ VERSIONS = (
     (2, 10),
     (2, 11),
     (2, 12),
+    (2, 13),
 )
 #: The revision this writer writes.
 REVISION = VERSIONS.index((MAJOR, MINOR))
@@ -97,9 +108,18 @@ _KNOWN_FLAGS = (
     FLAG_LOSSLESS | FLAG_PASSTHROUGH | FLAG_EXACT,
     FLAG_LOSSLESS | FLAG_PASSTHROUGH | FLAG_EXACT,
     FLAG_LOSSLESS | FLAG_PASSTHROUGH | FLAG_EXACT,
+    FLAG_LOSSLESS | FLAG_PASSTHROUGH | FLAG_EXACT,
 )
 #: Format 2.6: the first revision with the compact directory and body header.
 COMPACT = VERSIONS.index((2, 6))
+#: Format 2.13: the first revision with the short header (docs/format.md §1.1).
+SHORT = VERSIONS.index((2, 13))
+#: Format 2.13: flag bit 3, the directory is a mask of :data:`TAGS` (a
+#: property of the layout, not of the content: :attr:`Container.flags` never
+#: holds it).
+FLAG_MASK = 8
+#: Format 2.13: the mask's bit 15 is reserved.
+_MASK_BITS = (1 << 15) - 1
 #: The first version of each coder that a format defines after 2.0.
 CODER_SINCE = {int(c): since for c, (_, _, since) in entropy.DICTIONARIES.items()}
 #: Format 2.6: the tags a directory entry names by a one-byte code (its index);
@@ -115,6 +135,7 @@ _BODY = struct.Struct("<B3sII")
 #: Format 2.6's body header: coder, CRC-32 of the decoded body (then the body CRC).
 _BODY6 = struct.Struct("<BI")
 _CRC = struct.Struct("<I")
+_MASK = struct.Struct("<H")
 #: Largest body (all sections, decoded) a reader will inflate: a
 #: decompression-bomb guard, checked before anything is inflated.
 MAX_RAW = 1 << 28
@@ -202,11 +223,36 @@ def pack(
     return frame(sections, flags, version, coder, stored)
 
 
-def _entry(tag: str, size: int) -> bytes:
-    """A 2.6 directory entry: the tag's code (or the escape and the tag), its length."""
+def _name(tag: str) -> bytes:
+    """A tag as 2.6's directory names it: its code, or the escape and the tag."""
     code = TAGS.index(tag) if tag in TAGS else TAG_ESCAPE
-    head = bytes([code]) + (tag.encode("latin-1") if code == TAG_ESCAPE else b"")
-    return head + varint(size)
+    return bytes([code]) + (tag.encode("latin-1") if code == TAG_ESCAPE else b"")
+
+
+def _entry(tag: str, size: int) -> bytes:
+    """A 2.6 directory entry: the tag's name, its length."""
+    return _name(tag) + varint(size)
+
+
+def _short_frame(
+    sections: list[tuple[str, bytes]],
+    flags: int,
+    version: tuple[int, int],
+    coder: int,
+    stored: bytes,
+) -> bytes:
+    """:func:`frame` in 2.13's layout (docs/format.md §1.1–1.3): a mask of
+    :data:`TAGS` where the sections are tags of the table in its order (every
+    container this writer makes), else a count and the tags' names; then
+    the lengths, the coder and one CRC-32 of all bytes but its own."""
+    codes = [TAGS.index(t) if t in TAGS else -1 for t, _ in sections]
+    if all(c >= 0 for c in codes) and all(a < b for a, b in zip(codes, codes[1:])):
+        head = bytes([*MAGIC, *version, flags | FLAG_MASK]) + _MASK.pack(sum(1 << c for c in codes))
+    else:
+        names = b"".join(_name(tag) for tag, _ in sections)
+        head = bytes([*MAGIC, *version, flags]) + varint(len(sections)) + names
+    head += b"".join(varint(len(raw)) for _, raw in sections) + bytes([coder])
+    return head + _CRC.pack(zlib.crc32(stored, zlib.crc32(head))) + stored
 
 
 def frame(
@@ -219,6 +265,8 @@ def frame(
     """The container bytes of ``sections`` whose concatenation ``coder``
     compressed into ``stored``, laid out as ``version`` lays them out (no
     check of the tags: tests frame damaged directories with it)."""
+    if revision(*version) >= SHORT:
+        return _short_frame(sections, flags, version, coder, stored)
     head = _HEADER.pack(MAGIC, *version, flags, len(sections), 0)
     head += _CRC.pack(zlib.crc32(head))
     if revision(*version) >= COMPACT:
@@ -236,6 +284,30 @@ def frame(
     return b"".join([head, d, bh, _CRC.pack(crc), stored])
 
 
+#: Bytes of a file's start that :func:`header_flags` needs (any version).
+HEAD_BYTES = _HEADER.size + _CRC.size
+
+
+def header_flags(head: bytes) -> int | None:
+    """The content flags a container's first :data:`HEAD_BYTES` bytes (or
+    fewer, for a short file) declare, None where they are not a header this
+    reader knows: the header CRC is checked before 2.13, which has none (the
+    file's one CRC is checked by :func:`unpack`)."""
+    if len(head) < 7 or head[:4] != MAGIC:
+        return None
+    major, minor = head[4], head[5]
+    if major != 1 and (major, minor) not in VERSIONS:
+        return None
+    if revision(major, minor) >= SHORT:
+        return head[6] & ~FLAG_MASK
+    if (
+        len(head) < HEAD_BYTES
+        or zlib.crc32(head[: _HEADER.size]) != _CRC.unpack_from(head, _HEADER.size)[0]
+    ):
+        return None
+    return int(_HEADER.unpack_from(head)[3])
+
+
 def unpack(data: bytes) -> Container:
     """Parse and check container bytes; decompress the body and split it into sections.
 
@@ -251,18 +323,23 @@ def unpack(data: bytes) -> Container:
     """
     if len(data) < 4 or data[:4] != MAGIC:
         raise BadMagicError("not a .nzc container (bad magic at offset 0)")
-    if len(data) < _HEADER.size + 4:
+    if len(data) < 6:
         raise TruncatedError(f"header truncated at offset {len(data)}")
-    magic, major, minor, flags, nsec, reserved = _HEADER.unpack_from(data, 0)
-    (crc,) = _CRC.unpack_from(data, _HEADER.size)
-    if crc != zlib.crc32(data[: _HEADER.size]):
-        raise ChecksumError("header checksum mismatch at offset 12")
+    major, minor = data[4], data[5]
     if major != 1 and (major, minor) not in VERSIONS:
         raise VersionError(
             f"format version {major}.{minor} is not supported (this reads 1.x and "
             f"{MAJOR}.0 to {MAJOR}.{MINOR}) at offset 4"
         )
     rev = revision(major, minor)
+    if rev >= SHORT:
+        return _unpack_short(data, major, minor)
+    if len(data) < _HEADER.size + 4:
+        raise TruncatedError(f"header truncated at offset {len(data)}")
+    magic, major, minor, flags, nsec, reserved = _HEADER.unpack_from(data, 0)
+    (crc,) = _CRC.unpack_from(data, _HEADER.size)
+    if crc != zlib.crc32(data[: _HEADER.size]):
+        raise ChecksumError("header checksum mismatch at offset 12")
     known = _KNOWN_FLAGS[rev]
     if flags & ~known:
         raise ReservedBitsError(f"reserved flag bits 0x{flags & ~known:04x} set at offset 6")
@@ -341,22 +418,8 @@ def _unpack_compact(data: bytes, major: int, minor: int, flags: int, nsec: int) 
     seen: set[str] = set()
     raw_len = 0
     for _ in range(nsec):
-        if at >= len(data):
-            raise TruncatedError(f"directory truncated at offset {len(data)}")
-        entry, code = at, data[at]
-        at += 1
-        if code == TAG_ESCAPE:
-            if at + 4 > len(data):
-                raise TruncatedError(f"directory truncated at offset {len(data)}")
-            try:
-                tag = data[at : at + 4].decode("ascii")
-            except UnicodeDecodeError:
-                raise CorruptError(f"bad section tag at offset {at}") from None
-            at += 4
-        elif code < len(TAGS):
-            tag = TAGS[code]
-        else:
-            raise CorruptError(f"unknown section tag code {code} at offset {entry}")
+        entry = at
+        tag, at = _tag_at(data, at)
         n, at = read_varint(data, at)
         if tag in seen:
             raise CorruptError(f"section {tag} appears twice (entry at offset {entry})")
@@ -389,3 +452,76 @@ def _unpack_compact(data: bytes, major: int, minor: int, flags: int, nsec: int) 
         sections.append(Section(tag, body[k : k + n]))
         k += n
     return Container(major, minor, flags, coder, len(stored), sections, start)
+
+
+def _tag_at(data: bytes, at: int) -> tuple[str, int]:
+    """The tag 2.6's directory names at ``at`` (a code, or the escape and 4
+    ASCII bytes), and the offset after it."""
+    if at >= len(data):
+        raise TruncatedError(f"directory truncated at offset {len(data)}")
+    code = data[at]
+    if code == TAG_ESCAPE:
+        if at + 5 > len(data):
+            raise TruncatedError(f"directory truncated at offset {len(data)}")
+        try:
+            return data[at + 1 : at + 5].decode("ascii"), at + 5
+        except UnicodeDecodeError:
+            raise CorruptError(f"bad section tag at offset {at + 1}") from None
+    if code < len(TAGS):
+        return TAGS[code], at + 1
+    raise CorruptError(f"unknown section tag code {code} at offset {at}")
+
+
+def _unpack_short(data: bytes, major: int, minor: int) -> Container:
+    """:func:`unpack` of a 2.13 file from its flags on (docs/format.md §1.1–1.3)."""
+    if len(data) < 7:
+        raise TruncatedError(f"header truncated at offset {len(data)}")
+    flags, at = data[6], 7
+    tags: list[str] = []
+    if flags & FLAG_MASK:
+        if at + _MASK.size > len(data):
+            raise TruncatedError(f"directory truncated at offset {len(data)}")
+        (mask,) = _MASK.unpack_from(data, at)
+        at += _MASK.size
+        tags = [t for k, t in enumerate(TAGS) if mask >> k & 1]
+    else:
+        mask = 0
+        nsec, at = read_varint(data, at)
+        if nsec > len(data) - at:  # a name is a byte at least
+            raise TruncatedError(f"directory of {nsec} sections truncated at offset {len(data)}")
+        for _ in range(nsec):
+            entry = at
+            tag, at = _tag_at(data, at)
+            if tag in tags:
+                raise CorruptError(f"section {tag} appears twice (entry at offset {entry})")
+            tags.append(tag)
+    lengths = []
+    for _ in tags:
+        n, at = read_varint(data, at)
+        lengths.append(n)
+    start = at + 1 + _CRC.size
+    if start > len(data):
+        raise TruncatedError(f"directory or body header truncated at offset {len(data)}")
+    coder = data[at]
+    (crc,) = _CRC.unpack_from(data, at + 1)
+    stored = data[start:]
+    if crc != zlib.crc32(stored, zlib.crc32(data[: at + 1])):
+        raise ChecksumError(f"checksum mismatch (body header at offset {at})")
+    known = _KNOWN_FLAGS[revision(major, minor)] | FLAG_MASK
+    if flags & ~known:
+        raise ReservedBitsError(f"reserved flag bits 0x{flags & ~known:02x} set at offset 6")
+    if mask & ~_MASK_BITS:
+        raise ReservedBitsError("reserved directory bit 15 set at offset 7")
+    raw_len = sum(lengths)
+    if raw_len > MAX_RAW:
+        raise LimitError(
+            f"directory at offset 7 declares {raw_len} bytes, more than the {MAX_RAW} "
+            "a reader inflates"
+        )
+    _check_coder(coder, major, minor)
+    body = entropy.decompress(coder, stored, raw_len)
+    sections, k = [], 0
+    for tag, n in zip(tags, lengths):
+        sections.append(Section(tag, body[k : k + n]))
+        k += n
+    return Container(major, minor, flags & ~FLAG_MASK, coder, len(stored), sections, start)

@@ -63,6 +63,7 @@ class Coder(IntEnum):
     ZSTD_DICT = 4  # (format 2.4) zstd frame, level 19, with the format's dictionary
     ZSTD_DICT_11 = 5  # (format 2.11) zstd frame, level 19, with format 2.11's dictionary
     ZSTD_DICT_12 = 6  # (format 2.12) zstd frame, level 19, with format 2.12's dictionary
+    ZSTD_DICT_13 = 7  # (format 2.13) zstd frame, level 19, with format 2.13's dictionary
 
 
 #: Format 2.4's zstd dictionary (coder 4, docs/format.md §1.3): 64 KiB that
@@ -85,6 +86,12 @@ DICT_11_SHA256 = "e1097dd6ba27c2344260f99380c18549178eeac37663c7cc7dc22b89636b58
 #: made from came out up to 216 bytes larger than in 2.11).
 DICT_12_PATH = Path(__file__).resolve().parent / "data" / "nzc-2.12.dict"
 DICT_12_SHA256 = "0eeb1e99cb3c0ddc555df2f3c7e0b4e756dd482b5deed095f8a40e1b7b6ee6c6"
+#: Format 2.13's zstd dictionary (coder 7): made the same way from the
+#: containers of 2.13 at 0.01 and at 0.1 mm (coder 6's, made at 0.01 mm only,
+#: held 0.01 mm's containers: 37 of 77 generated parts came out larger at
+#: 0.1 mm than at 0.01 mm).
+DICT_13_PATH = Path(__file__).resolve().parent / "data" / "nzc-2.13.dict"
+DICT_13_SHA256 = "307e36e2a324d629761fae2420806785d273294625a8c1532274f103aedbc708"
 #: Largest body the dictionary coders are tried on: past it the dictionary's share
 #: is small (on the corpus coder 4 won on one container, of a 38 kB body).
 DICT_MAX = 128 * 1024
@@ -96,12 +103,13 @@ DICTIONARIES = {
     Coder.ZSTD_DICT: (DICT_PATH, DICT_SHA256, (2, 4)),
     Coder.ZSTD_DICT_11: (DICT_11_PATH, DICT_11_SHA256, (2, 11)),
     Coder.ZSTD_DICT_12: (DICT_12_PATH, DICT_12_SHA256, (2, 12)),
+    Coder.ZSTD_DICT_13: (DICT_13_PATH, DICT_13_SHA256, (2, 13)),
 }
 
 
 @functools.cache
 def dictionary(coder: int = Coder.ZSTD_DICT) -> zstandard.ZstdCompressionDict:
-    """The dictionary of coder 4 (format 2.4's), 5 (2.11's) or 6 (2.12's),
+    """The dictionary of coder 4 (format 2.4's), 5 (2.11's), 6 (2.12's) or 7 (2.13's),
     checked against its SHA-256."""
     path, sha, (major, minor) = DICTIONARIES[Coder(coder)]
     raw = path.read_bytes()

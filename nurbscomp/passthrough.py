@@ -21,7 +21,6 @@ from __future__ import annotations
 import hashlib
 import os
 import time
-import zlib
 from pathlib import Path
 from typing import Any
 
@@ -52,21 +51,17 @@ def is_verbatim(path: Path) -> bool:
     """Whether ``path`` starts like a container that holds its source file
     (header flag passthrough or byte-exact).
 
-    Only the 16 header bytes are looked at (and their checksum); the whole
-    container is checked by :func:`read`.  A file that cannot be read is not
-    a passthrough (its reader says why).
+    Only the header's bytes are looked at (and their checksum where the
+    version has one: ``container.header_flags``); the whole container is
+    checked by :func:`read`.  A file that cannot be read is not a passthrough
+    (its reader says why).
     """
     try:
         with open(path, "rb") as fh:
-            head = fh.read(16)
+            head = fh.read(container.HEAD_BYTES)
     except OSError:
         return False
-    if len(head) < 16 or head[:4] != container.MAGIC:
-        return False
-    if zlib.crc32(head[:12]) != int.from_bytes(head[12:16], "little"):
-        return False
-    flags = int.from_bytes(head[6:8], "little")
-    return bool(flags & VERBATIM)
+    return bool((container.header_flags(head) or 0) & VERBATIM)
 
 
 def well_formed(data: bytes, fmt: str) -> bool:

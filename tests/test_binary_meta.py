@@ -56,7 +56,7 @@ def test_what_has_no_binary_form_is_written_as_json() -> None:
 
 
 def test_binary_meta_is_refused_before_2_6() -> None:
-    raw = serialize.write_meta(TOLERANCE)
+    raw = serialize.write_meta(TOLERANCE, container.SHORT - 1)
     assert serialize.read_meta(raw, container.COMPACT) == TOLERANCE
     with pytest.raises(SectionError, match="not valid JSON"):
         serialize.read_meta(raw, container.COMPACT - 1)
@@ -70,7 +70,9 @@ def _entry(key: int, value: bytes) -> bytes:
     "raw, fragment",
     [
         (_entry(len(KEYS), b"\x00"), "key code"),
-        (_entry(0, b"\x09"), "unknown value type 9"),
+        (_entry(0, b"\x0a"), "unknown value type 10"),
+        (_entry(5, b"\x09\x02\x2e"), "decimal number out of range"),
+        (_entry(5, b"\x09" + b"\x80" * 7 + b"\x20\x00"), "decimal number out of range"),
         (_entry(0, bytes([6, len(WORDS)])), "string code"),
         (b"\x01\x02\x00\x00\x00\x00", "twice"),
         (_entry(11, b"\x08\x01\x0c\x08\x00"), "in an object"),
@@ -123,3 +125,32 @@ def test_the_2_6_golden_files_hold_binary_meta() -> None:
         c = container.unpack(p.read_bytes())
         assert (c.major, c.minor) == (2, 6) and c.get("META")[0] == 1
         assert serialize.parse_meta(c.get("META"), c.revision)["writer"].startswith("nurbscomp ")
+
+
+# ------------------------------------------------ format 2.13: decimal numbers
+
+
+def test_a_short_decimal_is_written_as_one() -> None:
+    """§2.12 (2.13): 0.01 as (1, -2) in 3 bytes instead of 9; a number whose
+    decimal is no shorter than its binary64 (1/3), -0.0 and 1e30 keep type 4."""
+    raw = serialize.write_meta({"tolerance_mm": 0.01})
+    assert raw == bytes([1, 1, KEYS.index("tolerance_mm"), 9, 2, 3])
+    assert serialize.parse_meta(raw) == {"tolerance_mm": 0.01}
+    for x in (1 / 3, -0.0, 1e30):
+        raw = serialize.write_meta({"tolerance_mm": x})
+        assert raw[3] == 4 and struct.unpack("<d", raw[4:]) == (x,)
+    assert serialize.write_meta({"tolerance_mm": 0.01}, container.SHORT - 1)[3] == 4
+
+
+def test_a_decimal_is_refused_before_2_13() -> None:
+    raw = serialize.write_meta({"tolerance_mm": 0.1})
+    with pytest.raises(SectionError, match="unknown value type 9"):
+        serialize.parse_meta(raw, container.SHORT - 1)
+
+
+@settings(max_examples=500, deadline=None)
+@given(st.floats(allow_nan=False, allow_infinity=False) | st.sampled_from([1e-3, 0.05, 2.5e-5]))
+def test_every_number_comes_back_bit_for_bit(x: float) -> None:
+    raw = serialize.write_meta({"tolerance_mm": x})
+    (back,) = serialize.parse_meta(raw).values()
+    assert isinstance(back, float) and struct.pack("<d", back) == struct.pack("<d", x)

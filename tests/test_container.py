@@ -97,8 +97,8 @@ def test_versions_read_and_refused() -> None:
         return c.revision
 
     assert [of(1, m) for m in (0, 1, 2, 9)] == [0, 1, 2, 2]
-    assert [of(2, m) for m in range(13)] == [3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15]
-    assert of(2, 12) == container.REVISION == 15
+    assert [of(2, m) for m in range(14)] == [3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16]
+    assert of(2, 13) == container.REVISION == 16
     for major, minor in ((2, container.MINOR + 1), (0, 3)):
         with pytest.raises(VersionError, match=f"{major}.{minor} is not supported"):
             container.unpack(at(major, minor))
@@ -188,14 +188,17 @@ def test_decompression_bomb_is_not_inflated(coder: entropy.Coder) -> None:
         entropy.Coder.ZSTD_DICT_12: lambda: zstandard.ZstdCompressor(
             level=1, dict_data=entropy.dictionary(6)
         ).compress(zeros),
+        entropy.Coder.ZSTD_DICT_13: lambda: zstandard.ZstdCompressor(
+            level=1, dict_data=entropy.dictionary(7)
+        ).compress(zeros),
     }[coder]()
     assert len(bomb) < len(zeros) // 100
     with pytest.raises(CorruptError, match="1001 bytes, header says 1000"):
         entropy.decompress(coder, bomb, 1000)
     # a declared size above the reader's limit is refused before inflating
     sections = [("BOMB", zeros[:1000])]
-    if coder not in (entropy.Coder.ZSTD_DICT_11, entropy.Coder.ZSTD_DICT_12):
-        # (a 2.5 layout cannot hold coders 5 and 6)
+    if coder < entropy.Coder.ZSTD_DICT_11:
+        # (a 2.5 layout cannot hold coders 5 to 7)
         data = bytearray(container.pack(sections, coders=(coder,), version=(2, 5)))
         data[16 + 12 + 4 : 16 + 12 + 8] = struct.pack("<I", container.MAX_RAW + 1)
         data[16 + 4 : 16 + 8] = struct.pack("<I", container.MAX_RAW + 1)
@@ -203,7 +206,18 @@ def test_decompression_bomb_is_not_inflated(coder: entropy.Coder) -> None:
             container.unpack(_fix_crcs(bytes(data)))
     # from 2.6, by the directory's varint lengths: one entry at offset 16,
     # the escape code and the 4-byte tag, then the length (1000: two bytes)
+    if coder < entropy.Coder.ZSTD_DICT_13:
+        _bomb_in_2_12(sections, coder)
+    # from 2.13: a count, the escape and the tag, then the length, at offset 7
     data = container.pack(sections, coders=(coder,))
+    assert data[7:13] == b"\x01\xffBOMB" and data[13:15] == varint(1000)
+    huge = data[:13] + varint(container.MAX_RAW + 1) + data[15:]
+    with pytest.raises(LimitError, match="declares"):
+        container.unpack(_fix_crcs(huge))
+
+
+def _bomb_in_2_12(sections: list[tuple[str, bytes]], coder: int) -> None:
+    data = container.pack(sections, coders=(coder,), version=(2, 12))
     assert data[16] == container.TAG_ESCAPE and data[21:23] == varint(1000)
     huge = data[:21] + varint(container.MAX_RAW + 1) + data[23:]
     with pytest.raises(LimitError, match="declares"):
@@ -228,14 +242,17 @@ def test_duplicate_tags_are_refused() -> None:
 def test_reserved_bits_and_trailing_bytes_have_their_own_errors() -> None:
     from .golden.make_golden import fix_crcs
 
-    data = bytearray(container.pack(SECTIONS))
-    data[6] |= 0x80
-    with pytest.raises(ReservedBitsError, match="offset 6"):
-        container.unpack(fix_crcs(bytes(data)))
+    for version in ((2, 12), (container.MAJOR, container.MINOR)):
+        data = bytearray(container.pack(SECTIONS, version=version))
+        data[6] |= 0x80
+        with pytest.raises(ReservedBitsError, match="offset 6"):
+            container.unpack(fix_crcs(bytes(data)))
     with pytest.raises(TrailingDataError, match="offset"):
         container.unpack(container.pack(SECTIONS, version=(2, 5)) + b"xyz")
     # from 2.6 the payload runs to the end of the file: its CRC catches them
     with pytest.raises(ChecksumError, match="body checksum"):
+        container.unpack(container.pack(SECTIONS, version=(2, 12)) + b"xyz")
+    with pytest.raises(ChecksumError, match="checksum mismatch"):
         container.unpack(container.pack(SECTIONS) + b"xyz")
 
 
@@ -327,7 +344,7 @@ def test_the_dictionary_coder_only_from_2_4() -> None:
         container.unpack(bytes(data))
 
 
-@pytest.mark.parametrize("coder", [4, 5, 6])
+@pytest.mark.parametrize("coder", [4, 5, 6, 7])
 def test_a_text_stream_never_takes_a_dictionary_coder(coder: int) -> None:
     from nurbscomp.text import coding
 
@@ -368,7 +385,9 @@ def test_the_2_11_dictionary_coder_only_from_2_11() -> None:
         assert container.unpack(old).coder != entropy.Coder.ZSTD_DICT_11
     with pytest.raises(ValueError, match="no coder given"):
         container.pack(sections, coders=(entropy.Coder.ZSTD_DICT_11,), version=(2, 10))
-    data = bytearray(container.pack(sections, coders=(entropy.Coder.ZSTD_DICT_11,)))
+    data = bytearray(
+        container.pack(sections, coders=(entropy.Coder.ZSTD_DICT_11,), version=(2, 12))
+    )
     assert container.unpack(bytes(data)).coder == entropy.Coder.ZSTD_DICT_11
     data[5] = 10  # the same body in a 2.10 header (2.6 layout: one CRC over the header)
     fixed = _fix_crcs(bytes(data))
@@ -383,7 +402,7 @@ def test_the_compact_layout_and_what_it_saves() -> None:
     """docs/format.md §1.2, §1.3 (2.6): one-byte codes for the format's tags,
     the escape and 4 bytes for others, varint lengths, a 9-byte body header."""
     sections = [("META", b"x" * 3), ("SURF", bytes(200)), ("ZZZZ", b""), ("TEXT", b"t")]
-    data = container.pack(sections, coders=(entropy.Coder.STORED,))
+    data = container.pack(sections, coders=(entropy.Coder.STORED,), version=(2, 12))
     body = 16 + 2 + 3 + 6 + 2
     assert data[16:body] == bytes([0, 3, 2]) + varint(200) + b"\xffZZZZ\x00" + bytes([14, 1])
     assert len(data) == body + 9 + 204
@@ -409,7 +428,9 @@ def test_the_compact_layout_and_what_it_saves() -> None:
 def test_a_damaged_compact_directory_is_refused(edit, error, fragment) -> None:
     from .golden.make_golden import fix_crcs
 
-    data = container.pack([("META", b"ab"), ("LOCS", b"c")], coders=(entropy.Coder.STORED,))
+    data = container.pack(
+        [("META", b"ab"), ("LOCS", b"c")], coders=(entropy.Coder.STORED,), version=(2, 12)
+    )
     with pytest.raises(error, match=fragment):
         container.unpack(fix_crcs(edit(data)))
 
@@ -418,7 +439,7 @@ def test_the_decoded_body_crc_is_checked() -> None:
     """A 2.6 file's one CRC of the decoded sections (where 2.5 had one each)."""
     from .golden.make_golden import fix_crcs
 
-    data = bytearray(container.pack(SECTIONS, coders=(entropy.Coder.STORED,)))
+    data = bytearray(container.pack(SECTIONS, coders=(entropy.Coder.STORED,), version=(2, 12)))
     data[-1] ^= 1  # the payload, then the body CRC made right again
     with pytest.raises(ChecksumError, match="decoded body checksum"):
         container.unpack(fix_crcs(bytes(data)))
@@ -449,8 +470,118 @@ def test_the_2_12_dictionary_coder_only_from_2_12() -> None:
     sections = [("META", b'{"mode":"tolerance"}')]
     with pytest.raises(ValueError, match="no coder given"):
         container.pack(sections, coders=(entropy.Coder.ZSTD_DICT_12,), version=(2, 11))
-    data = bytearray(container.pack(sections, coders=(entropy.Coder.ZSTD_DICT_12,)))
+    data = bytearray(
+        container.pack(sections, coders=(entropy.Coder.ZSTD_DICT_12,), version=(2, 12))
+    )
     assert container.unpack(bytes(data)).coder == entropy.Coder.ZSTD_DICT_12
     data[5] = 11  # the same body in a 2.11 header
     with pytest.raises(CorruptError, match="unknown coder id 6"):
         container.unpack(_fix_crcs(bytes(data)))
+
+
+# ------------------------------------------------- format 2.13: the short header
+
+
+def test_the_short_header_and_what_it_saves() -> None:
+    """docs/format.md §1.1–1.3 (2.13): magic, version, a flags byte; the
+    table's tags in its order as a mask; varint lengths; the coder and one
+    CRC-32 of every other byte."""
+    sections = [("META", b"x" * 3), ("SURF", bytes(200)), ("VERT", b"v")]
+    data = container.pack(sections, container.FLAG_LOSSLESS, coders=(entropy.Coder.STORED,))
+    mask = (1 << 0) | (1 << 2) | (1 << 8)
+    head = container.MAGIC + bytes([2, 13, 1 | container.FLAG_MASK]) + struct.pack("<H", mask)
+    head += bytes([3]) + varint(200) + bytes([1]) + bytes([0])
+    assert data[: len(head)] == head
+    crc = zlib.crc32(data[len(head) + 4 :], zlib.crc32(head))
+    assert data[len(head) : len(head) + 4] == struct.pack("<I", crc)
+    c = container.unpack(data)
+    assert [(s.tag, s.raw) for s in c.sections] == sections
+    assert c.flags == container.FLAG_LOSSLESS  # the layout bit is not the content's
+    assert c.file_bytes == len(data) and c.overhead == len(head) + 4
+    old = container.pack(
+        sections, container.FLAG_LOSSLESS, (entropy.Coder.STORED,), version=(2, 12)
+    )
+    assert len(old) - len(data) == 11 + len(sections)
+    # a tag outside the table, or the table's tags out of its order: a count and names
+    for odd in ([("SURF", b"s"), ("META", b"m")], [("META", b"m"), ("ZZZZ", b"z")]):
+        data = container.pack(odd, coders=(entropy.Coder.STORED,))
+        assert data[6] == 0 and data[7] == 2
+        assert [(s.tag, s.raw) for s in container.unpack(data).sections] == odd
+    empty = container.pack([], coders=(entropy.Coder.STORED,))
+    assert len(empty) == 14 and container.unpack(empty).sections == []
+
+
+@pytest.mark.parametrize(
+    "sections, edit, error, fragment",
+    [
+        ("mask", lambda d: d[:8] + bytes([d[8] | 0x80]) + d[9:], ReservedBitsError, "bit 15"),
+        ("mask", lambda d: d[:6] + bytes([d[6] | 0x10]) + d[7:], ReservedBitsError, "offset 6"),
+        ("mask", lambda d: d[:8], TruncatedError, "directory truncated"),
+        ("mask", lambda d: d[:12], TruncatedError, "body header truncated"),
+        ("mask", lambda d: d[:9] + b"\xff" * 9 + d[10:], CorruptError, "longer than 9 bytes"),
+        ("names", lambda d: d[:8] + b"\x20" + d[9:], CorruptError, "unknown section tag code 32"),
+        ("names", lambda d: d[:8] + d[9:10] + d[9:], CorruptError, "appears twice"),
+        ("names", lambda d: d[:7] + b"\x7f" + d[8:], TruncatedError, "directory of 127"),
+        ("names", lambda d: d[:9], TruncatedError, "truncated"),
+    ],
+    ids=["mask bit 15", "flag bit 4", "cut mask", "cut body header", "long varint", "code",
+         "twice", "count", "cut names"],
+)  # fmt: skip
+def test_a_damaged_short_directory_is_refused(sections, edit, error, fragment) -> None:
+    from .golden.make_golden import fix_crcs
+
+    secs = {"mask": [("META", b"ab"), ("LOCS", b"c")], "names": [("LOCS", b"c"), ("META", b"ab")]}
+    data = container.pack(secs[sections], coders=(entropy.Coder.STORED,))
+    assert container.unpack(fix_crcs(data)).sections  # fix_crcs knows the layout
+    with pytest.raises(error, match=fragment):
+        container.unpack(fix_crcs(edit(data)))
+
+
+def test_the_one_crc_covers_the_header() -> None:
+    """2.13 has no header CRC of its own: a flip of the flags or of a length
+    is caught by the one CRC, and so is a byte after the payload."""
+    data = container.pack(SECTIONS, coders=(entropy.Coder.STORED,))
+    for at in (6, 9, len(data) - 1):
+        bad = bytearray(data)
+        bad[at] ^= 1
+        with pytest.raises(FormatError):
+            container.unpack(bytes(bad))
+    with pytest.raises(ChecksumError, match="checksum mismatch"):
+        container.unpack(data[:6] + bytes([data[6] ^ 1]) + data[7:])
+
+
+# ------------------------------------------- coder 7 (2.13): zstd with 2.13's dictionary
+
+
+def test_the_2_13_dictionary_is_the_format_s() -> None:
+    raw = entropy.DICT_13_PATH.read_bytes()
+    assert len(raw) == 65536 and raw[:4] == bytes.fromhex("37a430ec")
+    assert hashlib.sha256(raw).hexdigest() == entropy.DICT_13_SHA256
+
+
+def test_the_2_13_dictionary_coder_only_from_2_13() -> None:
+    sections = [("META", b'{"mode":"tolerance"}')]
+    with pytest.raises(ValueError, match="no coder given"):
+        container.pack(sections, coders=(entropy.Coder.ZSTD_DICT_13,), version=(2, 12))
+    data = bytearray(container.pack(sections, coders=(entropy.Coder.ZSTD_DICT_13,)))
+    assert container.unpack(bytes(data)).coder == entropy.Coder.ZSTD_DICT_13
+    data[5] = 12  # the same body in a 2.12 header: the short layout is not 2.12's
+    with pytest.raises(FormatError):
+        container.unpack(_fix_crcs(bytes(data)))
+    old = bytearray(container.pack(sections, coders=(entropy.Coder.ZSTD_DICT_12,), version=(2, 12)))
+    body_at = len(old) - container.unpack(bytes(old)).stored_length - 9
+    old[body_at] = entropy.Coder.ZSTD_DICT_13  # coder 7 in a 2.12 file
+    with pytest.raises(CorruptError, match="unknown coder id 7"):
+        container.unpack(_fix_crcs(bytes(old)))
+
+
+def test_a_small_part_takes_the_2_13_dictionary() -> None:
+    """The golden bracket of 2.13 at 0.01 mm: coder 7 is smaller than coders
+    4 to 6 on its body, and what was written."""
+    golden = Path(__file__).resolve().parent / "golden" / "bracket.v2_13.tol0.01.nzc"
+    c = container.unpack(golden.read_bytes())
+    body = b"".join(c.get(t) for t in c.tags())
+    seven = len(entropy._compress(entropy.Coder.ZSTD_DICT_13, body))
+    for other in (entropy.Coder.ZSTD_DICT, entropy.Coder.ZSTD_DICT_11, entropy.Coder.ZSTD_DICT_12):
+        assert seven < len(entropy._compress(other, body))
+    assert c.coder == entropy.Coder.ZSTD_DICT_13 and c.stored_length == seven

@@ -3,6 +3,7 @@ binary, read with bounds on its size, its strings and its numbers."""
 
 from __future__ import annotations
 
+import decimal
 import json
 import math
 import struct
@@ -66,10 +67,42 @@ WORDS = (
 #: §2.12: the first byte of a binary META (a JSON one starts with ``{``).
 BINARY = 1
 _KEY_ESCAPE = 255
-_NULL, _FALSE, _TRUE, _INT, _FLOAT, _STR, _WORD, _HEX, _OBJECT = range(9)
+_NULL, _FALSE, _TRUE, _INT, _FLOAT, _STR, _WORD, _HEX, _OBJECT, _DECIMAL = range(10)
 _F64 = struct.Struct("<d")
 #: Largest magnitude of a binary META integer (a zig-zag varint of 9 bytes).
 _INT_LIMIT = 1 << 62
+
+
+#: §2.12 (2.13): a decimal number m·10^e has |m| < 2^53 and |e| <= 22, where
+#: m and 10^|e| are binary64 numbers exactly and one product or quotient of
+#: them is the correctly rounded value.
+_DEC_MANTISSA = 1 << 53
+_DEC_EXPONENT = 22
+
+
+def _zigzag(v: int) -> bytes:
+    return varint(2 * v if v >= 0 else -2 * v - 1)
+
+
+def from_decimal(m: int, e: int) -> float:
+    """m·10^e as §2.12 (2.13) reads it: one binary64 product or quotient,
+    correctly rounded (m and 10^|e| are exact)."""
+    return float(m) * float(10**e) if e >= 0 else float(m) / float(10**-e)
+
+
+def _decimal(x: float) -> tuple[int, int] | None:
+    """(m, e) whose :func:`from_decimal` is ``x`` bit for bit, m with the
+    fewest digits (Python's shortest repr), or None (-0.0, a number that
+    needs more digits or a larger exponent)."""
+    if not math.isfinite(x) or math.copysign(1.0, x) < 0 and x == 0:
+        return None
+    t = decimal.Decimal(repr(x)).normalize().as_tuple()
+    m = int("".join(map(str, t.digits))) * (-1 if t.sign else 1)
+    e = int(t.exponent)
+    if abs(m) >= _DEC_MANTISSA or abs(e) > _DEC_EXPONENT:
+        return None
+    y = from_decimal(m, e)
+    return (m, e) if _F64.pack(y) == _F64.pack(x) else None
 
 
 def _hex(s: str) -> bool:
@@ -85,8 +118,9 @@ def _text(s: str) -> bytes | None:
     return varint(len(b)) + b
 
 
-def _value(v: Any, top: bool) -> bytes | None:
-    """One value in binary (§2.12), None where the binary form has none."""
+def _value(v: Any, top: bool, decimals: bool) -> bytes | None:
+    """One value in binary (§2.12), None where the binary form has none; with
+    ``decimals`` (2.13), a number a short decimal gives bit for bit as one."""
     if v is None:
         return bytes([_NULL])
     if isinstance(v, bool):
@@ -94,8 +128,12 @@ def _value(v: Any, top: bool) -> bytes | None:
     if isinstance(v, int):
         if abs(v) >= _INT_LIMIT:
             return None
-        return bytes([_INT]) + varint(2 * v if v >= 0 else -2 * v - 1)
+        return bytes([_INT]) + _zigzag(v)
     if isinstance(v, float):
+        d = _decimal(v) if decimals else None
+        short = b"" if d is None else _zigzag(d[0]) + _zigzag(d[1])
+        if 0 < len(short) <= _F64.size:  # else the binary64 is no longer
+            return bytes([_DECIMAL]) + short
         return bytes([_FLOAT]) + _F64.pack(v) if math.isfinite(v) else None
     if isinstance(v, str):
         if v in WORDS:
@@ -105,17 +143,17 @@ def _value(v: Any, top: bool) -> bytes | None:
         t = _text(v)
         return None if t is None else bytes([_STR]) + t
     if isinstance(v, dict) and top:
-        inner = _object(v, False)
+        inner = _object(v, False, decimals)
         return None if inner is None else bytes([_OBJECT]) + inner
     return None
 
 
-def _object(d: dict[str, Any], top: bool) -> bytes | None:
+def _object(d: dict[str, Any], top: bool, decimals: bool) -> bytes | None:
     parts = [varint(len(d))]
     for k in sorted(d):
         if not isinstance(k, str):
             return None
-        v = _value(d[k], top)
+        v = _value(d[k], top, decimals)
         key = bytes([KEYS.index(k)]) if k in KEYS else _text(k)
         if v is None or key is None:
             return None
@@ -127,7 +165,7 @@ def write_meta(meta: dict[str, Any], revision: int = container.REVISION) -> byte
     """The META section of ``meta``: binary (§2.12) from format 2.6 wherever
     every value has a binary form, else JSON with sorted keys."""
     if revision >= container.COMPACT:
-        body = _object(meta, True)
+        body = _object(meta, True, revision >= container.SHORT)
         if body is not None:
             return bytes([BINARY]) + body
     return json.dumps(meta, sort_keys=True, separators=(",", ":")).encode()
@@ -136,8 +174,8 @@ def write_meta(meta: dict[str, Any], revision: int = container.REVISION) -> byte
 class _Binary:
     """Reads a binary META (§2.12); every fault a ``SectionError``."""
 
-    def __init__(self, raw: bytes) -> None:
-        self.raw, self.pos = raw, 1
+    def __init__(self, raw: bytes, revision: int) -> None:
+        self.raw, self.pos, self.revision = raw, 1, revision
 
     def byte(self) -> int:
         if self.pos >= len(self.raw):
@@ -158,6 +196,11 @@ class _Binary:
         self.pos += n
         return self.raw[self.pos - n : self.pos]
 
+    def signed(self) -> int:
+        """A zig-zag varint: z even is z/2, z odd is -(z+1)/2."""
+        z = self.count()
+        return z >> 1 if not z & 1 else -((z + 1) >> 1)
+
     def text(self) -> str:
         try:
             return self.take(self.count()).decode("utf-8")
@@ -169,8 +212,12 @@ class _Binary:
         if t in (_NULL, _FALSE, _TRUE):
             return (None, False, True)[t]
         if t == _INT:
-            z = self.count()
-            return z >> 1 if not z & 1 else -((z + 1) >> 1)
+            return self.signed()
+        if t == _DECIMAL and self.revision >= container.SHORT:
+            m, e = self.signed(), self.signed()
+            if abs(m) >= _DEC_MANTISSA or abs(e) > _DEC_EXPONENT:
+                raise SectionError("META: a decimal number out of range")
+            return from_decimal(m, e)
         if t == _FLOAT:
             (x,) = _F64.unpack(self.take(8))
             if not math.isfinite(x):
@@ -221,7 +268,7 @@ def parse_meta(raw: bytes, revision: int = container.REVISION) -> Any:
     if revision >= container.COMPACT and raw[:1] not in (b"{", bytes([BINARY])):
         raise SectionError("META section is neither a JSON object nor binary")
     if revision >= container.COMPACT and raw[:1] == bytes([BINARY]):
-        b = _Binary(raw)
+        b = _Binary(raw, revision)
         meta = b.object(True)
         if b.pos != len(raw):
             raise SectionError("META: bytes after the binary object")

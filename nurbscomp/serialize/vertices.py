@@ -209,29 +209,71 @@ def _twin_refs(pts: np.ndarray, e: int = TWIN_EXP) -> tuple[np.ndarray, np.ndarr
     return ref, k
 
 
+#: Format 2.13: a vertex off the vertex grid may lie on the binary grid
+#: 2**(floor(log2 tol) - BINARY_BITS) (where ``encode.assembly._fine_points``
+#: rounds a vertex that cannot snap: on a feature finer than tol, or beside a
+#: vertex it would land on); it is then stored as integers on that grid
+#: (kind 3), predicted as kind 1 is.
+BINARY_BITS = 10
+
+
+def binary_exponent(tol: float) -> int:
+    """Format 2.13: the exponent of the binary grid of kind-3 vertices this
+    writer writes for ``tol`` (docs/format.md §2.6)."""
+    return int(np.floor(np.log2(tol))) - BINARY_BITS
+
+
+def _on_step(pts: np.ndarray, step: float) -> tuple[np.ndarray, np.ndarray]:
+    """Per point, whether every coordinate is k·``step`` bit for bit (|k| <
+    2^50), and the integers k."""
+    q = np.zeros_like(pts, dtype=np.int64)
+    small = (np.abs(pts) < 2.0**50 * step).all(-1)
+    q[small] = np.rint(pts[small] / step).astype(np.int64)
+    on = small & ((q * step).view(np.int64) == pts.view(np.int64)).all(-1)  # bit for bit
+    return on, q
+
+
 def _write_vertices(m: BRepModel, tol: float = 0.0) -> bytes:
     """Vertices at a bit-exact offset from an earlier one (format 2.5) are
     stored as that offset, where the section then compresses smaller (LZMA
     alone: a few vertices at one point cost LZMA less as repeated floats
     than as references; generated faces-mode IGES parts lost up to 51 bytes);
     those whose point is a grid point (``vertex_grid``) bit for bit as grid
-    integers; the others as floats."""
+    integers; of the others, those on the binary grid of
+    :func:`binary_exponent` as its integers (format 2.13), where that is
+    smaller too; the rest as floats."""
     pts = m.vertex_point
     on_grid = np.zeros(len(pts), bool)
     q = np.zeros_like(pts, dtype=np.int64)
+    binary, e = np.zeros(len(pts), bool), 0
     if tol > 0 and len(pts):
-        h = vertex_grid(tol)
-        small = (np.abs(pts) < 2.0**50 * h).all(-1)
-        q[small] = np.rint(pts[small] / h).astype(np.int64)
-        on_grid = small & ((q * h).view(np.int64) == pts.view(np.int64)).all(-1)  # bit for bit
+        on_grid, q = _on_step(pts, vertex_grid(tol))
+        e = binary_exponent(tol)
+        if -1074 <= e <= 0:
+            binary, qb = _on_step(pts, float(np.ldexp(1.0, e)))
+            binary &= ~on_grid
+            q = np.where(binary[:, None], qb, q)
     ref, k = _twin_refs(pts)
-    near = (vertex_neighbours(m), vertex_quads(m)) if on_grid.any() else ([], {})
-    plain = _vertex_arrays(m, on_grid, q, ref, k, np.zeros(len(pts), bool), near)
+    near = (vertex_neighbours(m), vertex_quads(m)) if (on_grid | binary).any() else ([], {})
+    none = np.zeros(len(pts), bool)
     twin = ref >= 0
-    if not twin.any():
-        return plain
-    twins = _vertex_arrays(m, on_grid & ~twin, q, ref, k, twin, near)
-    return twins if len(lzma.compress(twins)) < len(lzma.compress(plain)) else plain
+    best = b""
+    for tw in (none, twin) if twin.any() else (none,):
+        for bi in (none, binary & ~tw) if binary.any() else (none,):
+            raw = _vertex_arrays(m, on_grid & ~tw, q, ref, k, tw, near, bi, e)
+            if not best or len(lzma.compress(raw)) < len(lzma.compress(best)):
+                best = raw
+    return best
+
+
+def _write_predicted(
+    w: BlockWriter, near: tuple[list[list[int]], Quads], rows: np.ndarray, q: np.ndarray
+) -> None:
+    """The x, y and z residuals of the integers ``q`` of the vertices ``rows``
+    (kind 1, or kind 3) against their predictions among themselves."""
+    pred = _grid_predictions(near[0], rows, q[rows], near[1]) if len(rows) else q[rows]
+    for axis in range(3):
+        w.ints(q[rows, axis] - pred[:, axis])
 
 
 def _vertex_arrays(
@@ -242,17 +284,20 @@ def _vertex_arrays(
     k: np.ndarray,
     twin: np.ndarray,
     near: tuple[list[list[int]], Quads],
+    binary: np.ndarray,
+    e: int,
 ) -> bytes:
     """The section with the vertices of ``twin`` as kind 2, of ``on_grid`` as
-    kind 1 (predicted from ``near``: the model's vertex neighbours and quads)."""
+    kind 1 (predicted from ``near``: the model's vertex neighbours and quads),
+    of ``binary`` as kind 3 (integers ``q`` on the grid 2**``e``, predicted so)."""
     w = BlockWriter()
     pts = m.vertex_point
-    w.ints(np.where(twin, 2, on_grid.astype(np.int64)))
-    w.floats(pts[~on_grid & ~twin].reshape(-1))
-    rows = np.flatnonzero(on_grid)
-    pred = _grid_predictions(near[0], rows, q[rows], near[1]) if len(rows) else q[rows]
-    for axis in range(3):
-        w.ints(q[rows, axis] - pred[:, axis])
+    w.ints(np.select([twin, binary, on_grid], [2, 3, 1], 0))
+    w.floats(pts[~on_grid & ~twin & ~binary].reshape(-1))
+    _write_predicted(w, near, np.flatnonzero(on_grid), q)
+    if binary.any():
+        w.ints([e])
+        _write_predicted(w, near, np.flatnonzero(binary), q)
     tw = np.flatnonzero(twin)
     if len(tw):
         w.ints(tw - ref[tw])
@@ -271,18 +316,19 @@ def _vertex_arrays(
 def _read_vertices(data: bytes, m: BRepModel, tol: float = 0.0, revision: int = 3) -> None:
     r = BlockReader(data, "VERT")
     kind = r.ints()
-    if len(kind) and (kind.min() < 0 or kind.max() > (2 if revision >= 8 else 1)):
+    top = 3 if revision >= container.SHORT else 2 if revision >= 8 else 1
+    if len(kind) and (kind.min() < 0 or kind.max() > top):
         raise SectionError("VERT: unknown vertex kind")
-    on_grid, twin = kind == 1, kind == 2
+    on_grid, twin, binary = kind == 1, kind == 2, kind == 3
     nv, ng = len(on_grid), int(on_grid.sum())
     pts = np.zeros((nv, 3))
     plain = kind == 0
     pts[plain] = r.floats(3 * int(plain.sum())).reshape(-1, 3)
+    near = (vertex_neighbours(m), vertex_quads(m)) if ng or binary.any() else ([], {})
     if revision >= 3:
-        res = np.stack([r.ints(ng) for _ in range(3)], axis=1)
-        quads = vertex_quads(m) if ng and revision >= container.COMPACT else {}
-        grid = np.flatnonzero(on_grid)
-        q = _grid_from_residuals(vertex_neighbours(m), grid, res, quads) if ng else res
+        if revision < container.COMPACT:
+            near = (near[0], {})
+        q = _read_predicted(r, near, np.flatnonzero(on_grid))
     else:
         q = np.stack([r.deltas(ng) for _ in range(3)], axis=1)
     if ng and not tol > 0:
@@ -290,6 +336,14 @@ def _read_vertices(data: bytes, m: BRepModel, tol: float = 0.0, revision: int = 
     if ng:
         with np.errstate(over="ignore"):
             pts[on_grid] = q * vertex_grid(tol)
+    if binary.any():
+        e = int(r.ints(1)[0])
+        if not -1074 <= e <= 0:
+            raise SectionError("VERT: the binary grid's exponent is out of range")
+        qb = _read_predicted(r, near, np.flatnonzero(binary))
+        if (np.abs(qb) >= 2**53).any():
+            raise SectionError("VERT: an integer on the binary grid is out of range")
+        pts[binary] = np.ldexp(qb.astype(np.float64), e)
     if revision >= 8:
         _read_twins(r, pts, np.flatnonzero(twin))
     finite(pts, "VERT points", MAX_COORD)
@@ -306,6 +360,15 @@ def _read_vertices(data: bytes, m: BRepModel, tol: float = 0.0, revision: int = 
     finite(m.vertex_rep_params, "VERT parameters", MAX_COORD)
     cols.insert(0, np.repeat(np.arange(len(per)), per))
     m.vertex_reps = np.stack(cols, axis=1).astype(np.int64).reshape(-1, 5)
+
+
+def _read_predicted(
+    r: BlockReader, near: tuple[list[list[int]], Quads], rows: np.ndarray
+) -> np.ndarray:
+    """The integers of the vertices ``rows`` (kind 1, or kind 3) from their x,
+    y and z residuals (the inverse of :func:`_write_predicted`)."""
+    res = np.stack([r.ints(len(rows)) for _ in range(3)], axis=1)
+    return _grid_from_residuals(near[0], rows, res, near[1]) if len(rows) else res
 
 
 def _read_twins(r: BlockReader, pts: np.ndarray, rows: np.ndarray) -> None:

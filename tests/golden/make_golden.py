@@ -101,10 +101,16 @@ GOLDEN = [
     # format 2.12: unit knot vectors, end multiplicities less degree + 1, weight grids
     ("bracket.step", "v2_12.tol0.01", {"tol": 0.01}),
     ("loft.step", "v2_12.lossless", {"lossless": True}),
+    # format 2.13: the short header, META's decimals, coder 7
+    ("bracket.step", "v2_13.tol0.01", {"tol": 0.01}),
+    ("teapot.step", "v2_13.faces.tol0.1", {"tol": 0.1}),
+    ("loft.step", "v2_13.exact", {"exact": True}),
 ]
 
 
 def _version(sample: str, mode: str) -> str:
+    if mode.startswith("v2_13."):
+        return "2.13"
     if mode.startswith("v2_12."):
         return "2.12"
     if mode.startswith("v2_11."):
@@ -279,7 +285,10 @@ def compact(data: bytes) -> bool:
 
 def length_fields(data: bytes) -> list[tuple[int, int]] | None:
     """Format 2.6: the (start, end) offsets of each directory entry's varint
-    length, None where the directory is cut."""
+    length, None where the directory is cut (from 2.13, :func:`short_fields`)."""
+    if short(data):
+        fields = short_fields(data)
+        return None if fields is None else fields[0]
     nsec = struct.unpack_from("<H", data, 8)[0]
     at, out = 16, []
     for _ in range(nsec):
@@ -307,10 +316,57 @@ def body_at(data: bytes) -> int | None:
     return fields[-1][1] if fields else 16
 
 
+def short(data: bytes) -> bool:
+    """Whether container bytes' header says format 2.13's short header."""
+    v = (data[4], data[5]) if len(data) >= 6 else (0, 0)
+    return v in container.VERSIONS and container.revision(*v) >= container.SHORT
+
+
+def short_fields(data: bytes) -> tuple[list[tuple[int, int]], int] | None:
+    """Format 2.13: the (start, end) offsets of each section's varint length
+    and the offset of the coder byte, None where the directory is cut."""
+    if len(data) < 7:
+        return None
+    at = 7
+    if data[6] & container.FLAG_MASK:
+        if len(data) < 9:
+            return None
+        n, at = bin(struct.unpack_from("<H", data, 7)[0] & 0x7FFF).count("1"), 9
+    else:
+        n = 0
+        for shift in range(0, 63, 7):  # the count's varint
+            if at >= len(data):
+                return None
+            n |= (data[at] & 0x7F) << shift
+            at += 1
+            if not data[at - 1] & 0x80:
+                break
+        for _ in range(n):
+            if at >= len(data):
+                return None
+            at += 5 if data[at] == container.TAG_ESCAPE else 1
+    out = []
+    for _ in range(n):
+        start = at
+        while at < len(data) and data[at] & 0x80:
+            at += 1
+        at += 1
+        out.append((start, at))
+    return (out, at) if at <= len(data) else None
+
+
 def fix_crcs(data: bytes) -> bytes:
     """Recompute the header and body CRCs of (possibly damaged) container bytes,
     where the layout allows it (not the CRCs of the decoded sections)."""
     b = bytearray(data)
+    if short(data):
+        fields = short_fields(data)
+        if fields is None or fields[1] + 5 > len(b):
+            return data
+        at = fields[1]
+        crc = zlib.crc32(bytes(b[at + 5 :]), zlib.crc32(bytes(b[: at + 1])))
+        b[at + 1 : at + 5] = struct.pack("<I", crc)
+        return bytes(b)
     if len(b) < 16:
         return data
     b[12:16] = struct.pack("<I", zlib.crc32(bytes(b[:12])))

@@ -29,6 +29,7 @@ REVISION = {
     (2, 10): 13,
     (2, 11): 14,
     (2, 12): 15,
+    (2, 13): 16,
 }
 #: §1.2 (2.6): the tags of the directory's one-byte codes
 TAGS = "META LOCS SURF SNET CRV3 CNET CRV2 SHAP VERT EDGE FACE SIDE PROD FILE TEXT".split()
@@ -48,6 +49,7 @@ DICTIONARY = Path(__file__).resolve().parents[2] / "nurbscomp" / "data" / "nzc-2
 #: §1.3 (2.11): the dictionary of coder 5
 DICTIONARY_11 = DICTIONARY.with_name("nzc-2.11.dict")
 DICTIONARY_12 = DICTIONARY.with_name("nzc-2.12.dict")
+DICTIONARY_13 = DICTIONARY.with_name("nzc-2.13.dict")
 
 
 class ReadError(Exception):
@@ -75,10 +77,11 @@ def _inflate(coder: int, payload: bytes, raw_length: int, revision: int) -> byte
         (coder == 4 and revision >= 7)
         or (coder == 5 and revision >= 14)
         or (coder == 6 and revision >= 15)
+        or (coder == 7 and revision >= 16)
     ):
-        import zstandard  # §1.3 (2.4, 2.11, 2.12): zstd with the format's dictionary
+        import zstandard  # §1.3 (2.4, 2.11–2.13): zstd with the format's dictionary
 
-        path = {4: DICTIONARY, 5: DICTIONARY_11, 6: DICTIONARY_12}[coder]
+        path = {4: DICTIONARY, 5: DICTIONARY_11, 6: DICTIONARY_12, 7: DICTIONARY_13}[coder]
         d = zstandard.ZstdCompressionDict(path.read_bytes())
         reader = zstandard.ZstdDecompressor(dict_data=d).stream_reader(payload)
         out = reader.read(raw_length + 1)
@@ -104,8 +107,8 @@ def leb128(data: bytes, pos: int) -> tuple[int, int]:
 class BinaryMeta:
     """§2.12: META in binary."""
 
-    def __init__(self, raw: bytes) -> None:
-        self.raw, self.pos = raw, 1
+    def __init__(self, raw: bytes, revision: int) -> None:
+        self.raw, self.pos, self.revision = raw, 1, revision
 
     def u8(self) -> int:
         if self.pos >= len(self.raw):
@@ -149,6 +152,11 @@ class BinaryMeta:
                 value = self.blob(self.n()).hex()
             elif kind == 8 and depth == 0:
                 value = self.obj(1)
+            elif kind == 9 and self.revision >= 16:  # 2.13: m·10^e
+                m, e = (-(z + 1) // 2 if z % 2 else z // 2 for z in (self.n(), self.n()))
+                if abs(m) >= 2**53 or abs(e) > 22:
+                    raise ReadError("META decimal")
+                value = m * 10.0**e if e >= 0 else m / 10.0 ** (-e)
             else:
                 raise ReadError(f"META value type {kind}")
             out[key] = value
@@ -158,7 +166,7 @@ class BinaryMeta:
 def read_meta(raw: bytes, revision: int) -> dict:
     """§2 and §2.12: META as JSON, or from 2.6 in binary."""
     if revision >= 9 and raw[:1] == b"\x01":
-        b = BinaryMeta(raw)
+        b = BinaryMeta(raw, revision)
         meta = b.obj(0)
         if b.pos != len(raw):
             raise ReadError("bytes after META")
@@ -170,8 +178,15 @@ class Container:
     """The header's fields and the sections' bytes by tag (§1.1–1.3)."""
 
     def __init__(self, data: bytes) -> None:
-        if len(data) < 16 or data[:4] != MAGIC:
+        if len(data) < 6 or data[:4] != MAGIC:
             raise ReadError("bad magic")
+        self.sections: dict[str, bytes] = {}
+        self.order: list[str] = []
+        if REVISION.get((data[4], data[5]), 0) >= 16:
+            self._short(data)
+            return
+        if len(data) < 16:
+            raise ReadError("header")
         self.major, self.minor, self.flags, nsec, reserved = struct.unpack_from("<BBHHH", data, 4)
         (crc,) = struct.unpack_from("<I", data, 12)
         if crc != zlib.crc32(data[:12]) or reserved:
@@ -179,8 +194,6 @@ class Container:
         if (self.major, self.minor) not in REVISION:
             raise ReadError(f"version {self.major}.{self.minor}")
         self.revision = REVISION[(self.major, self.minor)]
-        self.sections: dict[str, bytes] = {}
-        self.order: list[str] = []
         if self.revision >= 9:
             self._compact(data, nsec)
             return
@@ -246,6 +259,49 @@ class Container:
             self.sections[tag] = body[at : at + length]
             self.order.append(tag)
             at += length
+
+    def _short(self, data: bytes) -> None:
+        """§1.1–1.3 from 2.13: a flags byte, a mask of TAGS (flag 8) or a count
+        and codes, varint lengths, the coder, one CRC of all other bytes."""
+        self.major, self.minor, flags = data[4], data[5], data[6]
+        self.revision = REVISION[(self.major, self.minor)]
+        self.flags = flags & ~8
+        pos = 7
+        if flags & 8:
+            (mask,) = struct.unpack_from("<H", data, pos)
+            pos += 2
+            tags = [TAGS[k] for k in range(15) if mask & (1 << k)]
+            if mask & 0x8000:
+                raise ReadError("mask bit 15")
+        else:
+            count, pos = leb128(data, pos)
+            tags = []
+            for _ in range(count):
+                if data[pos] == 255:
+                    tags.append(data[pos + 1 : pos + 5].decode("ascii"))
+                    pos += 5
+                else:
+                    tags.append(TAGS[data[pos]])
+                    pos += 1
+        lengths = []
+        for _ in tags:
+            n, pos = leb128(data, pos)
+            lengths.append(n)
+        coder = data[pos]
+        (crc,) = struct.unpack_from("<I", data, pos + 1)
+        payload = data[pos + 5 :]
+        if zlib.crc32(payload, zlib.crc32(data[: pos + 1])) != crc:
+            raise ReadError("crc")
+        if self.flags & ~7:
+            raise ReadError("reserved flags")
+        body = _inflate(coder, payload, sum(lengths), self.revision)
+        at = 0
+        for tag, n in zip(tags, lengths):
+            if tag in self.sections:
+                raise ReadError(f"section {tag} twice")
+            self.sections[tag] = body[at : at + n]
+            self.order.append(tag)
+            at += n
 
     @property
     def lossless(self) -> bool:

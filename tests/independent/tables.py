@@ -437,6 +437,36 @@ def quad_corners(shapes: Shapes) -> dict[int, list[tuple[int, int, int]]]:
     return out
 
 
+def _walk(
+    kind: np.ndarray,
+    which: int,
+    res: np.ndarray,
+    nbr: dict[int, set[int]],
+    quads: dict[int, list[tuple[int, int, int]]],
+) -> np.ndarray:
+    """§2.6: the integers of the vertices of kind ``which`` (1, or 3 from
+    2.13) from their residuals, each predicted among those of its kind."""
+    grid = np.zeros_like(res)
+    last = np.zeros(3, np.int64)
+    done: dict[int, np.ndarray] = {}
+    k = 0
+    for v in range(len(kind)):
+        if kind[v] != which:
+            continue
+        before = [u for u in nbr.get(v, ()) if u in done]
+        pred = done[max(before)] if before else last
+        for x, y, z in quads.get(v, []):  # 2.6: a parallelogram first
+            if x in done and y in done and z in done:
+                pred = done[x] + done[z] - done[y]
+                break
+        q = pred + res[k]
+        grid[k] = q
+        done[v] = q
+        last = q
+        k += 1
+    return grid
+
+
 def read_vertices(raw: bytes, revision: int, shapes: Shapes, tol: float | None) -> Vertices:
     a = Arrays(raw, "VERT")
     kind = a.ints()
@@ -456,24 +486,16 @@ def read_vertices(raw: bytes, revision: int, shapes: Shapes, tol: float | None) 
                     if x != y:
                         nbr.setdefault(x, set()).add(y)
         quads = quad_corners(shapes) if revision >= 9 else {}
-        grid = np.zeros_like(res)
-        last = np.zeros(3, np.int64)
-        done: dict[int, np.ndarray] = {}
-        k = 0
-        for v in range(nv):
-            if kind[v] != 1:
-                continue
-            before = [u for u in nbr.get(v, ()) if u in done]
-            pred = done[max(before)] if before else last
-            for x, y, z in quads.get(v, []):  # 2.6: a parallelogram first
-                if x in done and y in done and z in done:
-                    pred = done[x] + done[z] - done[y]
-                    break
-            q = pred + res[k]
-            grid[k] = q
-            done[v] = q
-            last = q
-            k += 1
+        grid = _walk(kind, 1, res, nbr, quads)
+    n3 = int((kind == 3).sum()) if revision >= 16 else 0
+    if n3:  # 2.13: exponent, then residuals predicted among the kind-3 vertices
+        (e3,) = a.ints()
+        if not -1074 <= e3 <= 0:
+            raise ReadError("VERT: binary exponent")
+        res3 = np.stack([a.ints(), a.ints(), a.ints()], axis=1)
+        binary = _walk(kind, 3, res3, nbr, quads)
+        if (np.abs(binary) >= 2**53).any():
+            raise ReadError("VERT: binary integer")
     n2 = int((kind == 2).sum()) if revision >= 8 else 0
     if n2:  # 2.5: back, exponent, offsets
         back, ex = a.ints(), a.ints()
@@ -481,15 +503,18 @@ def read_vertices(raw: bytes, revision: int, shapes: Shapes, tol: float | None) 
         if len(back) != n2 or len(ex) != 1 or len(off) != n2:
             raise ReadError("VERT: twin arrays")
     point = np.zeros((nv, 3))
-    i0 = i1 = i2 = 0
+    i0 = i1 = i2 = i3 = 0
     h = (tol / math.sqrt(3.0)) if tol else 0.0
-    for v in range(nv):  # kinds 0 and 1 first
+    for v in range(nv):  # kinds 0, 1 and 3 first
         if kind[v] == 0:
             point[v] = pts[i0]
             i0 += 1
         elif kind[v] == 1:
             point[v] = grid[i1].astype(np.int64) * h
             i1 += 1
+        elif kind[v] == 3 and n3:
+            point[v] = [math.ldexp(float(x), int(e3)) for x in binary[i3]]
+            i3 += 1
         elif not (kind[v] == 2 and revision >= 8):
             raise ReadError("VERT kind")
     for v in range(nv):  # then each vertex near an earlier one, in row order
