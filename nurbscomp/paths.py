@@ -149,6 +149,11 @@ def _make_temporary(folder: Path, prefix: str) -> str:
         except FileExistsError:
             _LIVE.discard(tmp)
         except BaseException:
+            # an interrupt can come once the file is made (a stop signal that
+            # another thread took runs its handler here, at any bytecode): the
+            # file is ours then, removed here, else by remove_leftovers
+            with contextlib.suppress(OSError):
+                os.unlink(tmp)
             _LIVE.discard(tmp)
             raise
     raise FileExistsError(f"no free temporary name in {folder}")

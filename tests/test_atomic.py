@@ -225,7 +225,8 @@ def test_signal_mid_write_leaves_nothing(work: Path, sig: str, code: int) -> Non
     _, err = p.communicate(timeout=120)
     assert p.returncode == code, err
     assert err.strip().splitlines()[-1] == f"error: {src}: interrupted ({sig})"
-    assert _names(work) == ["loft.step", "part.step.nzc"]
+    left = {p.name: p.stat().st_size for p in work.iterdir()}
+    assert _names(work) == ["loft.step", "part.step.nzc"], (left, err)
 
 
 def test_an_interrupt_before_the_cleanup_removes_the_temporary(work: Path) -> None:
@@ -243,3 +244,29 @@ def test_an_interrupt_before_the_cleanup_removes_the_temporary(work: Path) -> No
     assert stop.value.code == 128 + 2
     assert not tmp.exists() and str(tmp) not in paths._LIVE
     assert _names(work) == ["part.step.nzc"]
+
+
+def test_an_interrupt_right_after_the_file_is_made_removes_it(
+    work: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """An interrupt whose handler runs once ``os.open`` has made the file,
+    before ``_make_temporary`` returns (a signal another thread took: the
+    mask does not hold it; the test of a killed process left the file so
+    under load): the file is removed and no longer listed."""
+    real_close = paths.os.close
+
+    def close_then_interrupt(fd: int) -> None:
+        real_close(fd)
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(paths.os, "close", close_then_interrupt)
+    with pytest.raises(KeyboardInterrupt):
+        paths._make_temporary(work, ".part.step.nzc.")
+    monkeypatch.undo()
+    assert _names(work) == ["part.step.nzc"] and not paths._LIVE
+    with pytest.raises(KeyboardInterrupt):  # through atomic_output too
+        monkeypatch.setattr(paths.os, "close", close_then_interrupt)
+        with paths.atomic_output(work / "x.step", False):
+            pass
+    monkeypatch.undo()
+    assert _names(work) == ["part.step.nzc"] and not paths._LIVE
