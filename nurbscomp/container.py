@@ -438,20 +438,31 @@ def _unpack_compact(data: bytes, major: int, minor: int, flags: int, nsec: int) 
         raise ChecksumError(
             f"body checksum mismatch (directory at offset {pos}, body at {body_at})"
         )
-    if raw_len > MAX_RAW:
-        raise LimitError(
-            f"directory at offset {pos} declares {raw_len} bytes, more than the {MAX_RAW} "
-            "a reader inflates"
-        )
-    _check_coder(coder, major, minor)
-    body = entropy.decompress(coder, stored, raw_len)
+    body = _inflate(coder, stored, raw_len, (major, minor), pos)
     if zlib.crc32(body) != raw_crc:
         raise ChecksumError(f"decoded body checksum mismatch (body at offset {body_at})")
+    return Container(major, minor, flags, coder, len(stored), _split(body, entries), start)
+
+
+def _inflate(coder: int, stored: bytes, raw_len: int, version: tuple[int, int], at: int) -> bytes:
+    """The decoded body of a 2.6 or later file whose directory, at offset
+    ``at``, declares ``raw_len`` bytes: the limit and the coder checked first."""
+    if raw_len > MAX_RAW:
+        raise LimitError(
+            f"directory at offset {at} declares {raw_len} bytes, more than the {MAX_RAW} "
+            "a reader inflates"
+        )
+    _check_coder(coder, *version)
+    return entropy.decompress(coder, stored, raw_len)
+
+
+def _split(body: bytes, entries: list[tuple[str, int]]) -> list[Section]:
+    """The sections of ``entries`` (tag, length), in order, cut from ``body``."""
     sections, k = [], 0
     for tag, n in entries:
         sections.append(Section(tag, body[k : k + n]))
         k += n
-    return Container(major, minor, flags, coder, len(stored), sections, start)
+    return sections
 
 
 def _tag_at(data: bytes, at: int) -> tuple[str, int]:
@@ -512,16 +523,6 @@ def _unpack_short(data: bytes, major: int, minor: int) -> Container:
         raise ReservedBitsError(f"reserved flag bits 0x{flags & ~known:02x} set at offset 6")
     if mask & ~_MASK_BITS:
         raise ReservedBitsError("reserved directory bit 15 set at offset 7")
-    raw_len = sum(lengths)
-    if raw_len > MAX_RAW:
-        raise LimitError(
-            f"directory at offset 7 declares {raw_len} bytes, more than the {MAX_RAW} "
-            "a reader inflates"
-        )
-    _check_coder(coder, major, minor)
-    body = entropy.decompress(coder, stored, raw_len)
-    sections, k = [], 0
-    for tag, n in zip(tags, lengths):
-        sections.append(Section(tag, body[k : k + n]))
-        k += n
+    body = _inflate(coder, stored, sum(lengths), (major, minor), 7)
+    sections = _split(body, list(zip(tags, lengths)))
     return Container(major, minor, flags & ~FLAG_MASK, coder, len(stored), sections, start)

@@ -457,13 +457,25 @@ def test_the_2_12_dictionary_is_the_format_s() -> None:
 def test_a_small_part_takes_the_2_12_dictionary() -> None:
     """The golden bracket of 2.12 at 0.01 mm: coder 6 is smaller than coders
     4 and 5 on its body, and what was written."""
-    golden = Path(__file__).resolve().parent / "golden" / "bracket.v2_12.tol0.01.nzc"
+    _takes_its_dictionary(
+        "bracket.v2_12.tol0.01.nzc",
+        entropy.Coder.ZSTD_DICT_12,
+        (entropy.Coder.ZSTD_DICT_11, entropy.Coder.ZSTD_DICT),
+    )
+
+
+def _takes_its_dictionary(
+    name: str, coder: entropy.Coder, others: tuple[entropy.Coder, ...]
+) -> None:
+    """The golden file ``name``'s body: ``coder`` makes it smaller than each of
+    ``others``, and is what was written."""
+    golden = Path(__file__).resolve().parent / "golden" / name
     c = container.unpack(golden.read_bytes())
     body = b"".join(c.get(t) for t in c.tags())
-    six = len(entropy._compress(entropy.Coder.ZSTD_DICT_12, body))
-    assert six < len(entropy._compress(entropy.Coder.ZSTD_DICT_11, body))
-    assert six < len(entropy._compress(entropy.Coder.ZSTD_DICT, body))
-    assert c.coder == entropy.Coder.ZSTD_DICT_12 and c.stored_length == six
+    own = len(entropy._compress(coder, body))
+    for other in others:
+        assert own < len(entropy._compress(other, body))
+    assert c.coder == coder and c.stored_length == own
 
 
 def test_the_2_12_dictionary_coder_only_from_2_12() -> None:
@@ -578,10 +590,8 @@ def test_the_2_13_dictionary_coder_only_from_2_13() -> None:
 def test_a_small_part_takes_the_2_13_dictionary() -> None:
     """The golden bracket of 2.13 at 0.01 mm: coder 7 is smaller than coders
     4 to 6 on its body, and what was written."""
-    golden = Path(__file__).resolve().parent / "golden" / "bracket.v2_13.tol0.01.nzc"
-    c = container.unpack(golden.read_bytes())
-    body = b"".join(c.get(t) for t in c.tags())
-    seven = len(entropy._compress(entropy.Coder.ZSTD_DICT_13, body))
-    for other in (entropy.Coder.ZSTD_DICT, entropy.Coder.ZSTD_DICT_11, entropy.Coder.ZSTD_DICT_12):
-        assert seven < len(entropy._compress(other, body))
-    assert c.coder == entropy.Coder.ZSTD_DICT_13 and c.stored_length == seven
+    _takes_its_dictionary(
+        "bracket.v2_13.tol0.01.nzc",
+        entropy.Coder.ZSTD_DICT_13,
+        (entropy.Coder.ZSTD_DICT, entropy.Coder.ZSTD_DICT_11, entropy.Coder.ZSTD_DICT_12),
+    )

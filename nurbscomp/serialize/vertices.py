@@ -257,12 +257,13 @@ def _write_vertices(m: BRepModel, tol: float = 0.0) -> bytes:
     near = (vertex_neighbours(m), vertex_quads(m)) if (on_grid | binary).any() else ([], {})
     none = np.zeros(len(pts), bool)
     twin = ref >= 0
-    best = b""
+    best, size = b"", 0
     for tw in (none, twin) if twin.any() else (none,):
         for bi in (none, binary & ~tw) if binary.any() else (none,):
             raw = _vertex_arrays(m, on_grid & ~tw, q, ref, k, tw, near, bi, e)
-            if not best or len(lzma.compress(raw)) < len(lzma.compress(best)):
-                best = raw
+            n = len(lzma.compress(raw))
+            if not best or n < size:
+                best, size = raw, n
     return best
 
 
@@ -324,10 +325,10 @@ def _read_vertices(data: bytes, m: BRepModel, tol: float = 0.0, revision: int = 
     pts = np.zeros((nv, 3))
     plain = kind == 0
     pts[plain] = r.floats(3 * int(plain.sum())).reshape(-1, 3)
-    near = (vertex_neighbours(m), vertex_quads(m)) if ng or binary.any() else ([], {})
+    near: tuple[list[list[int]], Quads] = ([], {})
+    if ng or binary.any():  # quads from 2.6
+        near = (vertex_neighbours(m), vertex_quads(m) if revision >= container.COMPACT else {})
     if revision >= 3:
-        if revision < container.COMPACT:
-            near = (near[0], {})
         q = _read_predicted(r, near, np.flatnonzero(on_grid))
     else:
         q = np.stack([r.deltas(ng) for _ in range(3)], axis=1)
