@@ -138,30 +138,56 @@ def rd_extrapolate(
     rho = np.sqrt(rho2)
     flat = np.zeros((nr, (nu + 2) * (nv + 2), c), np.int64)  # decoded grid points, padded by 2
     r = np.zeros((nr, nu * nv, c), np.int64)
-    offsets = _OFFSETS if c == 3 else np.zeros((1, c), np.int64)
-    for d, (at, pad, nbr, w, corner) in enumerate(_diagonals(nu, nv)):
-        pred = -np.einsum("rkmc,km->rkc", flat[:, nbr], w)
-        if d == 0:
-            pred += qo[:, None, :]
-        t = t_all[:, at] - pred  # the residual that would land on the pole (R, k, c)
-        norm = np.sqrt((t * t).sum(-1))
-        with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore"):
+        for d, (at, pad, nbr, w, corner) in enumerate(_diagonals(nu, nv)):
+            pred = -np.einsum("rkmc,km->rkc", flat[:, nbr], w)
+            if d == 0:
+                pred += qo[:, None, :]
+            t = t_all[:, at] - pred  # the residual that would land on the pole (R, k, c)
+            norm = np.sqrt((t * t).sum(-1))
             shrink = np.nan_to_num(np.clip(1 - rho / norm, 0, 1))
-        cand = np.rint(t * shrink[..., None])[:, :, None, :] + offsets  # (R, k, 27, c)
-        dist = ((cand - t[:, :, None, :]) ** 2).sum(-1)
-        # one bit more per non-zero integer: of two candidates of equal
-        # Exp-Golomb bits, the one with more zeros (trj7 at 0.01 mm: -52 bytes)
-        cost = (eg_bits(cand) + (cand != 0)).sum(-1) + 1e-3 * dist
-        cost[dist > rho2[:, :, None]] = np.inf
-        pick = cost.argmin(-1)
-        best = np.take_along_axis(cand, pick[..., None, None], axis=2)[:, :, 0]
-        nearest = ~np.isfinite(np.take_along_axis(cost, pick[..., None], axis=2)[..., 0])
-        nearest |= corner[None]
-        best = np.where(nearest[..., None], np.rint(t), best)
-        rr = best.astype(np.int64)
-        r[:, at] = rr
-        flat[:, pad] = pred + rr
+            base = np.rint(t * shrink[..., None])
+            if c == 3:
+                best, nearest = _cheapest3(base, t, rho2)
+            else:
+                best, nearest = base, np.zeros(base.shape[:2], bool)
+                far = ((best - t) ** 2).sum(-1) > rho2
+                nearest |= far
+            nearest |= corner[None]
+            best = np.where(nearest[..., None], np.rint(t), best)
+            rr = best.astype(np.int64)
+            r[:, at] = rr
+            flat[:, pad] = pred + rr
     return r.reshape(nr, nu, nv, c)
+
+
+#: The three offsets tried per coordinate, in :data:`_OFFSETS`'s order.
+_STEPS = np.array([-1.0, 0.0, 1.0])
+
+
+def _cheapest3(base: np.ndarray, t: np.ndarray, rho2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Of the 27 candidates ``base`` + :data:`_OFFSETS` (R, k, 3), the cheapest
+    within ``rho2`` of ``t`` (:func:`rd_extrapolate`'s cost), and where none is.
+    Each coordinate's bits and squared distance take three values, one per
+    offset: they are summed over the 27 combinations in the order the full
+    (R, k, 27, 3) arrays would sum them, so the costs are theirs bit for bit."""
+    cand = base[..., None] + _STEPS  # (R, k, 3 coordinates, 3 offsets)
+    bits = eg_bits(cand) + (cand != 0)
+    sq = (cand - t[..., None]) ** 2
+    shape = (*base.shape[:2], 27)
+    dist = _combined(sq).reshape(shape)
+    cost = _combined(bits).reshape(shape) + 1e-3 * dist
+    cost[dist > rho2[:, :, None]] = np.inf
+    pick = cost.argmin(-1)
+    best = base + _OFFSETS[pick]
+    nearest = ~np.isfinite(np.take_along_axis(cost, pick[..., None], axis=2)[..., 0])
+    return best, nearest
+
+
+def _combined(a: np.ndarray) -> np.ndarray:
+    """Per (R, k), the 3 x 3 x 3 sums a[0, i] + a[1, j] + a[2, l] of a per-coordinate,
+    per-offset array (R, k, 3, 3), summed in that order."""
+    return (a[:, :, 0, :, None, None] + a[:, :, 1, None, :, None]) + a[:, :, 2, None, None, :]
 
 
 @functools.lru_cache(maxsize=256)

@@ -328,16 +328,23 @@ _MOVED: dict[bytes, float] = {}
 MOVED_MEMO = 100_000
 
 
+#: Per row class, its name and its fields' names (:func:`_digest`).
+_FIELDS: dict[type, tuple[bytes, tuple[str, ...]]] = {}
+
+
 def _digest(*rows: Net) -> bytes:
     """A digest of every field of ``rows`` (arrays by dtype, shape and bytes)."""
     h = hashlib.blake2b(digest_size=20)
     for g in rows:
-        h.update(type(g).__name__.encode())
-        for f in fields(g):
-            a = getattr(g, f.name)
+        kind = _FIELDS.get(type(g))
+        if kind is None:
+            kind = _FIELDS[type(g)] = (type(g).__name__.encode(), tuple(f.name for f in fields(g)))
+        h.update(kind[0])
+        for name in kind[1]:
+            a = getattr(g, name)
             if isinstance(a, np.ndarray):
                 h.update(f"{a.dtype.str}{a.shape}".encode())
-                h.update(np.ascontiguousarray(a).tobytes())
+                h.update(np.ascontiguousarray(a).data)  # no copy where it is contiguous
             else:
                 h.update(repr(a).encode())
     return h.digest()

@@ -460,6 +460,8 @@ class _Plan:
         self.through_s: frozenset[Rec] = frozenset()  # its planes, cylinders through a vertex
         self.plain_s: set[Rec] = set()  # records taken off a vertex, straightened still
         self._made: tuple[Any, ...] | None = None  # (state, grid, what _candidate made)
+        # per codes weighed by _keep_removal: (codes, rows made rigid, its candidate)
+        self._early: dict[int, tuple[nets.Coded, int, Any]] = {}
         if self.coded.spares:
             self._keep_removal(self.coded.with_every_knot())
         self.grid = self._grid_pays()
@@ -474,7 +476,9 @@ class _Plan:
         with_removal = self.coded
         for coded in (with_removal, without):
             self._use(coded)
-            sizes.append(self._packed(self._candidate(), ("SURF", "SNET", "CRV3", "CNET")))
+            made = self._candidate()
+            self._early[id(coded)] = (coded, len(coded.rigid), made)
+            sizes.append(self._packed(made, ("SURF", "SNET", "CRV3", "CNET")))
         log.debug("knots removed: %d -> %d bytes", sizes[1], sizes[0])
         if sizes[0] < sizes[1]:
             self._use(with_removal)
@@ -502,12 +506,24 @@ class _Plan:
         made = {}
         for grid in (False, True):
             self.grid = grid
-            made[grid] = self._candidate()
+            made[grid] = self._made_early() if grid else self._candidate()
             sizes.append(self._packed(made[grid], ("SURF", "CRV3", "VERT", "EDGE")))
         log.debug("analytic grid: %d -> %d bytes", *sizes)
+        self._early.clear()
         pays = sizes[1] < sizes[0] - GRID_GAIN
         self._made = (self.state(), pays, made[pays])  # the first round's candidate
         return pays
+
+    def _made_early(self) -> tuple[BRepModel, dict[Rec, Any], assembly.LossyReport]:
+        """The candidate :meth:`_keep_removal` made on the grid from the codes
+        the plan uses now, where no assembly has coded a row of them again
+        since (:func:`nets.rigid`, the only change an assembly makes to
+        them); else one made now.  Nothing else of the plan changes between
+        the two, so it is the candidate :meth:`_candidate` would make."""
+        early = self._early.get(id(self.coded))
+        if early is not None and early[0] is self.coded and early[1] == len(self.coded.rigid):
+            return early[2]
+        return self._candidate()
 
     def state(self) -> tuple[int, ...]:
         return (
