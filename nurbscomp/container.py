@@ -234,27 +234,6 @@ def _entry(tag: str, size: int) -> bytes:
     return _name(tag) + varint(size)
 
 
-def _short_frame(
-    sections: list[tuple[str, bytes]],
-    flags: int,
-    version: tuple[int, int],
-    coder: int,
-    stored: bytes,
-) -> bytes:
-    """:func:`frame` in 2.13's layout (docs/format.md §1.1–1.3): a mask of
-    :data:`TAGS` where the sections are tags of the table in its order (every
-    container this writer makes), else a count and the tags' names; then
-    the lengths, the coder and one CRC-32 of all bytes but its own."""
-    codes = [TAGS.index(t) if t in TAGS else -1 for t, _ in sections]
-    if all(c >= 0 for c in codes) and all(a < b for a, b in zip(codes, codes[1:])):
-        head = bytes([*MAGIC, *version, flags | FLAG_MASK]) + _MASK.pack(sum(1 << c for c in codes))
-    else:
-        names = b"".join(_name(tag) for tag, _ in sections)
-        head = bytes([*MAGIC, *version, flags]) + varint(len(sections)) + names
-    head += b"".join(varint(len(raw)) for _, raw in sections) + bytes([coder])
-    return head + _CRC.pack(zlib.crc32(stored, zlib.crc32(head))) + stored
-
-
 def frame(
     sections: list[tuple[str, bytes]],
     flags: int,
@@ -264,9 +243,22 @@ def frame(
 ) -> bytes:
     """The container bytes of ``sections`` whose concatenation ``coder``
     compressed into ``stored``, laid out as ``version`` lays them out (no
-    check of the tags: tests frame damaged directories with it)."""
+    check of the tags: tests frame damaged directories with it).
+
+    From 2.13 (docs/format.md §1.1–1.3): a mask of :data:`TAGS` where the
+    sections are tags of the table in its order (every container this writer
+    makes), else a count and the tags' names; then the lengths, the coder and
+    one CRC-32 of all bytes but its own."""
     if revision(*version) >= SHORT:
-        return _short_frame(sections, flags, version, coder, stored)
+        codes = [TAGS.index(t) if t in TAGS else -1 for t, _ in sections]
+        if all(c >= 0 for c in codes) and all(a < b for a, b in zip(codes, codes[1:])):
+            mask = _MASK.pack(sum(1 << c for c in codes))
+            head = bytes([*MAGIC, *version, flags | FLAG_MASK]) + mask
+        else:
+            names = b"".join(_name(tag) for tag, _ in sections)
+            head = bytes([*MAGIC, *version, flags]) + varint(len(sections)) + names
+        head += b"".join(varint(len(raw)) for _, raw in sections) + bytes([coder])
+        return head + _CRC.pack(zlib.crc32(stored, zlib.crc32(head))) + stored
     head = _HEADER.pack(MAGIC, *version, flags, len(sections), 0)
     head += _CRC.pack(zlib.crc32(head))
     if revision(*version) >= COMPACT:

@@ -149,10 +149,8 @@ def rd_extrapolate(
             base = np.rint(t * shrink[..., None])
             if c == 3:
                 best, nearest = _cheapest3(base, t, rho2)
-            else:
-                best, nearest = base, np.zeros(base.shape[:2], bool)
-                far = ((best - t) ** 2).sum(-1) > rho2
-                nearest |= far
+            else:  # no offsets: the shrunk point, or the nearest one
+                best, nearest = base, ((base - t) ** 2).sum(-1) > rho2
             nearest |= corner[None]
             best = np.where(nearest[..., None], np.rint(t), best)
             rr = best.astype(np.int64)
@@ -176,6 +174,8 @@ def _cheapest3(base: np.ndarray, t: np.ndarray, rho2: np.ndarray) -> tuple[np.nd
     sq = (cand - t[..., None]) ** 2
     shape = (*base.shape[:2], 27)
     dist = _combined(sq).reshape(shape)
+    # one bit more per non-zero integer: of two candidates of equal
+    # Exp-Golomb bits, the one with more zeros (trj7 at 0.01 mm: -52 bytes)
     cost = _combined(bits).reshape(shape) + 1e-3 * dist
     cost[dist > rho2[:, :, None]] = np.inf
     pick = cost.argmin(-1)
