@@ -38,10 +38,10 @@ from OCP.BRep import (
     BRep_Tool,
     BRep_TVertex,
 )
-from OCP.Geom import Geom_RectangularTrimmedSurface
+from OCP.Geom import Geom_Plane, Geom_RectangularTrimmedSurface
 from OCP.GeomAbs import GeomAbs_Shape
-from OCP.gp import gp_Pnt, gp_Pnt2d, gp_Trsf, gp_TrsfForm, gp_Vec, gp_Vec2d
-from OCP.ShapeAnalysis import ShapeAnalysis_Edge
+from OCP.gp import gp_Pln, gp_Pnt, gp_Pnt2d, gp_Trsf, gp_TrsfForm, gp_Vec, gp_Vec2d
+from OCP.ShapeAnalysis import ShapeAnalysis_Edge, ShapeAnalysis_Surface
 from OCP.ShapeExtend import ShapeExtend_DONE3, ShapeExtend_FAIL, ShapeExtend_WireData
 from OCP.ShapeFix import ShapeFix_Edge, ShapeFix_Wire
 from OCP.Standard import Standard_Failure
@@ -654,6 +654,66 @@ def slow_model_to_shape(m: BRepModel, cache: PcurveCache | None = None) -> Any:
     return root.Oriented(_ORIENT[m.root_orient]).Located(locs[m.root_loc])
 
 
+#: Surface analyses :class:`EdgeProjector` keeps (the most recently used).
+ANALYSES_KEPT = 16
+
+
+class EdgeProjector:
+    """``ShapeFix_Edge.FixAddPCurve(edge, face, seam, tolerance of edge)``:
+    the same pcurves, bit for bit, for less work.
+
+    Given a face, OCCT 7.9 makes a new ``ShapeAnalysis_Surface`` of the
+    face's located surface at every call.  Its point projection
+    (``Extrema_GenExtPS``) evaluates the surface on a grid of samples at its
+    first ``ValueOfUV``, most of what projecting onto a B-spline surface
+    costs (docs/decode-speed.md, "Issue 30, fourteenth session").  Here the
+    analysis is kept and handed to the overload that takes one.  Two states
+    of it would otherwise carry from one call to the next:
+
+    - the grid spans the surface's bounds widened by the resolution of the
+      *first* call's precision (``ShapeAnalysis_Surface::ValueOfUV``:
+      ``du = Min(myUDelt, UResolution(preci))``), so an analysis serves the
+      calls on one face with one precision (the edge's tolerance: a power of
+      two in a decoded model, so few values);
+    - the projector's cache of end points, which OCCT empties when given
+      another surface (``ShapeConstruct_ProjectCurveOnSurface::SetSurface``),
+      is emptied before each call by giving it a spare surface.
+
+    What else the analysis keeps (closure distances, singularities,
+    boundary isolines) it computes from the surface alone.  So each call
+    reads nothing of an earlier one, as before: the cache of
+    :class:`PcurveCache` and the split of :func:`_split` hold.
+    """
+
+    def __init__(self) -> None:
+        self.fix = ShapeFix_Edge()
+        self._spare = ShapeAnalysis_Surface(Geom_Plane(gp_Pln()))
+        self._analyses: collections.OrderedDict[tuple[Any, float], Any] = collections.OrderedDict()
+
+    def add(self, edge: Any, face: Any, seam: bool) -> bool:
+        """``FixAddPCurve`` of ``edge`` on ``face`` with the edge's tolerance."""
+        prec = BRep_Tool.Tolerance_s(edge)
+        key = (face, prec)  # a face equals another of its TShape, location, orientation
+        sas = self._analyses.get(key)
+        if sas is None:
+            loc = TopLoc_Location()
+            surf: Any = BRep_Tool.Surface_s(face, loc)
+            if not loc.IsIdentity():
+                surf = surf.Transformed(loc.Transformation())
+            sas = self._analyses[key] = ShapeAnalysis_Surface(surf)
+            if len(self._analyses) > ANALYSES_KEPT:
+                self._analyses.popitem(last=False)
+        else:
+            self._analyses.move_to_end(key)
+        self.fix.Projector().SetSurface(self._spare)
+        return bool(self.fix.FixAddPCurve(edge, face, seam, sas, prec))
+
+    def plain(self) -> bool:
+        """Whether the last call neither failed nor replaced the 3-D curve."""
+        fix = self.fix
+        return not (fix.Status(ShapeExtend_FAIL) or fix.Projector().Status(ShapeExtend_DONE3))
+
+
 #: Whether a build with no :class:`PcurveCache` or an empty one (a decode, or
 #: a compress's first candidate) may hand a share of its projections to a
 #: forked child (:func:`rebuild_pcurves`); batch workers turn it off, as the
@@ -711,7 +771,7 @@ def rebuild_pcurves(
             touched[id(face)] = face
             if in_range:
                 projected.setdefault(id(face), TopTools_MapOfShape()).Add(edge)
-    fix = ShapeFix_Edge()
+    fix = EdgeProjector()
     handed = 0
     dirty: set[int] = set()  # edges whose 3-D curve a projection replaced
     do: _Do | None = None
@@ -731,7 +791,7 @@ def rebuild_pcurves(
             do(job)
     else:
         for edge, face, seam, _, _, _ in jobs:
-            fix.FixAddPCurve(edge, face, seam, BRep_Tool.Tolerance_s(edge))
+            fix.add(edge, face, seam)
     for at, face in touched.items():
         f = TopoDS.Face(face)
         periods = trimmed_periods(f) if in_range else None
@@ -947,14 +1007,14 @@ def _settled(edge: Any, face: Any, k: int, dirty: set[int], sae: Any) -> Any:
 
 
 def _project(
-    fix: Any, edge: Any, face: Any, seam: bool, k: int, at: Any, dirty: set[int]
+    fix: EdgeProjector, edge: Any, face: Any, seam: bool, k: int, at: Any, dirty: set[int]
 ) -> _Kept | None:
     """``FixAddPCurve`` of a settled edge (``at``: :func:`_settled`'s answer),
     and what it left to replay, or None (and ``k`` made dirty) where it did
     not simply add the projected pcurves."""
     surf, surf_loc = at
-    done = fix.FixAddPCurve(edge, face, seam, BRep_Tool.Tolerance_s(edge))
-    if not done or fix.Status(ShapeExtend_FAIL) or fix.Projector().Status(ShapeExtend_DONE3):
+    done = fix.add(edge, face, seam)
+    if not done or not fix.plain():
         dirty.add(k)
         return None
     cr = _curve_on(edge, surf, surf_loc)
@@ -983,7 +1043,7 @@ def _replay(b: Any, edge: Any, at: Any, kept: _Kept) -> None:
 _Do = Callable[..., bool]
 
 
-def _split(fix: Any, jobs: list[Any], dirty: set[int], do: _Do | None = None) -> int:
+def _split(fix: EdgeProjector, jobs: list[Any], dirty: set[int], do: _Do | None = None) -> int:
     """Project ``jobs`` (edge, face, seam, edge index, ...) here and in a child.
 
     The edges are dealt out between the two processes in turn (every job of
@@ -1015,7 +1075,7 @@ def _split(fix: Any, jobs: list[Any], dirty: set[int], do: _Do | None = None) ->
                 do(job)
             else:
                 edge, face, seam = job[:3]
-                fix.FixAddPCurve(edge, face, seam, BRep_Tool.Tolerance_s(edge))
+                fix.add(edge, face, seam)
         try:
             records, answers = child.ask(_itself)
         except ReaderCrash:
@@ -1033,7 +1093,7 @@ def _split(fix: Any, jobs: list[Any], dirty: set[int], do: _Do | None = None) ->
         edge, face, seam, k = job[:4]
         at = _settled(edge, face, k, dirty, sae)
         if at is None:
-            fix.FixAddPCurve(edge, face, seam, BRep_Tool.Tolerance_s(edge))
+            fix.add(edge, face, seam)
         elif kept is None:
             _project(fix, edge, face, seam, k, at, dirty)
         else:
@@ -1046,13 +1106,13 @@ def _child_projections(jobs: list[Any]) -> tuple[list[Any], list[Any]]:
     """In the child: each job projected in order as the serial build would,
     and what it left as rows of a 2-D curve table (None where the parent
     must project it itself)."""
-    reader, fix, sae = GeometryReader(), ShapeFix_Edge(), ShapeAnalysis_Edge()
+    reader, fix, sae = GeometryReader(), EdgeProjector(), ShapeAnalysis_Edge()
     dirty: set[int] = set()
     answers: list[Any] = []
     for edge, face, seam, k, _, _ in jobs:
         at = _settled(edge, face, k, dirty, sae)
         if at is None:
-            fix.FixAddPCurve(edge, face, seam, BRep_Tool.Tolerance_s(edge))
+            fix.add(edge, face, seam)
             answers.append(None)
             continue
         kept = _project(fix, edge, face, seam, k, at, dirty)
@@ -1074,7 +1134,8 @@ class PcurveCache:
     OCCT 7.9's ``FixAddPCurve`` (an edge without a pcurve on the face's
     surface and location, a surface that is not a plane) projects the edge's
     first 3-D curve (``BRep_Tool::Curve``: the curve, its location and range)
-    onto a fresh ``ShapeAnalysis_Surface`` of the face's located surface, with
+    onto a ``ShapeAnalysis_Surface`` of the face's located surface (a fresh one; in
+    :class:`EdgeProjector` one kept per face and precision, to the same end), with
     the precision passed (the edge's tolerance) and the tolerances of the
     edge's FORWARD and REVERSED vertices (``TopExp::Vertices``); its
     projector's point cache is reset with each new surface, so nothing of an
@@ -1117,7 +1178,7 @@ class PcurveCache:
         :func:`_split`) if given.  Whether ``projected`` was used."""
         at = _settled(edge, face, k, dirty, self._sae)
         if at is None:
-            fix.FixAddPCurve(edge, face, seam, BRep_Tool.Tolerance_s(edge))
+            fix.add(edge, face, seam)
             return False
         v1, v2 = TopoDS_Vertex(), TopoDS_Vertex()
         TopExp.Vertices_s(edge, v1, v2)

@@ -1,0 +1,137 @@
+"""``topology.EdgeProjector``: the pcurves of ``ShapeFix_Edge.FixAddPCurve``
+with a fresh surface analysis per call, bit for bit, with analyses kept.
+
+OCCT's analysis carries two states from a call to the next (the precision of
+its first point projection, the projector's cache of end points), so the
+shapes below give edges of one face several tolerances, and the builds are
+compared with every analysis kept, with none, and with the plain call.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import cadquery as cq
+import numpy as np
+import pytest
+from OCP.BRep import BRep_Tool
+from OCP.BRepBuilderAPI import BRepBuilderAPI_NurbsConvert
+from OCP.BRepTools import BRepTools
+
+from nurbscomp.encode.pcurves import drop_pcurves
+from nurbscomp.model import EC, REBUILD
+from nurbscomp.occ import shape_to_model, topology
+
+
+def _brep(shape: Any) -> bytes:
+    with tempfile.TemporaryDirectory() as d:
+        f = os.path.join(d, "s.brep")
+        BRepTools.Write_s(shape, f)
+        return Path(f).read_bytes()
+
+
+def _shapes() -> dict[str, Any]:
+    loft = cq.Workplane().circle(5).workplane(offset=8).rect(4, 6).loft()
+    sweep = (
+        cq.Workplane("XY")
+        .ellipse(2, 1)
+        .sweep(cq.Workplane("XZ").spline([(0, 0), (2, 5), (-1, 10)], includeCurrent=False))
+    )
+    blend = cq.Workplane().box(10, 8, 6).edges().fillet(1.2)
+    return {
+        "loft": loft.val().wrapped,
+        "sweep": sweep.val().wrapped,
+        "nurbs_fillets": BRepBuilderAPI_NurbsConvert(blend.val().wrapped, True).Shape(),
+    }
+
+
+SHAPES = _shapes()
+
+
+def _model(name: str, mixed: bool = True) -> Any:
+    """The shape's model with every pcurve to compute, and edge tolerances
+    powers of two, as a decoder's are: with ``mixed``, differing along each
+    wire (analyses kept side by side), else one (an analysis serves calls
+    one after the other, whose end points the projector would remember)."""
+    m, _ = shape_to_model(SHAPES[name])
+    m = drop_pcurves(m, set(), set())
+    m.edge_tol = np.array([2.0 ** -(7 + mixed * (i % 3)) for i in range(len(m.edge_tol))])
+    return m
+
+
+class _Plain(topology.EdgeProjector):
+    """OCCT's own call: a fresh analysis every time."""
+
+    def add(self, edge: Any, face: Any, seam: bool) -> bool:
+        return bool(self.fix.FixAddPCurve(edge, face, seam, BRep_Tool.Tolerance_s(edge)))
+
+
+@pytest.mark.parametrize("mixed", [True, False])
+@pytest.mark.parametrize("name", sorted(SHAPES))
+def test_kept_analyses_give_the_plain_calls_pcurves(
+    name: str, mixed: bool, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    m = _model(name, mixed)
+    assert (m.edge_reps[:, EC.CURVE] == REBUILD).sum() >= 3  # projections are made
+    monkeypatch.setattr(topology, "SPLIT_PROJECTIONS", False)
+    kept = _brep(topology.model_to_shape(m))
+    monkeypatch.setattr(topology, "ANALYSES_KEPT", 0)
+    none_kept = _brep(topology.model_to_shape(m))
+    monkeypatch.setattr(topology, "EdgeProjector", _Plain)
+    plain = _brep(topology.model_to_shape(m))
+    assert kept == plain
+    assert none_kept == plain
+
+
+def test_analyses_are_reused(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Some calls find their face's analysis kept (else nothing is saved)."""
+    made = []
+    real = topology.ShapeAnalysis_Surface
+
+    def counted(surface: Any) -> Any:
+        made.append(1)
+        return real(surface)
+
+    monkeypatch.setattr(topology, "SPLIT_PROJECTIONS", False)
+    monkeypatch.setattr(topology, "ShapeAnalysis_Surface", counted)
+    calls = []
+    add = topology.EdgeProjector.add
+
+    def add_counted(self: Any, edge: Any, face: Any, seam: bool) -> bool:
+        calls.append(1)
+        return add(self, edge, face, seam)
+
+    monkeypatch.setattr(topology.EdgeProjector, "add", add_counted)
+    m, _ = shape_to_model(SHAPES["nurbs_fillets"])
+    topology.model_to_shape(drop_pcurves(m, set(), set()))
+    assert len(calls) > 0
+    assert len(made) - 1 < len(calls)  # one analysis is the spare surface
+
+
+def test_a_shared_precision_would_differ(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Kept per face alone (not per precision), an analysis gives other
+    pcurves on these models: the key's precision is what keeps them equal,
+    and the comparison above can fail."""
+
+    class _PerFace(topology.EdgeProjector):
+        def add(self, edge: Any, face: Any, seam: bool) -> bool:
+            sas = self._analyses.get((face, 0.0))
+            if sas is None:
+                sas = self._analyses[(face, 0.0)] = topology.ShapeAnalysis_Surface(
+                    BRep_Tool.Surface_s(face)
+                )
+            self.fix.Projector().SetSurface(self._spare)
+            return bool(self.fix.FixAddPCurve(edge, face, seam, sas, BRep_Tool.Tolerance_s(edge)))
+
+    monkeypatch.setattr(topology, "SPLIT_PROJECTIONS", False)
+    differ = 0
+    for name in SHAPES:
+        m = _model(name)
+        ours = _brep(topology.model_to_shape(m))
+        with monkeypatch.context() as mp:
+            mp.setattr(topology, "EdgeProjector", _PerFace)
+            differ += _brep(topology.model_to_shape(m)) != ours
+    assert differ > 0
