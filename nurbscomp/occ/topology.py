@@ -1046,10 +1046,12 @@ _Do = Callable[..., bool]
 def _split(fix: EdgeProjector, jobs: list[Any], dirty: set[int], do: _Do | None = None) -> int:
     """Project ``jobs`` (edge, face, seam, edge index, ...) here and in a child.
 
-    The edges are dealt out between the two processes in turn (every job of
-    an edge to the same one, about :data:`CHILD_SHARE` of the jobs to the
-    child): projections of different edges touch different edges only, so
-    they commute, and each edge sees its own jobs in their serial order.  The
+    The child takes the edges of the first :data:`CHILD_SHARE` of the jobs,
+    this process the rest (every job of an edge to the same one; in blocks,
+    so that the faces of consecutive edges repeat and each process's
+    :class:`EdgeProjector` finds their analyses kept): projections of
+    different edges touch different edges only, so they commute, and each
+    edge sees its own jobs in their serial order.  The
     child, forked with the edges as they are, projects its jobs and sends
     back what each left (:func:`_child_projections`) while this process
     projects its own.  Then this process takes the child's jobs in order,
@@ -1067,7 +1069,7 @@ def _split(fix: EdgeProjector, jobs: list[Any], dirty: set[int], do: _Do | None 
     for job in jobs:
         k = job[3]
         if k not in side:
-            side[k] = len(theirs) < CHILD_SHARE * (len(mine) + len(theirs) + 1)
+            side[k] = len(theirs) < CHILD_SHARE * len(jobs)
         (theirs if side[k] else mine).append(job)
     with RoundTrip(lambda: _child_projections(theirs)) as child:
         for job in mine:
