@@ -135,3 +135,38 @@ def test_a_shared_precision_would_differ(monkeypatch: pytest.MonkeyPatch) -> Non
             mp.setattr(topology, "EdgeProjector", _PerFace)
             differ += _brep(topology.model_to_shape(m)) != ours
     assert differ > 0
+
+
+def test_an_analysis_is_found_for_another_wrapper_of_its_face(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """OCP's ``==`` on shapes is the wrapper's identity: the projector finds a
+    face's analysis by hash and ``IsSame``, so another wrapper of the face,
+    or the face reversed, finds it too; another face does not."""
+    from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE
+    from OCP.TopExp import TopExp_Explorer
+    from OCP.TopoDS import TopoDS
+
+    made = []
+    real = topology.ShapeAnalysis_Surface
+
+    def counted(surface: Any) -> Any:
+        made.append(1)
+        return real(surface)
+
+    monkeypatch.setattr(topology, "ShapeAnalysis_Surface", counted)
+    shape = SHAPES["loft"]
+    faces = TopExp_Explorer(shape, TopAbs_FACE)
+    face = TopoDS.Face_s(faces.Current())
+    faces.Next()
+    other = TopoDS.Face_s(faces.Current())
+    edges = TopExp_Explorer(face, TopAbs_EDGE)
+    edge = TopoDS.Edge_s(edges.Current())
+    proj = topology.EdgeProjector()
+    assert len(made) == 1  # the spare surface
+    proj.add(edge, face, False)
+    proj.add(edge, TopoDS.Face_s(face.Oriented(face.Orientation())), False)
+    proj.add(edge, TopoDS.Face_s(face.Reversed()), False)
+    assert len(made) == 2
+    proj.add(edge, other, False)
+    assert len(made) == 3

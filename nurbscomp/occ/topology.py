@@ -688,23 +688,29 @@ class EdgeProjector:
     def __init__(self) -> None:
         self.fix = ShapeFix_Edge()
         self._spare = ShapeAnalysis_Surface(Geom_Plane(gp_Pln()))
-        self._analyses: collections.OrderedDict[tuple[Any, float], Any] = collections.OrderedDict()
+        #: (hash of the face, precision) -> (the face, its analysis)
+        self._analyses: collections.OrderedDict[tuple[int, float], Any] = collections.OrderedDict()
 
     def add(self, edge: Any, face: Any, seam: bool) -> bool:
         """``FixAddPCurve`` of ``edge`` on ``face`` with the edge's tolerance."""
         prec = BRep_Tool.Tolerance_s(edge)
-        key = (face, prec)  # a face equals another of its TShape, location, orientation
-        sas = self._analyses.get(key)
-        if sas is None:
+        # OCP hashes a shape by its TShape and location; its == is the
+        # wrapper's identity, so the face found is compared with IsSame
+        key = (hash(face), prec)
+        got = self._analyses.get(key)
+        if got is not None and got[0].IsSame(face):
+            sas = got[1]
+            self._analyses.move_to_end(key)
+        else:
             loc = TopLoc_Location()
             surf: Any = BRep_Tool.Surface_s(face, loc)
             if not loc.IsIdentity():
                 surf = surf.Transformed(loc.Transformation())
-            sas = self._analyses[key] = ShapeAnalysis_Surface(surf)
+            sas = ShapeAnalysis_Surface(surf)
+            self._analyses[key] = (face, sas)
+            self._analyses.move_to_end(key)
             if len(self._analyses) > ANALYSES_KEPT:
                 self._analyses.popitem(last=False)
-        else:
-            self._analyses.move_to_end(key)
         self.fix.Projector().SetSurface(self._spare)
         return bool(self.fix.FixAddPCurve(edge, face, seam, sas, prec))
 
