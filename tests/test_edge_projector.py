@@ -86,17 +86,23 @@ def test_kept_analyses_give_the_plain_calls_pcurves(
     assert none_kept == plain
 
 
-def test_analyses_are_reused(monkeypatch: pytest.MonkeyPatch) -> None:
-    """Some calls find their face's analysis kept (else nothing is saved)."""
-    made = []
+def _count_analyses(monkeypatch: pytest.MonkeyPatch) -> list[int]:
+    """A list that gets an item for each ``ShapeAnalysis_Surface`` made."""
+    made: list[int] = []
     real = topology.ShapeAnalysis_Surface
 
     def counted(surface: Any) -> Any:
         made.append(1)
         return real(surface)
 
-    monkeypatch.setattr(topology, "SPLIT_PROJECTIONS", False)
     monkeypatch.setattr(topology, "ShapeAnalysis_Surface", counted)
+    return made
+
+
+def test_analyses_are_reused(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Some calls find their face's analysis kept (else nothing is saved)."""
+    made = _count_analyses(monkeypatch)
+    monkeypatch.setattr(topology, "SPLIT_PROJECTIONS", False)
     calls = []
     add = topology.EdgeProjector.add
 
@@ -147,14 +153,7 @@ def test_an_analysis_is_found_for_another_wrapper_of_its_face(
     from OCP.TopExp import TopExp_Explorer
     from OCP.TopoDS import TopoDS
 
-    made = []
-    real = topology.ShapeAnalysis_Surface
-
-    def counted(surface: Any) -> Any:
-        made.append(1)
-        return real(surface)
-
-    monkeypatch.setattr(topology, "ShapeAnalysis_Surface", counted)
+    made = _count_analyses(monkeypatch)
     shape = SHAPES["loft"]
     faces = TopExp_Explorer(shape, TopAbs_FACE)
     face = TopoDS.Face_s(faces.Current())
