@@ -1169,7 +1169,7 @@ class PcurveCache:
 
     def add(
         self,
-        fix: Any,
+        fix: EdgeProjector,
         edge: Any,
         face: Any,
         seam: bool,
@@ -1180,7 +1180,7 @@ class PcurveCache:
         dirty: set[int],
         projected: _Kept | None = None,
     ) -> bool:
-        """What ``fix.FixAddPCurve(edge, face, seam, tolerance of edge)`` does,
+        """What ``fix.add(edge, face, seam)`` (``FixAddPCurve``) does,
         from the cache when it can be, else from ``projected`` (what a child
         that forked with this edge as it is now kept of that call:
         :func:`_split`) if given.  Whether ``projected`` was used."""
