@@ -33,6 +33,7 @@ from typing import Any
 from nurbscomp import container, occ, pipeline
 from nurbscomp.encode import nets, validity
 from nurbscomp.occ import isolated, topology
+from nurbscomp.stages import compress as stage_compress
 
 SUFFIXES = {".stp", ".step", ".igs", ".iges"}
 
@@ -51,7 +52,7 @@ STAGES: list[tuple[Any, str, str]] = [
     (occ.RoundTrip, "__enter__", "forking round trips"),
     (validity._Floor, "signatures", "face signatures (source, floor)"),
     (container, "pack", "entropy stage (container.pack)"),
-    (pipeline, "model_to_sections", "sections (model_to_sections)"),
+    (stage_compress, "model_to_sections", "sections (model_to_sections)"),
     (pipeline, "verify_encoded", "verify"),
     (occ, "thin_solids", "thin solids, diagonal"),
     (occ, "diagonal", "thin solids, diagonal"),
@@ -104,6 +105,7 @@ def main() -> None:
     ap.add_argument("--tol", type=float, default=0.01)
     ap.add_argument("--serial", action="store_true", help="no spare core, as under make bench")
     ap.add_argument("--out", type=Path, help="keep the containers here")
+    ap.add_argument("--lossless", action="store_true", help="--lossless-brep instead of --tol")
     args = ap.parse_args()
     if args.serial:
 
@@ -127,7 +129,7 @@ def main() -> None:
         dst = out / f"{p.name}.nzc"
         t0 = os.times()
         w, c = time.perf_counter(), time.process_time()
-        r = pipeline.compress_file(p, dst, tol=args.tol, force=True)
+        r = pipeline.compress_file(p, dst, tol=args.tol, lossless=args.lossless, force=True)
         comp_w, comp_c = time.perf_counter() - w, time.process_time() - c
         t1 = os.times()
         kids = t1.children_user + t1.children_system - t0.children_user - t0.children_system
@@ -135,8 +137,8 @@ def main() -> None:
         sha = hashlib.sha256(dst.read_bytes()).hexdigest()[:16]
         total.update(read_w=read_w, read_c=read_c, comp_w=comp_w, comp_c=comp_c, kids=kids)
         print(
-            f"| {p.name} | {read_w:.3f} | {comp_w:.2f} | {comp_w / read_w:.1f}× | {v['rounds']} "
-            f"| {v['step_round_trips']} | {read_c:.3f} | {comp_c:.2f} + {kids:.2f} "
+            f"| {p.name} | {read_w:.3f} | {comp_w:.2f} | {comp_w / read_w:.1f}× | {v.get('rounds', 0)} "
+            f"| {v.get('step_round_trips', 0)} | {read_c:.3f} | {comp_c:.2f} + {kids:.2f} "
             f"| {(comp_c + kids) / read_c:.1f}× | {sha} |",
             flush=True,
         )

@@ -54,10 +54,77 @@ _TOP = 1 << 24
 _PROB_BITS = 15
 
 
-class _Encoder:
-    """LZMA's binary range encoder (carry propagated through a cache byte)."""
+class _Models:
+    """Adaptive binary models by context (counts, halved past LIMIT) and the
+    binarizations of §2.5.1, over LZMA's binary range coder (the subclasses).
+
+    A context's two counts start at 0 and give the coder the probability of
+    a 0 as ``((2·n0 + 1) << 15) // (2·(n0 + n1) + 2)``.  Each family keeps
+    its counts in one flat list, looked up once per symbol: a plain bit's
+    context two counts, a tree's two per prefix (the bit under prefix m at
+    2·m), a uint's 2·16 for its unary part and 2·16·16 for its bits.  The
+    families' keys never meet, so each (family, key, index) is the one
+    context §2.5.1 names."""
+
+    __slots__ = ("p", "pt", "pu")
 
     def __init__(self) -> None:
+        self.p: dict[Any, list[int]] = {}
+        self.pt: dict[Any, list[int]] = {}
+        self.pu: dict[Any, list[int]] = {}
+
+    def code(self, n: list[int], i: int, b: int) -> int:
+        """Code (or decode) bit ``b`` under the counts ``n[i], n[i + 1]``."""
+        raise NotImplementedError
+
+    def bit(self, ctx: Any, b: int = 0) -> int:
+        n = self.p.get(ctx)
+        if n is None:
+            n = self.p[ctx] = [0, 0]
+        return self.code(n, 0, b)
+
+    def tree(self, ctx: Any, nbits: int, v: int = 0) -> int:
+        """``nbits`` bits, most significant first, each under its prefix."""
+        n = self.pt.get(ctx)
+        if n is None:
+            n = self.pt[ctx] = [0] * (2 << nbits)
+        code = self.code
+        m = 1
+        for i in range(nbits - 1, -1, -1):
+            m = (m << 1) | code(n, 2 * m, (v >> i) & 1)
+        return m - (1 << nbits)
+
+    def uint(self, ctx: Any, v: int = 0) -> int:
+        """Elias gamma of v + 1: n = bit length − 1 in unary (bit k under
+        (ctx, "n", min(k, 15))), then its n low bits, most significant first
+        (bit i under (ctx, "m", min(n, 15), min(i, 15)))."""
+        t = self.pu.get(ctx)
+        if t is None:
+            t = self.pu[ctx] = [0] * (2 * 16 + 2 * 16 * 16)
+        code = self.code
+        x = v + 1
+        n = x.bit_length() - 1
+        k = 0
+        while code(t, 2 * min(k, 15), int(k < n)):
+            k += 1
+            if k > _MAX_BITS:
+                raise SectionError("SHAP: an integer is out of range")
+        n = k
+        base = 32 + 32 * min(n, 15)
+        x = 1
+        for i in range(n - 1, -1, -1):
+            x = (x << 1) | code(t, base + 2 * min(n - 1 - i, 15), (v + 1) >> i & 1)
+        return x - 1
+
+
+class _Encoder(_Models):
+    """The models over LZMA's binary range encoder (carry propagated through
+    a cache byte)."""
+
+    __slots__ = ("low", "range", "cache", "cache_size", "out")
+
+    def __init__(self) -> None:
+        super().__init__()
         self.low, self.range, self.cache, self.cache_size = 0, 0xFFFFFFFF, 0, 1
         self.out = bytearray()
 
@@ -75,13 +142,20 @@ class _Encoder:
         self.cache_size += 1
         self.low = (self.low & 0x00FFFFFF) << 8
 
-    def bit(self, p: int, b: int) -> int:
-        bound = (self.range >> _PROB_BITS) * p
+    def code(self, n: list[int], i: int, b: int) -> int:
+        n0, n1 = n[i], n[i + 1]
+        bound = (self.range >> _PROB_BITS) * (((2 * n0 + 1) << _PROB_BITS) // (2 * (n0 + n1) + 2))
         if b:
             self.low += bound
             self.range -= bound
+            n1 += 1
+            n[i + 1] = n1
         else:
             self.range = bound
+            n0 += 1
+            n[i] = n0
+        if n0 + n1 > LIMIT:
+            n[i], n[i + 1] = (n0 + 1) >> 1, (n1 + 1) >> 1
         while self.range < _TOP:
             self.range <<= 8
             self._shift_low()
@@ -93,80 +167,47 @@ class _Encoder:
         return bytes(self.out)
 
 
-class _Decoder:
-    """LZMA's binary range decoder; reading past the stream is a SectionError."""
+class _Decoder(_Models):
+    """The models over LZMA's binary range decoder; reading past the stream
+    is a SectionError."""
+
+    __slots__ = ("data", "pos", "code_", "range")
 
     def __init__(self, data: bytes) -> None:
+        super().__init__()
         if len(data) < 5 or data[0] != 0:
             raise SectionError("SHAP: the coded stream does not start with a zero byte")
         self.data, self.pos = data, 5
-        self.code = int.from_bytes(data[1:5], "big")
+        self.code_ = int.from_bytes(data[1:5], "big")
         self.range = 0xFFFFFFFF
 
-    def bit(self, p: int, b: int = 0) -> int:
-        bound = (self.range >> _PROB_BITS) * p
-        if self.code < bound:
+    def code(self, n: list[int], i: int, b: int = 0) -> int:
+        n0, n1 = n[i], n[i + 1]
+        bound = (self.range >> _PROB_BITS) * (((2 * n0 + 1) << _PROB_BITS) // (2 * (n0 + n1) + 2))
+        if self.code_ < bound:
             self.range = bound
-            out = 0
+            b = 0
+            n0 += 1
+            n[i] = n0
         else:
-            self.code -= bound
+            self.code_ -= bound
             self.range -= bound
-            out = 1
+            b = 1
+            n1 += 1
+            n[i + 1] = n1
+        if n0 + n1 > LIMIT:
+            n[i], n[i + 1] = (n0 + 1) >> 1, (n1 + 1) >> 1
         while self.range < _TOP:
             if self.pos >= len(self.data):
                 raise SectionError("SHAP: the coded stream ends early")
             self.range <<= 8
-            self.code = ((self.code << 8) | self.data[self.pos]) & 0xFFFFFFFF
+            self.code_ = ((self.code_ << 8) | self.data[self.pos]) & 0xFFFFFFFF
             self.pos += 1
-        return out
+        return b
 
     def finish(self) -> None:
         if self.pos != len(self.data):
             raise SectionError(f"SHAP: {len(self.data) - self.pos} bytes after the coded stream")
-
-
-class _Models:
-    """Adaptive binary models by context (counts, halved past LIMIT) and the
-    binarizations of §2.5.1."""
-
-    def __init__(self, rc: Any) -> None:
-        self.rc = rc
-        self.p: dict[Any, list[int]] = {}
-
-    def bit(self, ctx: Any, b: int = 0) -> int:
-        n = self.p.get(ctx)
-        if n is None:
-            n = self.p[ctx] = [0, 0]
-        p0 = ((2 * n[0] + 1) << _PROB_BITS) // (2 * (n[0] + n[1]) + 2)
-        b = self.rc.bit(p0, b)
-        n[b] += 1
-        if n[0] + n[1] > LIMIT:
-            n[0], n[1] = (n[0] + 1) >> 1, (n[1] + 1) >> 1
-        return b
-
-    def tree(self, ctx: Any, nbits: int, v: int = 0) -> int:
-        """``nbits`` bits, most significant first, each under its prefix."""
-        m = 1
-        for i in range(nbits - 1, -1, -1):
-            m = (m << 1) | self.bit((ctx, m), (v >> i) & 1)
-        return m - (1 << nbits)
-
-    def uint(self, ctx: Any, v: int = 0) -> int:
-        """Elias gamma of v + 1: n = bit length − 1 in unary (bit k under
-        (ctx, "n", min(k, 15))), then its n low bits, most significant first
-        (bit i under (ctx, "m", min(n, 15), min(i, 15)))."""
-        x = v + 1
-        n = x.bit_length() - 1
-        k = 0
-        while self.bit((ctx, "n", min(k, 15)), int(k < n)):
-            k += 1
-            if k > _MAX_BITS:
-                raise SectionError("SHAP: an integer is out of range")
-        n = k
-        x = 1
-        for i in range(n - 1, -1, -1):
-            x = (x << 1) | self.bit((ctx, "m", min(n, 15), min(n - 1 - i, 15)), (v + 1) >> i & 1)
-        return x - 1
 
 
 def _reverse(o: int) -> int:
@@ -384,18 +425,60 @@ def _run(
                 if e is not None:
                     touch(_VERTEX, e)
 
-    def choose(ctx: Any, ct: int, rank: list[int], true: int, news: list[int] | None) -> int:
-        """A shared reference: its rank among ``rank`` or, past them, its
-        distance back among the wire's new children (``news``: ~position) or
-        among the shapes of type ``ct``."""
-        r = len(rank)
-        if enc and true in rank:
-            r = rank.index(true)
-        r = c.uint(("r",) + ctx, r)
-        if r < len(rank):
-            return rank[r]
-        if r > len(rank):
+    def live(ct: int, x: int) -> bool:
+        """Whether ``x`` ranks among the window's first: a vertex with open
+        edges, another shape used an odd number of times."""
+        return bool(opens.get(x)) if ct == _VERTEX else bool(uses[x] & 1)
+
+    def rank_of(ct: int, head: list[int], true: int) -> int:
+        """The rank of ``true`` in ``head`` + the window of type ``ct`` less
+        ``head``, its live shapes first (most recent first in each part), or
+        the length of that list when it is in neither."""
+        if true in head:
+            return head.index(true)
+        wl = window[ct]
+        rest = [x for x in wl if x not in head]
+        if true not in rest:
+            return len(head) + len(rest)
+        up = live(ct, true)
+        before = 0
+        for x in rest:
+            if x == true:
+                break
+            if live(ct, x) == up:
+                before += 1
+        if not up:
+            before += sum(1 for x in rest if live(ct, x))
+        return len(head) + before
+
+    def ranked_at(ct: int, head: list[int], r: int) -> int | None:
+        """The shape of rank ``r`` (see :func:`rank_of`); None at the length
+        of the list, a SectionError past it."""
+        if r < len(head):
+            return head[r]
+        k = r - len(head)
+        rest = [x for x in window[ct] if x not in head]
+        if k > len(rest):
             raise SectionError("SHAP: a shared reference's rank is out of range")
+        if k == len(rest):
+            return None
+        for up in (True, False):
+            for x in rest:
+                if live(ct, x) == up:
+                    if not k:
+                        return x
+                    k -= 1
+        raise AssertionError("unreachable: k < len(rest)")
+
+    def choose(ctx: Any, ct: int, head: list[int], true: int, news: list[int] | None) -> int:
+        """A shared reference: its rank among ``head`` and the recent shapes
+        of type ``ct`` (:func:`rank_of`) or, past them, its distance back
+        among the wire's new children (``news``: ~position) or among the
+        shapes of type ``ct``."""
+        r = c.uint(("r",) + ctx, rank_of(ct, head, true) if enc else 0)
+        s = ranked_at(ct, head, r)
+        if s is not None:
+            return s
         if news is not None and c.bit(("xw", ct), int(enc and true < 0)):
             d = c.uint(("xn", ct), len(news) - 1 - news.index(~true) if enc else 0)
             if d >= len(news):
@@ -411,12 +494,6 @@ def _run(
         if d >= len(lst):
             raise BadReferenceError("SHAP: a shared reference to a missing shape")
         return lst[len(lst) - 1 - d]
-
-    def ranked(ct: int, cand: list[int]) -> list[int]:
-        rest = [x for x in window[ct] if x not in cand]
-        if ct == _VERTEX:
-            return cand + [x for x in rest if opens.get(x)] + [x for x in rest if not opens.get(x)]
-        return cand + [x for x in rest if uses[x] & 1] + [x for x in rest if not uses[x] & 1]
 
     def _wire_child(
         fr: _Frame, ct: int, true_s: int, true_o: int, true_loc: int, chain: Any, prev: Any
@@ -440,9 +517,7 @@ def _run(
                     kind, true_s = 2, ~hit[0]
         ctx = (_WIRE, ct, int(chain is not None), min(len(cand), 2), int(bool(pend)))
         if c.bit(("s",) + ctx, int(enc and kind != 1)):
-            rank = ranked(ct, cand)
-            rank[len(cand) : len(cand)] = pend
-            s = choose(ctx, ct, rank, true_s, fr.news)
+            s = choose(ctx, ct, cand + pend, true_s, fr.news)
             if s < 0:
                 k = ~s
                 o = c.tree(("o", _WIRE, ct, 2, fr.slots[k][1]), 2, true_o)
@@ -532,7 +607,7 @@ def _run(
                         cand = [v]
             ctx = (t, ct, role, len(cand))
             if c.bit(("s",) + ctx, int(enc and true_s < count)):
-                s = choose(ctx, ct, ranked(ct, cand), true_s, None)
+                s = choose(ctx, ct, cand, true_s, None)
                 if not (t == _EDGE and ct == _VERTEX):
                     pred = _flip(last_orient[s], fr.flip)
                     o = c.tree(("o", t, ct, 1, pred), 2, true_o)
@@ -609,7 +684,7 @@ def encode(m: Any) -> bytes | None:
         return None
     rc = _Encoder()
     try:
-        _run(_Models(rc), m, len(m.shape_type), len(m.child_shape))
+        _run(rc, m, len(m.shape_type), len(m.child_shape))
     except _Unfit:
         return None
     return rc.finish()
@@ -620,6 +695,6 @@ def decode(data: bytes, n_shapes: int, n_refs: int, depth: int | None = None) ->
     references; a walk deeper than ``depth`` (the budget's, when given: the
     nesting it would refuse later anyway) is a LimitError as soon as it is."""
     rc = _Decoder(data)
-    out = _run(_Models(rc), None, n_shapes, n_refs, depth)
+    out = _run(rc, None, n_shapes, n_refs, depth)
     rc.finish()
     return out
