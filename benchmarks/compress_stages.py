@@ -133,12 +133,13 @@ def main() -> None:
         comp_w, comp_c = time.perf_counter() - w, time.process_time() - c
         t1 = os.times()
         kids = t1.children_user + t1.children_system - t0.children_user - t0.children_system
-        v = r["validity"]
+        v = r["validity"]  # empty for --lossless
+        rounds, trips = v.get("rounds", 0), v.get("step_round_trips", 0)
         sha = hashlib.sha256(dst.read_bytes()).hexdigest()[:16]
         total.update(read_w=read_w, read_c=read_c, comp_w=comp_w, comp_c=comp_c, kids=kids)
         print(
-            f"| {p.name} | {read_w:.3f} | {comp_w:.2f} | {comp_w / read_w:.1f}× | {v.get('rounds', 0)} "
-            f"| {v.get('step_round_trips', 0)} | {read_c:.3f} | {comp_c:.2f} + {kids:.2f} "
+            f"| {p.name} | {read_w:.3f} | {comp_w:.2f} | {comp_w / read_w:.1f}× | {rounds} "
+            f"| {trips} | {read_c:.3f} | {comp_c:.2f} + {kids:.2f} "
             f"| {(comp_c + kids) / read_c:.1f}× | {sha} |",
             flush=True,
         )

@@ -72,9 +72,10 @@ def _check_bspline(
         raise SectionError(f"{where}: degree {degree} is out of range")
     if len(knots) < 2 or len(mults) != len(knots):
         raise SectionError(f"{where}: too few knots")
-    finite(knots, where, MAX_COORD)
     # Python lists: a record has a few knots, where numpy's cost per call dominates
     k, m = knots.tolist(), [int(x) for x in mults.tolist()]
+    if not all(-MAX_COORD < x < MAX_COORD for x in k):  # NaN fails both
+        raise SectionError(f"{where}: a value is not finite or out of range")
     if not all(b > a for a, b in zip(k, k[1:])):
         raise SectionError(f"{where}: knots do not increase")
     if min(m) < 1 or any(x > degree for x in m[1:-1]):
