@@ -48,12 +48,18 @@ def idct(x: np.ndarray, axis: int = 0) -> np.ndarray:
 
 
 def idct2(x: np.ndarray) -> np.ndarray:
-    """Along axis 0, then axis 1; scipy.fft over both when either side is over 64."""
+    """Along axis 0 (one product, the other axes flattened), then axis 1 row
+    by row (a product per row r of the first result, as §2.4.1 writes it:
+    numpy's stacked matmul; one product over all rows at once sums in
+    another order on some CPUs' BLAS kernels); scipy.fft over both when
+    either side is over 64."""
     if max(x.shape[:2]) > MATRIX_MAX:
         from scipy import fft
 
         return np.asarray(fft.idctn(x, type=2, norm="ortho", axes=(0, 1)))
-    return idct(idct(x, 0), 1)
+    n, m = x.shape[:2]
+    rows = idct(x, 0).reshape(n, m, -1)
+    return (dct_matrix(m).T @ rows).reshape(x.shape)
 
 
 # ---------------------------------------------------------------- abscissae
