@@ -74,7 +74,10 @@ class _Models:
         self.pu: dict[Any, list[int]] = {}
 
     def code(self, n: list[int], i: int, b: int) -> int:
-        """Code (or decode) bit ``b`` under the counts ``n[i], n[i + 1]``."""
+        """Code bit ``b`` (or decode one: ``b`` is ignored) under the counts
+        ``n[i], n[i + 1]``, then count it.  The subclasses repeat the count
+        update beside their coder on purpose: one Python call per binary
+        decision is what makes the walk fast."""
         raise NotImplementedError
 
     def bit(self, ctx: Any, b: int = 0) -> int:
@@ -171,26 +174,26 @@ class _Decoder(_Models):
     """The models over LZMA's binary range decoder; reading past the stream
     is a SectionError."""
 
-    __slots__ = ("data", "pos", "code_", "range")
+    __slots__ = ("data", "pos", "value", "range")
 
     def __init__(self, data: bytes) -> None:
         super().__init__()
         if len(data) < 5 or data[0] != 0:
             raise SectionError("SHAP: the coded stream does not start with a zero byte")
         self.data, self.pos = data, 5
-        self.code_ = int.from_bytes(data[1:5], "big")
+        self.value = int.from_bytes(data[1:5], "big")
         self.range = 0xFFFFFFFF
 
-    def code(self, n: list[int], i: int, b: int = 0) -> int:
+    def code(self, n: list[int], i: int, b: int) -> int:
         n0, n1 = n[i], n[i + 1]
         bound = (self.range >> _PROB_BITS) * (((2 * n0 + 1) << _PROB_BITS) // (2 * (n0 + n1) + 2))
-        if self.code_ < bound:
+        if self.value < bound:
             self.range = bound
             b = 0
             n0 += 1
             n[i] = n0
         else:
-            self.code_ -= bound
+            self.value -= bound
             self.range -= bound
             b = 1
             n1 += 1
@@ -201,7 +204,7 @@ class _Decoder(_Models):
             if self.pos >= len(self.data):
                 raise SectionError("SHAP: the coded stream ends early")
             self.range <<= 8
-            self.code_ = ((self.code_ << 8) | self.data[self.pos]) & 0xFFFFFFFF
+            self.value = ((self.value << 8) | self.data[self.pos]) & 0xFFFFFFFF
             self.pos += 1
         return b
 
@@ -436,8 +439,7 @@ def _run(
         the length of that list when it is in neither."""
         if true in head:
             return head.index(true)
-        wl = window[ct]
-        rest = [x for x in wl if x not in head]
+        rest = [x for x in window[ct] if x not in head]
         if true not in rest:
             return len(head) + len(rest)
         up = live(ct, true)
@@ -453,7 +455,9 @@ def _run(
 
     def ranked_at(ct: int, head: list[int], r: int) -> int | None:
         """The shape of rank ``r`` (see :func:`rank_of`); None at the length
-        of the list, a SectionError past it."""
+        of the list, a SectionError past it.  Each of the two builds the
+        window less ``head`` only when the rank is past ``head``: mostly it
+        is not."""
         if r < len(head):
             return head[r]
         k = r - len(head)
