@@ -763,6 +763,11 @@ def _info_lines(r: dict[str, Any]) -> list[str]:
         f"ratio:       {r['source_bytes'] / r['file_bytes']:.1f}x",
         f"shapes:      {_fmt_counts(r['shapes'])}",
         *([] if r.get("step_pcurves", True) else ["STEP output: no pcurves, as in the source"]),
+        *(
+            []
+            if r.get("step_uncertainty") is None
+            else [f"STEP output: uncertainty {r['step_uncertainty']:g} mm"]
+        ),
         f"faces:       {_by_kind(r['faces_by_type'])}",
         f"geometry:    {_geometry_counts(r['geometry'])}",
         "sections:    "

@@ -52,6 +52,7 @@ from .stages.decompress import (
     decode_file,
     read_text,
     step_pcurves,
+    step_uncertainty,
     write,
 )
 from .stages.evaluate import evaluate_shapes, load_shape, write_heatmap
@@ -92,6 +93,7 @@ __all__ = [
     "read_source",
     "read_text",
     "step_pcurves",
+    "step_uncertainty",
     "shape_source",
     "source_format",
     "test_file",
@@ -258,6 +260,7 @@ def info_data(
         "source_bytes": meta.get("source_bytes"),
         "writer": meta.get("writer"),
         "step_pcurves": step_pcurves(meta),
+        "step_uncertainty": step_uncertainty(meta),
         "file_bytes": len(data),
         "coder": container.entropy.Coder(c.coder).name.lower()
         if c.coder in {int(x) for x in container.entropy.Coder}

@@ -159,7 +159,9 @@ def test_a_model_the_reader_may_loop_on_is_still_checked(
     and its coded edges' tolerances (some 5e-3) would have had OCCT's reader
     add a degenerated edge (4 -> 5 edges) in the decompressed STEP, which the
     check keeps out.  Coded with the pole bound (``nets.SPREAD`` off), whose
-    first candidate is the one that gains the edge."""
+    first candidate is the one that gains the edge: written with the
+    tolerance the coding widened as its uncertainty, it keeps its 4 edges
+    (``ValidityReport.step_uncertainty``; before, a second round held it)."""
     monkeypatch.setattr(nets, "SPREAD", False)
     src = tmp_path / "offrev.step"
     occ.write_shape(_offset_of_revolution(), src, "STEP")
@@ -167,7 +169,9 @@ def test_a_model_the_reader_may_loop_on_is_still_checked(
     assert validity.step_reader_hangs(m) and validity.step_time_limit(m)
     report = pipeline.compress_file(src, tmp_path / "o.nzc", tol=0.01)
     assert not report["validity"]["step_skipped"]
-    assert report["validity"]["rounds"] >= 2  # the first candidate gained the edge
+    v = report["validity"]
+    assert v["step_round_trips"] >= 3  # the floor, the first candidate's two
+    assert v["step_uncertainty"] is not None  # the first candidate gained the edge
     pipeline.decompress_file(tmp_path / "o.nzc", tmp_path / "o.step")
     assert occ.counts(occ.read_cad(tmp_path / "o.step").shape) == occ.counts(
         occ.step_round_trip(occ.read_cad(src).shape)
@@ -197,10 +201,14 @@ def test_a_reader_that_loops_on_the_source_too_leaves_no_check(
     assert occ.counts(pipeline.decode_file(tmp_path / "o.nzc")[0])["faces"] == 1
 
 
-def _pack(model: object, codes: dict, step_pcurves: bool = True) -> tuple[int, bytes]:
+def _pack(
+    model: object, codes: dict, step_pcurves: bool = True, uncertainty: float | None = None
+) -> tuple[int, bytes]:
     meta: dict = {"mode": "tolerance", "tolerance_mm": 0.01}
     if not step_pcurves:
         meta["step_pcurves"] = False
+    if uncertainty is not None:
+        meta["step_uncertainty"] = uncertainty
     return id(model), container.pack(model_to_sections(model, meta, codes), 0, thorough=False)
 
 
@@ -221,7 +229,10 @@ def test_what_is_packed_meanwhile_is_the_target(
         assert t.early is None
         return
     assert t.early is not None and t.early[0] == id(t.model)
-    assert t.early[1] == _pack(t.model, t.codes, t.validity.step_pcurves)[1]
+    assert (
+        t.early[1]
+        == _pack(t.model, t.codes, t.validity.step_pcurves, t.validity.step_uncertainty)[1]
+    )
 
 
 @pytest.mark.slow
@@ -252,9 +263,15 @@ def test_a_busy_machine_makes_no_round_trip_for_a_faulty_candidate(
         product = None
         broken = ""
         pcurves = True
+        uncertainty = None
 
         def trip(
-            self, shape: object, stack: object, product: object = None, pcurves: bool = True
+            self,
+            shape: object,
+            stack: object,
+            product: object = None,
+            pcurves: bool = True,
+            uncertainty: float | None = None,
         ) -> object:
             trips.append(shape)
             return object()

@@ -127,8 +127,8 @@ def _losing(monkeypatch: pytest.MonkeyPatch, bare: int, whole: int) -> list[bool
     losses, trip = validity._Floor.candidate_losses, validity._Floor.trip
     made: dict[int, bool] = {}  # id of a round trip: written with pcurves
 
-    def tagged(self, shape, stack, product=None, nice=0, pcurves=True):  # type: ignore[no-untyped-def]
-        back = trip(self, shape, stack, product, nice, pcurves)
+    def tagged(self, shape, stack, product=None, nice=0, pcurves=True, uncertainty=None):  # type: ignore[no-untyped-def]
+        back = trip(self, shape, stack, product, nice, pcurves, uncertainty)
         made[id(back)] = pcurves
         return back
 

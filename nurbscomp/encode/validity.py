@@ -14,7 +14,9 @@ it falls short, cheapest first.  Two checks:
 2. **The STEP reader** (``step_check``): the candidate is written to STEP as
    ``decompress`` writes it (through OCCT's XDE writer when the model has
    product data; without pcurves while the source STEP had none and that
-   keeps what is kept, ``ValidityReport.step_pcurves``) and read back once
+   keeps what is kept, ``ValidityReport.step_pcurves``; with the largest
+   tolerance the coding widened as its length uncertainty where that keeps
+   more, ``ValidityReport.step_uncertainty``) and read back once
    per round, and must keep what OCCT's own round trip of the
    source keeps (:func:`step_keeps`), and have no more free edges (sewn at
    1e-7) than the source or that round trip.  OCCT's round trip of the source (the
@@ -79,9 +81,10 @@ MAX_ROUNDS = 20
 SPECULATIVE_NICE = 10
 
 #: What :func:`lossy_target` may run on a candidate while its STEP round trip
-#: runs: called with the model, its codes, and whether its STEP output gets
-#: pcurves (``ValidityReport.step_pcurves`` if it passes).
-Meanwhile = Callable[[BRepModel, dict[Rec, Any], bool], Any]
+#: runs: called with the model, its codes, whether its STEP output gets
+#: pcurves and the length uncertainty it is written with
+#: (``ValidityReport.step_pcurves`` and ``step_uncertainty`` if it passes).
+Meanwhile = Callable[[BRepModel, dict[Rec, Any], bool, float | None], Any]
 
 
 class Rung(IntEnum):
@@ -124,6 +127,13 @@ class ValidityReport:
         Whether the STEP output is written with pcurves.  False only where the
         source STEP had none and the STEP check passed on the model kept with
         the candidate written without them (``occ.write_shape``'s ``pcurves``).
+    step_uncertainty : float or None
+        The length uncertainty (mm) the STEP output is written with
+        (``occ.write_shape``'s ``uncertainty``), or None for OCCT's default
+        (the shape's average tolerance): set where the STEP check read the
+        first candidate it found lossy back with fewer faces lost when
+        written with the largest tolerance the coding widened
+        (:func:`widened_tolerance`), and the kept candidate so.
     """
 
     rounds: int = 0
@@ -134,6 +144,7 @@ class ValidityReport:
     fallback: str = ""
     step_skipped: str = ""
     step_pcurves: bool = True
+    step_uncertainty: float | None = None
 
 
 @dataclass
@@ -233,6 +244,11 @@ class _Floor:
         #: Whether a candidate written without pcurves has been compared with
         #: itself written with them (once: the mode is settled then).
         self.compared = False
+        #: The length uncertainty the candidates are written with (None: OCCT's
+        #: default), and whether the first lossy candidate has been compared
+        #: with itself written with its widened tolerance (:func:`_check`).
+        self.uncertainty: float | None = None
+        self.uncertainty_compared = False
         self.limit = limit  # seconds a round trip may take (step_time_limit)
         self.product = product  # the candidates are written as decompress writes them
         self.counts = occ.counts(source)
@@ -251,12 +267,16 @@ class _Floor:
         product: Any = None,
         nice: int = 0,
         pcurves: bool = True,
+        uncertainty: float | None = None,
     ) -> occ.RoundTrip:
         """A round trip of ``shape``, begun now in a child (``nice``: its
         niceness increment) and held by ``stack`` (with the folder its STEP
-        file is written to), written with or without ``pcurves``."""
+        file is written to), written with or without ``pcurves``, with
+        ``uncertainty`` (``occ.write_shape``'s)."""
         folder = Path(stack.enter_context(tempfile.TemporaryDirectory(prefix="nurbscomp-")))
-        make = functools.partial(occ.step_round_trip, shape, self.unit, product, folder, pcurves)
+        make = functools.partial(
+            occ.step_round_trip, shape, self.unit, product, folder, pcurves, uncertainty
+        )
         return stack.enter_context(occ.RoundTrip(make, nice, self.limit))
 
     def begin(self, speculative: bool = False) -> None:
@@ -763,6 +783,8 @@ def lossy_target(
             vr.step_skipped = vr.step_skipped or floor.broken
             # only a candidate checked as written without them goes without
             vr.step_pcurves = floor.pcurves or bool(floor.broken) or vr.fallback == "exact"
+            if not floor.broken and vr.fallback != "exact":
+                vr.step_uncertainty = floor.uncertainty
 
 
 def _search(
@@ -798,7 +820,13 @@ def _search(
     shape = build(target, cache)
     vr.rounds += 1
     new_e, new_f, blamed, early = _check(
-        shape, old_e, old_f, floor, tol, _bind(meanwhile, target, codes)
+        shape,
+        old_e,
+        old_f,
+        floor,
+        tol,
+        _bind(meanwhile, target, codes),
+        widened_tolerance(plan.m, target),
     )
     log.debug(
         "fallback with every pcurve stored: new faults on %d edges, %d faces; STEP losses %s",
@@ -842,7 +870,13 @@ def _rounds(
         shape = build(cand, cache)
         vr.rounds += 1
         new_e, new_f, blamed, early = _check(
-            shape, old_e, old_f, floor, tol, _bind(meanwhile, cand, codes)
+            shape,
+            old_e,
+            old_f,
+            floor,
+            tol,
+            _bind(meanwhile, cand, codes),
+            widened_tolerance(plan.m, cand),
         )
         log.debug(
             "validity round %d: %d exact records, pcurves kept on %d faces; "
@@ -884,7 +918,7 @@ def _done(
 
 def _bind(
     meanwhile: Meanwhile | None, model: BRepModel, codes: dict[Rec, Any]
-) -> Callable[[bool], Any] | None:
+) -> Callable[[bool, float | None], Any] | None:
     return None if meanwhile is None else functools.partial(meanwhile, model, codes)
 
 
@@ -894,7 +928,8 @@ def _check(
     old_f: set[int],
     floor: _Floor | None,
     tol: float,
-    meanwhile: Callable[[bool], Any] | None = None,
+    meanwhile: Callable[[bool, float | None], Any] | None = None,
+    widened: float | None = None,
 ) -> tuple[set[int], set[int], set[int] | None, Any]:
     """A candidate's BRepCheck faults the source lacks (edges, faces) and, when
     it has none and there is a floor, the faces its STEP re-read loses
@@ -917,36 +952,78 @@ def _check(
     this and every later candidate are written with pcurves.  Else (the same
     faces or more lost: the coding lost them) they stay without, and the
     faces lost without pcurves are the ones blamed.  What ``meanwhile`` made
-    of such a candidate is dropped."""
+    of such a candidate is dropped.
+
+    In the same way, the first candidate whose re-read loses faces (or
+    splits one) is checked again written with ``widened`` (the largest
+    tolerance the coding widened, :func:`widened_tolerance`) as its length
+    uncertainty, OCCT's reader's healing precision.  If that loses fewer
+    faces, this and every later candidate are written so."""
     spare = occ.spare_core()
     if floor is not None and floor.broken:
         floor = None  # the source's own round trip cannot be had: nothing to hold to
     with contextlib.ExitStack() as stack:
         back = None
         if floor is not None and spare:
-            back = floor.trip(shape, stack, floor.product, pcurves=floor.pcurves)
+            back = floor.trip(
+                shape, stack, floor.product, pcurves=floor.pcurves, uncertainty=floor.uncertainty
+            )
         bad_e, bad_f = occ.failures(shape)
         new_e, new_f = bad_e - old_e, bad_f - old_f
         if new_e or new_f:
             return new_e, new_f, None, None
         if floor is None:
-            return new_e, new_f, None, meanwhile(True) if meanwhile is not None else None
+            return new_e, new_f, None, meanwhile(True, None) if meanwhile is not None else None
         if back is None:
-            back = floor.trip(shape, stack, floor.product, pcurves=floor.pcurves)
-        early = meanwhile(floor.pcurves) if meanwhile is not None and spare else None
+            back = floor.trip(
+                shape, stack, floor.product, pcurves=floor.pcurves, uncertainty=floor.uncertainty
+            )
+        early = (
+            meanwhile(floor.pcurves, floor.uncertainty) if meanwhile is not None and spare else None
+        )
         losses = floor.candidate_losses(back, tol)
         if not floor.pcurves and floor.broken:
             floor.pcurves, early = True, None  # nothing to hold to: as OCCT writes
         elif not floor.pcurves and losses is not None and not floor.compared:
             floor.compared, early = True, None
-            back = floor.trip(shape, stack, floor.product)
+            back = floor.trip(shape, stack, floor.product, uncertainty=floor.uncertainty)
             kept = floor.candidate_losses(back, tol)
             if kept is None or not losses <= kept:
                 # without pcurves the reader makes another shape of it (OCCT's
                 # own round trip of bug32596 written so gets 101 faces of 99)
                 log.debug("STEP check: candidates are written with pcurves from now on")
                 floor.pcurves, losses = True, kept
+        if losses is not None and widened is not None and not floor.uncertainty_compared:
+            floor.uncertainty_compared, early = True, None
+            back = floor.trip(
+                shape, stack, floor.product, pcurves=floor.pcurves, uncertainty=widened
+            )
+            kept = floor.candidate_losses(back, tol)
+            log.debug(
+                "STEP check: faces lost written with uncertainty %g: %s, with OCCT's default: %s",
+                widened,
+                kept,
+                losses,
+            )
+            if kept is None or len(kept) < len(losses):
+                log.debug("STEP check: candidates are written with uncertainty %g", widened)
+                floor.uncertainty, losses = widened, kept
         return new_e, new_f, losses, early
+
+
+def widened_tolerance(m: BRepModel, cand: BRepModel) -> float | None:
+    """The largest vertex or edge tolerance of a candidate above the one the
+    source model ``m`` gives the same vertex or edge (the coding widens
+    tolerances to cover what it moves: ``assembly``), or None if none is.
+    Tolerances the source had stay out: a source vertex of 8 mm (trj3) is
+    no measure of the gaps the coding opened."""
+    out = 0.0
+    for a, b in ((m.vertex_tol, cand.vertex_tol), (m.edge_tol, cand.edge_tol)):
+        if len(a) == len(b) and len(a):
+            up = b > a
+            if up.any():
+                out = max(out, float(b[up].max()))
+    return out or None
 
 
 def vertex_neighbours(m: BRepModel, tol: float) -> list[set[int]]:

@@ -37,6 +37,25 @@ def static(name: str, value: str) -> Iterator[None]:
         Interface_Static.SetCVal_s(name, old)
 
 
+@contextlib.contextmanager
+def step_settings(pcurves: bool, uncertainty: float | None) -> Iterator[None]:
+    """The STEP writer's settings that a container's META chooses (§3.1 of
+    docs/format.md), set once the writer exists: pcurves or not
+    (``write.surfacecurve.mode``), and the file's length uncertainty.
+
+    ``uncertainty`` None leaves OCCT's default, the average tolerance of the
+    shape's sub-shapes (``write.precision.mode`` 0); a number (mm) is written
+    as it is (mode 2, "session").  A reader takes that uncertainty as the
+    precision it heals the shape to: a decoded shape whose widened tolerances
+    reach past the average can come back with edges the reader added."""
+    with contextlib.ExitStack() as stack:
+        stack.enter_context(static("write.surfacecurve.mode", SURFACE_CURVES[pcurves]))
+        if uncertainty is not None:
+            stack.enter_context(static("write.precision.mode", "2"))
+            stack.enter_context(static("write.precision.val", repr(float(uncertainty))))
+        yield
+
+
 #: ``write.surfacecurve.mode``'s values: pcurves written or not (the latter:
 #: each edge's 3-D curve alone, as a STEP file that held no pcurve had it).
 SURFACE_CURVES = {True: "1", False: "0"}

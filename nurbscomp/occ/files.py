@@ -47,6 +47,7 @@ from .exchange import (  # noqa: F401 (re-exported: they were defined here)
     settle_model,
     settled,
     static,
+    step_settings,
 )
 
 # OCCT prints progress and statistics to stdout; the CLI owns stdout.
@@ -263,6 +264,7 @@ def write_shape(
     products: bool = True,
     product: Any = None,
     pcurves: bool = True,
+    uncertainty: float | None = None,
 ) -> None:
     """Write a shape to STEP, IGES or BREP.
 
@@ -295,6 +297,9 @@ def write_shape(
         curve alone (``write.surfacecurve.mode`` 0): what a STEP source without
         pcurves had.  The file is then smaller and quicker to write, and
         independent of the pcurves the shape has.
+    uncertainty : float, optional
+        STEP only: the length uncertainty written to the file (mm); None, the
+        average tolerance of the shape, as OCCT writes it (``step_settings``).
 
     Raises
     ------
@@ -310,7 +315,7 @@ def write_shape(
     if product is not None and fmt != "BREP":
         from . import xcaf
 
-        xcaf.write(product, shape, p, fmt, unit, name, system, pcurves)
+        xcaf.write(product, shape, p, fmt, unit, name, system, pcurves, uncertainty)
         return
     if fmt == "BREP":
         if not BRepTools.Write_s(shape, str(p)):
@@ -329,7 +334,7 @@ def write_shape(
     Interface_Static.SetCVal_s("write.step.schema", "AP214IS")
     sw = STEPControl_Writer()
     # set once the writer exists (its constructor may reset it)
-    with static("write.surfacecurve.mode", SURFACE_CURVES[pcurves]):
+    with step_settings(pcurves, uncertainty):
         status = sw.Transfer(shape, STEPControl_AsIs)
     if status != IFSelect_ReturnStatus.IFSelect_RetDone:
         raise RebuildError(f"the STEP writer refused the shape ({status.name})")
@@ -373,6 +378,7 @@ def step_round_trip(
     product: Any = None,
     folder: Path | None = None,
     pcurves: bool = True,
+    uncertainty: float | None = None,
 ) -> Any:
     """The shape as OCCT reads it back after writing it to STEP (in a temporary
     file, in ``folder`` if given: the caller removes that).
@@ -380,12 +386,22 @@ def step_round_trip(
     With ``product`` (a ``product.ProductData`` of the shape's model) the file
     is written as ``decompress`` writes it, through OCCT's XDE writer
     (``xcaf.write``): its STEP differs from the plain writer's, and so may
-    what the reader makes of it.  ``pcurves``: as :func:`write_shape`'s.
+    what the reader makes of it.  ``pcurves``, ``uncertainty``: as
+    :func:`write_shape`'s.
     """
     import tempfile
 
     with contextlib.ExitStack() as stack:
         d = folder or stack.enter_context(tempfile.TemporaryDirectory())
         f = Path(d) / "rt.step"
-        write_shape(shape, f, "STEP", unit, products=False, product=product, pcurves=pcurves)
+        write_shape(
+            shape,
+            f,
+            "STEP",
+            unit,
+            products=False,
+            product=product,
+            pcurves=pcurves,
+            uncertainty=uncertainty,
+        )
         return read_cad(f, own=True).shape

@@ -68,11 +68,11 @@ from ..formats import sniff_format
 from ..product import HEADER_FIELDS, HIDDEN, INSTANCE, NAMED, PRODUCT, SUBSHAPE, ProductData
 from .exchange import (
     STEP_TIME_STAMP,
-    SURFACE_CURVES,
     check_readable,
     fix_iges_dates,
     settled,
     static,
+    step_settings,
 )
 from .measure import faces as faces_of
 from .mesh import face_meshes
@@ -555,6 +555,7 @@ def write(
     name: str = "",
     system: str = "",
     pcurves: bool = True,
+    uncertainty: float | None = None,
 ) -> None:
     """Write a decoded shape with its product data to STEP or IGES.
 
@@ -565,7 +566,8 @@ def write(
     Header fields the source did not have (an IGES source's) are ``name``,
     ``system`` as originating system and ``exchange.STEP_TIME_STAMP``, as
     ``files.write_shape`` writes them, so the output depends on nothing else.
-    Without ``pcurves``, STEP edges get their 3-D curves only.
+    Without ``pcurves``, STEP edges get their 3-D curves only; ``uncertainty``
+    as ``files.write_shape``'s.
 
     Raises
     ------
@@ -604,7 +606,7 @@ def write(
         sw.SetLayerMode(True)
         # set once the writer exists (its constructor may reset it), for the
         # transfer and the write (which translates the shapes)
-        with static("write.surfacecurve.mode", SURFACE_CURVES[pcurves]):
+        with step_settings(pcurves, uncertainty):
             if not sw.Transfer(doc, STEPControl_AsIs):
                 raise RebuildError("the STEP writer refused the product")
             model = sw.ChangeWriter().Model()

@@ -108,13 +108,20 @@ def encode_cad(
     }
     flags = container.FLAG_LOSSLESS if lossless else 0
 
-    def pack(target: BRepModel, codes: dict[Any, Any], step_pcurves: bool = True) -> bytes:
+    def pack(
+        target: BRepModel,
+        codes: dict[Any, Any],
+        step_pcurves: bool = True,
+        step_uncertainty: float | None = None,
+    ) -> bytes:
         target.product = m.product  # exact in every mode, placements included
         # what it decodes into, for a reader to admit (budget.Limits.admit)
         declared = budget.declare(target)
         more: dict[str, Any] = {"decoded": declared} if declared else {}
         if not step_pcurves:  # STEP output without pcurves (validity.ValidityReport)
             more["step_pcurves"] = False
+        if step_uncertainty is not None:  # its uncertainty (validity.ValidityReport)
+            more["step_uncertainty"] = step_uncertainty
         sections = model_to_sections(target, {**meta, **more}, codes)
         # lossless is the fast mode: a quick entropy search (entropy.compress)
         return container.pack(sections, flags, thorough=not lossless)
@@ -154,7 +161,11 @@ def encode_cad(
         if vreport.step_skipped:
             warnings.append(f"no STEP check: {vreport.step_skipped}")
         # packed while the STEP check of its last round ran, if it had one
-        data = t.early if t.early is not None else pack(target, codes, vreport.step_pcurves)
+        data = (
+            t.early
+            if t.early is not None
+            else pack(target, codes, vreport.step_pcurves, vreport.step_uncertainty)
+        )
     return Encoded(
         data,
         m,
