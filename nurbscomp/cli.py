@@ -765,8 +765,8 @@ def _info_lines(r: dict[str, Any]) -> list[str]:
         *([] if r.get("step_pcurves", True) else ["STEP output: no pcurves, as in the source"]),
         *(
             []
-            if r.get("step_uncertainty") is None
-            else [f"STEP output: uncertainty {r['step_uncertainty']:g} mm"]
+            if r.get("uncertainty") is None
+            else [f"STEP/IGES output: uncertainty {r['uncertainty']:g} mm"]
         ),
         f"faces:       {_by_kind(r['faces_by_type'])}",
         f"geometry:    {_geometry_counts(r['geometry'])}",

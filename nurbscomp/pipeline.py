@@ -50,9 +50,9 @@ from .stages.decompress import (
     decode,
     decode_data,
     decode_file,
+    output_uncertainty,
     read_text,
     step_pcurves,
-    step_uncertainty,
     write,
 )
 from .stages.evaluate import evaluate_shapes, load_shape, write_heatmap
@@ -93,7 +93,7 @@ __all__ = [
     "read_source",
     "read_text",
     "step_pcurves",
-    "step_uncertainty",
+    "output_uncertainty",
     "shape_source",
     "source_format",
     "test_file",
@@ -260,7 +260,7 @@ def info_data(
         "source_bytes": meta.get("source_bytes"),
         "writer": meta.get("writer"),
         "step_pcurves": step_pcurves(meta),
-        "step_uncertainty": step_uncertainty(meta),
+        "uncertainty": output_uncertainty(meta),
         "file_bytes": len(data),
         "coder": container.entropy.Coder(c.coder).name.lower()
         if c.coder in {int(x) for x in container.entropy.Coder}

@@ -326,9 +326,9 @@ class InfoReport(_Typed):
     step_pcurves : bool
         Whether ``decompress`` writes pcurves into STEP output (False: the
         source STEP had none, docs/format.md §3.1).
-    step_uncertainty : float or None
-        The length uncertainty (mm) ``decompress`` writes into STEP output;
-        None: OCCT's default, the shape's average tolerance (§3.1).
+    uncertainty : float or None
+        The length uncertainty (mm) ``decompress`` writes into STEP and IGES
+        output; None: OCCT's default, the shape's average tolerance (§3.1).
     """
 
     input: str
@@ -355,4 +355,4 @@ class InfoReport(_Typed):
     sha256: str | None = None
     model: str | None = None
     step_pcurves: bool = True
-    step_uncertainty: float | None = None
+    uncertainty: float | None = None

@@ -161,7 +161,7 @@ def test_a_model_the_reader_may_loop_on_is_still_checked(
     check keeps out.  Coded with the pole bound (``nets.SPREAD`` off), whose
     first candidate is the one that gains the edge: written with the
     tolerance the coding widened as its uncertainty, it keeps its 4 edges
-    (``ValidityReport.step_uncertainty``; before, a second round held it)."""
+    (``ValidityReport.uncertainty``; before, a second round held it)."""
     monkeypatch.setattr(nets, "SPREAD", False)
     src = tmp_path / "offrev.step"
     occ.write_shape(_offset_of_revolution(), src, "STEP")
@@ -171,7 +171,7 @@ def test_a_model_the_reader_may_loop_on_is_still_checked(
     assert not report["validity"]["step_skipped"]
     v = report["validity"]
     assert v["step_round_trips"] >= 3  # the floor, the first candidate's two
-    assert v["step_uncertainty"] is not None  # the first candidate gained the edge
+    assert v["uncertainty"] is not None  # the first candidate gained the edge
     pipeline.decompress_file(tmp_path / "o.nzc", tmp_path / "o.step")
     assert occ.counts(occ.read_cad(tmp_path / "o.step").shape) == occ.counts(
         occ.step_round_trip(occ.read_cad(src).shape)
@@ -208,7 +208,7 @@ def _pack(
     if not step_pcurves:
         meta["step_pcurves"] = False
     if uncertainty is not None:
-        meta["step_uncertainty"] = uncertainty
+        meta["uncertainty"] = uncertainty
     return id(model), container.pack(model_to_sections(model, meta, codes), 0, thorough=False)
 
 
@@ -229,10 +229,7 @@ def test_what_is_packed_meanwhile_is_the_target(
         assert t.early is None
         return
     assert t.early is not None and t.early[0] == id(t.model)
-    assert (
-        t.early[1]
-        == _pack(t.model, t.codes, t.validity.step_pcurves, t.validity.step_uncertainty)[1]
-    )
+    assert t.early[1] == _pack(t.model, t.codes, t.validity.step_pcurves, t.validity.uncertainty)[1]
 
 
 @pytest.mark.slow

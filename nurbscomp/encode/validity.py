@@ -16,7 +16,7 @@ it falls short, cheapest first.  Two checks:
    product data; without pcurves while the source STEP had none and that
    keeps what is kept, ``ValidityReport.step_pcurves``; with the largest
    tolerance the coding widened as its length uncertainty where that keeps
-   more, ``ValidityReport.step_uncertainty``) and read back once
+   more, ``ValidityReport.uncertainty``) and read back once
    per round, and must keep what OCCT's own round trip of the
    source keeps (:func:`step_keeps`), and have no more free edges (sewn at
    1e-7) than the source or that round trip.  OCCT's round trip of the source (the
@@ -83,7 +83,7 @@ SPECULATIVE_NICE = 10
 #: What :func:`lossy_target` may run on a candidate while its STEP round trip
 #: runs: called with the model, its codes, whether its STEP output gets
 #: pcurves and the length uncertainty it is written with
-#: (``ValidityReport.step_pcurves`` and ``step_uncertainty`` if it passes).
+#: (``ValidityReport.step_pcurves`` and ``uncertainty`` if it passes).
 Meanwhile = Callable[[BRepModel, dict[Rec, Any], bool, float | None], Any]
 
 
@@ -127,8 +127,8 @@ class ValidityReport:
         Whether the STEP output is written with pcurves.  False only where the
         source STEP had none and the STEP check passed on the model kept with
         the candidate written without them (``occ.write_shape``'s ``pcurves``).
-    step_uncertainty : float or None
-        The length uncertainty (mm) the STEP output is written with
+    uncertainty : float or None
+        The length uncertainty (mm) STEP and IGES output are written with
         (``occ.write_shape``'s ``uncertainty``), or None for OCCT's default
         (the shape's average tolerance): set where the STEP check read the
         first candidate it found lossy back with fewer faces lost when
@@ -144,7 +144,7 @@ class ValidityReport:
     fallback: str = ""
     step_skipped: str = ""
     step_pcurves: bool = True
-    step_uncertainty: float | None = None
+    uncertainty: float | None = None
 
 
 @dataclass
@@ -784,7 +784,7 @@ def lossy_target(
             # only a candidate checked as written without them goes without
             vr.step_pcurves = floor.pcurves or bool(floor.broken) or vr.fallback == "exact"
             if not floor.broken and vr.fallback != "exact":
-                vr.step_uncertainty = floor.uncertainty
+                vr.uncertainty = floor.uncertainty
 
 
 def _search(

@@ -38,21 +38,30 @@ def static(name: str, value: str) -> Iterator[None]:
 
 
 @contextlib.contextmanager
-def step_settings(pcurves: bool, uncertainty: float | None) -> Iterator[None]:
-    """The STEP writer's settings that a container's META chooses (§3.1 of
-    docs/format.md), set once the writer exists: pcurves or not
-    (``write.surfacecurve.mode``), and the file's length uncertainty.
+def precision(uncertainty: float | None) -> Iterator[None]:
+    """The length uncertainty a STEP or IGES writer writes (a STEP file's
+    ``UNCERTAINTY_MEASURE_WITH_UNIT``, an IGES file's resolution), set once
+    the writer exists (docs/format.md §3.1, META's ``uncertainty``).
 
-    ``uncertainty`` None leaves OCCT's default, the average tolerance of the
-    shape's sub-shapes (``write.precision.mode`` 0); a number (mm) is written
-    as it is (mode 2, "session").  A reader takes that uncertainty as the
-    precision it heals the shape to: a decoded shape whose widened tolerances
-    reach past the average can come back with edges the reader added."""
-    with contextlib.ExitStack() as stack:
-        stack.enter_context(static("write.surfacecurve.mode", SURFACE_CURVES[pcurves]))
-        if uncertainty is not None:
-            stack.enter_context(static("write.precision.mode", "2"))
-            stack.enter_context(static("write.precision.val", repr(float(uncertainty))))
+    None leaves OCCT's default, the average tolerance of the shape's
+    sub-shapes (``write.precision.mode`` 0); a number (mm) is written as it
+    is (mode 2, ``write.precision.val``), converted to the file's unit.  A
+    reader takes that value as the precision it heals the shape to: a decoded
+    shape whose widened tolerances reach past their average can come back
+    with edges the reader split or added."""
+    if uncertainty is None:
+        yield
+        return
+    with static("write.precision.mode", "2"), static("write.precision.val", repr(uncertainty)):
+        yield
+
+
+@contextlib.contextmanager
+def step_settings(pcurves: bool, uncertainty: float | None) -> Iterator[None]:
+    """The STEP writer's settings that a container's META chooses, set once
+    the writer exists: pcurves or not (``write.surfacecurve.mode``), and the
+    file's length uncertainty (:func:`precision`)."""
+    with static("write.surfacecurve.mode", SURFACE_CURVES[pcurves]), precision(uncertainty):
         yield
 
 

@@ -44,6 +44,7 @@ from .exchange import (  # noqa: F401 (re-exported: they were defined here)
     SURFACE_CURVES,
     check_readable,
     fix_iges_dates,
+    precision,
     settle_model,
     settled,
     static,
@@ -298,8 +299,9 @@ def write_shape(
         pcurves had.  The file is then smaller and quicker to write, and
         independent of the pcurves the shape has.
     uncertainty : float, optional
-        STEP only: the length uncertainty written to the file (mm); None, the
-        average tolerance of the shape, as OCCT writes it (``step_settings``).
+        STEP and IGES: the length uncertainty (IGES: resolution) written to
+        the file, in mm; None, the average tolerance of the shape, as OCCT
+        writes it (``exchange.precision``).
 
     Raises
     ------
@@ -323,12 +325,13 @@ def write_shape(
         return
     if fmt == "IGES":
         w = IGESControl_Writer("IN" if unit == "INCH" else unit, 1)
-        if not w.AddShape(shape):
-            raise RebuildError("the IGES writer refused the shape")
-        w.ComputeModel()
-        fix_iges_dates(w.Model())
-        if not w.Write(str(p)):
-            raise OutputError("cannot write IGES")
+        with precision(uncertainty):
+            if not w.AddShape(shape):
+                raise RebuildError("the IGES writer refused the shape")
+            w.ComputeModel()
+            fix_iges_dates(w.Model())
+            if not w.Write(str(p)):
+                raise OutputError("cannot write IGES")
         return
     Interface_Static.SetCVal_s("write.step.unit", unit)
     Interface_Static.SetCVal_s("write.step.schema", "AP214IS")

@@ -70,6 +70,7 @@ from .exchange import (
     STEP_TIME_STAMP,
     check_readable,
     fix_iges_dates,
+    precision,
     settled,
     static,
     step_settings,
@@ -580,19 +581,20 @@ def write(
     doc = to_document(p, shape_rows(root)[2])
     if fmt == "IGES":
         with (
-            static("write.iges.unit", "IN" if unit == "INCH" else unit),
+            static("write.iges.unit", unit),
             static(*IGES_BREP_MODE),
         ):
             w = IGESCAFControl_Writer()
             w.SetColorMode(True)
             w.SetNameMode(True)
             w.SetLayerMode(True)
-            if not w.Transfer(doc):
-                raise RebuildError("the IGES writer refused the product")
-            w.ComputeModel()
-            fix_iges_dates(w.Model())
-            if not w.Write(str(path)):
-                raise OutputError("cannot write IGES")
+            with precision(uncertainty):
+                if not w.Transfer(doc):
+                    raise RebuildError("the IGES writer refused the product")
+                w.ComputeModel()
+                fix_iges_dates(w.Model())
+                if not w.Write(str(path)):
+                    raise OutputError("cannot write IGES")
         return
     schema = step_schema(p.header)
     with (

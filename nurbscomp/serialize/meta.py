@@ -321,9 +321,9 @@ def read_meta(raw: bytes, revision: int = container.REVISION) -> dict[str, Any]:
         raise SectionError(f"META: source_bytes is not a number from 0 to {MAX_SOURCE_BYTES}")
     if not isinstance(meta.get("step_pcurves", True), bool):
         raise SectionError("META: step_pcurves is not true or false")
-    u = meta.get("step_uncertainty")
+    u = meta.get("uncertainty")
     if u is not None and not (_number(u) and 0 < cast(float, u) < MAX_COORD):
-        raise SectionError("META: step_uncertainty is not a positive number")
+        raise SectionError("META: uncertainty is not a positive number")
     return meta
 
 

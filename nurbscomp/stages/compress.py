@@ -112,7 +112,7 @@ def encode_cad(
         target: BRepModel,
         codes: dict[Any, Any],
         step_pcurves: bool = True,
-        step_uncertainty: float | None = None,
+        uncertainty: float | None = None,
     ) -> bytes:
         target.product = m.product  # exact in every mode, placements included
         # what it decodes into, for a reader to admit (budget.Limits.admit)
@@ -120,8 +120,8 @@ def encode_cad(
         more: dict[str, Any] = {"decoded": declared} if declared else {}
         if not step_pcurves:  # STEP output without pcurves (validity.ValidityReport)
             more["step_pcurves"] = False
-        if step_uncertainty is not None:  # its uncertainty (validity.ValidityReport)
-            more["step_uncertainty"] = step_uncertainty
+        if uncertainty is not None:  # its uncertainty (validity.ValidityReport)
+            more["uncertainty"] = uncertainty
         sections = model_to_sections(target, {**meta, **more}, codes)
         # lossless is the fast mode: a quick entropy search (entropy.compress)
         return container.pack(sections, flags, thorough=not lossless)
@@ -164,7 +164,7 @@ def encode_cad(
         data = (
             t.early
             if t.early is not None
-            else pack(target, codes, vreport.step_pcurves, vreport.step_uncertainty)
+            else pack(target, codes, vreport.step_pcurves, vreport.uncertainty)
         )
     return Encoded(
         data,

@@ -99,12 +99,12 @@ def step_pcurves(meta: dict[str, Any]) -> bool:
     return meta.get("step_pcurves") is not False
 
 
-def step_uncertainty(meta: dict[str, Any]) -> float | None:
-    """The length uncertainty (mm) STEP output of a container is written with:
-    META's ``step_uncertainty`` (the encoder's STEP check read its candidate
-    back written so), or None (absent: OCCT's default, the shape's average
-    tolerance)."""
-    v = meta.get("step_uncertainty")
+def output_uncertainty(meta: dict[str, Any]) -> float | None:
+    """The length uncertainty (mm) STEP and IGES output of a container is
+    written with (an IGES file's resolution): META's ``uncertainty`` (the
+    encoder's STEP check read its candidate back written so), or None
+    (absent: OCCT's default, the shape's average tolerance)."""
+    v = meta.get("uncertainty")
     return float(v) if v is not None else None
 
 
@@ -144,7 +144,7 @@ def write(
             system=meta.get("writer") or "",
             product=product_data,
             pcurves=step_pcurves(meta),
-            uncertainty=step_uncertainty(meta),
+            uncertainty=output_uncertainty(meta),
         )
     except NurbscompError:
         raise
