@@ -157,6 +157,35 @@ def through_rows(nzc: Path, revision: int, kind) -> tuple:
     return tables, m, through_curves(m, kind), every
 
 
+def tag_step_trips(monkeypatch: pytest.MonkeyPatch, which: str, lose) -> list:  # type: ignore[no-untyped-def]
+    """Tag each STEP round trip the STEP check makes (``validity._Floor.trip``)
+    with the value of its argument ``which`` (``"pcurves"`` or
+    ``"uncertainty"``), and add face 0 to the faces a candidate's re-read
+    loses (``_Floor.candidate_losses``) where ``lose(value, asked)`` is true;
+    ``asked``, the values of the re-reads checked so far (this one last), is
+    returned and kept up to date."""
+    from nurbscomp.encode import validity
+
+    asked: list = []
+    losses, trip = validity._Floor.candidate_losses, validity._Floor.trip
+    made: dict = {}  # id of a round trip: its value
+
+    def tagged(self, shape, stack, product=None, nice=0, pcurves=True, uncertainty=None):  # type: ignore[no-untyped-def]
+        back = trip(self, shape, stack, product, nice, pcurves, uncertainty)
+        made[id(back)] = {"pcurves": pcurves, "uncertainty": uncertainty}[which]
+        return back
+
+    def lost(self, back, tol):  # type: ignore[no-untyped-def]
+        value = made[id(back)]
+        asked.append(value)
+        got = losses(self, back, tol)
+        return {0} | (got or set()) if lose(value, asked) else got
+
+    monkeypatch.setattr(validity._Floor, "trip", tagged)
+    monkeypatch.setattr(validity._Floor, "candidate_losses", lost)
+    return asked
+
+
 def assert_step_keeps_floor(cad, nzc: Path, tmp_path: Path):
     """Decompress ``nzc`` to STEP, read it back, and compare with OCCT's own
     STEP round trip of the source (the floor): each topology count between

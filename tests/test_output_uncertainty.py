@@ -29,7 +29,7 @@ from nurbscomp import container, occ, pipeline, serialize
 from nurbscomp.encode import validity
 from nurbscomp.errors import SectionError
 
-from .conftest import assert_step_keeps_floor, in_corpus
+from .conftest import assert_step_keeps_floor, in_corpus, tag_step_trips
 
 UNCERTAINTY = re.compile(rb"UNCERTAINTY_MEASURE_WITH_UNIT\s*\(\s*LENGTH_MEASURE\s*\(\s*([^)]+)\)")
 
@@ -142,26 +142,7 @@ def _losing(monkeypatch: pytest.MonkeyPatch, helps: bool) -> list[float | None]:
     """Make every candidate written with OCCT's default uncertainty lose face
     0, and, unless ``helps``, those written with another one too; the
     uncertainties asked, in order."""
-    asked: list[float | None] = []
-    losses, trip = validity._Floor.candidate_losses, validity._Floor.trip
-    made: dict[int, float | None] = {}
-
-    def tagged(self, shape, stack, product=None, nice=0, pcurves=True, uncertainty=None):  # type: ignore[no-untyped-def]
-        back = trip(self, shape, stack, product, nice, pcurves, uncertainty)
-        made[id(back)] = uncertainty
-        return back
-
-    def lose(self, back, tol):  # type: ignore[no-untyped-def]
-        u = made[id(back)]
-        asked.append(u)
-        got = losses(self, back, tol)
-        if u is None or not helps:
-            return {0} | (got or set())
-        return got
-
-    monkeypatch.setattr(validity._Floor, "trip", tagged)
-    monkeypatch.setattr(validity._Floor, "candidate_losses", lose)
-    return asked
+    return tag_step_trips(monkeypatch, "uncertainty", lambda u, asked: u is None or not helps)
 
 
 @pytest.mark.slow

@@ -17,11 +17,10 @@ import pytest
 
 import nurbscomp
 from nurbscomp import container, occ, pipeline, serialize
-from nurbscomp.encode import validity
 from nurbscomp.errors import SectionError
 from nurbscomp.occ import topology
 
-from .conftest import assert_step_keeps_floor
+from .conftest import assert_step_keeps_floor, tag_step_trips
 
 
 def _shape():  # type: ignore[no-untyped-def]
@@ -123,26 +122,11 @@ def _losing(monkeypatch: pytest.MonkeyPatch, bare: int, whole: int) -> list[bool
     """Make the first ``bare`` checks of candidates written without pcurves,
     and the first ``whole`` of those written with them, lose face 0; the
     modes asked, in order."""
-    asked: list[bool] = []
-    losses, trip = validity._Floor.candidate_losses, validity._Floor.trip
-    made: dict[int, bool] = {}  # id of a round trip: written with pcurves
-
-    def tagged(self, shape, stack, product=None, nice=0, pcurves=True, uncertainty=None):  # type: ignore[no-untyped-def]
-        back = trip(self, shape, stack, product, nice, pcurves, uncertainty)
-        made[id(back)] = pcurves
-        return back
-
-    def lose(self, back, tol):  # type: ignore[no-untyped-def]
-        pcurves = made[id(back)]
-        asked.append(pcurves)
-        got = losses(self, back, tol)
-        if asked.count(pcurves) <= (whole if pcurves else bare):
-            return {0} | (got or set())
-        return got
-
-    monkeypatch.setattr(validity._Floor, "trip", tagged)
-    monkeypatch.setattr(validity._Floor, "candidate_losses", lose)
-    return asked
+    return tag_step_trips(
+        monkeypatch,
+        "pcurves",
+        lambda pcurves, asked: asked.count(pcurves) <= (whole if pcurves else bare),
+    )
 
 
 def test_a_candidate_that_loses_a_face_only_without_pcurves_is_written_with_them(

@@ -808,7 +808,7 @@ def _search(
     cache = occ.PcurveCache()  # the candidates differ from round to round in a few records
     for spread in (True, False):
         plan = _Plan(start, tol, source, spread, edges)
-        done = _rounds(plan, (old_e, old_f), floor, tol, vr, meanwhile, cache)
+        done = _rounds(plan, (old_e, old_f), floor, vr, meanwhile, cache)
         if done is not None:
             return done
         log.debug("no candidate passed with the %s bound", "refined" if spread else "pole")
@@ -819,14 +819,8 @@ def _search(
     target = pcurves.stretch_short(target)
     shape = build(target, cache)
     vr.rounds += 1
-    new_e, new_f, blamed, early = _check(
-        shape,
-        old_e,
-        old_f,
-        floor,
-        tol,
-        _bind(meanwhile, target, codes),
-        widened_tolerance(plan.m, target),
+    new_e, new_f, blamed, early = _check_candidate(
+        plan, target, codes, shape, (old_e, old_f), floor, meanwhile
     )
     log.debug(
         "fallback with every pcurve stored: new faults on %d edges, %d faces; STEP losses %s",
@@ -855,7 +849,6 @@ def _rounds(
     plan: _Plan,
     old: tuple[Any, Any],
     floor: _Floor | None,
-    tol: float,
     vr: ValidityReport,
     meanwhile: Meanwhile | None,
     cache: Any,
@@ -869,14 +862,8 @@ def _rounds(
         cand, codes, report = plan.candidate()
         shape = build(cand, cache)
         vr.rounds += 1
-        new_e, new_f, blamed, early = _check(
-            shape,
-            old_e,
-            old_f,
-            floor,
-            tol,
-            _bind(meanwhile, cand, codes),
-            widened_tolerance(plan.m, cand),
+        new_e, new_f, blamed, early = _check_candidate(
+            plan, cand, codes, shape, old, floor, meanwhile
         )
         log.debug(
             "validity round %d: %d exact records, pcurves kept on %d faces; "
@@ -916,10 +903,20 @@ def _done(
     return Target(cand, codes, report, shape, vr, rebuilt, early)
 
 
-def _bind(
-    meanwhile: Meanwhile | None, model: BRepModel, codes: dict[Rec, Any]
-) -> Callable[[bool, float | None], Any] | None:
-    return None if meanwhile is None else functools.partial(meanwhile, model, codes)
+def _check_candidate(
+    plan: _Plan,
+    cand: BRepModel,
+    codes: dict[Rec, Any],
+    shape: Any,
+    old: tuple[set[int], set[int]],
+    floor: _Floor | None,
+    meanwhile: Meanwhile | None,
+) -> tuple[set[int], set[int], set[int] | None, Any]:
+    """:func:`_check` of the candidate ``cand`` of ``plan`` (its ``codes``,
+    built into ``shape``); ``old``: the source's own faults."""
+    bound = None if meanwhile is None else functools.partial(meanwhile, cand, codes)
+    widened = widened_tolerance(plan.m, cand)
+    return _check(shape, old[0], old[1], floor, plan.tol, bound, widened)
 
 
 def _check(
