@@ -14,7 +14,7 @@ from OCP.StepBasic import StepBasic_CalendarDate, StepBasic_LocalTime
 from OCP.StepRepr import StepRepr_NextAssemblyUsageOccurrence
 from OCP.TCollection import TCollection_HAsciiString
 
-from ..errors import InputError
+from ..errors import InputError, OutputError, RebuildError
 
 #: The STEP header's time stamp: fixed, so that the same shape gives the same bytes.
 STEP_TIME_STAMP = "1970-01-01T00:00:00"
@@ -52,8 +52,33 @@ def precision(uncertainty: float | None) -> Iterator[None]:
     if uncertainty is None:
         yield
         return
-    with static("write.precision.mode", "2"), static("write.precision.val", repr(uncertainty)):
+    value = repr(float(uncertainty))  # a numpy float's repr is not a number
+    with static("write.precision.mode", "2"), static("write.precision.val", value):
         yield
+
+
+def write_iges(
+    w: Any, transfer: Callable[[], bool], path: Path, uncertainty: float | None, what: str
+) -> None:
+    """What the plain and the XDE IGES writers ``w`` share: ``transfer()``
+    (the shape or the document into ``w``; false: ``what`` is refused), the
+    model computed, its dates fixed (:func:`fix_iges_dates`) and the file
+    written, all with ``uncertainty`` (:func:`precision`).
+
+    Raises
+    ------
+    RebuildError
+        The writer refuses ``what``.
+    OutputError
+        The file cannot be written.
+    """
+    with precision(uncertainty):
+        if not transfer():
+            raise RebuildError(f"the IGES writer refused the {what}")
+        w.ComputeModel()
+        fix_iges_dates(w.Model())
+        if not w.Write(str(path)):
+            raise OutputError("cannot write IGES")
 
 
 @contextlib.contextmanager

@@ -44,11 +44,11 @@ from .exchange import (  # noqa: F401 (re-exported: they were defined here)
     SURFACE_CURVES,
     check_readable,
     fix_iges_dates,
-    precision,
     settle_model,
     settled,
     static,
     step_settings,
+    write_iges,
 )
 
 # OCCT prints progress and statistics to stdout; the CLI owns stdout.
@@ -325,13 +325,7 @@ def write_shape(
         return
     if fmt == "IGES":
         w = IGESControl_Writer("IN" if unit == "INCH" else unit, 1)
-        with precision(uncertainty):
-            if not w.AddShape(shape):
-                raise RebuildError("the IGES writer refused the shape")
-            w.ComputeModel()
-            fix_iges_dates(w.Model())
-            if not w.Write(str(p)):
-                raise OutputError("cannot write IGES")
+        write_iges(w, lambda: w.AddShape(shape), p, uncertainty, "shape")
         return
     Interface_Static.SetCVal_s("write.step.unit", unit)
     Interface_Static.SetCVal_s("write.step.schema", "AP214IS")

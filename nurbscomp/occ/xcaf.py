@@ -63,17 +63,16 @@ from OCP.XCAFDoc import (
     XCAFDoc_Volume,
 )
 
-from ..errors import OutputError, RebuildError
+from ..errors import RebuildError
 from ..formats import sniff_format
 from ..product import HEADER_FIELDS, HIDDEN, INSTANCE, NAMED, PRODUCT, SUBSHAPE, ProductData
 from .exchange import (
     STEP_TIME_STAMP,
     check_readable,
-    fix_iges_dates,
-    precision,
     settled,
     static,
     step_settings,
+    write_iges,
 )
 from .measure import faces as faces_of
 from .mesh import face_meshes
@@ -588,13 +587,7 @@ def write(
             w.SetColorMode(True)
             w.SetNameMode(True)
             w.SetLayerMode(True)
-            with precision(uncertainty):
-                if not w.Transfer(doc):
-                    raise RebuildError("the IGES writer refused the product")
-                w.ComputeModel()
-                fix_iges_dates(w.Model())
-                if not w.Write(str(path)):
-                    raise OutputError("cannot write IGES")
+            write_iges(w, lambda: w.Transfer(doc), Path(path), uncertainty, "product")
         return
     schema = step_schema(p.header)
     with (
