@@ -19,13 +19,15 @@ $(VENV)/bin/nurbscomp: pyproject.toml
 # the run says so.  pytest exits 5 when no test ran, which fails this target
 # as it should.  test-fast leaves out the tests marked slow (the corpus tiers,
 # worker pools, CLI round trips, long fuzzing; each over about 3 s): under two
-# minutes on 2 cores.
+# minutes on 2 cores.  Both leave out the tests marked long (a minute or
+# more each: end-to-end cases on corpus-sized generated inputs), which
+# `make stress` runs, so that `make test` stays under ten minutes.
 TEST_JOBS ?= auto
 test: install
-	$(PY) -m pytest -q -n $(TEST_JOBS) --dist worksteal
+	$(PY) -m pytest -q -n $(TEST_JOBS) --dist worksteal -m "not long"
 
 test-fast: install
-	$(PY) -m pytest -q -n $(TEST_JOBS) --dist worksteal -m "not slow"
+	$(PY) -m pytest -q -n $(TEST_JOBS) --dist worksteal -m "not slow and not long"
 
 lint: install
 	$(VENV)/bin/ruff check nurbscomp tests samples benchmarks
@@ -82,7 +84,7 @@ fuzz: install
 fuzz-text: install
 	$(PY) -m tests.fuzz_text --cases $(FUZZ_CASES) --seed $(FUZZ_SEED)
 
-# The stress corpus (issue 10): ~230 generated shapes (fillets, shells, lofts,
+# The tests marked long (left out of make test), then the stress corpus (issue 10): ~230 generated shapes (fillets, shells, lofts,
 # sweeps, periodic, rational and degenerate B-spline faces, trimmed faces with
 # holes, instances, sewn shells, analytic faces, booleans, thick and offset
 # solids, NURBS-converted solids) written as STEP, IGES BRep and
@@ -96,6 +98,7 @@ fuzz-text: install
 # placed instances: minutes).
 STRESS_ARGS ?=
 stress: install
+	$(PY) -m pytest -q -n $(TEST_JOBS) -m long
 	$(PY) -m tests.stress.run $(STRESS_ARGS)
 	$(PY) -m tests.stress.extreme
 

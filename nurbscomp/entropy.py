@@ -164,15 +164,20 @@ def lzma_size(raw: bytes, strong: bool = False) -> int:
     return len(lzma.compress(raw, format=lzma.FORMAT_RAW, filters=filters))
 
 
+def dict_size(raw: bytes) -> int:
+    """An LZMA dictionary no larger than ``raw`` needs (and no larger than
+    9e's 64 MiB): the stream is the same, byte for byte, as with 9e's own
+    (no match reaches further back than the input; checked on 683 bodies,
+    the corpus containers' among them), but a 64 MiB dictionary costs some
+    50 ms a call to set up, more than packing a small part's body takes."""
+    return min(1 << 26, max(1 << 16, 1 << max(len(raw) - 1, 1).bit_length()))
+
+
 def lzma_raw(raw: bytes, tuning: tuple[int, int, int] | None, preset: int = _PRESET) -> bytes:
     """One raw LZMA2 stream (``preset``, 9e by default), with the default literal
     settings or ``tuning``.  Any preset decodes with :data:`_LZMA_FILTERS`: its
     dictionary is no larger than 9e's."""
-    if tuning is None and preset == _PRESET:
-        return lzma.compress(raw, format=lzma.FORMAT_RAW, filters=_LZMA_FILTERS)
-    # the encoder needs no dictionary larger than its input (less memory to clear)
-    size = min(1 << 26, max(1 << 16, 1 << max(len(raw) - 1, 1).bit_length()))
-    f = {"id": lzma.FILTER_LZMA2, "preset": preset, "dict_size": size}
+    f = {"id": lzma.FILTER_LZMA2, "preset": preset, "dict_size": dict_size(raw)}
     if tuning is None:
         return lzma.compress(raw, format=lzma.FORMAT_RAW, filters=[f])
     lc, lp, pb = tuning
