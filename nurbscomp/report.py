@@ -231,7 +231,12 @@ class CompressReport(_Typed):
         file byte for byte) or ``"passthrough"`` (a file with no B-rep, kept
         byte for byte).
     tolerance_mm : float or None
-        The tolerance coded with; None in the byte-for-byte modes.
+        The tolerance asked for; None in the lossless and byte-for-byte modes.
+    coded_tolerance_mm : float or None
+        The tolerance the container was coded within (what it says): the one
+        asked for, or a tenth or a hundredth of it where coding the whole part
+        tighter gave a smaller container than the remedies for faces OCCT's
+        reader or BRepCheck would mend (a warning says so).
     source_format : str
         ``"STEP"``, ``"IGES"`` or ``"BREP"`` (a shape in memory).
     verified : bool
@@ -268,6 +273,7 @@ class CompressReport(_Typed):
     tolerance_mm: float | None
     source_format: str
     verified: bool
+    coded_tolerance_mm: float | None = None
     warnings: list[str] = field(default_factory=list)
     unit: str | None = None
     counts: dict[str, int] = field(default_factory=dict)

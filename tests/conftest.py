@@ -226,3 +226,13 @@ def default_signals() -> None:
     keeps an ignored signal ignored)."""
     for s in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
         signal.signal(s, signal.SIG_DFL)
+
+
+@pytest.fixture
+def one_coding(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Compress codes a part within the tolerance asked only, never a tenth
+    of it (``stages.compress._coded``): for tests of what the validity
+    stage does at one tolerance."""
+    from nurbscomp.stages import compress
+
+    monkeypatch.setattr(compress, "RETRY_SHARE", float("inf"))

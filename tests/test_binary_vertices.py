@@ -126,7 +126,7 @@ def test_a_valid_binary_section_reads() -> None:
 
 
 @pytest.mark.slow
-def test_a_part_finer_than_tol_stores_binary_vertices(tmp_path: Path) -> None:
+def test_a_part_finer_than_tol_stores_binary_vertices(tmp_path: Path, one_coding: None) -> None:
     """The blob sample scaled to 0.13 mm across, at 0.01 mm: its B-spline
     edges' vertices cannot all snap to the vertex grid; those that go to the
     binary grid are kind 3, and the container checks and decodes."""

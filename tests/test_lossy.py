@@ -627,7 +627,7 @@ def test_split_projections_survive_their_child(
     assert _split_and_serial("blob.tol0.01.nzc", tmp_path, monkeypatch) == [0, 0]
 
 
-def test_fault_with_everything_exact_keeps_its_ranges(tmp_path: Path) -> None:
+def test_fault_with_everything_exact_keeps_its_ranges(tmp_path: Path, one_coding: None) -> None:
     """A filleted box moved to x = 120 and written as faces-mode IGES: two
     faces on a surface of revolution keep a BRepCheck fault with their
     surface and curves exact and their pcurves stored, because

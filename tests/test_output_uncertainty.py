@@ -168,7 +168,7 @@ def test_an_uncertainty_that_keeps_the_faces_is_written(
 
 @pytest.mark.slow
 def test_an_uncertainty_that_keeps_nothing_more_is_not_written(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, one_coding: None
 ) -> None:
     """Compared once, on the first lossy candidate; the ladder then climbs
     with OCCT's default."""

@@ -73,6 +73,15 @@ def test_remedies_on_few_faces_cost_no_second_code(monkeypatch: pytest.MonkeyPat
     assert asked == [0.01] and c.tol == 0.01
 
 
+def test_at_most_two_tighter_codings(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A tolerance larger than the part: every level needs remedies."""
+    bytes_at = {10.0**-k: 1000 - k for k in range(6)}
+    asked = _fake_stage(monkeypatch, bytes_at, {t: 1 for t in bytes_at})
+    c = stage._coded(_model(1), SimpleNamespace(shape=None, pcurves=True), 1.0, True, _packer)
+    assert asked == [1.0, pytest.approx(0.1), pytest.approx(0.01)]
+    assert c.tol == pytest.approx(0.01)
+
+
 def test_no_tighter_code_below_the_least_tolerance(monkeypatch: pytest.MonkeyPatch) -> None:
     asked = _fake_stage(monkeypatch, {5e-6: 900, 5e-7: 10}, {5e-6: 3})
     c = stage._coded(_model(1), SimpleNamespace(shape=None, pcurves=True), 5e-6, True, _packer)
@@ -95,7 +104,8 @@ def test_a_closed_net_the_reader_mends_is_no_larger_at_a_larger_tolerance(tmp_pa
         rep = pipeline.compress_file(src, tmp_path / f"{tol}.nzc", tol=tol)
         at[tol] = rep
     assert at[0.1]["output_bytes"] <= at[0.01]["output_bytes"]
-    assert at[0.1]["tolerance_mm"] == pytest.approx(0.01)
+    assert at[0.1]["tolerance_mm"] == 0.1
+    assert at[0.1]["coded_tolerance_mm"] == pytest.approx(0.01)
     assert any("coded within 0.01 mm, not 0.1 mm" in w for w in at[0.1]["warnings"])
     assert (tmp_path / "0.1.nzc").read_bytes() == (tmp_path / "0.01.nzc").read_bytes()
     ev = pipeline.evaluate(src, tmp_path / "0.1.nzc")

@@ -81,6 +81,9 @@ Packer = Callable[..., bytes]
 #: tighter, and the smaller container kept (:func:`_coded`).
 RETRY_SHARE = 0.25
 RETRY_FACTOR = 10
+#: At most this many tighter codings (a tolerance larger than the part can
+#: need every remedy at every level; the warning says so already).
+RETRY_LEVELS = 2
 
 
 @dataclasses.dataclass
@@ -91,16 +94,18 @@ class _Coded:
     climbed: int  # faces the validity stage's remedies reached
 
 
-def _coded(m: BRepModel, cad: Any, tol: float, step_safe: bool, packer: Any) -> _Coded:
+def _coded(
+    m: BRepModel, cad: Any, tol: float, step_safe: bool, packer: Any, level: int = 0
+) -> _Coded:
     """The validity stage's target within ``tol`` and its container.
 
     Where its remedies reach ``RETRY_SHARE`` of the faces or more, what they
     cost can be more than coding the whole part tighter costs: a closed
     net that OCCT's reader mends at 0.1 mm, coded tighter and then exact,
     took 1,308 bytes where the part coded within 0.01 mm took 535.  The part
-    is then coded within ``tol / RETRY_FACTOR`` too (by this same rule), and
-    the smaller container kept, so that a larger tolerance does not give a
-    larger file there (issue 28)."""
+    is then coded within ``tol / RETRY_FACTOR`` too (by this same rule, at
+    most ``RETRY_LEVELS`` times), and the smaller container kept, so that a
+    larger tolerance does not give a larger file there (issue 28)."""
     from ..encode import validity
 
     pack = packer(tol)
@@ -116,8 +121,13 @@ def _coded(m: BRepModel, cad: Any, tol: float, step_safe: bool, packer: Any) -> 
     out = _Coded(tol, t, data, climbed)
     faces = len(m.face_surface)
     tighter = tol / RETRY_FACTOR
-    if faces and climbed >= RETRY_SHARE * faces and tighter >= units.TOL_RANGE_MM[0]:
-        other = _coded(m, cad, tighter, step_safe, packer)
+    if (
+        faces
+        and climbed >= RETRY_SHARE * faces
+        and tighter >= units.TOL_RANGE_MM[0]
+        and level < RETRY_LEVELS
+    ):
+        other = _coded(m, cad, tighter, step_safe, packer, level + 1)
         if len(other.data) < len(data):
             other.climbed = max(other.climbed, climbed)
             return other
@@ -221,8 +231,8 @@ def encode_cad(
                 f"{len(m.face_surface)} faces needed remedies (OCCT's STEP reader or BRepCheck "
                 "mended them), which cost more than coding the whole part tighter"
             )
-        t, data, tol = c.target, c.data, c.tol
-        meta["tolerance_mm"] = tol
+        t, data = c.target, c.data
+        meta["tolerance_mm"] = c.tol  # what the container says (the report's coded_tolerance_mm)
         target, codes, lossy_report, rebuilt = t.model, t.codes, t.report, t.pcurves_rebuilt
         built, vreport = t.shape, t.validity
         if vreport.step_skipped:
@@ -300,7 +310,9 @@ def compress_report(enc: Encoded, verified: bool) -> dict[str, Any]:
         "output_bytes": len(enc.data),
         "ratio": src_bytes / len(enc.data) if src_bytes else None,
         "mode": enc.meta["mode"],
-        "tolerance_mm": enc.meta["tolerance_mm"],
+        "tolerance_mm": None if enc.lossless else enc.tol,
+        # tol, or tol / 10 where that coded the part smaller (_coded)
+        "coded_tolerance_mm": enc.meta["tolerance_mm"],
         "geometry": "exact"
         if enc.lossless
         else "B-spline surfaces and 3-D curves coded, vertices on them snapped; "
