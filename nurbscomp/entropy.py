@@ -160,17 +160,32 @@ def lzma_size(raw: bytes, strong: bool = False) -> int:
     ``strong``, 9e with a 1 MiB dictionary): what the writer and the encoder
     weigh one array's alternatives by (weights rounded or not, on a grid or
     as floats; knots rounded or not)."""
-    filters = _SIZE_STRONG if strong else [{"id": lzma.FILTER_LZMA2}]
-    return len(lzma.compress(raw, format=lzma.FORMAT_RAW, filters=filters))
+    f = _SIZE_STRONG[0] if strong else {"id": lzma.FILTER_LZMA2, "preset": 6}
+    f = {**f, "dict_size": dict_size(raw, f.get("dict_size", _DEFAULT_DICT))}
+    return len(lzma.compress(raw, format=lzma.FORMAT_RAW, filters=[f]))
 
 
-def dict_size(raw: bytes) -> int:
-    """An LZMA dictionary no larger than ``raw`` needs (and no larger than
-    9e's 64 MiB): the stream is the same, byte for byte, as with 9e's own
-    (no match reaches further back than the input; checked on 683 bodies,
-    the corpus containers' among them), but a 64 MiB dictionary costs some
-    50 ms a call to set up, more than packing a small part's body takes."""
-    return min(1 << 26, max(1 << 16, 1 << max(len(raw) - 1, 1).bit_length()))
+def dict_size(raw: bytes, cap: int = 1 << 26) -> int:
+    """An LZMA dictionary no larger than ``raw`` needs, and no larger than
+    ``cap`` (the dictionary of the preset it replaces: 9e's 64 MiB by
+    default).  The stream is the same, byte for byte, as with the preset's
+    own (no match reaches further back than the input; checked on 683
+    bodies, the corpus containers' among them), but a 64 MiB dictionary
+    costs some 50 ms a call to set up, an 8 MiB one (preset 6) some 2 to
+    10 ms: more than compressing a small part's arrays takes."""
+    return min(cap, max(1 << 16, 1 << max(len(raw) - 1, 1).bit_length()))
+
+
+#: The dictionary of LZMA2's default preset, 6 (8 MiB).
+_DEFAULT_DICT = 1 << 23
+
+
+def xz_size(raw: bytes) -> int:
+    """``len(lzma.compress(raw))`` (.xz, preset 6), with :func:`dict_size`'s
+    dictionary: the same length (an .xz header says its dictionary in one
+    byte either way)."""
+    f = {"id": lzma.FILTER_LZMA2, "preset": 6, "dict_size": dict_size(raw, _DEFAULT_DICT)}
+    return len(lzma.compress(raw, filters=[f]))
 
 
 def lzma_raw(raw: bytes, tuning: tuple[int, int, int] | None, preset: int = _PRESET) -> bytes:

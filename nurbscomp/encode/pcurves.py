@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from .. import budget, codec
+from .. import budget, codec, entropy
 from ..model import (
     EC,
     REBUILD,
@@ -227,7 +227,6 @@ def _cheaper(
     their maps, and the two LZMA passes are a third of :func:`unit_curves`.
     """
     import hashlib
-    import lzma
 
     smaps = surface_maps or {}
     sfirst = first_row(m.surfaces)
@@ -255,7 +254,7 @@ def _cheaper(
     key = (tuple(sorted(maps.items())), tuple(sorted(smaps.items())), hashlib.sha1(plain).digest())
     if memo is not None and key in memo:
         return memo[key]
-    answer = len(lzma.compress(joined(True))) < len(lzma.compress(plain))
+    answer = entropy.xz_size(joined(True)) < entropy.xz_size(plain)
     if memo is not None:
         memo[key] = answer
     return answer

@@ -42,7 +42,6 @@ import collections
 import contextlib
 import functools
 import logging
-import lzma
 import tempfile
 from collections.abc import Callable, Iterable, Sequence, Set
 from dataclasses import dataclass, field
@@ -52,7 +51,7 @@ from typing import Any, cast
 
 import numpy as np
 
-from .. import occ, writer
+from .. import entropy, occ, writer
 from ..errors import InputError, NurbscompError, RebuildError
 from ..model import (
     EC,
@@ -513,7 +512,7 @@ class _Plan:
         model and codes), compressed together as the container compresses them."""
         cand, codes, _ = made
         secs = dict(writer.model_to_sections(cand, {"tolerance_mm": self.tol}, codes, tags))
-        return len(lzma.compress(b"".join(secs[t] for t in tags), preset=6))
+        return entropy.xz_size(b"".join(secs[t] for t in tags))
 
     def _grid_pays(self) -> bool:
         """Whether analytic records on their grids make the tables that

@@ -3,11 +3,9 @@ their neighbours), tolerances on a quarter-power scale, point representations.""
 
 from __future__ import annotations
 
-import lzma
-
 import numpy as np
 
-from .. import container
+from .. import container, entropy
 from ..errors import SectionError
 from ..model import (
     VC,
@@ -261,7 +259,7 @@ def _write_vertices(m: BRepModel, tol: float = 0.0) -> bytes:
     for tw in (none, twin) if twin.any() else (none,):
         for bi in (none, binary & ~tw) if binary.any() else (none,):
             raw = _vertex_arrays(m, on_grid & ~tw, q, ref, k, tw, near, bi, e)
-            n = len(lzma.compress(raw))
+            n = entropy.xz_size(raw)
             if not best or n < size:
                 best, size = raw, n
     return best
