@@ -151,22 +151,22 @@ LZMA_TUNINGS = (
 )
 
 
-#: :func:`lzma_size`'s strong setting: preset 9e as the container's, with a
-#: dictionary for arrays, not for files (a 64 MiB one costs 50 ms a call to set up).
-_SIZE_STRONG = [{"id": lzma.FILTER_LZMA2, "preset": 9 | lzma.PRESET_EXTREME, "dict_size": 1 << 20}]
-
-
 def lzma_size(raw: bytes, strong: bool = False) -> int:
     """Bytes of ``raw`` as one raw LZMA2 stream, LZMA2's default preset (or,
     ``strong``, 9e with a 1 MiB dictionary): what the writer and the encoder
     weigh one array's alternatives by (weights rounded or not, on a grid or
     as floats; knots rounded or not)."""
-    f = _SIZE_STRONG[0] if strong else {"id": lzma.FILTER_LZMA2, "preset": 6}
-    f = {**f, "dict_size": dict_size(raw, f.get("dict_size", _DEFAULT_DICT))}
+    preset, cap = (_PRESET, 1 << 20) if strong else (6, _PRESET_DICT[6])
+    f = {"id": lzma.FILTER_LZMA2, "preset": preset, "dict_size": dict_size(raw, cap)}
     return len(lzma.compress(raw, format=lzma.FORMAT_RAW, filters=[f]))
 
 
-def dict_size(raw: bytes, cap: int = 1 << 26) -> int:
+#: The dictionaries of the presets used here (xz's table): 8 MiB for 6,
+#: 64 MiB for 9 and 9e.
+_PRESET_DICT = {6: 1 << 23, _PRESET: 1 << 26}
+
+
+def dict_size(raw: bytes, cap: int = _PRESET_DICT[_PRESET]) -> int:
     """An LZMA dictionary no larger than ``raw`` needs, and no larger than
     ``cap`` (the dictionary of the preset it replaces: 9e's 64 MiB by
     default).  The stream is the same, byte for byte, as with the preset's
@@ -177,15 +177,12 @@ def dict_size(raw: bytes, cap: int = 1 << 26) -> int:
     return min(cap, max(1 << 16, 1 << max(len(raw) - 1, 1).bit_length()))
 
 
-#: The dictionary of LZMA2's default preset, 6 (8 MiB).
-_DEFAULT_DICT = 1 << 23
-
-
-def xz_size(raw: bytes) -> int:
-    """``len(lzma.compress(raw))`` (.xz, preset 6), with :func:`dict_size`'s
-    dictionary: the same length (an .xz header says its dictionary in one
-    byte either way)."""
-    f = {"id": lzma.FILTER_LZMA2, "preset": 6, "dict_size": dict_size(raw, _DEFAULT_DICT)}
+def xz_size(raw: bytes, preset: int = 6) -> int:
+    """``len(lzma.compress(raw, preset=preset))`` (.xz; preset 6 or 9e), with
+    :func:`dict_size`'s dictionary: the same length (an .xz header says its
+    dictionary in one byte either way)."""
+    size = dict_size(raw, _PRESET_DICT[preset])
+    f = {"id": lzma.FILTER_LZMA2, "preset": preset, "dict_size": size}
     return len(lzma.compress(raw, filters=[f]))
 
 

@@ -95,7 +95,12 @@ class _Coded:
 
 
 def _coded(
-    m: BRepModel, cad: Any, tol: float, step_safe: bool, packer: Any, level: int = 0
+    m: BRepModel,
+    cad: Any,
+    tol: float,
+    step_safe: bool,
+    packer: Callable[[float], Packer],
+    level: int = 0,
 ) -> _Coded:
     """The validity stage's target within ``tol`` and its container.
 
