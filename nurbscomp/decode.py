@@ -93,7 +93,8 @@ def twin_copy(
 def _check_headers(t: NetTable, tag: str, tol: float, revision: int = container.REVISION) -> None:
     """The quantizer settings and methods of a net table (docs/format.md §2.4):
     surface method 10 (``SPATIAL2``) from revision 3 (format 2.0) only, curve
-    method 11 (``ANCHORED``) from format 2.10 only."""
+    method 11 (``ANCHORED``) from format 2.10 only, surface methods 12 to 21
+    (``ARCS_V``, ``ARCS_U``, the ``ORDERS_*``) from format 2.14 only."""
     n = len(t.method)
     if n and not 0 < tol < MAX_COORD:
         raise SectionError(f"{tag}: coded nets need a positive, finite tolerance")
@@ -106,6 +107,8 @@ def _check_headers(t: NetTable, tag: str, tol: float, revision: int = container.
     if n and np.abs(t.level).max() > MAX_LEVEL:
         raise SectionError(f"{tag}: quantizer level out of range")
     surface = codec.SURFACE_METHODS_2 if revision >= 3 else codec.SURFACE_METHODS
+    if revision >= ARC_ROWS:
+        surface = codec.SURFACE_METHODS_14
     curve: tuple[codec.Method, ...] = codec.CURVE_COPIES
     if revision < ANCHORED_CURVES:
         curve = tuple(m for m in curve if m != codec.Method.ANCHORED)
@@ -298,6 +301,8 @@ PERIODS_IN_RANGE = container.VERSIONS.index((2, 9))
 #: Format 2.10: the first revision whose ``CNET`` may hold curves coded between
 #: their anchors (method 11, docs/format.md §2.4, *(2.10)*).
 ANCHORED_CURVES = container.VERSIONS.index((2, 10))
+#: Format 2.14: surface methods 12 to 21 (``ARCS_V``, ``ARCS_U``, the ``ORDERS_*``).
+ARC_ROWS = container.VERSIONS.index((2, 14))
 
 
 def sections_to_model(

@@ -12,6 +12,7 @@ so every pole moves by at most h·√3/2: an L∞ bound by construction.
 from __future__ import annotations
 
 import functools
+import math
 
 import numpy as np
 
@@ -58,43 +59,51 @@ def decode(r: np.ndarray, h: float) -> np.ndarray:
 # first (a B-spline's control polygon follows its curve), so the residuals are.
 
 
-def _extrapolate_axis(x: np.ndarray, axis: int) -> np.ndarray:
-    """A along ``axis`` (integers: exact)."""
-    x = np.moveaxis(x, axis, 0)
-    y = x.copy()
-    y[1:] -= x[:-1]
-    y[2:] -= x[1:-1] - x[:-2]
+#: The orders of extrapolation a net may take along an axis (format 2.14):
+#: 1 the pole before, 2 the line through the two before, 3 the parabola
+#: through the three before.
+ORDERS = (1, 2, 3)
+
+
+def _extrapolate_axis(x: np.ndarray, axis: int, order: int = 2) -> np.ndarray:
+    """A along ``axis`` (integers: exact): y_k = Δ^min(k, order) x_k, the
+    finite difference of x at k of that order (y_0 = x_0)."""
+    y = np.moveaxis(x, axis, 0).copy()
+    for s in range(order):
+        y[s + 1 :] -= y[s:-1].copy()
     return np.moveaxis(y, 0, axis)
 
 
-def _unextrapolate_axis(y: np.ndarray, axis: int) -> np.ndarray:
-    """Inverse of :func:`_extrapolate_axis`: w_0 = y_0, w_1 = y_1, w_k = y_k +
-    w_{k-1} (k ≥ 2), x = running sum of w (int64; wraps, never raises)."""
-    y = np.moveaxis(y, axis, 0)
-    w = y.copy()
-    if len(w) > 2:
-        w[1:] = np.cumsum(y[1:], axis=0)
-    return np.moveaxis(np.cumsum(w, axis=0), 0, axis)
+def _unextrapolate_axis(y: np.ndarray, axis: int, order: int = 2) -> np.ndarray:
+    """Inverse of :func:`_extrapolate_axis`: running sums from index
+    ``order`` − 1 down to 0 (int64; wraps, never raises)."""
+    w = np.moveaxis(y, axis, 0).copy()
+    for s in range(order - 1, -1, -1):
+        if len(w) > s:
+            w[s:] = np.cumsum(w[s:], axis=0)
+    return np.moveaxis(w, 0, axis)
 
 
-def extrapolate(q: np.ndarray) -> np.ndarray:
-    """Residuals A_u∘A_v of an integer net (nu, nv, c), first pole absolute."""
-    return _extrapolate_axis(_extrapolate_axis(q, 1), 0)
+def extrapolate(q: np.ndarray, orders: tuple[int, int] = (2, 2)) -> np.ndarray:
+    """Residuals A_u∘A_v of an integer net (nu, nv, c), first pole absolute,
+    with the extrapolation ``orders`` along u and v."""
+    return _extrapolate_axis(_extrapolate_axis(q, 1, orders[1]), 0, orders[0])
 
 
-def unextrapolate(r: np.ndarray) -> np.ndarray:
+def unextrapolate(r: np.ndarray, orders: tuple[int, int] = (2, 2)) -> np.ndarray:
     """Inverse of :func:`extrapolate` (along v, then along u)."""
     with np.errstate(over="ignore"):
-        return _unextrapolate_axis(_unextrapolate_axis(r, 1), 0)
+        return _unextrapolate_axis(_unextrapolate_axis(r, 1, orders[1]), 0, orders[0])
 
 
-def _axis_weights(idx: np.ndarray) -> np.ndarray:
-    """A's weights on lags 0, 1, 2 at positions ``idx`` along an axis (k, 3)."""
-    w = np.zeros((len(idx), 3), np.int64)
-    w[:, 0] = 1
-    w[idx == 1, 1] = -1
-    w[idx >= 2, 1] = -2
-    w[idx >= 2, 2] = 1
+def _axis_weights(idx: np.ndarray, order: int = 2) -> np.ndarray:
+    """A's weights on lags 0 to 3 at positions ``idx`` along an axis (k, 4):
+    the signed binomial coefficients of Δ^min(k, order)."""
+    w = np.zeros((len(idx), 4), np.int64)
+    for k in range(4):
+        o = np.minimum(idx, order)
+        c = np.array([math.comb(int(a), k) if k <= a else 0 for a in o.tolist()], np.int64)
+        w[:, k] = (-1) ** k * c
     return w
 
 
@@ -112,7 +121,11 @@ def eg_bits(r: np.ndarray) -> np.ndarray:
 
 
 def rd_extrapolate(
-    p: np.ndarray, h: np.ndarray, bound: float | np.ndarray, qo: np.ndarray
+    p: np.ndarray,
+    h: np.ndarray,
+    bound: float | np.ndarray,
+    qo: np.ndarray,
+    orders: tuple[int, int] = (2, 2),
 ) -> np.ndarray:
     """Residuals (R, nu, nv, 3) of :func:`extrapolate` chosen within ``bound``
     (one for all, or one per step), on each grid step of ``h`` (R,) at once.
@@ -136,10 +149,10 @@ def rd_extrapolate(
     t_all = (p[None] / h[:, None, None, None]).reshape(nr, nu * nv, c)
     rho2 = ((bound / h) ** 2 * (1 - _MARGIN))[:, None]
     rho = np.sqrt(rho2)
-    flat = np.zeros((nr, (nu + 2) * (nv + 2), c), np.int64)  # decoded grid points, padded by 2
+    flat = np.zeros((nr, (nu + _PAD) * (nv + _PAD), c), np.int64)  # decoded grid points, padded
     r = np.zeros((nr, nu * nv, c), np.int64)
     with np.errstate(divide="ignore", invalid="ignore"):
-        for d, (at, pad, nbr, w, corner) in enumerate(_diagonals(nu, nv)):
+        for d, (at, pad, nbr, w, corner) in enumerate(_diagonals(nu, nv, *orders)):
             pred = -np.einsum("rkmc,km->rkc", flat[:, nbr], w)
             if d == 0:
                 pred += qo[:, None, :]
@@ -190,23 +203,114 @@ def _combined(a: np.ndarray) -> np.ndarray:
     return (a[:, :, 0, :, None, None] + a[:, :, 1, None, :, None]) + a[:, :, 2, None, None, :]
 
 
+#: Rows and columns of zeros before a net in :func:`rd_extrapolate`'s decoded grid.
+_PAD = 3
+
+
 @functools.lru_cache(maxsize=256)
 def _diagonals(
-    nu: int, nv: int
+    nu: int, nv: int, ou: int = 2, ov: int = 2
 ) -> tuple[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray], ...]:
     """Per anti-diagonal of a (nu, nv) net, in order: its poles' flat indices,
-    their flat indices in the net padded by 2 rows and columns before,
-    their 8 predictors' padded indices and weights (A_u∘A_v without the
-    pole itself, int64) and which are corners."""
+    their flat indices in the net padded by :data:`_PAD` rows and columns
+    before, their predictors' padded indices and weights (A_u∘A_v of orders
+    ``ou``, ``ov`` without the pole itself, int64) and which are corners."""
     out = []
-    wide = nv + 2
+    wide = nv + _PAD
+    lags = [(a, b) for a in range(ou + 1) for b in range(ov + 1) if a or b]
     for d in range(nu + nv - 1):
         i = np.arange(max(0, d - nv + 1), min(nu, d + 1))
         j = d - i
-        wu, wv = _axis_weights(i), _axis_weights(j)
-        lags = [(a, b) for a in range(3) for b in range(3) if a or b]
-        nbr = np.stack([(i + 2 - a) * wide + (j + 2 - b) for a, b in lags], 1)
+        wu, wv = _axis_weights(i, ou), _axis_weights(j, ov)
+        nbr = np.stack([(i + _PAD - a) * wide + (j + _PAD - b) for a, b in lags], 1)
         w = np.stack([wu[:, a] * wv[:, b] for a, b in lags], 1)
         corner = ((i == 0) | (i == nu - 1)) & ((j == 0) | (j == nv - 1))
-        out.append((i * nv + j, (i + 2) * wide + j + 2, nbr, w, corner))
+        out.append((i * nv + j, (i + _PAD) * wide + j + _PAD, nbr, w, corner))
     return tuple(out)
+
+
+# ---------------------------------------------------------------- arcs (2.14)
+#
+# Methods 12 and 13 (docs/format.md §2.4, "Rows of arcs"): the rows of a net
+# along one direction predicted as chains of equal-angle quadratic arcs, the
+# way a rational quadratic B-spline with double inner knots writes a circle
+# (its poles alternate: a point on the curve, the corner where the tangents at
+# the segment's two ends meet).  Along such a row a corner is the linear
+# extrapolation of the two poles before it (the tangent at the end of the last
+# segment goes on), and a point on the curve is the last corner plus the last
+# segment's leg turned by the angle between its two legs: for legs v1, v2 of
+# equal length, v2 turned as v1 turned into it is 2·(v1·v2)/(v1·v1)·v2 − v1.
+# Across the rows the predictions' errors are differenced (the parallelogram
+# rule where a row predicts each pole by the one before it), so rows that are
+# translates, or arcs of one axis, leave residuals of 0.
+
+#: Predictions past this magnitude (and non-finite ones) fall back to the pole before.
+ARC_LIMIT = 2.0**62
+
+
+def arc_column(x: np.ndarray, j: int) -> np.ndarray:
+    """The predictions (k, c) of column ``j`` of rows ``x`` (k, n, c) of grid
+    integers from their columns before ``j`` (docs/format.md §2.4): 0 for the
+    first, the pole before for the second, the linear extrapolation
+    2·x[j−1] − x[j−2] at odd ``j`` and at 2, and at even ``j`` ≥ 4 the arc
+    continuation, rounded half to even, in binary64 operations in this order::
+
+        v1 = float(x[j-3] - x[j-4]); v2 = float(x[j-2] - x[j-3])   # int64, then exact
+        d11 = (v1x*v1x + v1y*v1y) + v1z*v1z; d12 likewise with v2
+        p = (float(x[j-1]) + ((2*d12) / d11) * v2) - v1
+
+    or the pole before where d11 is not > 0 or some |p| is not < :data:`ARC_LIMIT`.
+    Integers wrap (int64) rather than raise."""
+    k, _, c = x.shape
+    if j == 0:
+        return np.zeros((k, c), np.int64)
+    if j == 1:
+        return x[:, 0].copy()
+    with np.errstate(over="ignore"):
+        if j % 2 or j == 2:
+            return 2 * x[:, j - 1] - x[:, j - 2]
+        v1 = (x[:, j - 3] - x[:, j - 4]).astype(np.float64)
+        v2 = (x[:, j - 2] - x[:, j - 3]).astype(np.float64)
+    d11, d12 = v1[:, 0] * v1[:, 0], v1[:, 0] * v2[:, 0]
+    for a in range(1, c):
+        d11 = d11 + v1[:, a] * v1[:, a]
+        d12 = d12 + v1[:, a] * v2[:, a]
+    back = x[:, j - 1]
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        ok = d11 > 0
+        turn = np.where(ok, (2.0 * d12) / np.where(ok, d11, 1.0), 0.0)
+        p = (back.astype(np.float64) + turn[:, None] * v2) - v1
+        ok &= (np.abs(p) < ARC_LIMIT).all(-1)  # NaN fails too
+        p = np.where(ok[:, None], p, 0.0)
+    return np.where(ok[:, None], np.rint(p).astype(np.int64), back)
+
+
+def _rows_along(q: np.ndarray, axis: int) -> np.ndarray:
+    """The net (nu, nv, c) as rows along ``axis`` (0: u, 1: v)."""
+    return q if axis == 1 else q.transpose(1, 0, 2)
+
+
+def arc_residuals(q: np.ndarray, axis: int) -> np.ndarray:
+    """Residuals (nu, nv, c) of grid integers ``q`` whose rows along ``axis``
+    are predicted as arcs (:func:`arc_column`), the rows' errors differenced
+    across the rows; the first pole absolute."""
+    x = _rows_along(q, axis)
+    e = x.copy()
+    with np.errstate(over="ignore"):
+        for j in range(1, x.shape[1]):
+            e[:, j] -= arc_column(x, j)
+        r = e.copy()
+        r[1:] -= e[:-1]
+    return np.ascontiguousarray(_rows_along(r, axis))
+
+
+def arc_integrate(r: np.ndarray, axis: int) -> np.ndarray:
+    """Inverse of :func:`arc_residuals`: the errors are running sums across
+    the rows, then each column is its prediction plus its error (int64;
+    wraps, never raises)."""
+    with np.errstate(over="ignore"):
+        e = np.cumsum(_rows_along(r, axis), axis=0)
+        x = np.zeros_like(e)
+        for j in range(e.shape[1]):
+            x[:, j] = e[:, j] + arc_column(x, j)
+    return np.ascontiguousarray(_rows_along(x, axis))

@@ -18,6 +18,8 @@ METHODS = (
     codec.Method.DDMAP,
     codec.Method.BOUNDARY3,
     codec.Method.DDMAP3,
+    codec.Method.ARCS_V,
+    codec.Method.ARCS_U,
 )
 
 

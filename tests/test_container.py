@@ -97,8 +97,8 @@ def test_versions_read_and_refused() -> None:
         return c.revision
 
     assert [of(1, m) for m in (0, 1, 2, 9)] == [0, 1, 2, 2]
-    assert [of(2, m) for m in range(14)] == [3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16]
-    assert of(2, 13) == container.REVISION == 16
+    assert [of(2, m) for m in range(15)] == [3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17]
+    assert of(2, 14) == container.REVISION == 17
     for major, minor in ((2, container.MINOR + 1), (0, 3)):
         with pytest.raises(VersionError, match=f"{major}.{minor} is not supported"):
             container.unpack(at(major, minor))
@@ -501,7 +501,7 @@ def test_the_short_header_and_what_it_saves() -> None:
     sections = [("META", b"x" * 3), ("SURF", bytes(200)), ("VERT", b"v")]
     data = container.pack(sections, container.FLAG_LOSSLESS, coders=(entropy.Coder.STORED,))
     mask = (1 << 0) | (1 << 2) | (1 << 8)
-    head = container.MAGIC + bytes([2, 13, 1 | container.FLAG_MASK]) + struct.pack("<H", mask)
+    head = container.MAGIC + bytes([2, container.MINOR, 1 | container.FLAG_MASK]) + struct.pack("<H", mask)
     head += bytes([3]) + varint(200) + bytes([1]) + bytes([0])
     assert data[: len(head)] == head
     crc = zlib.crc32(data[len(head) + 4 :], zlib.crc32(head))

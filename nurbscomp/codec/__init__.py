@@ -10,6 +10,7 @@ on small nets).  The names below are this package's interface.
 from __future__ import annotations
 
 from .coder import (
+    ARCS,
     BICUBIC,
     CORNERED,
     CURVE,
@@ -17,7 +18,9 @@ from .coder import (
     CURVE_COPIES,
     CURVE_METHODS,
     E_LADDER,
+    EXTRAPOLATING,
     GRID,
+    GRID_CODES,
     MAP,
     MAX_INT,
     PAPER_BITS,
@@ -27,6 +30,7 @@ from .coder import (
     STREAMS,
     SURFACE_METHODS,
     SURFACE_METHODS_2,
+    SURFACE_METHODS_14,
     SURFACE_SEARCH,
     TIGHT_SEARCH,
     Method,
@@ -66,6 +70,7 @@ from .search import (
 )
 
 __all__ = [
+    "ARCS",
     "BICUBIC",
     "CURVE",
     "CORNERED",
@@ -77,7 +82,9 @@ __all__ = [
     "EXTRAPOLATED_MAX",
     "EXTRAPOLATED_RUNGS",
     "E_LADDER",
+    "EXTRAPOLATING",
     "GRID",
+    "GRID_CODES",
     "MAP",
     "MAX_INT",
     "Method",
@@ -93,6 +100,7 @@ __all__ = [
     "STREAMS",
     "SURFACE_METHODS",
     "SURFACE_METHODS_2",
+    "SURFACE_METHODS_14",
     "SURFACE_SEARCH",
     "TIGHT_SEARCH",
     "_CoonsRungs",

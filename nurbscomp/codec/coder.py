@@ -78,6 +78,22 @@ class Method(IntEnum):
     # curves: ends at the row's two anchors (its edge's vertices, as decoded),
     # chord differences + DCT (eq. 5-10) between them; format 2.10
     ANCHORED = 11
+    # surfaces: the rows along v (12) or u (13) predicted as chains of
+    # equal-angle quadratic arcs (spatial.arc_residuals), nearest grid points;
+    # format 2.14
+    ARCS_V = 12
+    ARCS_U = 13
+    # surfaces: as SPATIAL2, with the orders of extrapolation (1: the pole
+    # before, 2: linear, 3: quadratic) along u and v in the name
+    # (spatial.extrapolate); format 2.14
+    ORDERS_11 = 14
+    ORDERS_12 = 15
+    ORDERS_21 = 16
+    ORDERS_13 = 17
+    ORDERS_31 = 18
+    ORDERS_23 = 19
+    ORDERS_32 = 20
+    ORDERS_33 = 21
 
 
 SURFACE_METHODS = (
@@ -100,13 +116,25 @@ SURFACE_SEARCH = (Method.SPATIAL, Method.BOUNDARY, Method.DDMAP, Method.DDMAP3, 
 TIGHT_SEARCH = tuple(m for m in SURFACE_SEARCH if m != Method.SPATIAL2)
 #: The surface methods a ``SNET`` of format 2.0 (revision 3) may hold.
 SURFACE_METHODS_2 = (*SURFACE_METHODS, Method.SPATIAL2)
+#: The arc methods (format 2.14), by the direction their rows run along.
+ARCS = {Method.ARCS_U: 0, Method.ARCS_V: 1}
+#: The extrapolating methods, by their orders along u and v (from format 2.14
+#: with orders other than ``SPATIAL2``'s).
+EXTRAPOLATING = {
+    Method.SPATIAL2: (2, 2),
+    **{Method[f"ORDERS_{a}{b}"]: (a, b) for a in (1, 2, 3) for b in (1, 2, 3) if (a, b) != (2, 2)},
+}
+#: The surface methods a ``SNET`` of format 2.14 (revision 17) may hold.
+SURFACE_METHODS_14 = (*SURFACE_METHODS_2, *ARCS, *EXTRAPOLATING)
+#: Surface methods whose integers are one grid residual per pole, in net order.
+GRID_CODES = (Method.SPATIAL, *EXTRAPOLATING, *ARCS)
 #: Methods that predict the interior with the bicubically blended Coons net.
 BICUBIC = (Method.BOUNDARY3, Method.DDMAP3)
 #: Methods that code a net's corners, its boundary curves between them, and a
 #: Coons net of those (with or without difference data).
 COONS_METHODS = (Method.BOUNDARY, Method.DDMAP, Method.DMAP, Method.BOUNDARY3, Method.DDMAP3)
 #: Surface methods whose corners may be coded against vertices (format 2.10).
-CORNERED = (Method.SPATIAL, Method.SPATIAL2, *COONS_METHODS)
+CORNERED = (*GRID_CODES, *COONS_METHODS)
 #: The curve methods the encoder searches with a row's origin or anchors.
 CURVE_METHODS = (Method.DELTA, Method.CHORD)
 #: Every method whose integers code a curve's poles: with ``ANCHORED``, which
@@ -427,10 +455,28 @@ class _Writer:
         self.add(r.reshape(-1))
         return q * h
 
-    def extrapolated(self, p: np.ndarray, origin: np.ndarray) -> np.ndarray:
-        """``SPATIAL2``: residuals of linear extrapolation along u and v
-        (:func:`spatial.rd_extrapolate`), each pole anywhere within
-        ``self.bound``; the net returned is the decoder's
+    def arcs(self, p: np.ndarray, origin: np.ndarray, axis: int) -> np.ndarray:
+        """``ARCS_U``/``ARCS_V``: each pole on its nearest grid point, the rows
+        along ``axis`` predicted as arcs (:func:`spatial.arc_residuals`).  The
+        decoder's prediction is made from the same grid integers by the same
+        operations, so the net returned is what it decodes."""
+        h = self.st.grid
+        if not np.abs(p).max() <= MAX_INT * h:  # NaN fails too
+            raise _Unusable
+        q = spatial.snap(p, h)
+        r = spatial.arc_residuals(q, axis)
+        r.reshape(-1, p.shape[-1])[0] -= spatial.snap(_first(origin), h)
+        if not np.abs(r).max() <= MAX_INT:
+            raise _Unusable
+        self.add(r.reshape(-1))
+        return q * h
+
+    def extrapolated(
+        self, p: np.ndarray, origin: np.ndarray, orders: tuple[int, int] = (2, 2)
+    ) -> np.ndarray:
+        """``SPATIAL2`` (and ``EXTRAPOLATING``): residuals of extrapolation
+        of ``orders`` along u and v (:func:`spatial.rd_extrapolate`), each pole
+        anywhere within ``self.bound``; the net returned is the decoder's
         (:func:`_unextrapolated` of the integers stored)."""
         h = self.st.grid
         bound = self.bound
@@ -439,11 +485,11 @@ class _Writer:
         if h * math.sqrt(3) / 2 > bound:  # a pole's nearest grid point may not fit
             raise _Unusable
         qo = spatial.snap(_first(origin), h)[None]
-        ints = spatial.rd_extrapolate(p, np.array([h]), bound, qo)[0].reshape(-1)
+        ints = spatial.rd_extrapolate(p, np.array([h]), bound, qo, orders)[0].reshape(-1)
         if not np.abs(ints).max() <= MAX_INT:
             raise _Unusable
         self.add(ints)
-        return _unextrapolated(ints, p.shape, origin, h)
+        return _unextrapolated(ints, p.shape, origin, h, orders=orders)
 
     def grid(self, p: np.ndarray, origin: np.ndarray, which: str = "") -> np.ndarray:
         """Snap points (k, 3) to the grid; code the first against ``origin`` (the
@@ -536,10 +582,35 @@ class _Reader:
             r = _cornered(r, spatial.integrate, self.corners)
         return _integrate(r) * h
 
-    def extrapolated(self, like: np.ndarray, origin: np.ndarray) -> np.ndarray:
+    def arcs(self, like: np.ndarray, origin: np.ndarray, axis: int) -> np.ndarray:
+        h = self.st.grid
+        r = self._take(like.size).reshape(like.shape).copy()
+        r.reshape(-1, like.shape[-1])[0] += spatial.snap(_first(origin), h)
+        integrate = _arc_integrator(axis)
+        if self.corners:
+            r = _cornered(r, integrate, self.corners)
+        return integrate(r) * h
+
+    def extrapolated(
+        self, like: np.ndarray, origin: np.ndarray, orders: tuple[int, int] = (2, 2)
+    ) -> np.ndarray:
         return _unextrapolated(
-            self._take(like.size), like.shape, origin, self.st.grid, self.corners
+            self._take(like.size), like.shape, origin, self.st.grid, self.corners, orders
         )
+
+
+def _arc_integrator(axis: int) -> Callable[[np.ndarray], np.ndarray]:
+    """:func:`spatial.arc_integrate` along ``axis``, as one argument's function."""
+    return functools.partial(spatial.arc_integrate, axis=axis)
+
+
+def _grid_integrator(method: Method) -> Callable[[np.ndarray], np.ndarray]:
+    """The decoder's grid integers of a grid code's residuals (``GRID_CODES``)."""
+    if method == Method.SPATIAL:
+        return spatial.integrate
+    if method in EXTRAPOLATING:
+        return functools.partial(spatial.unextrapolate, orders=EXTRAPOLATING[method])
+    return _arc_integrator(ARCS[method])
 
 
 def corner_at(k: int, nu: int, nv: int) -> tuple[int, int]:
@@ -576,11 +647,11 @@ def corner_grid(code: NetCode, shape: tuple[int, ...], tol: float) -> np.ndarray
     h = tol * code.grid
     o = spatial.snap(_first(np.zeros(3) if code.origin is None else code.origin), h)
     nu, nv = shape[:2]
-    if code.method in (Method.SPATIAL, Method.SPATIAL2):
+    if code.method in GRID_CODES:
         r = code.ints.reshape(shape).copy()
         r[0, 0] += o
         with np.errstate(over="ignore"):
-            q = (spatial.integrate if code.method == Method.SPATIAL else spatial.unextrapolate)(r)
+            q = _grid_integrator(code.method)(r)
         return np.array([q[corner_at(k, nu, nv)] for k in range(4)])
     if code.method in COONS_METHODS:
         head = code.ints[:3] + o
@@ -613,7 +684,7 @@ def recorner(
 
 def _corner_place(code: NetCode, shape: tuple[int, ...], k: int) -> int:
     """Where the three integers of corner ``k`` (1-3) of a surface code start."""
-    if code.method in (Method.SPATIAL, Method.SPATIAL2):
+    if code.method in GRID_CODES:
         i, j = corner_at(k, *shape[:2])
         return (i * shape[1] + j) * 3
     return 3 * k
@@ -631,15 +702,17 @@ def _unextrapolated(
     origin: np.ndarray,
     h: float,
     corners: dict[int, np.ndarray] | None = None,
+    orders: tuple[int, int] = (2, 2),
 ) -> np.ndarray:
-    """The net of a ``SPATIAL2`` code's integers (docs/format.md §2.4): the
-    decoder's side, run by the encoder on what it stores too (``corners``:
-    see :func:`_cornered`)."""
+    """The net of a ``SPATIAL2`` (or ``EXTRAPOLATING``, of ``orders``)
+    code's integers (docs/format.md §2.4): the decoder's side, run by the
+    encoder on what it stores too (``corners``: see :func:`_cornered`)."""
     r = ints.reshape(shape).copy()
     r[0, 0] += spatial.snap(_first(origin), h)
+    integrate = functools.partial(spatial.unextrapolate, orders=orders)
     if corners:
-        r = _cornered(r, spatial.unextrapolate, corners)
-    return spatial.unextrapolate(r) * h
+        r = _cornered(r, integrate, corners)
+    return integrate(r) * h
 
 
 def _against(q: np.ndarray, qo: np.ndarray) -> np.ndarray:
@@ -844,12 +917,16 @@ def _code(
     """
     if method in (Method.SPATIAL, Method.DELTA):
         return io.predicted(p, origin)
-    if method == Method.SPATIAL2:
+    if method in EXTRAPOLATING:
         if p.ndim != 3 or io.st.quant != Quant.TOL or io.st.slope != 0:
             raise ValueError(
                 "the extrapolating spatial code is for surface nets on the tolerance grid"
             )
-        return io.extrapolated(p, origin)
+        return io.extrapolated(p, origin, EXTRAPOLATING[method])
+    if method in ARCS:
+        if p.ndim != 3:
+            raise ValueError("the arc codes are for surface nets")
+        return io.arcs(p, origin, ARCS[method])
     if method == Method.CHORD:
         ends = p[[0, -1]]
         c = io.grid(ends if isinstance(io, _Writer) else np.empty_like(ends), origin, "ends")
@@ -899,7 +976,7 @@ def segments(method: int, quant: int, shape: tuple[int, ...]) -> list[tuple[int,
     if m in CURVE_CODES and surface or m not in CURVE_CODES and not surface:
         raise ValueError(f"method {m.name} does not apply to this net")
     size = int(np.prod(shape))
-    if m in (Method.SPATIAL, Method.SPATIAL2, Method.DELTA):
+    if m in (*GRID_CODES, Method.DELTA):
         return [(POS, min(dim, size)), (GRID, size - min(dim, size))]
     if m == Method.CHORD:
         n = shape[0]

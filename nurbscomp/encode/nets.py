@@ -175,6 +175,24 @@ def feature_limit(poles: np.ndarray, tol: float) -> float:
 SPREAD = True
 
 
+#: Rows of at least this many poles are tried as arcs (``codec.ARCS``): the
+#: first arc continuation is the fifth pole's.
+ARC_POLES = 5
+
+
+def arc_methods(g: BSplineSurface | BSplineCurve) -> tuple[codec.Method, ...]:
+    """The arc methods (format 2.14) worth trying on ``g``: a rational
+    surface's directions of degree 2 with at least :data:`ARC_POLES` poles,
+    where a circle or a conic written as a B-spline has its arcs."""
+    if not isinstance(g, BSplineSurface) or g.weights is None:
+        return ()
+    return tuple(
+        m
+        for m, axis in codec.ARCS.items()
+        if (g.udegree, g.vdegree)[axis] == 2 and g.poles.shape[axis] >= ARC_POLES
+    )
+
+
 def _net_code(
     g: BSplineSurface | BSplineCurve,
     tol: float,
@@ -189,6 +207,8 @@ def _net_code(
     :mod:`.deviation`), and the decoded poles."""
     s, t = net_abscissae(g)
     basis = net_basis(g)
+    if codec.Method.SPATIAL in methods:
+        methods = (*methods, *arc_methods(g))
     code = codec.encode_net(
         g.poles,
         s,
@@ -460,9 +480,10 @@ def tighten(coded: Coded, m: BRepModel, recs: Iterable[Rec], level: int = 1) -> 
 
 
 def plain(coded: Coded, m: BRepModel, recs: Iterable[Rec]) -> set[Rec]:
-    """Code the surface records of ``recs`` whose code is ``SPATIAL2`` again,
-    to the limit they had, without it (``codec.TIGHT_SEARCH``), in place;
-    return those recoded.  ``SPATIAL2`` leaves each pole anywhere within
+    """Code the surface records of ``recs`` whose code is ``SPATIAL2`` (or
+    another of ``codec.EXTRAPOLATING``) again, to the limit they had, without
+    them (``codec.TIGHT_SEARCH``), in place; return those recoded.  Those
+    codes leave each pole anywhere within
     its bound, not on its nearest grid point; where the rebuilt B-rep has a
     fault near such a net, the validity stage tries this first: it costs
     less than a net 64 times tighter or stored pcurves.
@@ -472,7 +493,7 @@ def plain(coded: Coded, m: BRepModel, recs: Iterable[Rec]) -> set[Rec]:
         if k.table != Table.SURFACE or k not in coded.surfaces:
             continue
         code = coded.surfaces[k][0]
-        if code.method != codec.Method.SPATIAL2:
+        if code.method not in codec.EXTRAPOLATING:
             continue
         g = m.surfaces[k.row]
         assert isinstance(g, BSplineSurface)

@@ -275,7 +275,7 @@ def _surfaces_held(m: BRepModel) -> set[int]:
 
 #: Surface codes that do not depend on the knots (the grid predictors): the
 #: boundary and map methods sample the surface at its Greville abscissae.
-KNOTLESS_CODES = (codec.Method.SPATIAL, codec.Method.SPATIAL2)
+KNOTLESS_CODES = codec.GRID_CODES
 
 
 def unit_surfaces(

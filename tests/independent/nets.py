@@ -14,7 +14,9 @@ from .tables import Spline
 if TYPE_CHECKING:
     from .reader import Model
 
-SURFACE_METHODS = {0, 1, 2, 5, 7, 8, 10}
+SURFACE_METHODS = {0, 1, 2, 5, 7, 8, 10, *range(12, 22)}
+#: §2.4 (2.14): the orders of extrapolation (along u, along v) of methods 14-21
+ORDERS = {14: (1, 1), 15: (1, 2), 16: (2, 1), 17: (1, 3), 18: (3, 1), 19: (2, 3), 20: (3, 2), 21: (3, 3)}
 CURVE_METHODS = {3, 4, 6, 9, 11}
 SLOPES = (0.0, 1.0)
 
@@ -262,6 +264,61 @@ def _unextrapolate(r: np.ndarray) -> np.ndarray:
     return r
 
 
+def _unextrapolate_orders(r: np.ndarray, orders: tuple[int, int]) -> np.ndarray:
+    """§2.4 (2.14): along v then u, x_k = y_k plus the extrapolation of
+    order min(k, o) from the k values before (binomial weights)."""
+    from math import comb
+
+    for axis, o in ((1, orders[1]), (0, orders[0])):
+        y = np.moveaxis(r, axis, 0)
+        x = np.zeros_like(y)
+        with np.errstate(over="ignore"):
+            for k in range(y.shape[0]):
+                a = min(k, o)
+                pred = np.zeros_like(y[0])
+                for m in range(1, a + 1):
+                    pred = pred + (-1) ** (m + 1) * comb(a, m) * x[k - m]
+                x[k] = y[k] + pred
+        r = np.moveaxis(x, 0, axis)
+    return r
+
+
+def _next_arc_pole(row: list[np.ndarray], j: int) -> np.ndarray:
+    """§2.4 (2.14): pole j of one row from the poles before it."""
+    if j == 0:
+        return np.zeros(3, np.int64)
+    if j == 1:
+        return row[0]
+    if j == 2 or j % 2 == 1:
+        return 2 * row[j - 1] - row[j - 2]
+    a = [float(x) for x in row[j - 3] - row[j - 4]]
+    b = [float(x) for x in row[j - 2] - row[j - 3]]
+    aa = (a[0] * a[0] + a[1] * a[1]) + a[2] * a[2]
+    ab = (a[0] * b[0] + a[1] * b[1]) + a[2] * b[2]
+    if not aa > 0:
+        return row[j - 1]
+    f = (2 * ab) / aa
+    p = [(float(row[j - 1][c]) + f * b[c]) - a[c] for c in range(3)]
+    if not all(abs(x) < 2.0**62 for x in p):
+        return row[j - 1]
+    return np.array([round(x) for x in p], np.int64)  # Python's round: half to even
+
+
+def _arcs(r: np.ndarray, along_u: bool) -> np.ndarray:
+    """§2.4 (2.14): the grid integers of rows of arcs."""
+    x = r.transpose(1, 0, 2) if along_u else r
+    out = np.zeros_like(x)
+    err = np.zeros((x.shape[1], 3), np.int64)
+    with np.errstate(over="ignore"):
+        for i in range(x.shape[0]):
+            err = err + x[i]
+            row: list[np.ndarray] = []
+            for j in range(x.shape[1]):
+                row.append(err[j] + _next_arc_pole(row, j))
+            out[i] = np.array(row)
+    return out.transpose(1, 0, 2) if along_u else out
+
+
 def _with_corners(r: np.ndarray, integrate, corners: dict[int, np.ndarray]) -> np.ndarray:
     """§2.4.1 (2.10): each anchored corner, in order P0m, Pn0, Pnm, gets the
     residual that makes its integrated value snap(vertex) + what was stored."""
@@ -299,6 +356,24 @@ def decode_surface(
         r = net.code.take(nu * nv * 3).reshape(nu, nv, 3).copy()
         r[0, 0] += net.snap(o[0])
         return _unextrapolate(_with_corners(r, _unextrapolate, snapped)) * net.h
+    if m in ORDERS:
+        if net.quant != 0 or net.S != 0.0:
+            raise ReadError(f"method {m} with quant or slope other than 0")
+        r = net.code.take(nu * nv * 3).reshape(nu, nv, 3).copy()
+        r[0, 0] += net.snap(o[0])
+
+        def undo(x: np.ndarray) -> np.ndarray:
+            return _unextrapolate_orders(x, ORDERS[m])
+
+        return undo(_with_corners(r, undo, snapped)) * net.h
+    if m in (12, 13):
+        r = net.code.take(nu * nv * 3).reshape(nu, nv, 3).copy()
+        r[0, 0] += net.snap(o[0])
+
+        def rows(x: np.ndarray) -> np.ndarray:
+            return _arcs(x, m == 13)
+
+        return rows(_with_corners(r, rows, snapped)) * net.h
     if m in (1, 2, 5, 7, 8):
         d = net.code.take(12).reshape(4, 3)
         q = d.copy()
@@ -380,6 +455,8 @@ class Table:
                 raise ReadError("SNET: method 10 before 2.0")
             if tag == "CNET" and self.method[k] == 11 and revision < 13:
                 raise ReadError("CNET: method 11 before 2.10")
+            if tag == "SNET" and self.method[k] >= 12 and revision < 17:
+                raise ReadError("SNET: methods 12 to 21 before 2.14")
 
     def code(self, k: int, shape: tuple[int, ...]) -> Code:
         """The k-th code's integers, for a row of poles of ``shape`` (n, 3) or (nu, nv, 3)."""
@@ -390,7 +467,7 @@ class Table:
         size = int(np.prod(shape))
         c = 3
         parts: list[np.ndarray] = []
-        if m in (0, 10, 3):
+        if m in (0, 10, 3) or 12 <= m <= 21:
             parts += [pts(min(c, size)), res(size - min(c, size))]
         elif m in (4, 11):
             n = shape[0]
