@@ -106,9 +106,11 @@ def _check_headers(t: NetTable, tag: str, tol: float, revision: int = container.
         raise SectionError(f"{tag}: bad quantizer slope")
     if n and np.abs(t.level).max() > MAX_LEVEL:
         raise SectionError(f"{tag}: quantizer level out of range")
-    surface = codec.SURFACE_METHODS_2 if revision >= 3 else codec.SURFACE_METHODS
+    surface: tuple[codec.Method, ...] = codec.SURFACE_METHODS
     if revision >= ARC_ROWS:
         surface = codec.SURFACE_METHODS_14
+    elif revision >= 3:
+        surface = codec.SURFACE_METHODS_2
     curve: tuple[codec.Method, ...] = codec.CURVE_COPIES
     if revision < ANCHORED_CURVES:
         curve = tuple(m for m in curve if m != codec.Method.ANCHORED)

@@ -59,51 +59,43 @@ def decode(r: np.ndarray, h: float) -> np.ndarray:
 # first (a B-spline's control polygon follows its curve), so the residuals are.
 
 
-#: The orders of extrapolation a net may take along an axis (format 2.14):
-#: 1 the pole before, 2 the line through the two before, 3 the parabola
-#: through the three before.
-ORDERS = (1, 2, 3)
-
-
-def _extrapolate_axis(x: np.ndarray, axis: int, order: int = 2) -> np.ndarray:
-    """A along ``axis`` (integers: exact): y_k = Δ^min(k, order) x_k, the
-    finite difference of x at k of that order (y_0 = x_0)."""
-    y = np.moveaxis(x, axis, 0).copy()
-    for s in range(order):
-        y[s + 1 :] -= y[s:-1].copy()
+def _extrapolate_axis(x: np.ndarray, axis: int) -> np.ndarray:
+    """A along ``axis`` (integers: exact)."""
+    x = np.moveaxis(x, axis, 0)
+    y = x.copy()
+    y[1:] -= x[:-1]
+    y[2:] -= x[1:-1] - x[:-2]
     return np.moveaxis(y, 0, axis)
 
 
-def _unextrapolate_axis(y: np.ndarray, axis: int, order: int = 2) -> np.ndarray:
-    """Inverse of :func:`_extrapolate_axis`: running sums from index
-    ``order`` − 1 down to 0 (int64; wraps, never raises)."""
-    w = np.moveaxis(y, axis, 0).copy()
-    for s in range(order - 1, -1, -1):
-        if len(w) > s:
-            w[s:] = np.cumsum(w[s:], axis=0)
-    return np.moveaxis(w, 0, axis)
+def _unextrapolate_axis(y: np.ndarray, axis: int) -> np.ndarray:
+    """Inverse of :func:`_extrapolate_axis`: w_0 = y_0, w_1 = y_1, w_k = y_k +
+    w_{k-1} (k ≥ 2), x = running sum of w (int64; wraps, never raises)."""
+    y = np.moveaxis(y, axis, 0)
+    w = y.copy()
+    if len(w) > 2:
+        w[1:] = np.cumsum(y[1:], axis=0)
+    return np.moveaxis(np.cumsum(w, axis=0), 0, axis)
 
 
-def extrapolate(q: np.ndarray, orders: tuple[int, int] = (2, 2)) -> np.ndarray:
-    """Residuals A_u∘A_v of an integer net (nu, nv, c), first pole absolute,
-    with the extrapolation ``orders`` along u and v."""
-    return _extrapolate_axis(_extrapolate_axis(q, 1, orders[1]), 0, orders[0])
+def extrapolate(q: np.ndarray) -> np.ndarray:
+    """Residuals A_u∘A_v of an integer net (nu, nv, c), first pole absolute."""
+    return _extrapolate_axis(_extrapolate_axis(q, 1), 0)
 
 
-def unextrapolate(r: np.ndarray, orders: tuple[int, int] = (2, 2)) -> np.ndarray:
+def unextrapolate(r: np.ndarray) -> np.ndarray:
     """Inverse of :func:`extrapolate` (along v, then along u)."""
     with np.errstate(over="ignore"):
-        return _unextrapolate_axis(_unextrapolate_axis(r, 1, orders[1]), 0, orders[0])
+        return _unextrapolate_axis(_unextrapolate_axis(r, 1), 0)
 
 
-def _axis_weights(idx: np.ndarray, order: int = 2) -> np.ndarray:
-    """A's weights on lags 0 to 3 at positions ``idx`` along an axis (k, 4):
-    the signed binomial coefficients of Δ^min(k, order)."""
-    w = np.zeros((len(idx), 4), np.int64)
-    for k in range(4):
-        o = np.minimum(idx, order)
-        c = np.array([math.comb(int(a), k) if k <= a else 0 for a in o.tolist()], np.int64)
-        w[:, k] = (-1) ** k * c
+def _axis_weights(idx: np.ndarray) -> np.ndarray:
+    """A's weights on lags 0, 1, 2 at positions ``idx`` along an axis (k, 3)."""
+    w = np.zeros((len(idx), 3), np.int64)
+    w[:, 0] = 1
+    w[idx == 1, 1] = -1
+    w[idx >= 2, 1] = -2
+    w[idx >= 2, 2] = 1
     return w
 
 
@@ -121,11 +113,7 @@ def eg_bits(r: np.ndarray) -> np.ndarray:
 
 
 def rd_extrapolate(
-    p: np.ndarray,
-    h: np.ndarray,
-    bound: float | np.ndarray,
-    qo: np.ndarray,
-    orders: tuple[int, int] = (2, 2),
+    p: np.ndarray, h: np.ndarray, bound: float | np.ndarray, qo: np.ndarray
 ) -> np.ndarray:
     """Residuals (R, nu, nv, 3) of :func:`extrapolate` chosen within ``bound``
     (one for all, or one per step), on each grid step of ``h`` (R,) at once.
@@ -149,27 +137,33 @@ def rd_extrapolate(
     t_all = (p[None] / h[:, None, None, None]).reshape(nr, nu * nv, c)
     rho2 = ((bound / h) ** 2 * (1 - _MARGIN))[:, None]
     rho = np.sqrt(rho2)
-    flat = np.zeros((nr, (nu + _PAD) * (nv + _PAD), c), np.int64)  # decoded grid points, padded
+    flat = np.zeros((nr, (nu + 2) * (nv + 2), c), np.int64)  # decoded grid points, padded by 2
     r = np.zeros((nr, nu * nv, c), np.int64)
     with np.errstate(divide="ignore", invalid="ignore"):
-        for d, (at, pad, nbr, w, corner) in enumerate(_diagonals(nu, nv, *orders)):
+        for d, (at, pad, nbr, w, corner) in enumerate(_diagonals(nu, nv)):
             pred = -np.einsum("rkmc,km->rkc", flat[:, nbr], w)
             if d == 0:
                 pred += qo[:, None, :]
-            t = t_all[:, at] - pred  # the residual that would land on the pole (R, k, c)
-            norm = np.sqrt((t * t).sum(-1))
-            shrink = np.nan_to_num(np.clip(1 - rho / norm, 0, 1))
-            base = np.rint(t * shrink[..., None])
-            if c == 3:
-                best, nearest = _cheapest3(base, t, rho2)
-            else:  # no offsets: the shrunk point, or the nearest one
-                best, nearest = base, ((base - t) ** 2).sum(-1) > rho2
-            nearest |= corner[None]
-            best = np.where(nearest[..., None], np.rint(t), best)
-            rr = best.astype(np.int64)
+            rr = _choose(t_all[:, at] - pred, rho, rho2, corner)
             r[:, at] = rr
             flat[:, pad] = pred + rr
     return r.reshape(nr, nu, nv, c)
+
+
+def _choose(t: np.ndarray, rho: np.ndarray, rho2: np.ndarray, corner: np.ndarray) -> np.ndarray:
+    """The residuals (R, k, c) :func:`rd_extrapolate` stores for the poles of
+    one anti-diagonal, ``t`` the residuals that would land on the poles."""
+    c = t.shape[-1]
+    norm = np.sqrt((t * t).sum(-1))
+    shrink = np.nan_to_num(np.clip(1 - rho / norm, 0, 1))
+    base = np.rint(t * shrink[..., None])
+    if c == 3:
+        best, nearest = _cheapest3(base, t, rho2)
+    else:  # no offsets: the shrunk point, or the nearest one
+        best, nearest = base, ((base - t) ** 2).sum(-1) > rho2
+    nearest |= corner[None]
+    best = np.where(nearest[..., None], np.rint(t), best)
+    return best.astype(np.int64)
 
 
 #: The three offsets tried per coordinate, in :data:`_OFFSETS`'s order.
@@ -203,30 +197,174 @@ def _combined(a: np.ndarray) -> np.ndarray:
     return (a[:, :, 0, :, None, None] + a[:, :, 1, None, :, None]) + a[:, :, 2, None, None, :]
 
 
-#: Rows and columns of zeros before a net in :func:`rd_extrapolate`'s decoded grid.
-_PAD = 3
-
-
 @functools.lru_cache(maxsize=256)
 def _diagonals(
-    nu: int, nv: int, ou: int = 2, ov: int = 2
+    nu: int, nv: int
 ) -> tuple[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray], ...]:
     """Per anti-diagonal of a (nu, nv) net, in order: its poles' flat indices,
-    their flat indices in the net padded by :data:`_PAD` rows and columns
-    before, their predictors' padded indices and weights (A_u∘A_v of orders
-    ``ou``, ``ov`` without the pole itself, int64) and which are corners."""
+    their flat indices in the net padded by 2 rows and columns before,
+    their 8 predictors' padded indices and weights (A_u∘A_v without the
+    pole itself, int64) and which are corners."""
     out = []
-    wide = nv + _PAD
-    lags = [(a, b) for a in range(ou + 1) for b in range(ov + 1) if a or b]
+    wide = nv + 2
     for d in range(nu + nv - 1):
         i = np.arange(max(0, d - nv + 1), min(nu, d + 1))
         j = d - i
-        wu, wv = _axis_weights(i, ou), _axis_weights(j, ov)
-        nbr = np.stack([(i + _PAD - a) * wide + (j + _PAD - b) for a, b in lags], 1)
+        wu, wv = _axis_weights(i), _axis_weights(j)
+        lags = [(a, b) for a in range(3) for b in range(3) if a or b]
+        nbr = np.stack([(i + 2 - a) * wide + (j + 2 - b) for a, b in lags], 1)
         w = np.stack([wu[:, a] * wv[:, b] for a, b in lags], 1)
         corner = ((i == 0) | (i == nu - 1)) & ((j == 0) | (j == nv - 1))
-        out.append((i * nv + j, (i + _PAD) * wide + j + _PAD, nbr, w, corner))
+        out.append((i * nv + j, (i + 2) * wide + j + 2, nbr, w, corner))
     return tuple(out)
+
+
+# ------------------------------------------------------ extrapolation on the abscissae (2.14)
+#
+# Methods 14-22 (docs/format.md §2.4, "Extrapolation on the abscissae"): each
+# pole predicted along v from the poles before it in its row, and the row's
+# prediction errors along u from the rows before, each by the polynomial of
+# degree o - 1 through the o poles before it (o the method's order along that
+# direction, 1 to 3) at their Greville abscissae, not at equal steps.  Near a
+# clamped end of a B-spline the abscissae crowd (a cubic's: 0, 1/3, 1, 2 ...),
+# where linear extrapolation at equal steps misses by a whole leg.  The
+# weights are not integers: each prediction is rounded to the grid, so the
+# two directions are applied one after the other (lifting), v first.
+
+#: Extrapolation orders along a direction: the pole before (1), the line (2)
+#: or the parabola (3) through the poles before.
+ORDERS = (1, 2, 3)
+
+
+#: Node weights are rounded to multiples of 2^-WEIGHT_BITS (all but the first,
+#: which takes what makes their sum 1): a few ulps of the abscissae (knots
+#: mapped onto [0, 1]) then leave them as they are, and a prediction of grid
+#: integers below 2^(52 - WEIGHT_BITS) is computed exactly.
+WEIGHT_BITS = 20
+#: Rows of node weights past this size take the weights of equal steps.
+WEIGHT_MAX = 1024.0
+
+
+def node_weights(g: np.ndarray, order: int) -> np.ndarray:
+    """The weights (n, 3) of x_{k-1}, x_{k-2}, x_{k-3} in the prediction of
+    x_k at abscissae ``g`` (n,): Lagrange's extrapolation through the a =
+    min(k, ``order``) values before k.  In binary64, in this order::
+
+        L_m = num / den,  num = Π (g[k] − g[k−l]),  den = Π (g[k−m] − g[k−l])
+              over l = 1 .. a, l ≠ m, in increasing l (empty products: 1.0)
+        w[k, m-1] = ldexp(rint(ldexp(L_m, B)), −B)  for m = 2 .. a  (B = WEIGHT_BITS)
+        w[k, 0] = (1.0 − w[k, 1]) − w[k, 2]
+
+    0 past a.  Where some den is 0, or some L_m is not finite or past
+    :data:`WEIGHT_MAX` in size, the row takes the weights of equal steps
+    (order 2: 2, −1; order 3: 3, −3, 1)."""
+    n = len(g)
+    w = np.zeros((n, 3))
+    for k in range(1, n):
+        a = min(k, order)
+        lag = []
+        for m in range(1, a + 1):
+            num = den = 1.0
+            for ll in range(1, a + 1):
+                if ll != m:
+                    num = num * (float(g[k]) - float(g[k - ll]))
+                    den = den * (float(g[k - m]) - float(g[k - ll]))
+            lag.append(num / den if den != 0 else math.nan)
+        if all(math.isfinite(x) and abs(x) <= WEIGHT_MAX for x in lag):
+            row = [0.0] + [
+                math.ldexp(round(math.ldexp(x, WEIGHT_BITS)), -WEIGHT_BITS) for x in lag[1:]
+            ]
+            row += [0.0] * (3 - len(row))
+            row[0] = (1.0 - row[1]) - row[2]
+        else:
+            row = [(-1.0) ** (m + 1) * math.comb(a, m) for m in range(1, a + 1)] + [0.0] * (3 - a)
+        w[k] = row
+    return w
+
+
+def _predict(w: np.ndarray, x1: np.ndarray, x2: np.ndarray, x3: np.ndarray) -> np.ndarray:
+    """rint((w1·x1 + w2·x2) + w3·x3) of int64 values (…, c) with weights (…),
+    in binary64 in that order, as int64; a prediction that is not finite or
+    not below 2^62 in size is 0."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        p = (w[..., 0, None] * x1.astype(np.float64) + w[..., 1, None] * x2.astype(np.float64)) + w[
+            ..., 2, None
+        ] * x3.astype(np.float64)
+        ok = np.abs(p) < ARC_LIMIT  # NaN fails too
+    return np.where(ok, np.rint(np.where(ok, p, 0.0)), 0.0).astype(np.int64)
+
+
+def _lift(x: np.ndarray, w: np.ndarray, inverse: bool) -> np.ndarray:
+    """Along axis 0 of ``x`` (n, …, c): y_k = x_k − prediction from x_{k−1..k−3}
+    (``inverse``: x_k = y_k + prediction from the x already made)."""
+    out = x.copy()
+    src = out if inverse else x
+    zero = np.zeros_like(x[0])
+    with np.errstate(over="ignore"):
+        for k in range(1, len(x)):
+            back = [src[k - m] if k >= m else zero for m in (1, 2, 3)]
+            pred = _predict(np.broadcast_to(w[k], (*x.shape[1:-1], 3)), *back)
+            out[k] = x[k] + pred if inverse else x[k] - pred
+    return out
+
+
+def lifted_residuals(q: np.ndarray, wu: np.ndarray, wv: np.ndarray) -> np.ndarray:
+    """Residuals (nu, nv, c) of grid integers ``q``: along v with the weights
+    ``wv`` (:func:`node_weights`), then along u with ``wu``; first pole absolute."""
+    z = np.moveaxis(_lift(np.moveaxis(q, 1, 0), wv, False), 0, 1)
+    return _lift(z, wu, False)
+
+
+def lifted_integrate(r: np.ndarray, wu: np.ndarray, wv: np.ndarray) -> np.ndarray:
+    """Inverse of :func:`lifted_residuals`: along u, then along v (int64; wraps)."""
+    z = _lift(r, wu, True)
+    return np.ascontiguousarray(np.moveaxis(_lift(np.moveaxis(z, 1, 0), wv, True), 0, 1))
+
+
+def rd_lifted(
+    p: np.ndarray,
+    h: np.ndarray,
+    bound: float | np.ndarray,
+    qo: np.ndarray,
+    wu: np.ndarray,
+    wv: np.ndarray,
+) -> np.ndarray:
+    """Residuals (R, nu, nv, 3) of :func:`lifted_residuals` chosen within
+    ``bound`` on each grid step of ``h`` (R,), as :func:`rd_extrapolate`
+    chooses its own: the decoder's closed loop, one anti-diagonal at a time.
+    A pole's prediction is its row's (from the grid points before it in the
+    row) plus the prediction of its row's error (from the errors of the rows
+    before, at its column); its error is its grid point less its row's
+    prediction."""
+    nu, nv, c = p.shape
+    nr = len(h)
+    t_all = (p[None] / h[:, None, None, None]).reshape(nr, nu * nv, c)
+    rho2 = ((bound / h) ** 2 * (1 - _MARGIN))[:, None]
+    rho = np.sqrt(rho2)
+    wide = nv + _PAD
+    q = np.zeros((nr, (nu + _PAD) * wide, c), np.int64)  # decoded grid points, padded
+    e = np.zeros_like(q)  # their rows' prediction errors
+    r = np.zeros((nr, nu * nv, c), np.int64)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        for d in range(nu + nv - 1):
+            i = np.arange(max(0, d - nv + 1), min(nu, d + 1))
+            j = d - i
+            at = (i + _PAD) * wide + j + _PAD
+            pv = _predict(wv[j][None], *(q[:, at - m] for m in (1, 2, 3)))
+            pu = _predict(wu[i][None], *(e[:, at - m * wide] for m in (1, 2, 3)))
+            pred = pv + pu
+            if d == 0:
+                pred += qo[:, None, :]
+            corner = ((i == 0) | (i == nu - 1)) & ((j == 0) | (j == nv - 1))
+            rr = _choose(t_all[:, i * nv + j] - pred, rho, rho2, corner)
+            r[:, i * nv + j] = rr
+            q[:, at] = pred + rr
+            e[:, at] = q[:, at] - pv
+    return r.reshape(nr, nu, nv, c)
+
+
+#: Rows and columns of zeros before a net in :func:`rd_lifted`'s decoded grid.
+_PAD = 3
 
 
 # ---------------------------------------------------------------- arcs (2.14)

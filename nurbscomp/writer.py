@@ -17,6 +17,7 @@ import numpy as np
 from . import codec, serialize, spatial
 from .model import BRepModel, BSplineCurve, BSplineSurface, Geometry, Rec, Table, first_row
 from .rules import joins
+from .rules.nets import net_abscissae
 from .rules.ranges import range_kinds
 from .serialize import NetTable, Tables
 
@@ -63,7 +64,7 @@ def _net_table(
                         code = codec.reorigin(code, choices[row][k - 1], tol)
                     shape = cast(BSplineSurface, records[row]).poles.shape
                     if code.method in codec.CORNERED:
-                        grid = codec.corner_grid(code, shape, tol)
+                        grid = codec.corner_grid(code, shape, tol, *net_abscissae(g))
                         corners = _corner_choice(code, shape, grid, choices[row], tol)
                         at = {c: choices[row][j - 1] for c, j in enumerate(corners, 1) if j}
                         code = codec.recorner(code, shape, at, tol, grid)

@@ -20,6 +20,9 @@ METHODS = (
     codec.Method.DDMAP3,
     codec.Method.ARCS_V,
     codec.Method.ARCS_U,
+    codec.Method.ORDERS_11,
+    codec.Method.ORDERS_23,
+    codec.Method.ORDERS_33,
 )
 
 
@@ -44,7 +47,7 @@ def test_corners_against_vertices_decode_the_same_net(method: codec.Method) -> N
         for picked in ({1}, {2}, {3}, {1, 3}, {1, 2, 3}):
             # vertices near the corners, as snapped onto the vertex grid
             corners = {k: p[corner_at(k, nu, nv)] + rng.normal(0, 3e-3, 3) for k in picked}
-            again = codec.recorner(code, p.shape, corners, 0.01)
+            again = codec.recorner(code, p.shape, corners, 0.01, s=s, t=t)
             for k in picked:
                 assert np.abs(codec.corner_ints(again, p.shape, k)).max() <= 2
             back, _ = codec.decode_net(again, p.shape, s, t, 0.01, o, corners=corners)

@@ -121,6 +121,8 @@ def test_arcs_are_refused_before_format_2_14() -> None:
 
 
 def test_arcs_are_surface_methods_only() -> None:
-    code = codec.NetCode(codec.Method.ARCS_V, codec.Quant.TOL, 0, 0, np.zeros(6, np.int64), np.zeros(0), 0, 0)
+    code = codec.NetCode(
+        codec.Method.ARCS_V, codec.Quant.TOL, 0, 0, np.zeros(6, np.int64), np.zeros(0), 0, 0
+    )
     with pytest.raises(ValueError):
         codec.decode_net(code, (2, 3), None, None, 0.01)

@@ -501,7 +501,11 @@ def test_the_short_header_and_what_it_saves() -> None:
     sections = [("META", b"x" * 3), ("SURF", bytes(200)), ("VERT", b"v")]
     data = container.pack(sections, container.FLAG_LOSSLESS, coders=(entropy.Coder.STORED,))
     mask = (1 << 0) | (1 << 2) | (1 << 8)
-    head = container.MAGIC + bytes([2, container.MINOR, 1 | container.FLAG_MASK]) + struct.pack("<H", mask)
+    head = (
+        container.MAGIC
+        + bytes([2, container.MINOR, 1 | container.FLAG_MASK])
+        + struct.pack("<H", mask)
+    )
     head += bytes([3]) + varint(200) + bytes([1]) + bytes([0])
     assert data[: len(head)] == head
     crc = zlib.crc32(data[len(head) + 4 :], zlib.crc32(head))

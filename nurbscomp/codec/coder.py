@@ -83,17 +83,19 @@ class Method(IntEnum):
     # format 2.14
     ARCS_V = 12
     ARCS_U = 13
-    # surfaces: as SPATIAL2, with the orders of extrapolation (1: the pole
-    # before, 2: linear, 3: quadratic) along u and v in the name
-    # (spatial.extrapolate); format 2.14
+    # surfaces: extrapolation along v, then of the rows' errors along u, of
+    # the orders in the name (1: the pole before, 2: the line, 3: the
+    # parabola through the poles before) at the net's Greville abscissae
+    # (spatial.rd_lifted); format 2.14
     ORDERS_11 = 14
     ORDERS_12 = 15
-    ORDERS_21 = 16
-    ORDERS_13 = 17
-    ORDERS_31 = 18
+    ORDERS_13 = 16
+    ORDERS_21 = 17
+    ORDERS_22 = 18
     ORDERS_23 = 19
-    ORDERS_32 = 20
-    ORDERS_33 = 21
+    ORDERS_31 = 20
+    ORDERS_32 = 21
+    ORDERS_33 = 22
 
 
 SURFACE_METHODS = (
@@ -118,16 +120,19 @@ TIGHT_SEARCH = tuple(m for m in SURFACE_SEARCH if m != Method.SPATIAL2)
 SURFACE_METHODS_2 = (*SURFACE_METHODS, Method.SPATIAL2)
 #: The arc methods (format 2.14), by the direction their rows run along.
 ARCS = {Method.ARCS_U: 0, Method.ARCS_V: 1}
-#: The extrapolating methods, by their orders along u and v (from format 2.14
-#: with orders other than ``SPATIAL2``'s).
-EXTRAPOLATING = {
-    Method.SPATIAL2: (2, 2),
-    **{Method[f"ORDERS_{a}{b}"]: (a, b) for a in (1, 2, 3) for b in (1, 2, 3) if (a, b) != (2, 2)},
-}
+#: The methods that extrapolate on the abscissae (format 2.14), by their
+#: orders along u and v.
+LIFTED = {Method[f"ORDERS_{a}{b}"]: (a, b) for a in spatial.ORDERS for b in spatial.ORDERS}
+#: The methods whose residuals the encoder chooses within a net's bound (the
+#: others round each pole to its nearest grid point).
+CHOSEN = (Method.SPATIAL2, *LIFTED)
 #: The surface methods a ``SNET`` of format 2.14 (revision 17) may hold.
-SURFACE_METHODS_14 = (*SURFACE_METHODS_2, *ARCS, *EXTRAPOLATING)
+SURFACE_METHODS_14 = (*SURFACE_METHODS_2, *ARCS, *LIFTED)
 #: Surface methods whose integers are one grid residual per pole, in net order.
-GRID_CODES = (Method.SPATIAL, *EXTRAPOLATING, *ARCS)
+GRID_CODES = (Method.SPATIAL, *CHOSEN, *ARCS)
+#: Surface codes that do not depend on the knots (the boundary, map and
+#: lifted methods use the Greville abscissae).
+KNOTLESS = (Method.SPATIAL, Method.SPATIAL2, *ARCS)
 #: Methods that predict the interior with the bicubically blended Coons net.
 BICUBIC = (Method.BOUNDARY3, Method.DDMAP3)
 #: Methods that code a net's corners, its boundary curves between them, and a
@@ -472,11 +477,12 @@ class _Writer:
         return q * h
 
     def extrapolated(
-        self, p: np.ndarray, origin: np.ndarray, orders: tuple[int, int] = (2, 2)
+        self, p: np.ndarray, origin: np.ndarray, weights: _Weights | None = None
     ) -> np.ndarray:
-        """``SPATIAL2`` (and ``EXTRAPOLATING``): residuals of extrapolation
-        of ``orders`` along u and v (:func:`spatial.rd_extrapolate`), each pole
-        anywhere within ``self.bound``; the net returned is the decoder's
+        """``SPATIAL2``: residuals of linear extrapolation along u and v
+        (:func:`spatial.rd_extrapolate`), each pole anywhere within
+        ``self.bound``; with ``weights`` (u, v) the lifted methods'
+        (:func:`spatial.rd_lifted`).  The net returned is the decoder's
         (:func:`_unextrapolated` of the integers stored)."""
         h = self.st.grid
         bound = self.bound
@@ -485,11 +491,15 @@ class _Writer:
         if h * math.sqrt(3) / 2 > bound:  # a pole's nearest grid point may not fit
             raise _Unusable
         qo = spatial.snap(_first(origin), h)[None]
-        ints = spatial.rd_extrapolate(p, np.array([h]), bound, qo, orders)[0].reshape(-1)
+        hs = np.array([h])
+        if weights is None:
+            ints = spatial.rd_extrapolate(p, hs, bound, qo)[0].reshape(-1)
+        else:
+            ints = spatial.rd_lifted(p, hs, bound, qo, *weights)[0].reshape(-1)
         if not np.abs(ints).max() <= MAX_INT:
             raise _Unusable
         self.add(ints)
-        return _unextrapolated(ints, p.shape, origin, h, orders=orders)
+        return _unextrapolated(ints, p.shape, origin, h, weights=weights)
 
     def grid(self, p: np.ndarray, origin: np.ndarray, which: str = "") -> np.ndarray:
         """Snap points (k, 3) to the grid; code the first against ``origin`` (the
@@ -592,10 +602,10 @@ class _Reader:
         return integrate(r) * h
 
     def extrapolated(
-        self, like: np.ndarray, origin: np.ndarray, orders: tuple[int, int] = (2, 2)
+        self, like: np.ndarray, origin: np.ndarray, weights: _Weights | None = None
     ) -> np.ndarray:
         return _unextrapolated(
-            self._take(like.size), like.shape, origin, self.st.grid, self.corners, orders
+            self._take(like.size), like.shape, origin, self.st.grid, self.corners, weights
         )
 
 
@@ -604,13 +614,36 @@ def _arc_integrator(axis: int) -> Callable[[np.ndarray], np.ndarray]:
     return functools.partial(spatial.arc_integrate, axis=axis)
 
 
-def _grid_integrator(method: Method) -> Callable[[np.ndarray], np.ndarray]:
-    """The decoder's grid integers of a grid code's residuals (``GRID_CODES``)."""
+def _grid_integrator(
+    method: Method, s: np.ndarray | None = None, t: np.ndarray | None = None
+) -> Callable[[np.ndarray], np.ndarray]:
+    """The decoder's grid integers of a grid code's residuals (``GRID_CODES``;
+    ``s``, ``t``: the net's abscissae, for the lifted methods)."""
     if method == Method.SPATIAL:
         return spatial.integrate
-    if method in EXTRAPOLATING:
-        return functools.partial(spatial.unextrapolate, orders=EXTRAPOLATING[method])
+    if method == Method.SPATIAL2:
+        return spatial.unextrapolate
+    if method in LIFTED:
+        return _lifted_integrator(lifted_weights(method, s, t))
     return _arc_integrator(ARCS[method])
+
+
+#: The weights along u and along v of a lifted code (:func:`lifted_weights`).
+_Weights = tuple[np.ndarray, np.ndarray]
+
+
+def lifted_weights(method: Method, s: np.ndarray | None, t: np.ndarray | None) -> _Weights:
+    """The prediction weights along u and v of a lifted method on a net of
+    abscissae ``s``, ``t`` (:func:`spatial.node_weights`)."""
+    if s is None or t is None:
+        raise ValueError(f"method {method.name} needs the net's abscissae")
+    ou, ov = LIFTED[method]
+    return spatial.node_weights(s, ou), spatial.node_weights(t, ov)
+
+
+def _lifted_integrator(w: _Weights) -> Callable[[np.ndarray], np.ndarray]:
+    """:func:`spatial.lifted_integrate` with weights ``w``, as one argument's function."""
+    return functools.partial(spatial.lifted_integrate, wu=w[0], wv=w[1])
 
 
 def corner_at(k: int, nu: int, nv: int) -> tuple[int, int]:
@@ -641,9 +674,16 @@ def _cornered(
     return r
 
 
-def corner_grid(code: NetCode, shape: tuple[int, ...], tol: float) -> np.ndarray:
+def corner_grid(
+    code: NetCode,
+    shape: tuple[int, ...],
+    tol: float,
+    s: np.ndarray | None = None,
+    t: np.ndarray | None = None,
+) -> np.ndarray:
     """The grid integers (4, 3) of a surface code's corners, in ``CORNERS``
-    order, as decoded against ``code.origin`` (:func:`reorigin`)."""
+    order, as decoded against ``code.origin`` (:func:`reorigin`); ``s``,
+    ``t``: the net's abscissae (the lifted methods need them)."""
     h = tol * code.grid
     o = spatial.snap(_first(np.zeros(3) if code.origin is None else code.origin), h)
     nu, nv = shape[:2]
@@ -651,7 +691,7 @@ def corner_grid(code: NetCode, shape: tuple[int, ...], tol: float) -> np.ndarray
         r = code.ints.reshape(shape).copy()
         r[0, 0] += o
         with np.errstate(over="ignore"):
-            q = _grid_integrator(code.method)(r)
+            q = _grid_integrator(code.method, s, t)(r)
         return np.array([q[corner_at(k, nu, nv)] for k in range(4)])
     if code.method in COONS_METHODS:
         head = code.ints[:3] + o
@@ -665,16 +705,18 @@ def recorner(
     corners: dict[int, np.ndarray],
     tol: float,
     grid: np.ndarray | None = None,
+    s: np.ndarray | None = None,
+    t: np.ndarray | None = None,
 ) -> NetCode:
     """The same surface code with corners ``k`` of ``corners`` (1-3, in
     ``CORNERS`` order -> a point) coded against those points' grid points
     (format 2.10): the decoded net is the same.  ``code.origin`` must be the
     origin the container codes it against (:func:`reorigin`); ``grid``: its
-    :func:`corner_grid`, if known."""
+    :func:`corner_grid`, if known (else made on the abscissae ``s``, ``t``)."""
     if not corners:
         return code
     h = tol * code.grid
-    q = corner_grid(code, shape, tol) if grid is None else grid
+    q = corner_grid(code, shape, tol, s, t) if grid is None else grid
     ints = code.ints.copy()
     for k, v in corners.items():
         at = _corner_place(code, shape, k)
@@ -702,14 +744,14 @@ def _unextrapolated(
     origin: np.ndarray,
     h: float,
     corners: dict[int, np.ndarray] | None = None,
-    orders: tuple[int, int] = (2, 2),
+    weights: _Weights | None = None,
 ) -> np.ndarray:
-    """The net of a ``SPATIAL2`` (or ``EXTRAPOLATING``, of ``orders``)
-    code's integers (docs/format.md §2.4): the decoder's side, run by the
+    """The net of a ``SPATIAL2`` code's integers (with ``weights``, a
+    lifted one's; docs/format.md §2.4): the decoder's side, run by the
     encoder on what it stores too (``corners``: see :func:`_cornered`)."""
     r = ints.reshape(shape).copy()
     r[0, 0] += spatial.snap(_first(origin), h)
-    integrate = functools.partial(spatial.unextrapolate, orders=orders)
+    integrate = spatial.unextrapolate if weights is None else _lifted_integrator(weights)
     if corners:
         r = _cornered(r, integrate, corners)
     return integrate(r) * h
@@ -917,12 +959,13 @@ def _code(
     """
     if method in (Method.SPATIAL, Method.DELTA):
         return io.predicted(p, origin)
-    if method in EXTRAPOLATING:
+    if method in CHOSEN:
         if p.ndim != 3 or io.st.quant != Quant.TOL or io.st.slope != 0:
             raise ValueError(
                 "the extrapolating spatial code is for surface nets on the tolerance grid"
             )
-        return io.extrapolated(p, origin, EXTRAPOLATING[method])
+        w = lifted_weights(method, s, t) if method in LIFTED else None
+        return io.extrapolated(p, origin, w)
     if method in ARCS:
         if p.ndim != 3:
             raise ValueError("the arc codes are for surface nets")

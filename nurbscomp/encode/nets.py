@@ -481,7 +481,7 @@ def tighten(coded: Coded, m: BRepModel, recs: Iterable[Rec], level: int = 1) -> 
 
 def plain(coded: Coded, m: BRepModel, recs: Iterable[Rec]) -> set[Rec]:
     """Code the surface records of ``recs`` whose code is ``SPATIAL2`` (or
-    another of ``codec.EXTRAPOLATING``) again, to the limit they had, without
+    another of ``codec.CHOSEN``) again, to the limit they had, without
     them (``codec.TIGHT_SEARCH``), in place; return those recoded.  Those
     codes leave each pole anywhere within
     its bound, not on its nearest grid point; where the rebuilt B-rep has a
@@ -493,7 +493,7 @@ def plain(coded: Coded, m: BRepModel, recs: Iterable[Rec]) -> set[Rec]:
         if k.table != Table.SURFACE or k not in coded.surfaces:
             continue
         code = coded.surfaces[k][0]
-        if code.method not in codec.EXTRAPOLATING:
+        if code.method not in codec.CHOSEN:
             continue
         g = m.surfaces[k.row]
         assert isinstance(g, BSplineSurface)

@@ -38,6 +38,7 @@ from ..model import (
     records,
 )
 from ..rules import joins, ranges
+from ..rules.nets import net_abscissae
 from ..serialize import SWEPT
 from . import analytic, weights
 from .assembly import MARGIN, round_up
@@ -275,7 +276,7 @@ def _surfaces_held(m: BRepModel) -> set[int]:
 
 #: Surface codes that do not depend on the knots (the grid predictors): the
 #: boundary and map methods sample the surface at its Greville abscissae.
-KNOTLESS_CODES = codec.GRID_CODES
+KNOTLESS_CODES = codec.KNOTLESS
 
 
 def unit_surfaces(
@@ -294,7 +295,8 @@ def unit_surfaces(
     * A B-spline is mapped where it is kept exact or coded by a grid
       predictor (``codes``, by record: ``KNOTLESS_CODES``; the other methods
       sample it at its knots' Greville abscissae, so their decoded poles
-      would change), a vector only where that makes its knots cheaper
+      would change; a lifted code where its weights stay the same bit for
+      bit, :func:`_same_weights`), a vector only where that makes its knots cheaper
       (:func:`_mantissa_bits`), and all of them only where the model's
       knots then compress smaller (:func:`_cheaper`, the curves' as they
       are).  That test is a proxy.  Counting in both arms the curves that
@@ -322,9 +324,15 @@ def unit_surfaces(
             continue
         if isinstance(g, BSplineSurface) and not g.bezier:
             code = codes.get(recs[i])
-            if code is not None and code.method not in KNOTLESS_CODES:
+            lifted = code is not None and code.method in codec.LIFTED
+            if code is not None and code.method not in KNOTLESS_CODES and not lifted:
                 continue
             uv = tuple(_unit_map(k) for k in (g.uknots, g.vknots))
+            if uv != (None, None) and code is not None and lifted:
+                u, v = uv
+                moved = replace(g, uknots=_unit(g.uknots, u), vknots=_unit(g.vknots, v))
+                if not _same_weights(code.method, g, moved):
+                    continue
             if uv != (None, None):
                 maps[i] = uv  # type: ignore[assignment]
         elif isinstance(g, Analytic) and g.kind == Kind.PLANE and not g.through:
@@ -352,6 +360,17 @@ def unit_surfaces(
     out: Any = replace(m)
     out.surfaces = table
     return out
+
+
+def _same_weights(method: codec.Method, g: BSplineSurface, moved: BSplineSurface) -> bool:
+    """Whether a lifted code (``codec.LIFTED``) predicts ``moved``'s net
+    with the weights it predicts ``g``'s with, bit for bit: they depend on
+    the knots only through ratios of the normalised abscissae, which an
+    affine map of the knots keeps but for a few ulps; where those ulps
+    change no weight, the decoded net is the same."""
+    a = codec.lifted_weights(method, *net_abscissae(g))
+    b = codec.lifted_weights(method, *net_abscissae(moved))
+    return all(np.array_equal(x, y) for x, y in zip(a, b))
 
 
 def _unit_map(k: np.ndarray) -> Ends | None:

@@ -14,9 +14,9 @@ from .tables import Spline
 if TYPE_CHECKING:
     from .reader import Model
 
-SURFACE_METHODS = {0, 1, 2, 5, 7, 8, 10, *range(12, 22)}
-#: §2.4 (2.14): the orders of extrapolation (along u, along v) of methods 14-21
-ORDERS = {14: (1, 1), 15: (1, 2), 16: (2, 1), 17: (1, 3), 18: (3, 1), 19: (2, 3), 20: (3, 2), 21: (3, 3)}
+SURFACE_METHODS = {0, 1, 2, 5, 7, 8, 10, *range(12, 23)}
+#: §2.4 (2.14): the orders of extrapolation (along u, along v) of methods 14-22
+ORDERS = {14 + 3 * (a - 1) + (b - 1): (a, b) for a in (1, 2, 3) for b in (1, 2, 3)}
 CURVE_METHODS = {3, 4, 6, 9, 11}
 SLOPES = (0.0, 1.0)
 
@@ -264,23 +264,50 @@ def _unextrapolate(r: np.ndarray) -> np.ndarray:
     return r
 
 
-def _unextrapolate_orders(r: np.ndarray, orders: tuple[int, int]) -> np.ndarray:
-    """§2.4 (2.14): along v then u, x_k = y_k plus the extrapolation of
-    order min(k, o) from the k values before (binomial weights)."""
-    from math import comb
+def _node_weights(g, o: int) -> list[list[float]]:
+    """§2.4 (2.14): per k, the weights of x[k-1], x[k-2], x[k-3]."""
+    from math import comb, isfinite, ldexp
 
-    for axis, o in ((1, orders[1]), (0, orders[0])):
-        y = np.moveaxis(r, axis, 0)
-        x = np.zeros_like(y)
+    out = [[0.0, 0.0, 0.0]]
+    for k in range(1, len(g)):
+        a = min(k, o)
+        lag = []
+        for m in range(1, a + 1):
+            num, den = 1.0, 1.0
+            for j in range(1, a + 1):
+                if j != m:
+                    num *= float(g[k]) - float(g[k - j])
+                    den *= float(g[k - m]) - float(g[k - j])
+            lag.append(num / den if den != 0.0 else float("nan"))
+        if all(isfinite(x) and abs(x) <= 1024.0 for x in lag):
+            w = [0.0, 0.0, 0.0]
+            for m in range(2, a + 1):
+                w[m - 1] = ldexp(round(ldexp(lag[m - 1], 20)), -20)
+            w[0] = (1.0 - w[1]) - w[2]
+        else:
+            w = [float((-1) ** (m + 1) * comb(a, m)) for m in range(1, a + 1)] + [0.0] * (3 - a)
+        out.append(w)
+    return out
+
+
+def _undo_lift(y: np.ndarray, w: list[list[float]]) -> np.ndarray:
+    """Along axis 0: x[k] = y[k] + rint((w1*x[k-1] + w2*x[k-2]) + w3*x[k-3])."""
+    x = np.zeros_like(y)
+    for k in range(y.shape[0]):
+        back = [x[k - m].astype(np.float64) if k >= m else np.zeros(y.shape[1:]) for m in (1, 2, 3)]
+        with np.errstate(over="ignore", invalid="ignore"):
+            p = (w[k][0] * back[0] + w[k][1] * back[1]) + w[k][2] * back[2]
+            ok = np.abs(p) < 2.0**62
+        pred = np.where(ok, np.rint(np.where(ok, p, 0.0)), 0.0).astype(np.int64)
         with np.errstate(over="ignore"):
-            for k in range(y.shape[0]):
-                a = min(k, o)
-                pred = np.zeros_like(y[0])
-                for m in range(1, a + 1):
-                    pred = pred + (-1) ** (m + 1) * comb(a, m) * x[k - m]
-                x[k] = y[k] + pred
-        r = np.moveaxis(x, 0, axis)
-    return r
+            x[k] = y[k] + pred
+    return x
+
+
+def _lifted(r: np.ndarray, s, t, orders: tuple[int, int]) -> np.ndarray:
+    """§2.4 (2.14): the rows' errors along u, then the poles along v."""
+    z = _undo_lift(r, _node_weights(s, orders[0]))
+    return _undo_lift(z.transpose(1, 0, 2), _node_weights(t, orders[1])).transpose(1, 0, 2)
 
 
 def _next_arc_pole(row: list[np.ndarray], j: int) -> np.ndarray:
@@ -363,7 +390,7 @@ def decode_surface(
         r[0, 0] += net.snap(o[0])
 
         def undo(x: np.ndarray) -> np.ndarray:
-            return _unextrapolate_orders(x, ORDERS[m])
+            return _lifted(x, s, t, ORDERS[m])
 
         return undo(_with_corners(r, undo, snapped)) * net.h
     if m in (12, 13):
@@ -456,7 +483,7 @@ class Table:
             if tag == "CNET" and self.method[k] == 11 and revision < 13:
                 raise ReadError("CNET: method 11 before 2.10")
             if tag == "SNET" and self.method[k] >= 12 and revision < 17:
-                raise ReadError("SNET: methods 12 to 21 before 2.14")
+                raise ReadError("SNET: methods 12 to 22 before 2.14")
 
     def code(self, k: int, shape: tuple[int, ...]) -> Code:
         """The k-th code's integers, for a row of poles of ``shape`` (n, 3) or (nu, nv, 3)."""
@@ -467,7 +494,7 @@ class Table:
         size = int(np.prod(shape))
         c = 3
         parts: list[np.ndarray] = []
-        if m in (0, 10, 3) or 12 <= m <= 21:
+        if m in (0, 10, 3) or 12 <= m <= 22:
             parts += [pts(min(c, size)), res(size - min(c, size))]
         elif m in (4, 11):
             n = shape[0]
