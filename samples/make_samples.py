@@ -14,6 +14,11 @@ writes them as AP214 STEP files (millimetres) next to this script:
 ``blob.step``
     A smooth, bumpy, closed freeform solid made of 63 bicubic B-spline
     patches (9 x 7), in the spirit of the 63-patch "bunny" model.
+``rings.step``
+    A turned part (a cone frustum with a bore, its edges filleted) converted
+    to rational B-splines (``BRepBuilderAPI_NurbsConvert``): its circles,
+    cylinders, cones and tori as rational quadratic nets, the rows of arcs
+    of format 2.14.
 ``assembly.step``
     A cadquery ``Assembly`` with product data (format 1.2's ``PROD``): a
     plate with four bolts (one part placed three times, and a red one), a
@@ -50,6 +55,7 @@ from OCP.BRepAdaptor import BRepAdaptor_Surface
 from OCP.BRepBuilderAPI import (
     BRepBuilderAPI_MakeFace,
     BRepBuilderAPI_MakeSolid,
+    BRepBuilderAPI_NurbsConvert,
     BRepBuilderAPI_Sewing,
 )
 from OCP.BRepCheck import BRepCheck_Analyzer
@@ -474,6 +480,34 @@ def make_loft() -> TopoDS_Shape:
     return solid.wrapped
 
 
+def make_rings() -> TopoDS_Shape:
+    """Build a turned part and convert it to rational B-splines.
+
+    A cone frustum with a bore and its outer edges filleted, turned about
+    a tilted axis so that no circle lies in a coordinate plane.
+
+    Returns
+    -------
+    OCP.TopoDS.TopoDS_Shape
+        The converted solid (every face a B-spline surface).
+    """
+    part = (
+        cq.Workplane("XY")
+        .circle(30.0)
+        .workplane(offset=25.0)
+        .circle(18.0)
+        .loft()
+        .faces(">Z")
+        .workplane()
+        .hole(12.0)
+        .edges("not %LINE")
+        .fillet(2.0)
+        .val()
+    )
+    part = part.rotate(cq.Vector(0, 0, 0), cq.Vector(1, 2, 0), 23.0).translate(cq.Vector(5, -7, 11))
+    return BRepBuilderAPI_NurbsConvert(part.wrapped, True).Shape()
+
+
 def make_bracket() -> TopoDS_Shape:
     """Build a filleted and chamfered mechanical bracket.
 
@@ -872,6 +906,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         "bracket": make_bracket,
         "teapot": lambda: make_teapot(args.teapot_bpt.resolve()),
         "blob": make_blob,
+        "rings": make_rings,
     }
     paths = []
     for name, build in builders.items():

@@ -105,10 +105,15 @@ GOLDEN = [
     ("bracket.step", "v2_13.tol0.01", {"tol": 0.01}),
     ("teapot.step", "v2_13.faces.tol0.1", {"tol": 0.1}),
     ("loft.step", "v2_13.exact", {"exact": True}),
+    # format 2.14: rows of arcs (SNET 12, 13), extrapolation on the abscissae (14-22)
+    ("rings.step", "v2_14.tol0.01", {"tol": 0.01}),
+    ("blob.step", "v2_14.tol0.01", {"tol": 0.01}),
 ]
 
 
 def _version(sample: str, mode: str) -> str:
+    if mode.startswith("v2_14."):
+        return "2.14"
     if mode.startswith("v2_13."):
         return "2.13"
     if mode.startswith("v2_12."):
