@@ -246,6 +246,13 @@ WEIGHT_MAX = 1024.0
 
 
 def node_weights(g: np.ndarray, order: int) -> np.ndarray:
+    """:func:`_node_weights` of ``g`` (read-only; the same abscissae give the
+    same array, kept for the nets that follow)."""
+    return _node_weights(np.asarray(g, np.float64).tobytes(), order)
+
+
+@functools.lru_cache(maxsize=4096)
+def _node_weights(key: bytes, order: int) -> np.ndarray:
     """The weights (n, 3) of x_{k-1}, x_{k-2}, x_{k-3} in the prediction of
     x_k at abscissae ``g`` (n,): Lagrange's extrapolation through the a =
     min(k, ``order``) values before k.  In binary64, in this order::
@@ -258,6 +265,7 @@ def node_weights(g: np.ndarray, order: int) -> np.ndarray:
     0 past a.  Where some den is 0, or some L_m is not finite or past
     :data:`WEIGHT_MAX` in size, the row takes the weights of equal steps
     (order 2: 2, −1; order 3: 3, −3, 1)."""
+    g = np.frombuffer(key, np.float64)
     n = len(g)
     w = np.zeros((n, 3))
     for k in range(1, n):
@@ -279,46 +287,91 @@ def node_weights(g: np.ndarray, order: int) -> np.ndarray:
         else:
             row = [(-1.0) ** (m + 1) * math.comb(a, m) for m in range(1, a + 1)] + [0.0] * (3 - a)
         w[k] = row
+    w.setflags(write=False)
     return w
 
 
 def _predict(w: np.ndarray, x1: np.ndarray, x2: np.ndarray, x3: np.ndarray) -> np.ndarray:
-    """rint((w1·x1 + w2·x2) + w3·x3) of int64 values (…, c) with weights (…),
+    """rint((w1·x1 + w2·x2) + w3·x3) of int64 values (…, c) with weights (…, 3),
     in binary64 in that order, as int64; a prediction that is not finite or
     not below 2^62 in size is 0."""
     with np.errstate(over="ignore", invalid="ignore"):
         p = (w[..., 0, None] * x1.astype(np.float64) + w[..., 1, None] * x2.astype(np.float64)) + w[
             ..., 2, None
         ] * x3.astype(np.float64)
+        return _rounded(p)
+
+
+def _rounded(p: np.ndarray) -> np.ndarray:
+    """rint(p) as int64, 0 where p is not finite or not below 2^62 in size."""
+    with np.errstate(invalid="ignore"):
         ok = np.abs(p) < ARC_LIMIT  # NaN fails too
+    if ok.all():
+        return np.rint(p).astype(np.int64)
     return np.where(ok, np.rint(np.where(ok, p, 0.0)), 0.0).astype(np.int64)
 
 
-def _lift(x: np.ndarray, w: np.ndarray, inverse: bool) -> np.ndarray:
-    """Along axis 0 of ``x`` (n, …, c): y_k = x_k − prediction from x_{k−1..k−3}
-    (``inverse``: x_k = y_k + prediction from the x already made)."""
-    out = x.copy()
-    src = out if inverse else x
-    zero = np.zeros_like(x[0])
-    with np.errstate(over="ignore"):
-        for k in range(1, len(x)):
-            back = [src[k - m] if k >= m else zero for m in (1, 2, 3)]
-            pred = _predict(np.broadcast_to(w[k], (*x.shape[1:-1], 3)), *back)
-            out[k] = x[k] + pred if inverse else x[k] - pred
+def _back(x: np.ndarray, m: int) -> np.ndarray:
+    """x_{k−m} along axis 0 for every k (zeros before the first)."""
+    out = np.zeros_like(x)
+    if m < len(x):
+        out[m:] = x[:-m]
     return out
+
+
+def _lift(x: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """Along axis 0 of ``x`` (n, …, c): y_k = x_k − the prediction of x_k from
+    x_{k−1..k−3} with the weights ``w`` (n, 3) (:func:`_predict`), every k at once."""
+    wk = w.reshape(len(x), *([1] * (x.ndim - 2)), 3)
+    with np.errstate(over="ignore"):
+        return x - _predict(wk, _back(x, 1), _back(x, 2), _back(x, 3))
+
+
+def _unlift(y: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """Inverse of :func:`_lift`: x_k = y_k + the prediction from the x before,
+    k by k (int64; wraps).  The same operations as :func:`_predict`: a weight
+    of 0 adds nothing (a sum with ±0 is exact), so its term is left out."""
+    x = y.copy()
+    xf = np.zeros(y.shape)
+    xf[0] = x[0]
+    with np.errstate(over="ignore", invalid="ignore"):
+        for k in range(1, len(y)):
+            p = None
+            for m in (1, 2, 3):
+                c = float(w[k, m - 1])
+                if c != 0.0 and k >= m:
+                    term = c * xf[k - m]
+                    p = term if p is None else p + term
+            if p is not None:
+                x[k] += _rounded(p)
+            xf[k] = x[k]
+    return x
 
 
 def lifted_residuals(q: np.ndarray, wu: np.ndarray, wv: np.ndarray) -> np.ndarray:
     """Residuals (nu, nv, c) of grid integers ``q``: along v with the weights
     ``wv`` (:func:`node_weights`), then along u with ``wu``; first pole absolute."""
-    z = np.moveaxis(_lift(np.moveaxis(q, 1, 0), wv, False), 0, 1)
-    return _lift(z, wu, False)
+    z = np.moveaxis(_lift(np.moveaxis(q, 1, 0), wv), 0, 1)
+    return _lift(z, wu)
+
+
+def lifted_trials(
+    q: np.ndarray, wu: dict[int, np.ndarray], wv: dict[int, np.ndarray]
+) -> dict[tuple[int, int], np.ndarray]:
+    """:func:`lifted_residuals` of ``q`` for every pair of orders (u, v) of
+    the weights ``wu``, ``wv`` (order -> weights), each lift along v made once."""
+    out = {}
+    for b, w in wv.items():
+        z = np.moveaxis(_lift(np.moveaxis(q, 1, 0), w), 0, 1)
+        for a, x in wu.items():
+            out[(a, b)] = _lift(z, x)
+    return out
 
 
 def lifted_integrate(r: np.ndarray, wu: np.ndarray, wv: np.ndarray) -> np.ndarray:
     """Inverse of :func:`lifted_residuals`: along u, then along v (int64; wraps)."""
-    z = _lift(r, wu, True)
-    return np.ascontiguousarray(np.moveaxis(_lift(np.moveaxis(z, 1, 0), wv, True), 0, 1))
+    z = _unlift(r, wu)
+    return np.ascontiguousarray(np.moveaxis(_unlift(np.moveaxis(z, 1, 0), wv), 0, 1))
 
 
 def rd_lifted(
@@ -328,10 +381,12 @@ def rd_lifted(
     qo: np.ndarray,
     wu: np.ndarray,
     wv: np.ndarray,
-) -> np.ndarray:
+) -> tuple[np.ndarray, np.ndarray]:
     """Residuals (R, nu, nv, 3) of :func:`lifted_residuals` chosen within
     ``bound`` on each grid step of ``h`` (R,), as :func:`rd_extrapolate`
-    chooses its own: the decoder's closed loop, one anti-diagonal at a time.
+    chooses its own, and the grid points (R, nu, nv, 3) they decode to
+    (:func:`lifted_integrate`'s, by the same operations): the decoder's
+    closed loop, one anti-diagonal at a time.
     A pole's prediction is its row's (from the grid points before it in the
     row) plus the prediction of its row's error (from the errors of the rows
     before, at its column); its error is its grid point less its row's
@@ -360,7 +415,8 @@ def rd_lifted(
             r[:, i * nv + j] = rr
             q[:, at] = pred + rr
             e[:, at] = q[:, at] - pv
-    return r.reshape(nr, nu, nv, c)
+    grid = q.reshape(nr, nu + _PAD, wide, c)[:, _PAD:, _PAD:]
+    return r.reshape(nr, nu, nv, c), grid
 
 
 #: Rows and columns of zeros before a net in :func:`rd_lifted`'s decoded grid.
@@ -391,36 +447,44 @@ def arc_column(x: np.ndarray, j: int) -> np.ndarray:
     integers from their columns before ``j`` (docs/format.md §2.4): 0 for the
     first, the pole before for the second, the linear extrapolation
     2·x[j−1] − x[j−2] at odd ``j`` and at 2, and at even ``j`` ≥ 4 the arc
-    continuation, rounded half to even, in binary64 operations in this order::
-
-        v1 = float(x[j-3] - x[j-4]); v2 = float(x[j-2] - x[j-3])   # int64, then exact
-        d11 = (v1x*v1x + v1y*v1y) + v1z*v1z; d12 likewise with v2
-        p = (float(x[j-1]) + ((2*d12) / d11) * v2) - v1
-
-    or the pole before where d11 is not > 0 or some |p| is not < :data:`ARC_LIMIT`.
-    Integers wrap (int64) rather than raise."""
+    continuation (:func:`_arcs_at`).  Integers wrap (int64) rather than raise."""
     k, _, c = x.shape
     if j == 0:
         return np.zeros((k, c), np.int64)
     if j == 1:
         return x[:, 0].copy()
-    with np.errstate(over="ignore"):
-        if j % 2 or j == 2:
+    if j % 2 or j == 2:
+        with np.errstate(over="ignore"):
             return 2 * x[:, j - 1] - x[:, j - 2]
-        v1 = (x[:, j - 3] - x[:, j - 4]).astype(np.float64)
-        v2 = (x[:, j - 2] - x[:, j - 3]).astype(np.float64)
-    d11, d12 = v1[:, 0] * v1[:, 0], v1[:, 0] * v2[:, 0]
+    return _arcs_at(x, np.array([j]))[:, 0]
+
+
+def _arcs_at(x: np.ndarray, js: np.ndarray) -> np.ndarray:
+    """The arc continuations (k, len(js), c) at the even columns ``js`` (≥ 4)
+    of rows ``x`` (k, n, c), each from the four columns before it, rounded
+    half to even, in binary64 operations in this order::
+
+        v1 = float(x[j-3] - x[j-4]); v2 = float(x[j-2] - x[j-3])   # int64, then exact
+        d11 = (v1x*v1x + v1y*v1y) + v1z*v1z; d12 likewise with v2
+        p = (float(x[j-1]) + ((2*d12) / d11) * v2) - v1
+
+    or the pole before where d11 is not > 0 or some |p| is not < :data:`ARC_LIMIT`."""
+    c = x.shape[2]
+    with np.errstate(over="ignore"):
+        v1 = (x[:, js - 3] - x[:, js - 4]).astype(np.float64)
+        v2 = (x[:, js - 2] - x[:, js - 3]).astype(np.float64)
+    d11, d12 = v1[..., 0] * v1[..., 0], v1[..., 0] * v2[..., 0]
     for a in range(1, c):
-        d11 = d11 + v1[:, a] * v1[:, a]
-        d12 = d12 + v1[:, a] * v2[:, a]
-    back = x[:, j - 1]
+        d11 = d11 + v1[..., a] * v1[..., a]
+        d12 = d12 + v1[..., a] * v2[..., a]
+    back = x[:, js - 1]
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         ok = d11 > 0
         turn = np.where(ok, (2.0 * d12) / np.where(ok, d11, 1.0), 0.0)
-        p = (back.astype(np.float64) + turn[:, None] * v2) - v1
+        p = (back.astype(np.float64) + turn[..., None] * v2) - v1
         ok &= (np.abs(p) < ARC_LIMIT).all(-1)  # NaN fails too
-        p = np.where(ok[:, None], p, 0.0)
-    return np.where(ok[:, None], np.rint(p).astype(np.int64), back)
+        p = np.where(ok[..., None], p, 0.0)
+    return np.where(ok[..., None], np.rint(p).astype(np.int64), back)
 
 
 def _rows_along(q: np.ndarray, axis: int) -> np.ndarray:
@@ -434,9 +498,16 @@ def arc_residuals(q: np.ndarray, axis: int) -> np.ndarray:
     across the rows; the first pole absolute."""
     x = _rows_along(q, axis)
     e = x.copy()
-    with np.errstate(over="ignore"):
-        for j in range(1, x.shape[1]):
-            e[:, j] -= arc_column(x, j)
+    n = x.shape[1]
+    with np.errstate(over="ignore"):  # every column at once: x is known
+        if n > 1:
+            e[:, 1] -= x[:, 0]
+        line = np.array([j for j in range(2, n) if j % 2 or j == 2], np.int64)
+        if len(line):
+            e[:, line] -= 2 * x[:, line - 1] - x[:, line - 2]
+        even = np.arange(4, n, 2)
+        if len(even):
+            e[:, even] -= _arcs_at(x, even)
         r = e.copy()
         r[1:] -= e[:-1]
     return np.ascontiguousarray(_rows_along(r, axis))

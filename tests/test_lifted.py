@@ -61,8 +61,15 @@ def test_lifting_is_exactly_inverted(nu: int, nv: int, method, seed: int) -> Non
     assert np.array_equal(spatial.lifted_integrate(r, wu, wv), q)
     # the encoder's choice with no room is the nearest grid points' residuals
     p = q * 0.01 + rng.normal(0, 1e-3, q.shape)
-    got = spatial.rd_lifted(p, np.array([0.01]), 1e-12, np.zeros((1, 3), np.int64), wu, wv)[0]
-    assert np.array_equal(got, spatial.lifted_residuals(spatial.snap(p, 0.01), wu, wv))
+    no_room = spatial.rd_lifted(p, np.array([0.01]), 1e-12, np.zeros((1, 3), np.int64), wu, wv)
+    assert np.array_equal(no_room[0][0], spatial.lifted_residuals(spatial.snap(p, 0.01), wu, wv))
+    # with room, the closed loop's grid points are what its residuals decode to
+    qo = rng.integers(-50, 50, (2, 3))
+    res, grid = spatial.rd_lifted(p, np.array([0.01, 0.02]), 0.015, qo, wu, wv)
+    for k in range(2):
+        r = res[k].copy()
+        r[0, 0] += qo[k]
+        assert np.array_equal(spatial.lifted_integrate(r, wu, wv), grid[k])
 
 
 @pytest.mark.parametrize("method", LIFTED, ids=lambda m: m.name)

@@ -207,8 +207,10 @@ def _net_code(
     :mod:`.deviation`), and the decoded poles."""
     s, t = net_abscissae(g)
     basis = net_basis(g)
-    if codec.Method.SPATIAL in methods:
-        methods = (*methods, *arc_methods(g))
+    if codec.Method.SPATIAL in methods:  # the arcs before SPATIAL2: it may skip trials then
+        arcs = arc_methods(g)
+        at = methods.index(codec.Method.SPATIAL2) if codec.Method.SPATIAL2 in methods else None
+        methods = (*methods, *arcs) if at is None else (*methods[:at], *arcs, *methods[at:])
     code = codec.encode_net(
         g.poles,
         s,
