@@ -21,7 +21,8 @@ def _check(path: Path, tmp_path: Path, tol: float, step: bool = False, **kw) -> 
     rep = pipeline.compress_file(path, nzc, tol=tol, **kw)
     assert rep["verified"] and rep["max_bound_mm"] <= tol
     shape, _, meta = pipeline.decode_file(nzc)
-    assert meta["tolerance_mm"] == tol
+    # a part whose remedies reach a quarter of its faces is coded tighter (stages.compress)
+    assert meta["tolerance_mm"] == rep["coded_tolerance_mm"] <= tol
     assert occ.counts(shape) == occ.counts(cad.shape)
     dev = occ.deviation(cad.shape, shape, n=5, tol=tol)
     assert dev.max() <= tol, f"face {dev.argmax()} deviates {dev.max()} > {tol}"

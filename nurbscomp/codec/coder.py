@@ -23,7 +23,19 @@ Methods, weighed against each other on every face by :func:`encode_net`:
 * ``DMAP`` — as ``BOUNDARY``, plus one least-squares distance per interior
   pole along the Coons surface's normal (the D-map, eq. 14-25,
   :mod:`nurbscomp.dmap`), through the same 2-D DCT and quantization.  It
-  needs the knots (a :class:`dmap.Basis`); clamped, non-periodic nets only.
+  needs the knots (a :class:`dmap.Basis`); clamped, non-periodic nets only;
+* ``ARCS_V``, ``ARCS_U`` (format 2.14) — each pole on its nearest grid
+  point, the rows along v (u) predicted as chains of equal-angle quadratic
+  arcs, the way a rational quadratic B-spline writes a circle
+  (:func:`spatial.arc_residuals`); the encoder tries them on rational nets
+  of degree 2 along the rows (``encode.nets.arc_methods``).  Not the
+  paper's: its Coons net of coded boundaries does not know circles;
+* ``ORDERS_11`` … ``ORDERS_33`` (format 2.14) — as ``SPATIAL2``, but each
+  pole extrapolated along v, and its row's error along u, by the polynomial
+  of degree 0 to 2 through the poles before it at the net's Greville
+  abscissae (eq. 17, the abscissae the Coons methods use), not at equal
+  steps (:func:`spatial.rd_lifted`).  The search tries the orders whose
+  estimate is cheapest, beside ``SPATIAL2`` (``search._lifted_choice``).
 
 Two quantizers: the paper's ``(1+k+l)·D00/2^a`` (eq. 10, 27; D00 sent as a
 float) and a tolerance-driven ``(1+slope·(k+l))·Δ`` with Δ = tol·2^(e/4).
