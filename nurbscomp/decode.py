@@ -93,7 +93,7 @@ def twin_copy(
 def _check_headers(t: NetTable, tag: str, tol: float, revision: int = container.REVISION) -> None:
     """The quantizer settings and methods of a net table (docs/format.md §2.4):
     surface method 10 (``SPATIAL2``) from revision 3 (format 2.0) only, curve
-    method 11 (``ANCHORED``) from format 2.10 only, surface methods 12 to 21
+    method 11 (``ANCHORED``) from format 2.10 only, surface methods 12 to 22
     (``ARCS_V``, ``ARCS_U``, the ``ORDERS_*``) from format 2.14 only."""
     n = len(t.method)
     if n and not 0 < tol < MAX_COORD:
@@ -303,7 +303,7 @@ PERIODS_IN_RANGE = container.VERSIONS.index((2, 9))
 #: Format 2.10: the first revision whose ``CNET`` may hold curves coded between
 #: their anchors (method 11, docs/format.md §2.4, *(2.10)*).
 ANCHORED_CURVES = container.VERSIONS.index((2, 10))
-#: Format 2.14: surface methods 12 to 21 (``ARCS_V``, ``ARCS_U``, the ``ORDERS_*``).
+#: Format 2.14: surface methods 12 to 22 (``ARCS_V``, ``ARCS_U``, the ``ORDERS_*``).
 ARC_ROWS = container.VERSIONS.index((2, 14))
 
 
