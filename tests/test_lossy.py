@@ -12,7 +12,14 @@ from nurbscomp import occ, pipeline
 from nurbscomp.encode import assembly, nets, pcurves, validity
 from nurbscomp.occ import xcaf
 
-from .conftest import CORPUS, SAMPLES, assert_step_keeps_floor, corpus_files, sample_files
+from .conftest import (
+    CORPUS,
+    SAMPLES,
+    assert_step_keeps_floor,
+    corpus_files,
+    corpus_params,
+    sample_files,
+)
 
 
 def _check(path: Path, tmp_path: Path, tol: float, step: bool = False, **kw) -> dict:
@@ -270,7 +277,7 @@ def test_multibody_assembly_keeps_what_occts_round_trip_keeps(tmp_path: Path) ->
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("path", corpus_files(), ids=lambda p: p.name)
+@pytest.mark.parametrize("path", corpus_params(), ids=lambda p: p.name)
 def test_corpus_within_tol(path: Path, tmp_path: Path, made) -> None:
     _check(path, tmp_path, 0.01, step=True)
     _no_new_gaps(path, tmp_path, made(path, 0.01, have=tmp_path / "x.nzc"))

@@ -27,7 +27,7 @@ from nurbscomp.cli import cli
 from nurbscomp.occ import exchange, xcaf
 from nurbscomp.occ.files import read_cad
 
-from .conftest import CORPUS, SAMPLES, corpus_files
+from .conftest import CORPUS, SAMPLES, corpus_params
 
 ASSEMBLY = SAMPLES / "assembly.step"
 MODES = {"lossless": {"lossless": True}, "tol0.01": {"tol": 0.01}}
@@ -545,7 +545,7 @@ def test_prod_walks_keep_to_their_work() -> None:
 
 @pytest.mark.slow
 @pytest.mark.parametrize("mode", sorted(MODES))
-@pytest.mark.parametrize("path", corpus_files(), ids=lambda p: p.name)
+@pytest.mark.parametrize("path", corpus_params(), ids=lambda p: p.name)
 def test_corpus_product_matches_occt_round_trip(
     tmp_path: Path, path: Path, mode: str, made
 ) -> None:
