@@ -234,6 +234,11 @@ def _diagonals(
 #: Extrapolation orders along a direction: the pole before (1), the line (2)
 #: or the parabola (3) through the poles before.
 ORDERS = (1, 2, 3)
+#: Predictions (2.14's lifted and arc rules) past this magnitude, and
+#: non-finite ones, are not used (docs/format.md §2.4).
+PREDICTION_LIMIT = 2.0**62
+#: Rows and columns of zeros before a net in :func:`rd_lifted`'s decoded grid.
+_PAD = 3
 
 
 #: Node weights are rounded to multiples of 2^-WEIGHT_BITS (all but the first,
@@ -305,7 +310,7 @@ def _predict(w: np.ndarray, x1: np.ndarray, x2: np.ndarray, x3: np.ndarray) -> n
 def _rounded(p: np.ndarray) -> np.ndarray:
     """rint(p) as int64, 0 where p is not finite or not below 2^62 in size."""
     with np.errstate(invalid="ignore"):
-        ok = np.abs(p) < ARC_LIMIT  # NaN fails too
+        ok = np.abs(p) < PREDICTION_LIMIT  # NaN fails too
     if ok.all():
         return np.rint(p).astype(np.int64)
     return np.where(ok, np.rint(np.where(ok, p, 0.0)), 0.0).astype(np.int64)
@@ -348,11 +353,15 @@ def _unlift(y: np.ndarray, w: np.ndarray) -> np.ndarray:
     return x
 
 
+def _lift_v(q: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """:func:`_lift` of a net (nu, nv, c) along v."""
+    return np.moveaxis(_lift(np.moveaxis(q, 1, 0), w), 0, 1)
+
+
 def lifted_residuals(q: np.ndarray, wu: np.ndarray, wv: np.ndarray) -> np.ndarray:
     """Residuals (nu, nv, c) of grid integers ``q``: along v with the weights
     ``wv`` (:func:`node_weights`), then along u with ``wu``; first pole absolute."""
-    z = np.moveaxis(_lift(np.moveaxis(q, 1, 0), wv), 0, 1)
-    return _lift(z, wu)
+    return _lift(_lift_v(q, wv), wu)
 
 
 def lifted_trials(
@@ -362,7 +371,7 @@ def lifted_trials(
     the weights ``wu``, ``wv`` (order -> weights), each lift along v made once."""
     out = {}
     for b, w in wv.items():
-        z = np.moveaxis(_lift(np.moveaxis(q, 1, 0), w), 0, 1)
+        z = _lift_v(q, w)
         for a, x in wu.items():
             out[(a, b)] = _lift(z, x)
     return out
@@ -419,10 +428,6 @@ def rd_lifted(
     return r.reshape(nr, nu, nv, c), grid
 
 
-#: Rows and columns of zeros before a net in :func:`rd_lifted`'s decoded grid.
-_PAD = 3
-
-
 # ---------------------------------------------------------------- arcs (2.14)
 #
 # Methods 12 and 13 (docs/format.md §2.4, "Rows of arcs"): the rows of a net
@@ -437,9 +442,6 @@ _PAD = 3
 # Across the rows the predictions' errors are differenced (the parallelogram
 # rule where a row predicts each pole by the one before it), so rows that are
 # translates, or arcs of one axis, leave residuals of 0.
-
-#: Predictions past this magnitude (and non-finite ones) fall back to the pole before.
-ARC_LIMIT = 2.0**62
 
 
 def arc_column(x: np.ndarray, j: int) -> np.ndarray:
@@ -468,7 +470,7 @@ def _arcs_at(x: np.ndarray, js: np.ndarray) -> np.ndarray:
         d11 = (v1x*v1x + v1y*v1y) + v1z*v1z; d12 likewise with v2
         p = (float(x[j-1]) + ((2*d12) / d11) * v2) - v1
 
-    or the pole before where d11 is not > 0 or some |p| is not < :data:`ARC_LIMIT`."""
+    or the pole before where d11 is not > 0 or some |p| is not < :data:`PREDICTION_LIMIT`."""
     c = x.shape[2]
     with np.errstate(over="ignore"):
         v1 = (x[:, js - 3] - x[:, js - 4]).astype(np.float64)
@@ -482,7 +484,7 @@ def _arcs_at(x: np.ndarray, js: np.ndarray) -> np.ndarray:
         ok = d11 > 0
         turn = np.where(ok, (2.0 * d12) / np.where(ok, d11, 1.0), 0.0)
         p = (back.astype(np.float64) + turn[..., None] * v2) - v1
-        ok &= (np.abs(p) < ARC_LIMIT).all(-1)  # NaN fails too
+        ok &= (np.abs(p) < PREDICTION_LIMIT).all(-1)  # NaN fails too
         p = np.where(ok[..., None], p, 0.0)
     return np.where(ok[..., None], np.rint(p).astype(np.int64), back)
 

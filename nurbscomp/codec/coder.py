@@ -461,30 +461,20 @@ class _Writer:
             self.add(q.reshape(-1))
         return out
 
-    def predicted(self, p: np.ndarray, origin: np.ndarray) -> np.ndarray:
-        """Grid snap + closed-loop prediction (parallelogram for nets, line for curves)."""
-        h = self.st.grid
-        if not np.abs(p).max() <= MAX_INT * h:  # NaN fails too
-            raise _Unusable
-        q = spatial.snap(p, h)
-        r = _residuals(q)
-        r.reshape(-1, p.shape[-1])[0] -= spatial.snap(_first(origin), h)
-        self.add(r.reshape(-1))
-        return q * h
-
-    def arcs(self, p: np.ndarray, origin: np.ndarray, axis: int) -> np.ndarray:
-        """``ARCS_U``/``ARCS_V``: each pole on its nearest grid point, the rows
-        along ``axis`` predicted as arcs (:func:`spatial.arc_residuals`).  The
-        decoder's prediction is made from the same grid integers by the same
+    def predicted(self, p: np.ndarray, origin: np.ndarray, axis: int | None = None) -> np.ndarray:
+        """Grid snap + closed-loop prediction (parallelogram for nets, line for
+        curves; with ``axis``, ``ARCS_U``/``ARCS_V``'s rows of arcs along it,
+        :func:`spatial.arc_residuals`).  Each pole goes to its nearest grid point, and
+        the decoder predicts from the same grid integers by the same
         operations, so the net returned is what it decodes."""
         h = self.st.grid
         if not np.abs(p).max() <= MAX_INT * h:  # NaN fails too
             raise _Unusable
         q = spatial.snap(p, h)
-        r = spatial.arc_residuals(q, axis)
+        r = _residuals(q) if axis is None else spatial.arc_residuals(q, axis)
         r.reshape(-1, p.shape[-1])[0] -= spatial.snap(_first(origin), h)
-        if not np.abs(r).max() <= MAX_INT:
-            raise _Unusable
+        if axis is not None and not np.abs(r).max() <= MAX_INT:
+            raise _Unusable  # an arc prediction of a wild net may land anywhere
         self.add(r.reshape(-1))
         return q * h
 
@@ -596,20 +586,14 @@ class _Reader:
                 q[k] = d[k] + g
         return q * h
 
-    def predicted(self, like: np.ndarray, origin: np.ndarray) -> np.ndarray:
+    def predicted(
+        self, like: np.ndarray, origin: np.ndarray, axis: int | None = None
+    ) -> np.ndarray:
         h = self.st.grid
         r = self._take(like.size).reshape(like.shape).copy()
         r.reshape(-1, like.shape[-1])[0] += spatial.snap(_first(origin), h)
+        integrate = _integrate if axis is None else _arc_integrator(axis)
         if self.corners and r.ndim == 3:
-            r = _cornered(r, spatial.integrate, self.corners)
-        return _integrate(r) * h
-
-    def arcs(self, like: np.ndarray, origin: np.ndarray, axis: int) -> np.ndarray:
-        h = self.st.grid
-        r = self._take(like.size).reshape(like.shape).copy()
-        r.reshape(-1, like.shape[-1])[0] += spatial.snap(_first(origin), h)
-        integrate = _arc_integrator(axis)
-        if self.corners:
             r = _cornered(r, integrate, self.corners)
         return integrate(r) * h
 
@@ -981,7 +965,7 @@ def _code(
     if method in ARCS:
         if p.ndim != 3:
             raise ValueError("the arc codes are for surface nets")
-        return io.arcs(p, origin, ARCS[method])
+        return io.predicted(p, origin, ARCS[method])
     if method == Method.CHORD:
         ends = p[[0, -1]]
         c = io.grid(ends if isinstance(io, _Writer) else np.empty_like(ends), origin, "ends")

@@ -12,7 +12,7 @@ bit (tests/test_codec.py).  The encoder's side only: a decoder needs
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 
 import numpy as np
 
@@ -549,6 +549,14 @@ SPREAD_COARSER = 3
 SPREAD_SHARES = (RD_SHARE, 1.0, 1.5)
 
 
+def _first_fit(tol: float, rungs: tuple[int, ...], limit: float) -> int | None:
+    """The first of ``rungs`` (exponents e, steps tol·2^(e/4)) whose nearest
+    grid points all fit ``limit`` (h·√3/2 ≤ limit), or None."""
+    return next(
+        (i for i, e in enumerate(rungs) if tol * 2.0 ** (e / 4) * math.sqrt(3) / 2 <= limit), None
+    )
+
+
 def _extrapolated_codes(
     p: np.ndarray,
     tol: float,
@@ -570,16 +578,16 @@ def _extrapolated_codes(
     if p.shape[0] * p.shape[1] > EXTRAPOLATED_MAX:
         return []
     memo = memo or _Memo()
-    fit = [i for i, e in enumerate(rungs) if tol * 2.0 ** (e / 4) * math.sqrt(3) / 2 <= limit]
-    if not fit:
+    fit = _first_fit(tol, rungs, limit)
+    if fit is None:
         return []
-    start = max(0, fit[0] - EXTRAPOLATED_COARSER)
+    start = max(0, fit - EXTRAPOLATED_COARSER)
     trials = [(i, RD_SHARE) for i in range(start, min(start + EXTRAPOLATED_RUNGS, len(rungs)))]
     if memo.measure is not None:
-        first = max(0, fit[0] - SPREAD_COARSER)
+        first = max(0, fit - SPREAD_COARSER)
         trials += [
             (i, share)
-            for i in range(first, fit[0] + 1)
+            for i in range(first, fit + 1)
             for share in SPREAD_SHARES
             if (i, share) not in trials
         ]
@@ -655,10 +663,10 @@ def _lifted_choice(
     ec_turbine 16 %, trj7 5 %)."""
     if s is None or t is None or p.shape[0] * p.shape[1] > EXTRAPOLATED_MAX:
         return None
-    fit = [e for e in rungs if tol * 2.0 ** (e / 4) * math.sqrt(3) / 2 <= limit]
-    if not fit:
+    fit = _first_fit(tol, rungs, limit)
+    if fit is None:
         return None
-    h = tol * 2.0 ** (fit[0] / 4)
+    h = tol * 2.0 ** (rungs[fit] / 4)
     if not np.abs(p).max() <= MAX_INT * h:  # NaN fails too
         return None
     q = spatial.snap(p, h)
@@ -742,24 +750,26 @@ def encode_net(
         # no interior: every Coons method decodes to the boundary method's net
         # with the same integers, and the first of equal codes is kept anyway
         methods = tuple(m for m in methods if m not in _INTERIOR_METHODS)
+
+    def keep(codes: Iterable[NetCode]) -> None:
+        """The cheapest so far stays (the first of equal codes)."""
+        nonlocal best
+        for c in codes:
+            if best is None or c.bits < best.bits:
+                best = c
+
     for method in methods:
         if method == Method.SPATIAL2:
             if p.ndim == 3:
-                for c in _extrapolated_codes(p, tol, rungs, o, limit, memo):
-                    if best is None or c.bits < best.bits:
-                        best = c
+                keep(_extrapolated_codes(p, tol, rungs, o, limit, memo))
                 lifted = _lifted_choice(p, s, t, tol, rungs, limit)
                 # a trial only where its estimate may beat the best code so far
                 if lifted is not None and (best is None or lifted[1] * LIFTED_HOPE < best.bits):
-                    for c in _extrapolated_codes(p, tol, rungs, o, limit, memo, lifted[0], s, t):
-                        if best is None or c.bits < best.bits:
-                            best = c
+                    keep(_extrapolated_codes(p, tol, rungs, o, limit, memo, lifted[0], s, t))
             continue
         if method in LIFTED:  # asked for by name (the search tries them with SPATIAL2)
             if p.ndim == 3 and s is not None and t is not None:
-                for c in _extrapolated_codes(p, tol, rungs, o, limit, memo, method, s, t):
-                    if best is None or c.bits < best.bits:
-                        best = c
+                keep(_extrapolated_codes(p, tol, rungs, o, limit, memo, method, s, t))
             continue
         dfit = None
         if method == Method.DMAP:
@@ -784,21 +794,21 @@ def encode_net(
             if paper:
                 ladders.append(_ladder_settings(Quant.PAPER, PAPER_BITS, 0, tol))
         for settings in ladders:
-            for c in _passing(
-                p,
-                s,
-                t,
-                tol,
-                method,
-                settings,
-                o,
-                basis=basis,
-                dfit=dfit,
-                limit=limit,
-                memo=memo,
-            ):
-                if best is None or c.bits < best.bits:
-                    best = c
+            keep(
+                _passing(
+                    p,
+                    s,
+                    t,
+                    tol,
+                    method,
+                    settings,
+                    o,
+                    basis=basis,
+                    dfit=dfit,
+                    limit=limit,
+                    memo=memo,
+                )
+            )
     if best is None:
         raise NoCodeError(f"no code within {limit} among {[m.name for m in methods]}")
     return best

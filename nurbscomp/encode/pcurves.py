@@ -327,14 +327,12 @@ def unit_surfaces(
             lifted = code is not None and code.method in codec.LIFTED
             if code is not None and code.method not in KNOTLESS_CODES and not lifted:
                 continue
-            uv = tuple(_unit_map(k) for k in (g.uknots, g.vknots))
-            if uv != (None, None) and code is not None and lifted:
-                u, v = uv
-                moved = replace(g, uknots=_unit(g.uknots, u), vknots=_unit(g.vknots, v))
-                if not _same_weights(code.method, g, moved):
-                    continue
-            if uv != (None, None):
-                maps[i] = uv  # type: ignore[assignment]
+            uv: tuple[Ends | None, Ends | None] = (_unit_map(g.uknots), _unit_map(g.vknots))
+            if uv == (None, None):
+                continue
+            if code is not None and lifted and not _same_weights(code.method, g, _mapped(g, uv)):
+                continue
+            maps[i] = uv
         elif isinstance(g, Analytic) and g.kind == Kind.PLANE and not g.through:
             n, o = g.frame[1], g.frame[0]
             axis = np.flatnonzero(n != 0)
@@ -353,13 +351,17 @@ def unit_surfaces(
             table.append(table[first[i]])  # the rows of a record share it
         elif i in maps:
             assert isinstance(g, BSplineSurface)
-            u, v = maps[i]
-            table.append(replace(g, uknots=_unit(g.uknots, u), vknots=_unit(g.vknots, v)))
+            table.append(_mapped(g, maps[i]))
         else:
             table.append(planes.get(i, g))
     out: Any = replace(m)
     out.surfaces = table
     return out
+
+
+def _mapped(g: BSplineSurface, uv: tuple[Ends | None, Ends | None]) -> BSplineSurface:
+    """``g`` with its knots mapped by ``uv`` (:func:`_unit_map` of u and v)."""
+    return replace(g, uknots=_unit(g.uknots, uv[0]), vknots=_unit(g.vknots, uv[1]))
 
 
 def _same_weights(method: codec.Method, g: BSplineSurface, moved: BSplineSurface) -> bool:
