@@ -555,10 +555,12 @@ class Runner:
             inner = self._pool()
         try:
             for rec, blob in inner:
-                self._reported.add((rec["input"], rec["output"] or STDIO))
                 if self.opts.remove_input and rec["status"] == "ok":
                     rec = remove_input(rec)
                 yield rec, blob
+                # reported once the caller asks for the next: an interrupt
+                # while it reports this one leaves it to settled()
+                self._reported.add((rec["input"], rec["output"] or STDIO))
         finally:
             inner.close()
             _remove_empty(self._new_folders)

@@ -467,14 +467,18 @@ def _batch(
     untold = opts.command == "compress" and kw.get("tol") is None and not lossless
     untold = untold and not (quiet or as_json)
 
-    def report(r: dict[str, Any]) -> None:
+    shown: set[tuple[str, str | None]] = set()  # (input, output) of each record printed
+
+    def report(r: dict[str, Any], count: bool = True) -> None:
         nonlocal untold
-        records.append(r)
-        bar.update(r)
+        if count:
+            records.append(r)
+            bar.update(r)
         if untold and r["status"] == "ok" and r.get("mode") == "tolerance":
             bar.write(f"tolerance {opts.tol:g} mm (default; --tol to change)", True)
             untold = False
         _report(state, r, as_json, quiet, text, bar, say_err)
+        shown.add((r["input"], r["output"]))
 
     try:
         for r, blob in gen:
@@ -485,8 +489,10 @@ def _batch(
     except KeyboardInterrupt as e:
         stop = e
         gen.close()  # stops the workers: each removes the output it was writing
-        for r in runner.settled():
-            report(r)
+        counted = {(r["input"], r["output"]) for r in records}
+        for r in runner.settled():  # what was done but not printed, once
+            if (r["input"], r["output"]) not in shown:
+                report(r, count=(r["input"], r["output"]) not in counted)
     except batch.SchedulerError as e:
         bar.close()
         click.echo(f"error: {show(kw['scheduler'])}: {show(e)}", err=True)
