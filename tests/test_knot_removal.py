@@ -14,7 +14,7 @@ from nurbscomp import bspline, container, occ, pipeline
 from nurbscomp.coons import full_knots
 from nurbscomp.encode import knots as K
 from nurbscomp.encode import removal
-from nurbscomp.model import BSplineSurface
+from nurbscomp.model import BSplineCurve, BSplineSurface
 from nurbscomp.occ import topology
 
 from .conftest import assert_comes_back
@@ -158,4 +158,78 @@ def test_a_dense_fitted_face_comes_back_with_fewer_poles(tmp_path: Path) -> None
     ]
     assert pairs
     assert all(b.poles[..., 0].size < a.poles[..., 0].size / 2 for a, b in pairs)
+    assert_comes_back(src, nzc, 0.1, n=7)
+
+
+def _dense_curve(rng: np.random.Generator, rational: bool, noise: float) -> BSplineCurve:
+    """A cubic of 7 poles over a chord-length-like vector with 9 knots
+    inserted (the same curve, more poles), its poles then moved by up to
+    ``noise``."""
+    poles = np.cumsum(rng.normal(size=(7, 3)) * [20.0, 15.0, 5.0] + [30.0, 0.0, 0.0], 0)
+    w = rng.uniform(0.7, 1.4, 7) if rational else None
+    k, mu = np.array([0.0, 11.5, 20.25, 37.0, 48.5]), np.array([4, 1, 1, 1, 4])
+    coarse = BSplineCurve(poles, w, k, mu, 3, False)
+    new_k = np.sort(np.r_[k, [3.0, 6.5, 15.0, 17.0, 26.0, 30.5, 41.0, 44.0, 46.0]])
+    new_m = np.r_[4, np.ones(len(new_k) - 2, int), 4]
+    h = bspline.refine(k, mu, K.homogeneous(coarse), 3, np.repeat(new_k, new_m))
+    if rational:
+        p, w = h[:, :3] / h[:, 3:], h[:, 3]
+    else:
+        p, w = h, None
+    return BSplineCurve(p + rng.uniform(-noise, noise, p.shape), w, new_k, new_m, 3, False)
+
+
+def _curve_points(g: BSplineCurve, n: int = 401) -> np.ndarray:
+    x = np.linspace(g.knots[0], g.knots[-1], n)
+    p = bspline.points(full_knots(g.knots, g.mults), K.homogeneous(g), g.degree, x)
+    return p if g.weights is None else p[:, :3] / p[:, 3:]
+
+
+@pytest.mark.parametrize("rational", [False, True])
+@pytest.mark.parametrize("seed", range(3))
+def test_a_curve_loses_knots_within_the_certified_bound(seed: int, rational: bool) -> None:
+    """A 3-D curve's inner knots go as a surface's do: evaluated points move no
+    further than the certified move, within the budget; its end poles stay
+    (the vertices pinned to them see the same ends)."""
+    rng = np.random.default_rng(seed)
+    dense = _dense_curve(rng, rational, 1e-4)
+    out = removal.removed(dense, 0.01)
+    assert out is not None
+    thin, bound = out
+    assert bound <= 0.01 and K.moved(thin, dense) == bound
+    assert np.linalg.norm(_curve_points(thin) - _curve_points(dense), axis=-1).max() <= bound
+    assert len(thin.poles) <= len(dense.poles) - 6
+    for i in (0, -1):
+        np.testing.assert_allclose(thin.poles[i], dense.poles[i], rtol=0, atol=1e-9)
+    # a curve whose every knot carries shape keeps them
+    assert removal.removed(_dense_curve(rng, rational, 5.0), 0.01) is None
+
+
+def _spline_prism(path: Path) -> Path:
+    """A prism on a closed spline through 48 points of a smooth wavy loop:
+    two planar faces bounded by an interpolated B-spline edge of some 50
+    poles (far more than it needs at 0.1 mm), not the side of any coded
+    surface, and the linear extrusion of it."""
+    t = np.linspace(0.0, 2 * np.pi, 48, endpoint=False)
+    r = 40.0 + 3.0 * np.sin(3 * t)
+    pts = [(float(a), float(b)) for a, b in zip(r * np.cos(t), 0.7 * r * np.sin(t))]
+    part = cq.Workplane("XY").spline(pts, periodic=False).close().extrude(12.0)
+    cq.exporters.export(part, str(path))
+    return path
+
+
+def test_a_dense_spline_edge_comes_back_with_fewer_poles(tmp_path: Path) -> None:
+    src = _spline_prism(tmp_path / "prism.step")
+    nzc = tmp_path / "prism.nzc"
+    rep = pipeline.compress_file(src, nzc, tol=0.1)
+    assert rep["verified"] and rep["max_curve_bound_mm"] <= 0.1
+    back, _ = pipeline.decode(container.unpack(nzc.read_bytes()))
+    source, _ = topology.shape_to_model(occ.read_cad(src).shape)
+    pairs = [
+        (a, b)
+        for a, b in zip(source.curves3d, back.curves3d)
+        if isinstance(a, BSplineCurve) and isinstance(b, BSplineCurve) and len(a.poles) > 20
+    ]
+    assert pairs
+    assert all(len(b.poles) < len(a.poles) / 2 for a, b in pairs)
     assert_comes_back(src, nzc, 0.1, n=7)

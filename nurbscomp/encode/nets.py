@@ -285,9 +285,9 @@ def _code_one(
             code = replace(code, bound=code.bound + kterm)
             break
     out = _rounded_weights(replace(code, limit=limit), g, replace(h, poles=net), wbits, limit)
-    if removable and isinstance(g, BSplineSurface):
+    if removable:
         fewer = _removed(g, tol, methods, origin, limit, wbits, removable, spread)
-        if fewer is not None and _size(fewer) < _size(out):
+        if fewer is not None and _size(fewer, RAW_KNOT_BITS) < _size(out):
             if spare is not None:
                 spare.append(out)
             return fewer
@@ -300,11 +300,13 @@ def _rounded_weights(
     decoded: BSplineSurface | BSplineCurve,
     wbits: int | None,
     limit: float,
+    away: float = 0.0,
 ) -> tuple[codec.NetCode, Geometry]:
     """``decoded`` (the rational row ``base`` as coded) with ``base``'s weights
     rounded to ``wbits`` (:mod:`.weights`) where their term fits between the
     code's bound and ``limit``.  Not under a D-map, whose basis holds the
-    weights (eq. 18)."""
+    weights (eq. 18).  ``away``: how far ``base`` itself is from the source
+    (knots removed), which the code's bound holds and a new bound must add."""
     if wbits is None or code.method == codec.Method.DMAP:
         return code, decoded
     if base.weights is None:
@@ -314,7 +316,7 @@ def _rounded_weights(
         return code, decoded  # (a shortcut: the poles' term hardly moves with the weights)
     rounded = replace(decoded, weights=w)
     # the poles' term on the rounded weights' basis, and the weights' own
-    bound = weights.moved(rounded, base)
+    bound = weights.moved(rounded, base) + away
     if bound <= limit:
         return replace(code, bound=bound), rounded
     return code, decoded
@@ -322,6 +324,9 @@ def _rounded_weights(
 
 #: Whether surfaces may lose inner knots (:mod:`.removal`).
 REMOVAL = True
+
+#: Whether coded 3-D curves may lose inner knots too (:mod:`.removal`).
+CURVE_REMOVAL = True
 
 #: The share of a surface's limit its removed knots may take (:mod:`.removal`).
 REMOVAL_SHARE = 0.5
@@ -331,18 +336,33 @@ REMOVAL_SHARE = 0.5
 KNOT_BITS = 32.0
 
 
-def _size(coded: tuple[codec.NetCode, Geometry]) -> float:
-    """A coded row's estimated bits: its code's, its knots' and its weights'."""
+#: What a curve's inner knot left as the source has it (knots removed: not
+#: rounded, :mod:`.knots`) is taken to cost: a float LZMA finds little in.
+RAW_KNOT_BITS = 64.0
+
+
+def _size(coded: tuple[codec.NetCode, Geometry], curve_knot: float = KNOT_BITS) -> float:
+    """A coded row's estimated bits: its code's, its knots' and its weights'
+    (a curve's inner knots at ``curve_knot`` bits each, none where evenly
+    spaced)."""
     code, g = coded
-    n = 0
-    if isinstance(g, BSplineSurface):
-        n = len(g.uknots) + len(g.vknots)
     w = getattr(g, "weights", None)
-    return code.bits + KNOT_BITS * (n + (0 if w is None else w.size))
+    bits = code.bits + KNOT_BITS * (0 if w is None else w.size)
+    if isinstance(g, BSplineCurve):
+        return bits + (0.0 if _even(g.knots) else curve_knot * (len(g.knots) - 2))
+    n = len(g.uknots) + len(g.vknots) if isinstance(g, BSplineSurface) else 0
+    return bits + KNOT_BITS * n
+
+
+def _even(k: np.ndarray) -> bool:
+    """Whether a knot vector is evenly spaced (its inner knots then cost next
+    to nothing: docs/format.md §2.3, forms 2 and 6)."""
+    d = np.diff(k)
+    return len(k) <= 2 or bool(np.all(np.abs(d - d[0]) <= 1e-12 * max(1.0, abs(k[-1]))))
 
 
 def _removed(
-    g: BSplineSurface,
+    g: BSplineSurface | BSplineCurve,
     tol: float,
     methods: tuple[codec.Method, ...],
     origin: np.ndarray | None,
@@ -365,7 +385,7 @@ def _removed(
     if code.bound + d > limit:
         return None
     coded = replace(code, bound=code.bound + d, limit=limit)
-    return _rounded_weights(coded, h, replace(h, poles=net), wbits, limit)
+    return _rounded_weights(coded, h, replace(h, poles=net), wbits, limit, d)
 
 
 def _code_table(
@@ -709,6 +729,9 @@ def code_model(
                     del surfaces[sk]
                     uncodable.add(sk)
     at = joins.anchors(m, m.curves3d, crows)
+    if REMOVAL and CURVE_REMOVAL:  # not a twin's leader: its copies take its poles
+        leaders = {r for r, _, _ in twins.values()}
+        removable.update({crec[c]: (0,) for c in crows if c not in leaders})
     coded = Coded(
         surfaces,
         _code_table(
@@ -723,6 +746,7 @@ def code_model(
             uncodable,
             wbits,
             kplan,
+            removable=removable,
             rigid=rigid,
         ),
         tol,

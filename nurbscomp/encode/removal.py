@@ -26,6 +26,14 @@ poles of each direction), so corners and the boundaries across the reduced
 direction do not move: vertex pins and iso-boundary curves see the same
 corners.  An iso-boundary curve takes the reduced side's knots with its
 poles (``assembly._copy_iso``).
+
+Coded 3-D curves too (``nets.CURVE_REMOVAL``): those the encoder codes
+itself, not an iso-boundary copy and not a twin curve's leader (a twin
+copies its leader's poles on its own knots, ``assembly._copy_twins``).
+Their end poles stay, so the vertices pinned to them and the edge ranges
+(the first and last knot) see the same ends; an interpolated edge of 50
+poles (a spline through points) keeps a dozen at 0.1 mm.  Their remaining
+knots are the source's, not rounded (``nets.RAW_KNOT_BITS`` prices them).
 """
 
 from __future__ import annotations
@@ -35,8 +43,10 @@ from dataclasses import replace
 import numpy as np
 
 from .. import bspline
-from ..model import BSplineSurface
+from ..model import BSplineCurve, BSplineSurface
 from . import knots
+
+Row = BSplineSurface | BSplineCurve
 
 #: Passes over a vector's inner knots (each pass tries every knot once).
 PASSES = 2
@@ -65,23 +75,37 @@ def _fit(h: np.ndarray, a: np.ndarray) -> np.ndarray:
     return x.reshape((a.shape[1], *h.shape[1:]))
 
 
-def _from_homogeneous(g: BSplineSurface, h: np.ndarray) -> BSplineSurface | None:
+def _from_homogeneous(g: Row, h: np.ndarray) -> Row | None:
     if g.weights is None:
         return replace(g, poles=h)
-    w = h[..., 3]
+    w = h[..., -1]
     if not (w > 0).all():
         return None
-    return replace(g, poles=h[..., :3] / w[..., None], weights=w)
+    return replace(g, poles=h[..., :-1] / w[..., None], weights=w)
 
 
-def _direction(
-    g: BSplineSurface, source: BSplineSurface, axis: int, budget: float
-) -> tuple[BSplineSurface, float]:
+def _knots(g: Row, axis: int) -> tuple[int, np.ndarray, np.ndarray]:
+    """Degree, knots and multiplicities of ``g`` along ``axis`` (0: u, or a curve's)."""
+    if isinstance(g, BSplineCurve):
+        return g.degree, g.knots, g.mults
+    if axis == 0:
+        return g.udegree, g.uknots, g.umults
+    return g.vdegree, g.vknots, g.vmults
+
+
+def _with_knots(g: Row, axis: int, k: np.ndarray, m: np.ndarray) -> Row:
+    if isinstance(g, BSplineCurve):
+        return replace(g, knots=k, mults=m)
+    if axis == 0:
+        return replace(g, uknots=k, umults=m)
+    return replace(g, vknots=k, vmults=m)
+
+
+def _direction(g: Row, source: Row, axis: int, budget: float) -> tuple[Row, float]:
     """``g`` (``source`` reduced so far) with inner knots of direction ``axis``
-    (0: u) removed, one multiplicity at a time, while its move from
+    (0: u, or a curve's) removed, one multiplicity at a time, while its move from
     ``source`` (:func:`knots.moved`) stays within ``budget``."""
-    degree = g.udegree if axis == 0 else g.vdegree
-    full_k, full_m = (g.uknots, g.umults) if axis == 0 else (g.vknots, g.vmults)
+    degree, full_k, full_m = _knots(g, axis)
     target = np.swapaxes(knots.homogeneous(g), 0, axis)  # fitted against, poles on full_k
     flat_full = np.repeat(full_k, full_m)
     best, moved = g, knots.moved(g, source)
@@ -96,12 +120,7 @@ def _direction(
                 tk, tm = np.delete(kn, i), np.delete(tm, i)
             a = _matrix(np.repeat(tk, tm), flat_full, degree)
             h = np.swapaxes(_fit(target, a), 0, axis)
-            base = (
-                replace(best, uknots=tk, umults=tm)
-                if axis == 0
-                else replace(best, vknots=tk, vmults=tm)
-            )
-            cand = _from_homogeneous(base, h)
+            cand = _from_homogeneous(_with_knots(best, axis, tk, tm), h)
             d = float("inf") if cand is None else knots.moved(cand, source)
             if cand is not None and d <= budget:
                 gone = len(tk) < len(kn)
@@ -114,17 +133,15 @@ def _direction(
     return best, moved
 
 
-def removed(
-    g: BSplineSurface, budget: float, axes: tuple[int, ...] = (0, 1)
-) -> tuple[BSplineSurface, float] | None:
+def removed(g: Row, budget: float, axes: tuple[int, ...] = (0, 1)) -> tuple[Row, float] | None:
     """``g`` with as many inner knots of the directions ``axes`` (0: u)
     removed as keep it within ``budget`` of itself (:func:`knots.moved`,
     certified), and that move; None where no knot goes or ``g`` is not a row
     this applies to (module docstring)."""
-    if not knots.codable(g) or not isinstance(g, BSplineSurface) or budget <= 0:
+    if not knots.codable(g) or budget <= 0:
         return None
     out, d = g, 0.0
-    for axis in axes:
+    for axis in (0,) if isinstance(g, BSplineCurve) else axes:
         out, d = _direction(out, g, axis, budget)
     if out is g:
         return None

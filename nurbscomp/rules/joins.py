@@ -440,7 +440,9 @@ def overreaching(
     for c, pins in curve_end_pins(m, decoded, coded_rows, tol).items():
         g = m.curves3d[c]
         assert isinstance(g, BSplineCurve)
-        if any(np.sqrt(((g.poles[i] - m.vertex_point[v]) ** 2).sum()) > tol for i, v in pins):
+        # a pin's index is the decoded row's (0 or its last): knots removed leave fewer poles
+        ends = [(0 if i == 0 else -1, v) for i, v in pins]
+        if any(np.sqrt(((g.poles[i] - m.vertex_point[v]) ** 2).sum()) > tol for i, v in ends):
             out.add(c)
     return out
 
