@@ -92,3 +92,37 @@ def test_point_ids_are_bit_for_bit():
     ids = assembly._point_ids(p)
     assert ids[0] == ids[2] and len({ids[0], ids[1], ids[3]}) == 3
     assert len(assembly._point_ids(np.zeros((0, 3)))) == 0
+
+
+def test_coarse_grid_where_the_features_leave_room():
+    """``_fine_levels``: a vertex whose finest feature is at least COARSE_ROOM
+    times the coarse grid's bound goes to the coarse grid (4 bits a
+    coordinate fewer), the others to the fine one; each within its own
+    bound, which is the coarse feature's share at most."""
+    tol = 0.1
+    p = _points(120, 3)
+    lead = np.arange(len(p))
+    e = np.floor(np.log2(tol))
+    coarse, fine = 2.0 ** (e - assembly.COARSE_BITS), 2.0 ** (e - assembly.FINE_BITS)
+    scale = np.full(len(p), tol)
+    scale[60:] = coarse  # features finer than the coarse grid's room
+    may = np.ones(len(p), bool)
+    moved, at, bound = assembly._fine_levels(p, lead, may, scale, tol)
+    assert moved.all()
+    assert np.array_equal(at[:60] / coarse, np.rint(at[:60] / coarse))
+    assert not np.array_equal(at[60:] / coarse, np.rint(at[60:] / coarse))
+    assert np.array_equal(at[60:] / fine, np.rint(at[60:] / fine))
+    d = np.linalg.norm(at - p, axis=1)
+    assert (d <= bound).all()
+    assert np.allclose(bound[:60], coarse * np.sqrt(3) / 2, rtol=1e-6)
+    assert np.allclose(bound[60:], fine * np.sqrt(3) / 2, rtol=1e-6)
+    assert (bound[:60] * assembly.COARSE_ROOM <= scale[:60]).all()
+    # a vertex the caller keeps stays, bound 0
+    may[0] = False
+    moved, at, bound = assembly._fine_levels(p, lead, may, scale, tol)
+    assert not moved[0] and np.array_equal(at[0], p[0]) and bound[0] == 0.0
+    # a coarse point that would land on another vertex's point leaves that one where it is
+    q = p.copy()
+    q[1] = np.rint(q[2] / coarse) * coarse  # vertex 1 sits where vertex 2 would land
+    moved, at, _ = assembly._fine_levels(q, lead, np.ones(len(q), bool), scale, tol)
+    assert len({tuple(x) for x in at.tolist()}) == len(at)

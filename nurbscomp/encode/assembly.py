@@ -658,6 +658,7 @@ def _snap_vertices(
     srec, crec = records(m.surfaces, Table.SURFACE), records(m.curves3d, Table.CURVE3D)
     ok = np.ones(len(m.vertex_tol), bool)
     trails = np.zeros(len(m.vertex_tol), bool)  # beside a curve that stays where it is
+    scale = np.full(len(m.vertex_tol), coded.tol)  # the finest feature limit at each vertex
     for e, s in enumerate(np.flatnonzero(m.shape_type == ShapeType.EDGE).tolist()):
         c = curve_of.get(e, -1)
         follows = c >= 0 and (
@@ -680,10 +681,17 @@ def _snap_vertices(
         if not moving or crec[c] in coded.fine:
             for v in below(m, s, ShapeType.VERTEX):
                 ok[tidx[v]] = False
+        if c >= 0 and crec[c] in coded.fine:
+            lim = feature_limit(poles_of(m.curves3d[c]), coded.tol)
+            for v in below(m, s, ShapeType.VERTEX):
+                scale[tidx[v]] = min(scale[tidx[v]], lim)
     for f, s in enumerate(np.flatnonzero(m.shape_type == ShapeType.FACE).tolist()):
-        if srec[resolve_row(m.surfaces, int(m.face_surface[f]), TRIM_S)] in coded.fine:
+        r = resolve_row(m.surfaces, int(m.face_surface[f]), TRIM_S)
+        if srec[r] in coded.fine:
+            lim = feature_limit(poles_of(m.surfaces[r]), coded.tol)
             for v in below(m, s, ShapeType.VERTEX):
                 ok[tidx[v]] = False
+                scale[tidx[v]] = min(scale[tidx[v]], lim)
     held = np.zeros(len(ok), bool)  # kept where they are by the validity ladder
     held[sorted(still)] = True
     ok &= ~held
@@ -696,7 +704,7 @@ def _snap_vertices(
     ok &= _kept_apart(m.vertex_point, at_grid, lead)
     ok &= ~np.isin(lead, lead[~ok])  # a cluster moves as one or stays
     p = m.vertex_point
-    fine, at_fine, fine_bound = _fine_points(p, lead, ~ok & ~trails & ~held, coded.tol, FINE_BITS)
+    fine, at_fine, fine_bound = _fine_levels(p, lead, ~ok & ~trails & ~held, scale, coded.tol)
     # Not the validity ladder's held vertices, nor the twins at their point
     # (moved even this little, bearing.iges fell back to every record exact,
     # 75 kB, and ec_turbine and trj7 at 0.1 mm too); the rest of a held
@@ -731,6 +739,12 @@ def _snap_vertices(
 #: A vertex that stays off the vertex grid is rounded to the binary grid
 #: 2**(floor(log2 tol) - FINE_BITS) instead (:func:`_fine_points`).
 FINE_BITS = 10
+#: Where the finest feature at a vertex leaves room (:func:`_fine_levels`),
+#: the grid is 2**(floor(log2 tol) - COARSE_BITS): 4 bits a coordinate fewer.
+COARSE_BITS = 6
+#: ... room: the features' limits (``nets.feature_limit``) at the vertex are
+#: at least this many times the coarse grid's bound.
+COARSE_ROOM = 16.0
 #: A vertex that would stay where it is (beside a curve kept exact, or
 #: below a finer feature) is rounded to 2**(floor(log2 tol) - MICRO_BITS)
 #: still: a move under tol·5e-8 (below OCCT's confusion distance, 1e-7 mm,
@@ -742,6 +756,25 @@ MICRO_BITS = 24
 #: cost as much (bearing.iges, 5 of them: 0.1 mm came out 2 bytes above
 #: 0.01 mm).
 MIN_FINE = 16
+
+
+def _fine_levels(
+    p: np.ndarray, lead: np.ndarray, may: np.ndarray, scale: np.ndarray, tol: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Which vertices of ``may`` move to a binary grid (:func:`_fine_points`),
+    the points there, and each one's bound: the coarse grid of
+    :data:`COARSE_BITS` where ``scale`` (per vertex, the finest feature limit
+    of the coded rows at it, at most tol) is at least :data:`COARSE_ROOM`
+    times that grid's bound, the fine grid of :data:`FINE_BITS` for the rest
+    (a part whose features are all finer than tol, as a bearing 0.1 mm
+    across, keeps today's grid).  The fine pass sees the coarse vertices
+    where they went, so no vertex lands on another."""
+    coarse = 2.0 ** (np.floor(np.log2(tol)) - COARSE_BITS) * np.sqrt(3.0) / 2
+    fine, at, b = _fine_points(p, lead, may & (scale >= COARSE_ROOM * coarse), tol, COARSE_BITS)
+    moved = np.where(fine[:, None], at, p)
+    finer, at_finer, b_finer = _fine_points(moved, lead, may & ~fine, tol, FINE_BITS)
+    at = np.where(finer[:, None], at_finer, moved)
+    return fine | finer, at, np.where(fine, b, np.where(finer, b_finer, 0.0))
 
 
 def _fine_points(

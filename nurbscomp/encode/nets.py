@@ -300,13 +300,13 @@ def _rounded_weights(
     decoded: BSplineSurface | BSplineCurve,
     wbits: int | None,
     limit: float,
-    away: float = 0.0,
+    source: BSplineSurface | BSplineCurve | None = None,
 ) -> tuple[codec.NetCode, Geometry]:
     """``decoded`` (the rational row ``base`` as coded) with ``base``'s weights
     rounded to ``wbits`` (:mod:`.weights`) where their term fits between the
     code's bound and ``limit``.  Not under a D-map, whose basis holds the
-    weights (eq. 18).  ``away``: how far ``base`` itself is from the source
-    (knots removed), which the code's bound holds and a new bound must add."""
+    weights (eq. 18).  ``source``: the row ``base`` was made from by removing
+    knots, which the new bound is measured against (:func:`knots.moved`)."""
     if wbits is None or code.method == codec.Method.DMAP:
         return code, decoded
     if base.weights is None:
@@ -316,7 +316,7 @@ def _rounded_weights(
         return code, decoded  # (a shortcut: the poles' term hardly moves with the weights)
     rounded = replace(decoded, weights=w)
     # the poles' term on the rounded weights' basis, and the weights' own
-    bound = weights.moved(rounded, base) + away
+    bound = weights.moved(rounded, base) if source is None else knots.moved(rounded, source)
     if bound <= limit:
         return replace(code, bound=bound), rounded
     return code, decoded
@@ -385,7 +385,7 @@ def _removed(
     if code.bound + d > limit:
         return None
     coded = replace(code, bound=code.bound + d, limit=limit)
-    return _rounded_weights(coded, h, replace(h, poles=net), wbits, limit, d)
+    return _rounded_weights(coded, h, replace(h, poles=net), wbits, limit, g)
 
 
 def _code_table(
