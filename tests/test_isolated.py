@@ -161,8 +161,11 @@ def test_a_model_the_reader_may_loop_on_is_still_checked(
     check keeps out.  Coded with the pole bound (``nets.SPREAD`` off), whose
     first candidate is the one that gains the edge: written with the
     tolerance the coding widened as its uncertainty, it keeps its 4 edges
-    (``ValidityReport.uncertainty``; before, a second round held it)."""
+    (``ValidityReport.uncertainty``; before, a second round held it).  Its
+    edges keep their knots (``nets.CURVE_REMOVAL`` off): with fewer poles the
+    first candidate keeps its 4 edges, and this check would not be reached."""
     monkeypatch.setattr(nets, "SPREAD", False)
+    monkeypatch.setattr(nets, "CURVE_REMOVAL", False)
     src = tmp_path / "offrev.step"
     occ.write_shape(_offset_of_revolution(), src, "STEP")
     m = occ.shape_to_model(occ.read_cad(src).shape)[0]

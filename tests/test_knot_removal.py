@@ -205,22 +205,22 @@ def test_a_curve_loses_knots_within_the_certified_bound(seed: int, rational: boo
     assert removal.removed(_dense_curve(rng, rational, 5.0), 0.01) is None
 
 
-def _spline_prism(path: Path) -> Path:
-    """A prism on a closed spline through 48 points of a smooth wavy loop:
-    two planar faces bounded by an interpolated B-spline edge of some 50
+def _spline_plate(path: Path) -> Path:
+    """A flat plate bounded by a closed spline through 48 points of a smooth
+    wavy loop: one planar face and one interpolated B-spline edge of some 50
     poles (far more than it needs at 0.1 mm), not the side of any coded
-    surface, and the linear extrusion of it."""
+    surface and sharing its knot vector with no other row."""
     t = np.linspace(0.0, 2 * np.pi, 48, endpoint=False)
     r = 40.0 + 3.0 * np.sin(3 * t)
     pts = [(float(a), float(b)) for a, b in zip(r * np.cos(t), 0.7 * r * np.sin(t))]
-    part = cq.Workplane("XY").spline(pts, periodic=False).close().extrude(12.0)
-    cq.exporters.export(part, str(path))
+    wire = cq.Workplane("XY").spline(pts, periodic=False).close().wires().val()
+    cq.exporters.export(cq.Workplane().add(cq.Face.makeFromWires(wire)), str(path))
     return path
 
 
 def test_a_dense_spline_edge_comes_back_with_fewer_poles(tmp_path: Path) -> None:
-    src = _spline_prism(tmp_path / "prism.step")
-    nzc = tmp_path / "prism.nzc"
+    src = _spline_plate(tmp_path / "plate.step")
+    nzc = tmp_path / "plate.nzc"
     rep = pipeline.compress_file(src, nzc, tol=0.1)
     assert rep["verified"] and rep["max_curve_bound_mm"] <= 0.1
     back, _ = pipeline.decode(container.unpack(nzc.read_bytes()))

@@ -729,9 +729,18 @@ def code_model(
                     del surfaces[sk]
                     uncodable.add(sk)
     at = joins.anchors(m, m.curves3d, crows)
-    if REMOVAL and CURVE_REMOVAL:  # not a twin's leader: its copies take its poles
+    if REMOVAL and CURVE_REMOVAL:
+        # not a twin's leader (its copies take its poles), nor a curve whose
+        # knot vector another row has (a sweep's, a loft's: stored once)
         leaders = {r for r, _, _ in twins.values()}
-        removable.update({crec[c]: (0,) for c in crows if c not in leaders})
+        shared = _shared_vectors(m, srows0, crows)
+        removable.update(
+            {
+                crec[c]: (0,)
+                for c in crows
+                if c not in leaders and _vector_key(m.curves3d[c]) not in shared
+            }
+        )
     coded = Coded(
         surfaces,
         _code_table(
@@ -775,6 +784,26 @@ def code_model(
             if isinstance(g, (BSplineSurface, BSplineCurve)) and feature_limit(g.poles, tol) < tol:
                 coded.fine.add(k)
     return coded
+
+
+def _key(k: np.ndarray, mults: np.ndarray) -> bytes:
+    return np.asarray(k, np.float64).tobytes() + np.asarray(mults, np.int64).tobytes()
+
+
+def _vector_key(g: Geometry) -> bytes:
+    assert isinstance(g, BSplineCurve)
+    return _key(g.knots, g.mults)
+
+
+def _shared_vectors(m: BRepModel, srows: Set[int], crows: Set[int]) -> set[bytes]:
+    """Knot vectors (knots and multiplicities, bit for bit) that more than one
+    of the coded surface directions and 3-D curves have."""
+    keys = collections.Counter(_vector_key(m.curves3d[c]) for c in sorted(crows))
+    for r in sorted(srows):
+        g = m.surfaces[r]
+        assert isinstance(g, BSplineSurface)
+        keys.update([_key(g.uknots, g.umults), _key(g.vknots, g.vmults)])
+    return {k for k, n in keys.items() if n > 1}
 
 
 #: Edges whose points agree within this (mm) meet in the source: the sewing
