@@ -5,6 +5,7 @@ comes back with fewer poles."""
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import cadquery as cq
 import numpy as np
@@ -144,21 +145,28 @@ def _dense_face(path: Path) -> Path:
     return path
 
 
-def test_a_dense_fitted_face_comes_back_with_fewer_poles(tmp_path: Path) -> None:
-    src = _dense_face(tmp_path / "plate.step")
-    nzc = tmp_path / "plate.nzc"
+def _coded_pairs(src: Path, tmp_path: Path, bound: str, table: str) -> list[tuple[Any, Any]]:
+    """``src`` compressed at 0.1 mm, verified within ``bound`` (a report key)
+    and decoded: the (source, decoded) rows of ``table`` (a model field)."""
+    nzc = tmp_path / "out.nzc"
     rep = pipeline.compress_file(src, nzc, tol=0.1)
-    assert rep["verified"] and rep["max_bound_mm"] <= 0.1
+    assert rep["verified"] and rep[bound] <= 0.1
+    assert_comes_back(src, nzc, 0.1, n=7)
     back, _ = pipeline.decode(container.unpack(nzc.read_bytes()))
     source, _ = topology.shape_to_model(occ.read_cad(src).shape)
+    return list(zip(getattr(source, table), getattr(back, table)))
+
+
+def test_a_dense_fitted_face_comes_back_with_fewer_poles(tmp_path: Path) -> None:
     pairs = [
         (a, b)
-        for a, b in zip(source.surfaces, back.surfaces)
+        for a, b in _coded_pairs(
+            _dense_face(tmp_path / "plate.step"), tmp_path, "max_bound_mm", "surfaces"
+        )
         if isinstance(a, BSplineSurface) and isinstance(b, BSplineSurface)
     ]
     assert pairs
     assert all(b.poles[..., 0].size < a.poles[..., 0].size / 2 for a, b in pairs)
-    assert_comes_back(src, nzc, 0.1, n=7)
 
 
 def _dense_curve(rng: np.random.Generator, rational: bool, noise: float) -> BSplineCurve:
@@ -220,16 +228,10 @@ def _spline_plate(path: Path) -> Path:
 
 def test_a_dense_spline_edge_comes_back_with_fewer_poles(tmp_path: Path) -> None:
     src = _spline_plate(tmp_path / "plate.step")
-    nzc = tmp_path / "plate.nzc"
-    rep = pipeline.compress_file(src, nzc, tol=0.1)
-    assert rep["verified"] and rep["max_curve_bound_mm"] <= 0.1
-    back, _ = pipeline.decode(container.unpack(nzc.read_bytes()))
-    source, _ = topology.shape_to_model(occ.read_cad(src).shape)
     pairs = [
         (a, b)
-        for a, b in zip(source.curves3d, back.curves3d)
+        for a, b in _coded_pairs(src, tmp_path, "max_curve_bound_mm", "curves3d")
         if isinstance(a, BSplineCurve) and isinstance(b, BSplineCurve) and len(a.poles) > 20
     ]
     assert pairs
     assert all(len(b.poles) < len(a.poles) / 2 for a, b in pairs)
-    assert_comes_back(src, nzc, 0.1, n=7)
