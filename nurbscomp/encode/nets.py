@@ -42,6 +42,7 @@ from ..model import (
 from ..rules import joins
 from ..rules.nets import net_abscissae, net_basis
 from ..serialize import SWEPT
+from ..serialize.geometry import evenly_spaced
 from . import coincide, deviation, knots, removal, weights
 
 
@@ -343,22 +344,15 @@ RAW_KNOT_BITS = 64.0
 
 def _size(coded: tuple[codec.NetCode, Geometry], curve_knot: float = KNOT_BITS) -> float:
     """A coded row's estimated bits: its code's, its knots' and its weights'
-    (a curve's inner knots at ``curve_knot`` bits each, none where evenly
-    spaced)."""
+    (a curve's inner knots at ``curve_knot`` bits each, none where the writer
+    codes them as evenly spaced: docs/format.md §2.3, forms 2 and 6)."""
     code, g = coded
     w = getattr(g, "weights", None)
     bits = code.bits + KNOT_BITS * (0 if w is None else w.size)
     if isinstance(g, BSplineCurve):
-        return bits + (0.0 if _even(g.knots) else curve_knot * (len(g.knots) - 2))
+        return bits + (0.0 if evenly_spaced(g.knots) else curve_knot * (len(g.knots) - 2))
     n = len(g.uknots) + len(g.vknots) if isinstance(g, BSplineSurface) else 0
     return bits + KNOT_BITS * n
-
-
-def _even(k: np.ndarray) -> bool:
-    """Whether a knot vector is evenly spaced (its inner knots then cost next
-    to nothing: docs/format.md §2.3, forms 2 and 6)."""
-    d = np.diff(k)
-    return len(k) <= 2 or bool(np.all(np.abs(d - d[0]) <= 1e-12 * max(1.0, abs(k[-1]))))
 
 
 def _removed(
@@ -738,7 +732,7 @@ def code_model(
             {
                 crec[c]: (0,)
                 for c in crows
-                if c not in leaders and _vector_key(m.curves3d[c]) not in shared
+                if c not in leaders and _vector_keys(m.curves3d[c])[0] not in shared
             }
         )
     coded = Coded(
@@ -786,23 +780,24 @@ def code_model(
     return coded
 
 
-def _key(k: np.ndarray, mults: np.ndarray) -> bytes:
-    return np.asarray(k, np.float64).tobytes() + np.asarray(mults, np.int64).tobytes()
-
-
-def _vector_key(g: Geometry) -> bytes:
-    assert isinstance(g, BSplineCurve)
-    return _key(g.knots, g.mults)
+def _vector_keys(g: Geometry) -> list[bytes]:
+    """A B-spline row's knot vectors (u then v, or the curve's), each its
+    knots and multiplicities bit for bit."""
+    if isinstance(g, BSplineSurface):
+        pairs = [(g.uknots, g.umults), (g.vknots, g.vmults)]
+    else:
+        assert isinstance(g, BSplineCurve)
+        pairs = [(g.knots, g.mults)]
+    return [
+        np.asarray(k, np.float64).tobytes() + np.asarray(u, np.int64).tobytes() for k, u in pairs
+    ]
 
 
 def _shared_vectors(m: BRepModel, srows: Set[int], crows: Set[int]) -> set[bytes]:
-    """Knot vectors (knots and multiplicities, bit for bit) that more than one
-    of the coded surface directions and 3-D curves have."""
-    keys = collections.Counter(_vector_key(m.curves3d[c]) for c in sorted(crows))
-    for r in sorted(srows):
-        g = m.surfaces[r]
-        assert isinstance(g, BSplineSurface)
-        keys.update([_key(g.uknots, g.umults), _key(g.vknots, g.vmults)])
+    """Knot vectors (:func:`_vector_keys`) that more than one of the coded
+    surface directions and 3-D curves have."""
+    rows = [m.surfaces[r] for r in sorted(srows)] + [m.curves3d[c] for c in sorted(crows)]
+    keys = collections.Counter(key for g in rows for key in _vector_keys(g))
     return {k for k, n in keys.items() if n > 1}
 
 
