@@ -13,6 +13,7 @@ import pytest
 
 from nurbscomp import pipeline
 from nurbscomp.encode import validity
+from nurbscomp.model import BSplineCurve
 from nurbscomp.stages import compress as stage
 
 from .stress import files, shapes
@@ -38,8 +39,15 @@ def _fake_stage(
     return asked
 
 
-def _model(faces: int) -> Any:
-    return SimpleNamespace(face_surface=np.zeros(faces, np.int64))
+def _model(faces: int, curves: list[Any] | None = None) -> Any:
+    return SimpleNamespace(
+        face_surface=np.zeros(faces, np.int64), surfaces=[], curves3d=curves or []
+    )
+
+
+def _segment(length: float) -> BSplineCurve:
+    poles = np.array([[0.0, 0.0, 0.0], [length, 0.0, 0.0]])
+    return BSplineCurve(poles, None, np.array([0.0, 1.0]), np.array([2, 2]), 1, False)
 
 
 def _packer(tol: float | None) -> Any:
@@ -63,6 +71,29 @@ def test_the_tighter_code_is_kept_only_where_it_is_smaller(monkeypatch: pytest.M
     c = stage._coded(_model(4), SimpleNamespace(shape=None, pcurves=True), 0.1, True, _packer)
     assert asked == [0.1, pytest.approx(0.01)]
     assert c.tol == 0.1 and len(c.data) == 500
+
+
+def test_a_part_of_features_finer_than_tol_is_coded_tighter_too(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """No remedies, but most B-spline rows are features finer than tol
+    (bearing.iges at 0.01 mm): the part is coded tighter as well, and the
+    smaller kept; a part with as many rows of tol's size is coded once."""
+    tiny = [_segment(0.01)] * 3 + [_segment(10.0)]  # 0.25·0.01 mm < 0.01: fine
+    asked = _fake_stage(monkeypatch, {0.01: 1000, 0.001: 900, 0.0001: 950}, {})
+    c = stage._coded(
+        _model(4, tiny), SimpleNamespace(shape=None, pcurves=True), 0.01, True, _packer
+    )
+    assert asked == [0.01, pytest.approx(0.001)]  # at 0.001 the rows are not fine
+    assert c.tol == pytest.approx(0.001) and len(c.data) == 900
+    assert stage.fine_share(_model(4, tiny), 0.01) == 0.75
+
+    half = [_segment(0.01), _segment(10.0), _segment(10.0)]
+    asked = _fake_stage(monkeypatch, {0.01: 1000, 0.001: 900}, {})
+    c = stage._coded(
+        _model(4, half), SimpleNamespace(shape=None, pcurves=True), 0.01, True, _packer
+    )
+    assert asked == [0.01] and c.tol == 0.01
 
 
 def test_remedies_on_few_faces_cost_no_second_code(monkeypatch: pytest.MonkeyPatch) -> None:

@@ -685,15 +685,14 @@ def code_model(
     decoded_s = [surfaces[k][1] if k in surfaces else g for k, g in zip(srec, m.surfaces)]
     srows = first_rows(surfaces)
     radius = joins.pin_radii(srec, {k: c for k, (c, _) in surfaces.items()}, tol)
-    for mm in (m, snapped):  # a pin may go to the exact or to the snapped vertex
-        for r, pins in joins.surface_corner_pins(mm, decoded_s, srows, tol, radius).items():
-            g = m.surfaces[r]
-            assert isinstance(g, BSplineSurface)
-            if any(
-                np.sqrt(((g.poles[joins.CORNERS[k]] - mm.vertex_point[v]) ** 2).sum()) > tol
-                for k, v in pins
-            ):
-                surfaces.pop(srec[r], None)
+    for r in sorted(_far_pinned(m, snapped, decoded_s, srows, tol, radius)):
+        k = srec[r]
+        closer = _pinned_closer(m, snapped, k, surfaces[k], tol, searched, paper, wbits, kplan)
+        if closer is None:
+            surfaces.pop(k)
+        else:  # coded to suit, with every knot
+            surfaces[k] = closer
+            spares.pop(k, None)
     iso = coincide.iso_sources(m, crows, first_rows(surfaces))
     iso_recs = {crec[c]: src for c, src in iso.items()}
     twins = coincide.twin_curves(m.curves3d, crows, eps, set(iso), where)
@@ -778,6 +777,74 @@ def code_model(
             if isinstance(g, (BSplineSurface, BSplineCurve)) and feature_limit(g.poles, tol) < tol:
                 coded.fine.add(k)
     return coded
+
+
+def _far_pinned(
+    m: BRepModel,
+    snapped: BRepModel,
+    decoded: list[Geometry],
+    rows: Set[int],
+    tol: float,
+    radius: dict[int, float],
+) -> set[int]:
+    """The coded surface rows of ``rows`` (``decoded``: the table as decoded)
+    that the decoder would pin (:func:`joins.surface_corner_pins`, ``radius``
+    by row) to a vertex further than tol from the source's corner, the
+    vertex exact (``m``) or on the vertex grid (``snapped``)."""
+    out = set()
+    for mm in (m, snapped):  # a pin may go to the exact or to the snapped vertex
+        for r, pins in joins.surface_corner_pins(mm, decoded, set(rows), tol, radius).items():
+            g = m.surfaces[r]
+            assert isinstance(g, BSplineSurface)
+            if any(
+                np.sqrt(((g.poles[joins.CORNERS[k]] - mm.vertex_point[v]) ** 2).sum()) > tol
+                for k, v in pins
+            ):
+                out.add(r)
+    return out
+
+
+#: A surface whose corner the decoder would pin to a vertex further than tol
+#: from the source's corner is coded this many times tighter, up to
+#: :data:`FAR_PIN_TRIES` times, until its pin radius (the step of its
+#: corners' grid, :func:`joins.pin_radius`) no longer reaches that vertex;
+#: else it stays exact.
+FAR_PIN_TIGHTER = 4
+FAR_PIN_TRIES = 3
+
+
+def _pinned_closer(
+    m: BRepModel,
+    snapped: BRepModel,
+    k: Rec,
+    coded: tuple[codec.NetCode, Geometry],
+    tol: float,
+    methods: tuple[codec.Method, ...],
+    paper: bool,
+    wbits: int | None,
+    kplan: knots.Plan | None,
+) -> tuple[codec.NetCode, Geometry] | None:
+    """Record ``k`` (a surface :func:`_far_pinned` names, ``coded`` as it is)
+    coded :data:`FAR_PIN_TIGHTER` times tighter at a time, with every knot,
+    until no corner of it is pinned to a vertex further than tol from its own
+    (:func:`_far_pinned` on the table with only this row decoded so); None
+    where no code gets there."""
+    g = m.surfaces[k.row]
+    assert isinstance(g, BSplineSurface)
+    code = coded[0]
+    limit = code.limit if code.limit is not None else feature_limit(g.poles, tol)
+    for _ in range(FAR_PIN_TRIES):
+        limit /= FAR_PIN_TIGHTER
+        try:
+            out = _code_one(g, tol, methods, paper, code.origin, limit, wbits, kplan)
+        except codec.NoCodeError:
+            return None
+        rows = {i for i, kk in enumerate(records(m.surfaces, Table.SURFACE)) if kk == k}
+        decoded = [out[1] if i in rows else s for i, s in enumerate(m.surfaces)]
+        radius = joins.pin_radii([k], {k: out[0]}, tol)
+        if not _far_pinned(m, snapped, decoded, {k.row}, tol, {k.row: radius[0]}):
+            return out
+    return None
 
 
 def _vector_keys(g: Geometry) -> list[bytes]:

@@ -1,0 +1,69 @@
+"""A surface whose corner the decoder would pin to a vertex further than tol
+from the source's corner is coded tighter, not kept exact
+(``encode.nets._pinned_closer``)."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from nurbscomp import occ
+from nurbscomp.encode import nets
+from nurbscomp.model import BSplineSurface
+from nurbscomp.rules import joins
+
+
+def _wavy_face() -> object:
+    """One natural face on a clamped bicubic B-spline patch of 6 x 6 poles,
+    10 mm square: its four vertices are the net's four corners."""
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeFace
+    from OCP.Geom import Geom_BSplineSurface
+    from OCP.gp import gp_Pnt
+    from OCP.TColgp import TColgp_Array2OfPnt
+    from OCP.TColStd import TColStd_Array1OfInteger, TColStd_Array1OfReal
+
+    n = 6
+    poles = TColgp_Array2OfPnt(1, n, 1, n)
+    for i in range(n):
+        for j in range(n):
+            x, y = 10.0 * i / (n - 1), 10.0 * j / (n - 1)
+            poles.SetValue(i + 1, j + 1, gp_Pnt(x, y, 0.8 * np.sin(0.5 * x) * np.cos(0.4 * y)))
+    knots, mults = TColStd_Array1OfReal(1, n - 2), TColStd_Array1OfInteger(1, n - 2)
+    for i in range(n - 2):
+        knots.SetValue(i + 1, i / (n - 3))
+        mults.SetValue(i + 1, 4 if i in (0, n - 3) else 1)
+    surf = Geom_BSplineSurface(poles, knots, knots, mults, mults, 3, 3)
+    return BRepBuilderAPI_MakeFace(surf, 0.0, 1.0, 0.0, 1.0, 1e-7).Face()
+
+
+@pytest.mark.parametrize("tol", [0.05, 0.01])
+def test_a_corner_near_a_far_vertex_is_coded_tighter(
+    tol: float, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    source, _ = occ.shape_to_model(_wavy_face())
+    # each vertex moved outwards, 1.03 tol from its corner: a decoded corner
+    # that lands within its pin radius of it would be pulled past tol
+    out = source.vertex_point - source.vertex_point.mean(0)
+    out[:, 2] = 0.0
+    m = replace(source)
+    m.vertex_point = source.vertex_point + 1.03 * tol * out / np.linalg.norm(out, axis=1)[:, None]
+    [k] = {k for k in nets.code_model(m, tol).surfaces}
+    g = m.surfaces[k.row]
+    assert isinstance(g, BSplineSurface)
+
+    monkeypatch.setattr(nets, "FAR_PIN_TRIES", 0)
+    assert not nets.code_model(m, tol).surfaces  # the premise: a far pin, kept exact
+    monkeypatch.undo()
+
+    coded = nets.code_model(m, tol)
+    code, decoded = coded.surfaces[k]
+    assert code.bound <= nets.feature_limit(g.poles, tol)
+    assert code.limit is not None and code.limit < nets.feature_limit(g.poles, tol)
+    table = [decoded]
+    radius = joins.pin_radii([k], {k: code}, tol)
+    for pins in joins.surface_corner_pins(m, table, {k.row}, tol, radius).values():
+        for corner, v in pins:  # any pin left goes to a vertex within tol
+            d = np.linalg.norm(g.poles[joins.CORNERS[corner]] - m.vertex_point[v])
+            assert d <= tol
