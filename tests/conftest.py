@@ -249,3 +249,4 @@ def one_coding(monkeypatch: pytest.MonkeyPatch) -> None:
     from nurbscomp.stages import compress
 
     monkeypatch.setattr(compress, "RETRY_SHARE", float("inf"))
+    monkeypatch.setattr(compress, "FINE_SHARE", float("inf"))
