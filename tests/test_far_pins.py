@@ -11,7 +11,7 @@ import pytest
 
 from nurbscomp import occ
 from nurbscomp.encode import nets
-from nurbscomp.model import BSplineSurface
+from nurbscomp.model import BSplineCurve, BSplineSurface
 from nurbscomp.rules import joins
 
 
@@ -67,3 +67,40 @@ def test_a_corner_near_a_far_vertex_is_coded_tighter(
         for corner, v in pins:  # any pin left goes to a vertex within tol
             d = np.linalg.norm(g.poles[joins.CORNERS[corner]] - m.vertex_point[v])
             assert d <= tol
+
+
+def _spline_face() -> object:
+    """A flat face bounded by a spline through 14 points of a wavy loop, closed
+    by a line: one B-spline edge between two vertices."""
+    import cadquery as cq
+
+    t = np.linspace(0.0, 2 * np.pi, 24, endpoint=False)
+    r = 40.0 + 3.0 * np.sin(3 * t)
+    pts = [(float(a), float(b)) for a, b in zip(r * np.cos(t), 0.7 * r * np.sin(t))]
+    wire = cq.Workplane("XY").spline(pts[:14], includeCurrent=False).close().wires().val()
+    return cq.Face.makeFromWires(wire).wrapped
+
+
+def test_a_curve_end_near_a_far_vertex_is_coded_tighter(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The vertices moved 1.1 tol off the spline's ends: a decoded end within
+    tol of its vertex would be pinned past tol (``joins.overreaching``); the
+    curve is coded again tighter (``nets._ends_closer``), not kept exact."""
+    tol = 0.01
+    source, _ = occ.shape_to_model(_spline_face())
+    m = replace(source)
+    m.vertex_point = source.vertex_point + [1.1 * tol, 0.0, 0.0]
+    [c] = [i for i, g in enumerate(m.curves3d) if isinstance(g, BSplineCurve)]
+
+    monkeypatch.setattr(nets, "_ends_closer", lambda *args: None)
+    assert not nets.code_model(m, tol).curves  # the premise: pinned too far, kept exact
+    monkeypatch.undo()
+
+    coded = nets.code_model(m, tol)
+    [(k, (code, decoded))] = coded.curves.items()
+    assert k.row == c
+    g = m.curves3d[c]
+    assert isinstance(g, BSplineCurve)
+    assert code.bound <= nets.feature_limit(g.poles, tol)
+    table = list(m.curves3d)
+    table[c] = decoded
+    assert not joins.overreaching(m, table, {c}, tol)

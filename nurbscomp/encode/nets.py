@@ -768,10 +768,12 @@ def code_model(
     )
     decoded = [coded.curves[k][1] if k in coded.curves else g for k, g in zip(crec, m.curves3d)]
     rows = {i for i, k in enumerate(crec) if k in coded.curves}
-    for c in joins.overreaching(m, decoded, rows, tol) | joins.overreaching(
-        snapped, decoded, rows, tol
-    ):
-        coded.curves.pop(crec[c], None)
+    for c in sorted(_overreaching(m, snapped, decoded, rows, tol)):
+        closer = _ends_closer(m, snapped, coded, crec[c], decoded)
+        if closer is None:
+            coded.curves.pop(crec[c], None)
+        else:
+            coded.curves[crec[c]] = closer
     for recs, table in ((srec, m.surfaces), (crec, m.curves3d)):
         for k, g in zip(recs, table):
             if isinstance(g, (BSplineSurface, BSplineCurve)) and feature_limit(g.poles, tol) < tol:
@@ -845,6 +847,55 @@ def _pinned_closer(
         if not _far_pinned(m, snapped, decoded, {k.row}, tol, {k.row: radius[0]}):
             return out
     return None
+
+
+def _overreaching(
+    m: BRepModel, snapped: BRepModel, decoded: list[Geometry], rows: Set[int], tol: float
+) -> set[int]:
+    """:func:`joins.overreaching` with the vertices exact (``m``) or on the
+    vertex grid (``snapped``)."""
+    return joins.overreaching(m, decoded, set(rows), tol) | joins.overreaching(
+        snapped, decoded, set(rows), tol
+    )
+
+
+def _ends_closer(
+    m: BRepModel,
+    snapped: BRepModel,
+    coded: Coded,
+    k: Rec,
+    decoded: list[Geometry],
+) -> tuple[codec.NetCode, Geometry] | None:
+    """Curve record ``k``, whose decoded end the decoder would pin to a vertex
+    further than tol from the source's end (:func:`_overreaching`; an end is
+    pinned where its decoded pole is within tol of the vertex), coded again to
+    half of what the source's end lies past tol from that vertex, so that its
+    decoded end cannot come within tol of it; None where that is no bound a
+    code reaches, or the new code is still pinned so (the record then stays
+    exact, as before)."""
+    g = m.curves3d[k.row]
+    assert isinstance(g, BSplineCurve)
+    code = coded.curves[k][0]
+    tol = coded.tol
+    far = [
+        d
+        for mm in (m, snapped)
+        for pins in joins.curve_end_pins(mm, decoded, {k.row}, tol).values()
+        for i, v in pins
+        if (d := float(np.sqrt(((g.poles[0 if i == 0 else -1] - mm.vertex_point[v]) ** 2).sum())))
+        > tol
+    ]
+    if code.limit is None or not far:
+        return None
+    gap = min(far)
+    limit = min(code.limit, (gap - tol) / 2)
+    try:
+        out = recode(coded, k, g, codec.CURVE_METHODS, code.origin, limit)
+    except codec.NoCodeError:
+        return None
+    rows = {i for i, kk in enumerate(records(m.curves3d, Table.CURVE3D)) if kk == k}
+    again = [out[1] if i in rows else c for i, c in enumerate(decoded)]
+    return None if _overreaching(m, snapped, again, {k.row}, tol) else out
 
 
 def _vector_keys(g: Geometry) -> list[bytes]:

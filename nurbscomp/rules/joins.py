@@ -64,8 +64,9 @@ def curve_end_pins(
     without a location.  A curve shared by several edges is pinned by the first.
     An end is pinned only if the decoded pole is within ``tol`` of the vertex:
     a vertex far from its curve's end (a gap the source closes with a large
-    vertex tolerance) stays where it is.  The encoder keeps such a curve exact
-    if pinning would move a pole further than ``tol`` from the original.
+    vertex tolerance) stays where it is.  Where pinning would move a pole
+    further than ``tol`` from the original, the encoder codes the curve tighter
+    (``encode.nets._ends_closer``), or else keeps it exact.
     With ``tol`` None, the poles are not looked at (they may not be decoded yet).
     """
     tidx = m.type_index().tolist()
