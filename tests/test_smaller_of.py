@@ -88,6 +88,13 @@ def test_a_part_of_features_finer_than_tol_is_coded_tighter_too(
     assert c.tol == pytest.approx(0.001) and len(c.data) == 900
     assert stage.fine_share(_model(4, tiny), 0.01) == 0.75
 
+    finest = [_segment(1e-4)] * 3  # fine at 0.01 and at 0.001 mm: coded tighter once only
+    asked = _fake_stage(monkeypatch, {0.01: 1000, 0.001: 900, 0.0001: 800}, {})
+    c = stage._coded(
+        _model(4, finest), SimpleNamespace(shape=None, pcurves=True), 0.01, True, _packer
+    )
+    assert asked == [0.01, pytest.approx(0.001)] and len(c.data) == 900
+
     half = [_segment(0.01), _segment(10.0), _segment(10.0)]
     asked = _fake_stage(monkeypatch, {0.01: 1000, 0.001: 900}, {})
     c = stage._coded(

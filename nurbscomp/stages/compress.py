@@ -90,7 +90,9 @@ RETRY_LEVELS = 2
 #: container kept: tol then buys little but where the vertices and the STEP
 #: reader's mends land, and those land where they will (bearing.iges, a
 #: part 0.1 mm across, 99 % such rows at 0.01 mm: 10,056 bytes within
-#: 0.01 mm, 9,810 within 0.001 mm).
+#: 0.01 mm, 9,810 within 0.001 mm).  Once only: the tighter coding does not
+#: look for a tighter one still for this reason (bearing at 0.1 mm would be
+#: coded three times).
 FINE_SHARE = 0.5
 
 
@@ -147,7 +149,7 @@ def _coded(
     tighter = tol / RETRY_FACTOR
     if (
         faces
-        and (climbed >= RETRY_SHARE * faces or fine_share(m, tol) >= FINE_SHARE)
+        and (climbed >= RETRY_SHARE * faces or (not level and fine_share(m, tol) >= FINE_SHARE))
         and tighter >= units.TOL_RANGE_MM[0]
         and level < RETRY_LEVELS
     ):
