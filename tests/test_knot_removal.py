@@ -235,3 +235,32 @@ def test_a_dense_spline_edge_comes_back_with_fewer_poles(tmp_path: Path) -> None
     ]
     assert pairs
     assert all(len(b.poles) < len(a.poles) / 2 for a, b in pairs)
+
+
+@pytest.mark.parametrize("rational", [False, True])
+@pytest.mark.parametrize("seed", range(3))
+def test_a_reduced_curve_with_rounded_knots_is_within_its_bridged_bound(
+    seed: int, rational: bool
+) -> None:
+    """Knots removed, then those left rounded (``knots.apply_reduced``): the
+    vector is no longer a part of the source's, so the bound refines both
+    rows onto the union of their vectors (``knots.bridged``), and evaluated
+    points move no further.  On a row whose vector is a part of the
+    source's, it agrees with the bound on the source's knots."""
+    rng = np.random.default_rng(seed)
+    dense = _dense_curve(rng, rational, 1e-4)
+    out = removal.removed(dense, 0.01)
+    assert out is not None
+    thin, _ = out
+    assert abs(K.bridged(thin, dense) - K.moved(thin, dense)) <= 1e-9
+    coarse = BSplineCurve(
+        thin.poles, thin.weights, K.rounded(thin.knots, 5, True), thin.mults, 3, False
+    )
+    assert not np.array_equal(coarse.knots, thin.knots)
+    assert K.raised(coarse, dense) is None  # not on a part of the source's knots
+    bound = K.moved(coarse, dense)
+    assert np.isfinite(bound) and bound == K.bridged(coarse, dense)
+    assert np.linalg.norm(_curve_points(coarse) - _curve_points(dense), axis=-1).max() <= bound
+    # a rational row against a plain one has no such bound
+    plain = BSplineCurve(coarse.poles, None, coarse.knots, coarse.mults, 3, False)
+    assert rational == (K.bridged(plain, dense) == float("inf"))

@@ -373,12 +373,74 @@ def _moved(new: Net, original: Net) -> float:
     if new.poles.shape == original.poles.shape:
         return weights.moved(new, original) + term(original, new)
     up = raised(new, original)
-    if up is None:
-        return float("inf")  # other poles, not on a part of the source's knots
+    if up is None:  # other poles, not on a part of the source's knots
+        return bridged(new, original)
     degrees = [new.udegree, new.vdegree] if isinstance(new, BSplineSurface) else [new.degree]
     scale = float(np.abs(new.poles).max(initial=0.0))
     ulps = ROUNDING * sum(d + 1 for d in degrees) * scale * float(np.finfo(float).eps)
     return weights.moved(up, original) + ulps * (2 if new.weights is not None else 1)
+
+
+def _union(a: tuple[np.ndarray, np.ndarray], b: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+    """The expanded knot vector holding the vectors ``a`` and ``b`` (distinct
+    values, multiplicities), each value at the larger of its multiplicities."""
+    values, mu = np.concatenate([a[0], b[0]]), np.concatenate([a[1], b[1]])
+    order = np.argsort(values, kind="stable")
+    values, mu = values[order], mu[order]
+    uniq, start = np.unique(values, return_index=True)
+    return np.repeat(uniq, np.maximum.reduceat(mu, start))
+
+
+def bridged(new: Net, original: Net) -> float:
+    """Certified distance between two rows of one degree whose knot vectors
+    neither holds the other (``new`` with knots removed, then rounded,
+    ``nets._removed``): each refined onto the union of the two vectors
+    (eq. 1: knot insertion moves no point), ``new``'s first mapped onto
+    ``original``'s ends (:func:`_back`: the same point set), and measured
+    there as a row with moved poles is (:func:`weights.moved`: the refined
+    error net, and the weights' term); ``ROUNDING`` ulps per term and
+    direction for each refinement.  inf where they are not such rows."""
+    if type(new) is not type(original) or not codable(new) or not codable(original):
+        return float("inf")
+    if (new.weights is None) != (original.weights is None):
+        return float("inf")
+    if isinstance(new, BSplineSurface):
+        assert isinstance(original, BSplineSurface)
+        if (new.udegree, new.vdegree) != (original.udegree, original.vdegree):
+            return float("inf")
+        pairs = [
+            ((new.uknots, new.umults), (original.uknots, original.umults), new.udegree),
+            ((new.vknots, new.vmults), (original.vknots, original.vmults), new.vdegree),
+        ]
+    else:
+        assert isinstance(original, BSplineCurve)
+        if new.degree != original.degree:
+            return float("inf")
+        pairs = [((new.knots, new.mults), (original.knots, original.mults), new.degree)]
+    a, b = homogeneous(new), homogeneous(original)
+    on: list[np.ndarray] = []
+    for axis, ((k, m), (fk, fm), degree) in enumerate(pairs):
+        k = _back(fk, k)
+        if np.any(np.diff(k) <= 0) or m[0] != fm[0] or m[-1] != fm[-1]:
+            return float("inf")
+        target = _union((k, m), (fk, fm))
+        a = np.swapaxes(bspline.refine(k, m, np.swapaxes(a, 0, axis), degree, target), 0, axis)
+        b = np.swapaxes(bspline.refine(fk, fm, np.swapaxes(b, 0, axis), degree, target), 0, axis)
+        on.append(target)
+    rows = []
+    for h, g in ((a, new), (b, original)):
+        row = g if g.weights is None else replace(g, weights=h[..., 3])
+        row = replace(row, poles=h if g.weights is None else h[..., :3] / h[..., 3:])
+        vs = [np.unique(t, return_counts=True) for t in on]
+        if isinstance(row, BSplineSurface):
+            row = replace(row, uknots=vs[0][0], umults=vs[0][1], vknots=vs[1][0], vmults=vs[1][1])
+        else:
+            row = replace(row, knots=vs[0][0], mults=vs[0][1])
+        rows.append(row)
+    scale = max(float(np.abs(new.poles).max(initial=0.0)), float(np.abs(original.poles).max()))
+    terms = sum(d + 1 for _, _, d in pairs)
+    ulps = 2 * ROUNDING * terms * scale * float(np.finfo(float).eps)
+    return weights.moved(rows[0], rows[1]) + ulps * (2 if new.weights is not None else 1)
 
 
 def term(original: Net, new: Net) -> float:
@@ -509,6 +571,25 @@ def _join(want: dict[bytes, int | None], links: Iterable[tuple[Geometry, Geometr
 def _packed(vs: Iterable[np.ndarray]) -> int:
     raw = b"".join(np.ascontiguousarray(k, "<f8").tobytes() for k in vs)
     return entropy.lzma_size(raw, strong=True)
+
+
+def apply_reduced(h: Net, source: Net, kplan: Plan, limit: float) -> tuple[Net, float]:
+    """``h`` (``source`` with inner knots removed, ``nets._removed``) with its
+    vectors rounded as ``kplan`` rounds ``source``'s, and its certified
+    distance from ``source`` (:func:`bridged`); ``h`` and inf where nothing
+    is planned, a rounded vector is no longer increasing, or the rounding
+    adds more than ``SHARE`` of ``limit`` to the removal's own move (given by
+    the caller as part of ``limit``'s budget)."""
+    if not codable(h):
+        return h, float("inf")
+    keys = [k.tobytes() for k in vectors(source)]
+    if not any(k in kplan for k in keys):
+        return h, float("inf")
+    vs = [rounded(k, *kplan[key]) if key in kplan else k for k, key in zip(vectors(h), keys)]
+    if any(np.any(np.diff(k) <= 0) for k in vs):
+        return h, float("inf")
+    new = _on(h, vs)
+    return new, bridged(new, source)
 
 
 def apply(g: Net, kplan: Plan, limit: float) -> tuple[Net, float]:

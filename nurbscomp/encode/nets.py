@@ -287,8 +287,8 @@ def _code_one(
             break
     out = _rounded_weights(replace(code, limit=limit), g, replace(h, poles=net), wbits, limit)
     if removable:
-        fewer = _removed(g, tol, methods, origin, limit, wbits, removable, spread)
-        if fewer is not None and _size(fewer, RAW_KNOT_BITS) < _size(out):
+        fewer = _removed(g, tol, methods, origin, limit, wbits, removable, spread, kplan)
+        if fewer is not None and _size(fewer, _left_knot_bits(fewer[1], g)) < _size(out):
             if spare is not None:
                 spare.append(out)
             return fewer
@@ -355,6 +355,21 @@ def _size(coded: tuple[codec.NetCode, Geometry], curve_knot: float = KNOT_BITS) 
     return bits + KNOT_BITS * n
 
 
+#: Whether a row's knots left after removal are rounded as its source's
+#: would be (:func:`knots.apply_reduced`, bound by :func:`knots.bridged`).
+ROUND_REDUCED = True
+
+
+def _left_knot_bits(h: Geometry, g: Geometry) -> float:
+    """What a knot left on ``h`` (``g`` with knots removed) is taken to cost:
+    ``RAW_KNOT_BITS`` where they are ``g``'s, ``KNOT_BITS`` where rounded."""
+    kept = all(
+        np.isin(a, b).all()
+        for a, b in zip(knots.vectors(cast(Any, h)), knots.vectors(cast(Any, g)))
+    )
+    return RAW_KNOT_BITS if kept else KNOT_BITS
+
+
 def _removed(
     g: BSplineSurface | BSplineCurve,
     tol: float,
@@ -364,14 +379,21 @@ def _removed(
     wbits: int | None,
     axes: tuple[int, ...],
     spread: bool = True,
+    kplan: knots.Plan | None = None,
 ) -> tuple[codec.NetCode, Geometry] | None:
     """``g`` with inner knots of directions ``axes`` removed within
-    ``REMOVAL_SHARE`` of ``limit`` (:func:`removal.removed`), coded to the
+    ``REMOVAL_SHARE`` of ``limit`` (:func:`removal.removed`), its knots left
+    then rounded as ``kplan`` rounds ``g``'s where that adds at most
+    ``knots.SHARE`` of ``limit`` (:func:`knots.apply_reduced`), coded to the
     rest of it; None where no knot goes or no code fits."""
     r = removal.removed(g, REMOVAL_SHARE * limit, axes)
     if r is None:
         return None
     h, d = r
+    if kplan and ROUND_REDUCED:  # its knots rounded as the source's would be
+        hr, dr = knots.apply_reduced(h, g, kplan, limit)
+        if dr <= d + knots.SHARE * limit:
+            h, d = hr, dr
     try:
         code, net = _net_code(h, tol, methods, origin, limit - d, spread)
     except codec.NoCodeError:
