@@ -151,15 +151,20 @@ def homogeneous(g: Net) -> np.ndarray:
     return np.concatenate([g.poles * g.weights[..., None], g.weights[..., None]], -1)
 
 
-def _merged(k1: np.ndarray, k2: np.ndarray, mults: np.ndarray) -> np.ndarray:
-    """The expanded knot vector holding both ``k1`` and ``k2`` (distinct values,
-    both with ``mults``), each value at the larger of its multiplicities."""
-    values, mu = np.concatenate([k1, k2]), np.concatenate([mults, mults])
+def _union(a: tuple[np.ndarray, np.ndarray], b: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+    """The expanded knot vector holding the vectors ``a`` and ``b`` (distinct
+    values, multiplicities), each value at the larger of its multiplicities."""
+    values, mu = np.concatenate([a[0], b[0]]), np.concatenate([a[1], b[1]])
     order = np.argsort(values, kind="stable")
     values, mu = values[order], mu[order]
     uniq, start = np.unique(values, return_index=True)
-    most = np.maximum.reduceat(mu, start)
-    return np.repeat(uniq, most)
+    return np.repeat(uniq, np.maximum.reduceat(mu, start))
+
+
+def _merged(k1: np.ndarray, k2: np.ndarray, mults: np.ndarray) -> np.ndarray:
+    """The expanded knot vector holding both ``k1`` and ``k2`` (distinct values,
+    both with ``mults``), each value at the larger of its multiplicities."""
+    return _union((k1, mults), (k2, mults))
 
 
 def _along(
@@ -381,16 +386,6 @@ def _moved(new: Net, original: Net) -> float:
     return weights.moved(up, original) + ulps * (2 if new.weights is not None else 1)
 
 
-def _union(a: tuple[np.ndarray, np.ndarray], b: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
-    """The expanded knot vector holding the vectors ``a`` and ``b`` (distinct
-    values, multiplicities), each value at the larger of its multiplicities."""
-    values, mu = np.concatenate([a[0], b[0]]), np.concatenate([a[1], b[1]])
-    order = np.argsort(values, kind="stable")
-    values, mu = values[order], mu[order]
-    uniq, start = np.unique(values, return_index=True)
-    return np.repeat(uniq, np.maximum.reduceat(mu, start))
-
-
 def bridged(new: Net, original: Net) -> float:
     """Certified distance between two rows of one degree whose knot vectors
     neither holds the other (``new`` with knots removed, then rounded,
@@ -573,13 +568,11 @@ def _packed(vs: Iterable[np.ndarray]) -> int:
     return entropy.lzma_size(raw, strong=True)
 
 
-def apply_reduced(h: Net, source: Net, kplan: Plan, limit: float) -> tuple[Net, float]:
+def apply_reduced(h: Net, source: Net, kplan: Plan) -> tuple[Net, float]:
     """``h`` (``source`` with inner knots removed, ``nets._removed``) with its
     vectors rounded as ``kplan`` rounds ``source``'s, and its certified
     distance from ``source`` (:func:`bridged`); ``h`` and inf where nothing
-    is planned, a rounded vector is no longer increasing, or the rounding
-    adds more than ``SHARE`` of ``limit`` to the removal's own move (given by
-    the caller as part of ``limit``'s budget)."""
+    is planned or a rounded vector is no longer increasing."""
     if not codable(h):
         return h, float("inf")
     keys = [k.tobytes() for k in vectors(source)]

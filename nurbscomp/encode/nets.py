@@ -391,7 +391,7 @@ def _removed(
         return None
     h, d = r
     if kplan and ROUND_REDUCED:  # its knots rounded as the source's would be
-        hr, dr = knots.apply_reduced(h, g, kplan, limit)
+        hr, dr = knots.apply_reduced(h, g, kplan)
         if dr <= d + knots.SHARE * limit:
             h, d = hr, dr
     try:
