@@ -5,11 +5,12 @@ from the source's corner is coded tighter, not kept exact
 from __future__ import annotations
 
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
 
-from nurbscomp import occ
+from nurbscomp import occ, pipeline
 from nurbscomp.encode import nets
 from nurbscomp.model import BSplineCurve, BSplineSurface
 from nurbscomp.rules import joins
@@ -104,3 +105,18 @@ def test_a_curve_end_near_a_far_vertex_is_coded_tighter(monkeypatch: pytest.Monk
     table = list(m.curves3d)
     table[c] = decoded
     assert not joins.overreaching(m, table, {c}, tol)
+
+
+@pytest.mark.slow
+def test_a_net_coded_tighter_for_a_far_pin_stays_that_tight(tmp_path: Path) -> None:
+    """A generated blended assembly at 0.1 mm: one net coded tighter for a
+    far pin (``nets._pinned_closer``) was later coded again without its
+    extrapolating method (``nets.plain``) to its feature's limit, not to the
+    tighter one, and its corner went back to the far vertex: verify refused
+    the container (0.109 mm).  ``plain`` now keeps the limit a code had."""
+    from .stress import assemblies
+
+    src = tmp_path / "asm_blended_10.step"
+    assemblies.blended(src, 10)
+    rep = pipeline.compress_file(src, tmp_path / "out.nzc", tol=0.1)
+    assert rep["verified"] and rep["max_bound_mm"] <= 0.1

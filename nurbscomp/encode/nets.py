@@ -536,6 +536,8 @@ def plain(coded: Coded, m: BRepModel, recs: Iterable[Rec]) -> set[Rec]:
         g = m.surfaces[k.row]
         assert isinstance(g, BSplineSurface)
         limit = feature_limit(g.poles, coded.tol) / TIGHTER ** coded.tight.get(k, 0)
+        if code.limit is not None:  # never looser than it was coded to (a twin leader,
+            limit = min(limit, code.limit)  # a net coded tighter for a far pin)
         try:
             coded.surfaces[k] = recode(coded, k, g, codec.TIGHT_SEARCH, code.origin, limit)
         except codec.NoCodeError:
@@ -709,7 +711,12 @@ def code_model(
     radius = joins.pin_radii(srec, {k: c for k, (c, _) in surfaces.items()}, tol)
     for r in sorted(_far_pinned(m, snapped, decoded_s, srows, tol, radius)):
         k = srec[r]
-        closer = _pinned_closer(m, snapped, k, surfaces[k], tol, searched, paper, wbits, kplan)
+        # not a net with a joined side: its leader was coded to suit its limit
+        closer = (
+            None
+            if r in joined
+            else _pinned_closer(m, snapped, k, surfaces[k], tol, searched, paper, wbits, kplan)
+        )
         if closer is None:
             surfaces.pop(k)
         else:  # coded to suit, with every knot
@@ -852,7 +859,8 @@ def _pinned_closer(
     coded :data:`FAR_PIN_TIGHTER` times tighter at a time, with every knot,
     until no corner of it is pinned to a vertex further than tol from its own
     (:func:`_far_pinned` on the table with only this row decoded so); None
-    where no code gets there."""
+    where no code gets there.  Not for a net with a joined side (its leader is
+    coded to suit the follower's limit, and both to the pole bound)."""
     g = m.surfaces[k.row]
     assert isinstance(g, BSplineSurface)
     code = coded[0]
