@@ -709,12 +709,13 @@ def code_model(
     decoded_s = [surfaces[k][1] if k in surfaces else g for k, g in zip(srec, m.surfaces)]
     srows = first_rows(surfaces)
     radius = joins.pin_radii(srec, {k: c for k, (c, _) in surfaces.items()}, tol)
+    followers = {b for b, _ in sides}
     for r in sorted(_far_pinned(m, snapped, decoded_s, srows, tol, radius)):
         k = srec[r]
-        # not a net with a joined side: its leader was coded to suit its limit
+        # not a net with a side set to its leader's: those corners are the leader's
         closer = (
             None
-            if r in joined
+            if r in followers
             else _pinned_closer(m, snapped, k, surfaces[k], tol, searched, paper, wbits, kplan)
         )
         if closer is None:
@@ -859,8 +860,8 @@ def _pinned_closer(
     coded :data:`FAR_PIN_TIGHTER` times tighter at a time, with every knot,
     until no corner of it is pinned to a vertex further than tol from its own
     (:func:`_far_pinned` on the table with only this row decoded so); None
-    where no code gets there.  Not for a net with a joined side (its leader is
-    coded to suit the follower's limit, and both to the pole bound)."""
+    where no code gets there.  Not for a net with a side set to its leader's
+    (those corners are the leader's decoded ones)."""
     g = m.surfaces[k.row]
     assert isinstance(g, BSplineSurface)
     code = coded[0]
