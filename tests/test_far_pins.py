@@ -108,6 +108,7 @@ def test_a_curve_end_near_a_far_vertex_is_coded_tighter(monkeypatch: pytest.Monk
 
 
 @pytest.mark.slow
+@pytest.mark.long
 def test_a_net_coded_tighter_for_a_far_pin_stays_that_tight(tmp_path: Path) -> None:
     """A generated blended assembly at 0.1 mm: one net coded tighter for a
     far pin (``nets._pinned_closer``) was later coded again without its

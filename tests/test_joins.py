@@ -182,7 +182,7 @@ def test_located_surface_model_keeps_its_free_edges(tmp_path: Path) -> None:
 @pytest.mark.slow
 @pytest.mark.corpus
 def test_corner_pins_follow_the_format_minor(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, one_coding: None
 ) -> None:
     """Format 1.2 pins a net's corner to a vertex only within the net's grid
     step (joins.pin_radius); a 1.1 reader pins within tol.  On an IGES model
