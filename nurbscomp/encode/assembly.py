@@ -742,9 +742,6 @@ FINE_BITS = 10
 #: Where the finest feature at a vertex leaves room (:func:`_fine_levels`),
 #: the grid is 2**(floor(log2 tol) - COARSE_BITS): 4 bits a coordinate fewer.
 COARSE_BITS = 6
-#: The coarse grids tried, coarsest first: each vertex goes to the coarsest
-#: its features leave room for.
-COARSE_LADDER = (COARSE_BITS,)
 #: ... room: the features' limits (``nets.feature_limit``) at the vertex are
 #: at least this many times the coarse grid's bound.
 COARSE_ROOM = 16.0
@@ -772,15 +769,9 @@ def _fine_levels(
     (a part whose features are all finer than tol, as a bearing 0.1 mm
     across, keeps today's grid).  The fine pass sees the coarse vertices
     where they went, so no vertex lands on another."""
-    fine = np.zeros(len(p), bool)
-    moved, b = p, np.zeros(len(p))
-    for bits in COARSE_LADDER:  # coarsest first
-        coarse = 2.0 ** (np.floor(np.log2(tol)) - bits) * np.sqrt(3.0) / 2
-        room = may & ~fine & (scale >= COARSE_ROOM * coarse)
-        went, at, bb = _fine_points(moved, lead, room, tol, bits)
-        moved = np.where(went[:, None], at, moved)
-        b = np.where(went, bb, b)
-        fine |= went
+    coarse = 2.0 ** (np.floor(np.log2(tol)) - COARSE_BITS) * np.sqrt(3.0) / 2
+    fine, at, b = _fine_points(p, lead, may & (scale >= COARSE_ROOM * coarse), tol, COARSE_BITS)
+    moved = np.where(fine[:, None], at, p)
     finer, at_finer, b_finer = _fine_points(moved, lead, may & ~fine, tol, FINE_BITS)
     at = np.where(finer[:, None], at_finer, moved)
     return fine | finer, at, np.where(fine, b, np.where(finer, b_finer, 0.0))
