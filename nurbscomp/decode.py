@@ -305,6 +305,10 @@ PERIODS_IN_RANGE = container.VERSIONS.index((2, 9))
 ANCHORED_CURVES = container.VERSIONS.index((2, 10))
 #: Format 2.14: surface methods 12 to 22 (``ARCS_V``, ``ARCS_U``, the ``ORDERS_*``).
 ARC_ROWS = container.VERSIONS.index((2, 14))
+#: Format 2.15: the first revision whose left-out pcurves are projected face
+#: by face, the projector's end points carried along each face's wires
+#: (docs/format.md §3, *(2.15)*).
+PCURVES_BY_FACE = container.VERSIONS.index((2, 15))
 
 
 def sections_to_model(
@@ -322,6 +326,7 @@ def sections_to_model(
     m, meta, t = serialize.read_sections(get, revision, limits)
     m.poles_follow = revision >= POLES_FOLLOW
     m.periods_in_range = revision >= PERIODS_IN_RANGE
+    m.pcurves_by_face = revision >= PCURVES_BY_FACE
     with np.errstate(all="ignore"):  # overflows become non-finite values, refused by name
         apply(m, t, serialize.tolerance(meta), revision)
     if limits is not None:

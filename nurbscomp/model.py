@@ -397,6 +397,10 @@ class BRepModel:
     #: Whether the computed pcurves on a trimmed surface of a periodic basis
     #: are moved into its bounds (``occ.topology.into_range``, format 2.9).
     periods_in_range: bool = True
+    #: Whether the pcurves left out are projected face by face, edges in
+    #: wire order, the projector's end points carried from edge to edge
+    #: (``occ.topology.rebuild_pcurves``, format 2.15).
+    pcurves_by_face: bool = True
 
     def type_index(self) -> np.ndarray:
         """Position of each shape within the rows of its own type, shape (S,).

@@ -51,14 +51,16 @@ def _shapes() -> dict[str, Any]:
 SHAPES = _shapes()
 
 
-def _model(name: str, mixed: bool = True) -> Any:
+def _model(name: str, mixed: bool = True, by_face: bool = False) -> Any:
     """The shape's model with every pcurve to compute, and edge tolerances
     powers of two, as a decoder's are: with ``mixed``, differing along each
     wire (analyses kept side by side), else one (an analysis serves calls
-    one after the other, whose end points the projector would remember)."""
+    one after the other, whose end points the projector would remember).
+    Projected in format 2.14's order unless ``by_face`` (2.15's)."""
     m, _ = shape_to_model(SHAPES[name])
     m = drop_pcurves(m, set(), set())
     m.edge_tol = np.array([2.0 ** -(7 + mixed * (i % 3)) for i in range(len(m.edge_tol))])
+    m.pcurves_by_face = by_face
     return m
 
 
@@ -112,7 +114,9 @@ def test_analyses_are_reused(monkeypatch: pytest.MonkeyPatch) -> None:
 
     monkeypatch.setattr(topology.EdgeProjector, "add", add_counted)
     m, _ = shape_to_model(SHAPES["nurbs_fillets"])
-    topology.model_to_shape(drop_pcurves(m, set(), set()))
+    m = drop_pcurves(m, set(), set())
+    m.pcurves_by_face = False
+    topology.model_to_shape(m)
     assert len(calls) > 0
     assert len(made) - 1 < len(calls)  # one analysis is the spare surface
 

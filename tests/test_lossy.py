@@ -477,14 +477,17 @@ def test_unit_curves_keep_every_edge_point_for_point(name: str) -> None:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("split", [False, True])
+@pytest.mark.parametrize("by_face, split", [(False, False), (False, True), (True, False)])
 @pytest.mark.parametrize("name", ["teapot.step", "blob.step"])
 def test_pcurve_cache_builds_the_same_shape(
-    name: str, split: bool, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+    name: str, by_face: bool, split: bool, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """A build that reuses pcurves projected for another model (the validity
     stage's candidates) is the fresh build, bit for bit; so is one whose
-    empty cache is filled by projections shared with a child (``split``)."""
+    empty cache is filled by projections shared with a child (``split``).
+    In 2.14's order (each projection alone, cached by edge) and in 2.15's
+    (``by_face``: a face's projections carried along it, cached by face,
+    never split)."""
     from OCP.BRepTools import BRepTools
 
     from nurbscomp.model import REBUILD, differences
@@ -501,7 +504,10 @@ def test_pcurve_cache_builds_the_same_shape(
     models = []
     for tol in (0.001, 0.1):
         pipeline.compress_file(path, tmp_path / f"{tol}.nzc", tol=tol)
-        models.append(pipeline.decode_file(tmp_path / f"{tol}.nzc")[1])
+        m = pipeline.decode_file(tmp_path / f"{tol}.nzc")[1]
+        assert m.pcurves_by_face  # a new container's rule
+        m.pcurves_by_face = by_face
+        models.append(m)
     assert all((m.edge_reps[:, 2] == REBUILD).any() for m in models)
 
     def text(shape) -> str:
@@ -511,8 +517,14 @@ def test_pcurve_cache_builds_the_same_shape(
     # half the 3-D curves of one and half of the other: some pcurves cached, some not
     a, b = models
     assert len(a.curves3d) == len(b.curves3d)
+    # (a face's cache entry needs every edge of the face the same: halves, not every other)
+    half = len(a.curves3d) // 2
     mixed = dataclasses.replace(
-        a, curves3d=[x if i % 2 else y for i, (x, y) in enumerate(zip(a.curves3d, b.curves3d))]
+        a,
+        curves3d=[
+            x if (i < half if by_face else i % 2) else y
+            for i, (x, y) in enumerate(zip(a.curves3d, b.curves3d))
+        ],
     )
     cache = occ.PcurveCache()
     misses = []

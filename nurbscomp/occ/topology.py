@@ -503,7 +503,16 @@ def _fast_build(m: BRepModel, cache: PcurveCache | None) -> Any:
         wanted = {(srow, loc) for _, srow, loc, _, _ in pending}
         rows = list(zip(m.face_surface.tolist(), m.face_loc.tolist()))
         faces = [bintools.face(ss, s) for s in face_shape]
-        rebuild_pcurves(pending, faces, rows, cache, keys, m.poles_follow, m.periods_in_range)
+        rebuild_pcurves(
+            pending,
+            faces,
+            rows,
+            cache,
+            keys,
+            m.poles_follow,
+            m.periods_in_range,
+            face_edge_order(m) if m.pcurves_by_face else None,
+        )
         # the flags of every shape a projection or FixShifted may have marked
         touched = {face_shape[k] for k, r in enumerate(rows) if r in wanted}
         touched |= {int(edge_shape[k]) for k in edges}
@@ -647,11 +656,43 @@ def slow_model_to_shape(m: BRepModel, cache: PcurveCache | None = None) -> Any:
         faces = [sh for sh, t in zip(built, m.shape_type.tolist()) if t == _FACE]
         rows = list(zip(m.face_surface.tolist(), m.face_loc.tolist()))
         keys = _PcurveKeys(m, ereps) if cache is not None else None
-        rebuild_pcurves(pending, faces, rows, cache, keys, m.poles_follow, m.periods_in_range)
+        rebuild_pcurves(
+            pending,
+            faces,
+            rows,
+            cache,
+            keys,
+            m.poles_follow,
+            m.periods_in_range,
+            face_edge_order(m) if m.pcurves_by_face else None,
+        )
     for sh, fl in zip(built, m.shape_flags.tolist()):
         _set_flags(sh.TShape(), fl)
     root = built[m.root_shape]
     return root.Oriented(_ORIENT[m.root_orient]).Located(locs[m.root_loc])
+
+
+def face_edge_order(m: BRepModel) -> list[list[int]]:
+    """Per face, in the shapes table's order, its edges (rows of the edge
+    tables) in the order of its wires and of their children, each once: the
+    order in which format 2.15 projects the pcurves a model left out
+    (:func:`rebuild_pcurves`)."""
+    tidx = m.type_index().tolist()
+    start, child = m.child_start.tolist(), m.child_shape.tolist()
+    types = m.shape_type.tolist()
+    out = []
+    for s, t in enumerate(types):
+        if t != _FACE:
+            continue
+        order: list[int] = []
+        seen: set[int] = set()
+        for w in child[start[s] : start[s + 1]]:
+            for e in child[start[w] : start[w + 1]]:
+                if types[e] == _EDGE and e not in seen:
+                    seen.add(e)
+                    order.append(tidx[e])
+        out.append(order)
+    return out
 
 
 #: Surface analyses :class:`EdgeProjector` keeps (the most recently used).
@@ -691,9 +732,15 @@ class EdgeProjector:
         #: (hash of the face, precision) -> (the face, its analysis)
         self._analyses: collections.OrderedDict[tuple[int, float], Any] = collections.OrderedDict()
 
-    def add(self, edge: Any, face: Any, seam: bool) -> bool:
-        """``FixAddPCurve`` of ``edge`` on ``face`` with the edge's tolerance."""
+    def add(self, edge: Any, face: Any, seam: bool, sas: Any = None) -> bool:
+        """``FixAddPCurve`` of ``edge`` on ``face`` with the edge's tolerance.
+
+        With ``sas`` (from :meth:`start_face`), with that analysis and the
+        projector's end points left by the call before (format 2.15's rule,
+        :func:`_by_face`); without, as if alone."""
         prec = BRep_Tool.Tolerance_s(edge)
+        if sas is not None:
+            return bool(self.fix.FixAddPCurve(edge, face, seam, sas, prec))
         # OCP hashes a shape by its TShape and location; its == is the
         # wrapper's identity, so the face found is compared with IsSame
         key = (hash(face), prec)
@@ -713,6 +760,16 @@ class EdgeProjector:
                 self._analyses.popitem(last=False)
         self.fix.Projector().SetSurface(self._spare)
         return bool(self.fix.FixAddPCurve(edge, face, seam, sas, prec))
+
+    def start_face(self, face: Any) -> Any:
+        """A new analysis of ``face``'s located surface, for :meth:`add`'s
+        ``sas``, with the projector's cache of end points emptied."""
+        loc = TopLoc_Location()
+        surf: Any = BRep_Tool.Surface_s(face, loc)
+        if not loc.IsIdentity():
+            surf = surf.Transformed(loc.Transformation())
+        self.fix.Projector().SetSurface(self._spare)
+        return ShapeAnalysis_Surface(surf)
 
     def plain(self) -> bool:
         """Whether the last call neither failed nor replaced the 3-D curve."""
@@ -741,6 +798,7 @@ def rebuild_pcurves(
     keys: _PcurveKeys | None = None,
     poles_follow: bool = True,
     in_range: bool = True,
+    face_edges: list[list[int]] | None = None,
 ) -> int:
     """Compute the pcurves a model left out, on the faces whose surface they name.
 
@@ -768,18 +826,23 @@ def rebuild_pcurves(
     for f, key in zip(faces, rows):
         by_row.setdefault(key, []).append(f)
     jobs = []
+    where: dict[int, int] = {}
     touched: dict[int, Any] = {}
     projected: dict[int, Any] = {}  # per touched face, the edges projected onto it
     for edge, srow, loc, seam, k in pending:
         for face in by_row.get((srow, loc), []):
             # TopoDS.Face/Wire are TopoDS.Face_s/Wire_s in OCP 7.9; the stubs lack the _s names.
             jobs.append((edge, TopoDS.Face(face), seam, k, srow, loc))
+            where[id(jobs[-1][1])] = id(face)
             touched[id(face)] = face
             if in_range:
                 projected.setdefault(id(face), TopTools_MapOfShape()).Add(edge)
     fix = EdgeProjector()
     handed = 0
     dirty: set[int] = set()  # edges whose 3-D curve a projection replaced
+    if face_edges is not None:
+        _by_face(fix, faces, face_edges, jobs, where, cache, keys, dirty)
+        jobs = []
     do: _Do | None = None
     if cache is not None and keys is not None:
         kc, kk = cache, keys
@@ -1013,13 +1076,21 @@ def _settled(edge: Any, face: Any, k: int, dirty: set[int], sae: Any) -> Any:
 
 
 def _project(
-    fix: EdgeProjector, edge: Any, face: Any, seam: bool, k: int, at: Any, dirty: set[int]
+    fix: EdgeProjector,
+    edge: Any,
+    face: Any,
+    seam: bool,
+    k: int,
+    at: Any,
+    dirty: set[int],
+    sas: Any = None,
 ) -> _Kept | None:
-    """``FixAddPCurve`` of a settled edge (``at``: :func:`_settled`'s answer),
-    and what it left to replay, or None (and ``k`` made dirty) where it did
-    not simply add the projected pcurves."""
+    """``FixAddPCurve`` of a settled edge (``at``: :func:`_settled`'s answer;
+    ``sas`` as :meth:`EdgeProjector.add`'s), and what it left to replay, or
+    None (and ``k`` made dirty) where it did not simply add the projected
+    pcurves."""
     surf, surf_loc = at
-    done = fix.add(edge, face, seam)
+    done = fix.add(edge, face, seam, sas)
     if not done or not fix.plain():
         dirty.add(k)
         return None
@@ -1041,6 +1112,78 @@ def _replay(b: Any, edge: Any, at: Any, kept: _Kept) -> None:
     else:
         b.UpdateEdge(edge, c1, c2, surf, surf_loc, 0.0)
         b.Range(edge, surf, surf_loc, first, last)
+
+
+def _by_face(
+    fix: EdgeProjector,
+    faces: list[Any],
+    face_edges: list[list[int]],
+    jobs: list[Any],
+    where: dict[int, int],
+    cache: PcurveCache | None,
+    keys: _PcurveKeys | None,
+    dirty: set[int],
+) -> None:
+    """Format 2.15's order of :func:`rebuild_pcurves`'s projections.
+
+    Face by face in the shapes table's order, each face's edges in the order
+    of its wires (``face_edges``), as OCCT's STEP reader projects them
+    (``ShapeFix_Wire::FixEdgeCurves``): one ``ShapeAnalysis_Surface`` per
+    face, and the projector's end points carried from one edge to the next
+    (an edge starts where the one before ended, so its first point needs no
+    search of the surface's grid).  A job is (edge, face, seam, edge row,
+    surface row, location); ``where`` maps a job's face to the face's
+    ``id`` in ``faces``.  A call that would do nothing (the edge has its
+    pcurve on that surface already, from a face before) is not made.  Jobs
+    of an edge that is in no wire of a face of its surface are projected
+    last, each alone.
+    """
+    sae = ShapeAnalysis_Edge()
+    by_key = {(job[3], where[id(job[1])]): job for job in jobs}
+    done: set[tuple[int, int]] = set()
+    for f, order in zip(faces, face_edges):
+        mine, ats, whole = [], [], True
+        for k in order:
+            job = by_key.get((k, id(f)))
+            if job is None or (k, id(f)) in done:
+                continue
+            done.add((k, id(f)))
+            edge, face, seam = job[:3]
+            surf_loc = TopLoc_Location()
+            surf = BRep_Tool.Surface_s(face, surf_loc)
+            if sae.IsSeam(edge, surf, surf_loc) if seam else sae.HasPCurve(edge, surf, surf_loc):
+                continue  # FixAddPCurve returns at once
+            at = _settled(edge, face, k, dirty, sae)
+            whole = whole and at is not None
+            mine.append(job)
+            ats.append(at)
+        if not mine:
+            continue
+        if whole and cache is not None and keys is not None:
+            cache.face(fix, mine, ats, keys, dirty)
+        else:
+            _face_projections(fix, mine, ats, dirty)
+    for job in jobs:
+        if (job[3], where[id(job[1])]) not in done:
+            fix.add(job[0], job[1], job[2])
+
+
+def _face_projections(
+    fix: EdgeProjector, jobs: list[Any], ats: list[Any], dirty: set[int]
+) -> list[_Kept | None]:
+    """One face's jobs projected in order with one analysis and the
+    projector's end points carried (:func:`_by_face`); what each settled
+    job (``ats``) left to replay, or None."""
+    sas = fix.start_face(jobs[0][1])
+    made: list[_Kept | None] = []
+    for job, at in zip(jobs, ats):
+        edge, face, seam, k = job[:4]
+        if at is None:
+            fix.add(edge, face, seam, sas)
+            made.append(None)
+        else:
+            made.append(_project(fix, edge, face, seam, k, at, dirty, sas))
+    return made
 
 
 #: A job of :func:`rebuild_pcurves` done through its cache
@@ -1162,6 +1305,8 @@ class PcurveCache:
 
     def __init__(self) -> None:
         self._kept: dict[tuple[Any, ...], _Kept] = {}
+        #: format 2.15: a face's projections, by all that they read
+        self._faces: dict[tuple[Any, ...], list[_Kept]] = {}
         self.hits = 0
         self.misses = 0
         self._sae = ShapeAnalysis_Edge()
@@ -1188,17 +1333,7 @@ class PcurveCache:
         if at is None:
             fix.add(edge, face, seam)
             return False
-        v1, v2 = TopoDS_Vertex(), TopoDS_Vertex()
-        TopExp.Vertices_s(edge, v1, v2)
-        key = (
-            keys.edge(k),
-            keys.surface(srow),
-            keys.location(loc),
-            bool(seam),
-            BRep_Tool.Tolerance_s(edge),
-            -1.0 if v1.IsNull() else BRep_Tool.Tolerance_s(v1),
-            -1.0 if v2.IsNull() else BRep_Tool.Tolerance_s(v2),
-        )
+        key = (keys.surface(srow), keys.location(loc), self.key(edge, seam, k, keys))
         kept = self._kept.get(key)
         if kept is not None:
             self.hits += 1
@@ -1214,9 +1349,50 @@ class PcurveCache:
             self._kept[key] = _copied(got)
         return projected is not None
 
+    @staticmethod
+    def key(edge: Any, seam: bool, k: int, keys: _PcurveKeys) -> tuple[Any, ...]:
+        """What a projection of ``edge`` (row ``k``) reads of the edge itself."""
+        v1, v2 = TopoDS_Vertex(), TopoDS_Vertex()
+        TopExp.Vertices_s(edge, v1, v2)
+        return (
+            keys.edge(k),
+            bool(seam),
+            BRep_Tool.Tolerance_s(edge),
+            -1.0 if v1.IsNull() else BRep_Tool.Tolerance_s(v1),
+            -1.0 if v2.IsNull() else BRep_Tool.Tolerance_s(v2),
+        )
+
+    def face(
+        self,
+        fix: EdgeProjector,
+        jobs: list[Any],
+        ats: list[Any],
+        keys: _PcurveKeys,
+        dirty: set[int],
+    ) -> None:
+        """Format 2.15's projections of one face (:func:`_by_face`), every
+        job settled (``ats``), from the cache where the face's jobs were
+        seen before, in the same order, with the same data."""
+        _, _, _, _, srow, loc = jobs[0]
+        key = (
+            keys.surface(srow),
+            keys.location(loc),
+            tuple(self.key(j[0], j[2], j[3], keys) for j in jobs),
+        )
+        kept = self._faces.get(key)
+        if kept is not None:
+            self.hits += len(jobs)
+            for job, at, got in zip(jobs, ats, kept):
+                _replay(self._b, job[0], at, _copied(got))
+            return
+        self.misses += len(jobs)
+        made = _face_projections(fix, jobs, ats, dirty)
+        if all(got is not None for got in made):
+            self._faces[key] = [_copied(cast(_Kept, got)) for got in made]
+
     def __len__(self) -> int:
         """Projections kept."""
-        return len(self._kept)
+        return len(self._kept) + sum(len(v) for v in self._faces.values())
 
 
 def _array_key(a: np.ndarray) -> tuple[Any, ...]:
