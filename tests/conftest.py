@@ -8,6 +8,7 @@ line saying how to get it.  With it, nothing is skipped."""
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 from pathlib import Path
@@ -80,7 +81,9 @@ def made(tmp_path_factory: pytest.TempPathFactory):
     otherwise; ``tol`` None: lossless-brep), made once for the whole run, by
     whichever worker asks first: a folder that every pytest-xdist worker
     shares, a lock file per container.
-    ``made(src, tol, have=path)`` offers a container a test made already."""
+    ``made(src, tol, have=path)`` offers a container a test made already.
+    Where it compressed the container, ``compress_file``'s report is beside
+    it (``.json``)."""
     import fcntl
     import shutil
 
@@ -101,7 +104,9 @@ def made(tmp_path_factory: pytest.TempPathFactory):
                     shutil.copyfile(have, out)
                 else:
                     # written whole or not at all; tol None: lossless-brep
-                    pipeline.compress_file(src, out, tol=tol, lossless=tol is None)
+                    rep = pipeline.compress_file(src, out, tol=tol, lossless=tol is None)
+                    report = out.with_suffix(".json")
+                    report.write_text(json.dumps(rep, default=str))
         return out
 
     return get

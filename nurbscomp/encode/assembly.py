@@ -99,11 +99,46 @@ def assemble(
     the refined bound past its limit (:func:`_past_limits`), the rows to
     blame are coded again with the pole bound (:func:`nets.rigid`, in
     ``coded``, so later candidates start from them) and the model is
-    assembled again."""
+    assembled again; where the pole bound is not enough, tighter
+    (:func:`_closer`)."""
     while True:
-        out = _assembled(m, coded, exact, still, grid, plain)
-        if not nets.rigid(coded, m, _past_limits(m, coded, out[1])):
+        out = _assembled(m, coded, exact | coded.held, still, grid, plain)
+        past = _past_limits(m, coded, out[1])
+        if not nets.rigid(coded, m, past) and not _closer(m, coded, past):
             return out
+
+
+#: A row still past its limit once coded with the pole bound is coded
+#: ``nets.TIGHTER`` times tighter, up to this many times (:func:`nets.tighten`'s
+#: levels), and then held exact (``coded.held``).
+PAST_TIGHTER = 2
+
+
+def _closer(m: BRepModel, coded: Coded, past: set[Rec]) -> bool:
+    """The rows of ``past`` already coded with the pole bound, coded tighter
+    (their vertices then stay where they are), else held exact; whether any
+    changed.
+
+    A pin sets a net's corner to a vertex within its grid step, and the
+    vertex may itself move by its snap: a plain code (:func:`nets.plain`)
+    of a net whose first code was clear of a vertex can reach it, and the
+    pole bound does not cover that.  A tighter code has a finer grid, and
+    its corners no longer reach a vertex past its limit.
+    """
+    changed = False
+    for k in sorted(past - coded.held, key=lambda r: (r.table, r.row)):
+        done = coded.surfaces if k.table == Table.SURFACE else coded.curves
+        if k not in done or k not in coded.rigid:
+            continue
+        level = coded.tight.get(k, 0) + 1
+        if level <= PAST_TIGHTER:
+            nets.tighten(coded, m, [k], level)
+            if coded.tight.get(k, 0) == level:
+                changed = True
+                continue
+        coded.held.add(k)
+        changed = True
+    return changed
 
 
 def _past_limits(m: BRepModel, coded: Coded, codes: dict[Rec, codec.NetCode]) -> set[Rec]:

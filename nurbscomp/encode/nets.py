@@ -124,6 +124,9 @@ class Coded:
     rigid: set[Rec] = field(default_factory=set)
     #: surface records coded without ``SPATIAL2`` (:func:`plain`)
     plained: set[Rec] = field(default_factory=set)
+    #: records :func:`.assembly.assemble` keeps exact: past their limit once
+    #: pinned and joined, whatever their code (``assembly.PAST_TIGHTER``)
+    held: set[Rec] = field(default_factory=set)
     #: (curve record, its anchors' bytes, limit) -> its code between those
     #: anchors (``codec.Method.ANCHORED``), or None: none fits
     #: (``assembly._anchor_curves``; kept from candidate to candidate)
@@ -142,6 +145,7 @@ class Coded:
             spares={},
             rigid=self.rigid - back,  # a spare is coded as the record first was
             plained=self.plained - back,
+            held=self.held - back,
         )
 
 

@@ -811,6 +811,9 @@ def rebuild_pcurves(
     the projected pcurves are moved into its bounds (:func:`into_range`);
     and (``poles_follow``, format 2.8) the pcurves of their degenerated
     edges are made to meet them (:func:`align_degenerated`).
+    The calls are made in format 2.14's order (:func:`_one_by_one`), or
+    with ``face_edges`` (per face, its edges in wire order:
+    :func:`face_edge_order`) in 2.15's (:func:`_by_face`).
     Deterministic: the same model gives the same pcurves.  With a ``cache``
     (and the ``keys`` of the model) a projection made before from the same
     data is replayed
@@ -842,25 +845,8 @@ def rebuild_pcurves(
     dirty: set[int] = set()  # edges whose 3-D curve a projection replaced
     if face_edges is not None:
         _by_face(fix, faces, face_edges, jobs, where, cache, keys, dirty)
-        jobs = []
-    do: _Do | None = None
-    if cache is not None and keys is not None:
-        kc, kk = cache, keys
-
-        def do(job: Any, got: _Kept | None = None) -> bool:
-            edge, face, seam, k, srow, loc = job
-            return kc.add(fix, edge, face, seam, k, srow, loc, kk, dirty, got)
-
-    # a cache holding nothing yet (a first build) has every projection to make
-    split = cache is None or not cache
-    if split and SPLIT_PROJECTIONS and len(jobs) >= SPLIT_MIN and can_fork() and spare_core():
-        handed = _split(fix, jobs, dirty, do)
-    elif do is not None:
-        for job in jobs:
-            do(job)
     else:
-        for edge, face, seam, _, _, _ in jobs:
-            fix.add(edge, face, seam)
+        handed = _one_by_one(fix, jobs, cache, keys, dirty)
     for at, face in touched.items():
         f = TopoDS.Face(face)
         periods = trimmed_periods(f) if in_range else None
@@ -875,6 +861,38 @@ def rebuild_pcurves(
                     align_degenerated(f, TopoDS.Wire(w))
             it.Next()
     return handed
+
+
+def _one_by_one(
+    fix: EdgeProjector,
+    jobs: list[Any],
+    cache: PcurveCache | None,
+    keys: _PcurveKeys | None,
+    dirty: set[int],
+) -> int:
+    """Format 2.14's order of :func:`rebuild_pcurves`'s projections: the
+    jobs in edge order, each call alone, through the ``cache`` by edge, and
+    split with a child where that pays (:func:`_split`).  How many
+    projections the child made."""
+    do: _Do | None = None
+    if cache is not None and keys is not None:
+        kc, kk = cache, keys
+
+        def do(job: Any, got: _Kept | None = None) -> bool:
+            edge, face, seam, k, srow, loc = job
+            return kc.add(fix, edge, face, seam, k, srow, loc, kk, dirty, got)
+
+    # a cache holding nothing yet (a first build) has every projection to make
+    split = cache is None or not cache
+    if split and SPLIT_PROJECTIONS and len(jobs) >= SPLIT_MIN and can_fork() and spare_core():
+        return _split(fix, jobs, dirty, do)
+    if do is not None:
+        for job in jobs:
+            do(job)
+    else:
+        for edge, face, seam, _, _, _ in jobs:
+            fix.add(edge, face, seam)
+    return 0
 
 
 #: Per parameter direction, (period, first, last) of a face's trimmed
