@@ -99,25 +99,27 @@ def assemble(
     the refined bound past its limit (:func:`_past_limits`), the rows to
     blame are coded again with the pole bound (:func:`nets.rigid`, in
     ``coded``, so later candidates start from them) and the model is
-    assembled again; where the pole bound is not enough, tighter
-    (:func:`_closer`)."""
+    assembled again; where the pole bound still leaves a row past tol,
+    tighter (:func:`_closer`).  (A row held to a feature's limit below tol
+    that ends past that limit but within tol is left so.)"""
     while True:
         out = _assembled(m, coded, exact | coded.held, still, grid, plain)
-        past = _past_limits(m, coded, out[1])
-        if not nets.rigid(coded, m, past) and not _closer(m, coded, past):
+        if nets.rigid(coded, m, _past_limits(m, coded, out[1])):
+            continue
+        if not _closer(m, coded, _past_limits(m, coded, out[1], coded.tol)):
             return out
 
 
-#: A row still past its limit once coded with the pole bound is coded
+#: A row still past tol once coded with the pole bound is coded
 #: ``nets.TIGHTER`` times tighter, up to this many times (:func:`nets.tighten`'s
 #: levels), and then held exact (``coded.held``).
 PAST_TIGHTER = 2
 
 
 def _closer(m: BRepModel, coded: Coded, past: set[Rec]) -> bool:
-    """The rows of ``past`` already coded with the pole bound, coded tighter
-    (their vertices then stay where they are), else held exact; whether any
-    changed.
+    """The rows of ``past`` (past tol) already coded with the pole bound,
+    coded tighter (their vertices then stay where they are), else held
+    exact; whether any changed.
 
     A pin sets a net's corner to a vertex within its grid step, and the
     vertex may itself move by its snap: a plain code (:func:`nets.plain`)
@@ -141,11 +143,14 @@ def _closer(m: BRepModel, coded: Coded, past: set[Rec]) -> bool:
     return changed
 
 
-def _past_limits(m: BRepModel, coded: Coded, codes: dict[Rec, codec.NetCode]) -> set[Rec]:
+def _past_limits(
+    m: BRepModel, coded: Coded, codes: dict[Rec, codec.NetCode], cap: float | None = None
+) -> set[Rec]:
     """The coded records to code again with the pole bound: those whose
     final bound is past the limit they were coded to (a copy's: its own
-    :func:`feature_limit`), or for a copy (an iso-boundary curve, a twin
-    curve) and a surface with joined sides, the rows it copies."""
+    :func:`feature_limit`; with ``cap``, past ``cap`` instead), or for a
+    copy (an iso-boundary curve, a twin curve) and a surface with joined
+    sides, the rows it copies."""
     srec, crec = records(m.surfaces, Table.SURFACE), records(m.curves3d, Table.CURVE3D)
     leaders: dict[Rec, list[Rec]] = collections.defaultdict(list)
     for (b, _), ((a, _), _) in coded.sides.items():
@@ -153,7 +158,12 @@ def _past_limits(m: BRepModel, coded: Coded, codes: dict[Rec, codec.NetCode]) ->
     out: set[Rec] = set()
     for k, code in codes.items():
         g = (m.surfaces if k.table == Table.SURFACE else m.curves3d)[k.row]
-        limit = code.limit if code.limit is not None else feature_limit(poles_of(g), coded.tol)
+        if cap is not None:
+            limit = cap
+        elif code.limit is not None:
+            limit = code.limit
+        else:
+            limit = feature_limit(poles_of(g), coded.tol)
         if not code.bound > limit:
             continue
         if code.method == codec.Method.ISO:
