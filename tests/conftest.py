@@ -117,6 +117,19 @@ def pytest_terminal_summary(terminalreporter, exitstatus: int, config: pytest.Co
         terminalreporter.write_line(NO_CORPUS)
 
 
+def brep_bytes(shape: object) -> bytes:
+    """The ``.brep`` text OCCT writes of ``shape`` (``BRepTools.Write``):
+    two shapes built alike give the same bytes."""
+    import tempfile
+
+    from OCP.BRepTools import BRepTools
+
+    with tempfile.TemporaryDirectory() as d:
+        f = os.path.join(d, "s.brep")
+        BRepTools.Write_s(shape, f)
+        return Path(f).read_bytes()
+
+
 def sample_files() -> list[Path]:
     files = sorted(SAMPLES.glob("*.step"))
     assert len(files) >= 4, "samples/*.step missing: run `make samples`"

@@ -10,8 +10,6 @@ carry a model the build falls back, and says why.
 
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -21,7 +19,6 @@ import pytest
 from OCP.BRep import BRep_Builder
 from OCP.BRepBuilderAPI import BRepBuilderAPI_NurbsConvert
 from OCP.BRepPrimAPI import BRepPrimAPI_MakeBox
-from OCP.BRepTools import BRepTools
 from OCP.gp import gp_Ax1, gp_Dir, gp_Pnt, gp_Trsf, gp_TrsfForm, gp_Vec
 from OCP.TopLoc import TopLoc_Location
 from OCP.TopoDS import TopoDS_Compound
@@ -31,12 +28,9 @@ from nurbscomp.encode.pcurves import drop_pcurves
 from nurbscomp.model import differences
 from nurbscomp.occ import bintools, shape_to_model, topology
 
+from .conftest import brep_bytes
 
-def _brep(shape: Any) -> bytes:
-    with tempfile.TemporaryDirectory() as d:
-        f = os.path.join(d, "s.brep")
-        BRepTools.Write_s(shape, f)
-        return Path(f).read_bytes()
+_brep = brep_bytes
 
 
 def _rotated(shape: Any, angle: float, dx: float) -> Any:

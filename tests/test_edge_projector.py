@@ -9,9 +9,6 @@ compared with every analysis kept, with none, and with the plain call.
 
 from __future__ import annotations
 
-import os
-import tempfile
-from pathlib import Path
 from typing import Any
 
 import cadquery as cq
@@ -19,18 +16,14 @@ import numpy as np
 import pytest
 from OCP.BRep import BRep_Tool
 from OCP.BRepBuilderAPI import BRepBuilderAPI_NurbsConvert
-from OCP.BRepTools import BRepTools
 
 from nurbscomp.encode.pcurves import drop_pcurves
 from nurbscomp.model import EC, REBUILD
 from nurbscomp.occ import shape_to_model, topology
 
+from .conftest import brep_bytes
 
-def _brep(shape: Any) -> bytes:
-    with tempfile.TemporaryDirectory() as d:
-        f = os.path.join(d, "s.brep")
-        BRepTools.Write_s(shape, f)
-        return Path(f).read_bytes()
+_brep = brep_bytes
 
 
 def _shapes() -> dict[str, Any]:

@@ -13,8 +13,6 @@ container is built with the rule of its version.
 
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -22,7 +20,6 @@ import cadquery as cq
 import numpy as np
 import pytest
 from OCP.BRepBuilderAPI import BRepBuilderAPI_NurbsConvert
-from OCP.BRepTools import BRepTools
 from OCP.gp import gp_Trsf, gp_Vec
 from OCP.TopLoc import TopLoc_Location
 from OCP.TopoDS import TopoDS_Iterator
@@ -32,14 +29,12 @@ from nurbscomp.encode.pcurves import drop_pcurves
 from nurbscomp.model import EC, REBUILD
 from nurbscomp.occ import is_valid, shape_to_model, topology
 
+from .conftest import brep_bytes
+
 GOLDEN = Path(__file__).resolve().parent / "golden"
 
 
-def _brep(shape: Any) -> bytes:
-    with tempfile.TemporaryDirectory() as d:
-        f = os.path.join(d, "s.brep")
-        BRepTools.Write_s(shape, f)
-        return Path(f).read_bytes()
+_brep = brep_bytes
 
 
 def _shapes() -> dict[str, Any]:

@@ -502,17 +502,7 @@ def _fast_build(m: BRepModel, cache: PcurveCache | None) -> Any:
             keys = _PcurveKeys(m, _group(m.edge_reps[:, EC.EDGE], len(m.edge_tol)))
         wanted = {(srow, loc) for _, srow, loc, _, _ in pending}
         rows = list(zip(m.face_surface.tolist(), m.face_loc.tolist()))
-        faces = [bintools.face(ss, s) for s in face_shape]
-        rebuild_pcurves(
-            pending,
-            faces,
-            rows,
-            cache,
-            keys,
-            m.poles_follow,
-            m.periods_in_range,
-            face_edge_order(m) if m.pcurves_by_face else None,
-        )
+        _model_pcurves(m, pending, [bintools.face(ss, s) for s in face_shape], cache, keys)
         # the flags of every shape a projection or FixShifted may have marked
         touched = {face_shape[k] for k, r in enumerate(rows) if r in wanted}
         touched |= {int(edge_shape[k]) for k in edges}
@@ -654,22 +644,33 @@ def slow_model_to_shape(m: BRepModel, cache: PcurveCache | None = None) -> Any:
         built.append(sh)
     if pending:
         faces = [sh for sh, t in zip(built, m.shape_type.tolist()) if t == _FACE]
-        rows = list(zip(m.face_surface.tolist(), m.face_loc.tolist()))
         keys = _PcurveKeys(m, ereps) if cache is not None else None
-        rebuild_pcurves(
-            pending,
-            faces,
-            rows,
-            cache,
-            keys,
-            m.poles_follow,
-            m.periods_in_range,
-            face_edge_order(m) if m.pcurves_by_face else None,
-        )
+        _model_pcurves(m, pending, faces, cache, keys)
     for sh, fl in zip(built, m.shape_flags.tolist()):
         _set_flags(sh.TShape(), fl)
     root = built[m.root_shape]
     return root.Oriented(_ORIENT[m.root_orient]).Located(locs[m.root_loc])
+
+
+def _model_pcurves(
+    m: BRepModel,
+    pending: list[tuple[Any, int, int, bool, int]],
+    faces: list[Any],
+    cache: PcurveCache | None,
+    keys: _PcurveKeys | None,
+) -> None:
+    """:func:`rebuild_pcurves` of ``m``'s faces (built, in its order) with
+    the rules of the format ``m`` was decoded from."""
+    rebuild_pcurves(
+        pending,
+        faces,
+        list(zip(m.face_surface.tolist(), m.face_loc.tolist())),
+        cache,
+        keys,
+        m.poles_follow,
+        m.periods_in_range,
+        face_edge_order(m) if m.pcurves_by_face else None,
+    )
 
 
 def face_edge_order(m: BRepModel) -> list[list[int]]:
