@@ -183,3 +183,43 @@ def test_a_new_container_is_built_face_by_face(tmp_path: Path) -> None:
     assert (c.major, c.minor) == (container.MAJOR, container.MINOR) == (2, 15)
     m, _ = pipeline.decode(c)
     assert m.pcurves_by_face
+
+
+def _parts() -> Any:
+    """Three distinct NURBS parts in one compound: their faces share no edge."""
+    blend = BRepBuilderAPI_NurbsConvert(SHAPES["nurbs_fillets"], True).Shape()
+    parts = [cq.Shape.cast(blend), cq.Shape.cast(SHAPES["loft"]), cq.Shape.cast(SHAPES["sweep"])]
+    moved = []
+    for i, p in enumerate(parts):
+        t = gp_Trsf()
+        t.SetTranslation(gp_Vec(40.0 * i, 0, 0))
+        moved.append(cq.Shape.cast(p.wrapped.Moved(TopLoc_Location(t))))
+    return cq.Compound.makeCompound(moved).wrapped
+
+
+def test_a_split_between_parts_builds_the_serial_shape(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Where the faces before a cut share no edge with those after (parts
+    of an assembly), a forked child projects the first faces and the parent
+    replays them (``topology._face_cut``): the serial build's ``.brep``.  A
+    single part has no such cut."""
+    SHAPES["parts"] = _parts()
+    try:
+        m = _model("parts")
+    finally:
+        del SHAPES["parts"]
+    monkeypatch.setattr(topology, "SPLIT_PROJECTIONS", False)
+    serial = _brep(topology.model_to_shape(m))
+    monkeypatch.setattr(topology, "SPLIT_PROJECTIONS", True)
+    monkeypatch.setattr(topology, "SPLIT_MIN", 0)
+    monkeypatch.setattr(topology, "spare_core", lambda: True)  # whatever the load
+    cuts: list[int] = []
+    real = topology._face_cut
+    monkeypatch.setattr(topology, "_face_cut", lambda *a: cuts.append(real(*a)) or cuts[-1])
+    for share in (0.45, 0.2, 0.7):
+        monkeypatch.setattr(topology, "CHILD_SHARE", share)
+        assert _brep(topology.model_to_shape(m)) == serial
+    assert len(cuts) == 3 and all(c > 0 for c in cuts)
+    cuts.clear()
+    single = _model("nurbs_fillets")
+    topology.model_to_shape(single)
+    assert cuts == [0]
