@@ -1160,10 +1160,7 @@ def _by_face(
     sae = ShapeAnalysis_Edge()
     by_key = {(job[3], where[id(job[1])]): job for job in jobs}
     done: set[tuple[int, int]] = set()
-
-    def face_jobs(f: Any, order: list[int]) -> tuple[list[Any], list[Any], bool]:
-        """The face's jobs to make now, in order, whether each is settled,
-        and whether all are."""
+    for f, order in zip(faces, face_edges):
         mine, ats, whole = [], [], True
         for k in order:
             job = by_key.get((k, id(f)))
@@ -1179,98 +1176,15 @@ def _by_face(
             whole = whole and at is not None
             mine.append(job)
             ats.append(at)
-        return mine, ats, whole
-
-    def project(f: Any, order: list[int]) -> None:
-        mine, ats, whole = face_jobs(f, order)
         if not mine:
-            return
+            continue
         if whole and cache is not None and keys is not None:
             cache.face(fix, mine, ats, keys, dirty)
         else:
             _face_projections(fix, mine, ats, dirty)
-
-    cut = 0
-    if (cache is None or not cache) and SPLIT_PROJECTIONS and len(jobs) >= SPLIT_MIN:
-        cut = _face_cut(faces, face_edges, by_key)
-    if cut and can_fork() and spare_core():
-        theirs = list(zip(faces[:cut], face_edges[:cut]))
-
-        def child_faces() -> tuple[list[Any], list[Any]]:
-            """In the child: the first faces projected as the serial build
-            would, and what each left (None where the parent must project
-            the face itself)."""
-            reader, answers = GeometryReader(), cast(list[Any], [])
-            for f, order in theirs:
-                mine, ats, whole = face_jobs(f, order)
-                # every face projected, as serially: a later face may read its effects
-                made = _face_projections(fix, mine, ats, dirty) if mine else None
-                if made is None or not whole or any(got is None for got in made):
-                    answers.append(None)
-                    continue
-                answers.append(
-                    [
-                        (reader.curve2d(c1), reader.curve2d(c2), first, last)
-                        for c1, c2, first, last in cast(list[_Kept], made)
-                    ]
-                )
-            return reader.curves2d.records, answers
-
-        with RoundTrip(child_faces) as child:
-            for f, order in zip(faces[cut:], face_edges[cut:]):
-                project(f, order)
-            try:
-                records, answers = child.ask(_itself)
-            except ReaderCrash:
-                records, answers = [], [None] * cut
-        geo, b = GeometryBuilder([], [], records), BRep_Builder()
-        for (f, order), got in zip(theirs, answers):
-            mine, ats, whole = face_jobs(f, order)
-            if not mine:
-                continue
-            if got is None or not whole or len(got) != len(mine):
-                if whole and cache is not None and keys is not None:
-                    cache.face(fix, mine, ats, keys, dirty)
-                else:
-                    _face_projections(fix, mine, ats, dirty)
-                continue
-            made = [
-                _copied((geo.curve2d(i1), None if i2 < 0 else geo.curve2d(i2), first, last))
-                for i1, i2, first, last in got
-            ]
-            for job, at, kept in zip(mine, ats, made):
-                _replay(b, job[0], at, kept)
-            if cache is not None and keys is not None:
-                cache.keep_face(mine, keys, made)
-    else:
-        for f, order in zip(faces, face_edges):
-            project(f, order)
     for job in jobs:
         if (job[3], where[id(job[1])]) not in done:
             fix.add(job[0], job[1], job[2])
-
-
-def _face_cut(faces: list[Any], face_edges: list[list[int]], by_key: dict[Any, Any]) -> int:
-    """Where format 2.15's projections may be split with a child
-    (:func:`_by_face`): the number of leading faces that share no edge with
-    the rest (between two parts of an assembly) and hold nearest
-    :data:`CHILD_SHARE` of the jobs, between a tenth and nine tenths of
-    them; 0 where there is no such cut (a single part)."""
-    last: dict[int, int] = {}
-    for i, order in enumerate(face_edges):
-        for k in order:
-            last[k] = i
-    total = len(by_key)
-    best, best_gap, reach, held = 0, math.inf, -1, 0
-    for i, (f, order) in enumerate(zip(faces, face_edges)):
-        held += sum((k, id(f)) in by_key for k in order)
-        reach = max([reach, *(last[k] for k in order)])
-        share = held / max(total, 1)
-        if reach == i and 0.1 <= share <= 0.9:  # no edge of faces[: i + 1] after face i
-            gap = abs(share - CHILD_SHARE)
-            if gap < best_gap:
-                best, best_gap = i + 1, gap
-    return best if best < len(faces) else 0
 
 
 def _face_projections(
@@ -1478,7 +1392,12 @@ class PcurveCache:
         """Format 2.15's projections of one face (:func:`_by_face`), every
         job settled (``ats``), from the cache where the face's jobs were
         seen before, in the same order, with the same data."""
-        key = self._face_key(jobs, keys)
+        _, _, _, _, srow, loc = jobs[0]
+        key = (
+            keys.surface(srow),
+            keys.location(loc),
+            tuple(self.key(j[0], j[2], j[3], keys) for j in jobs),
+        )
         kept = self._faces.get(key)
         if kept is not None:
             self.hits += len(jobs)
@@ -1489,22 +1408,6 @@ class PcurveCache:
         made = _face_projections(fix, jobs, ats, dirty)
         if all(got is not None for got in made):
             self._faces[key] = [_copied(cast(_Kept, got)) for got in made]
-
-    def _face_key(self, jobs: list[Any], keys: _PcurveKeys) -> tuple[Any, ...]:
-        """All that a face's projections read: its surface and location, and
-        each job's edge data in order."""
-        _, _, _, _, srow, loc = jobs[0]
-        return (
-            keys.surface(srow),
-            keys.location(loc),
-            tuple(self.key(j[0], j[2], j[3], keys) for j in jobs),
-        )
-
-    def keep_face(self, jobs: list[Any], keys: _PcurveKeys, made: list[_Kept]) -> None:
-        """Keep what a child projected for a face's settled ``jobs``
-        (:func:`_by_face`), as :meth:`face` keeps its own."""
-        self.misses += len(jobs)
-        self._faces[self._face_key(jobs, keys)] = [_copied(got) for got in made]
 
     def __len__(self) -> int:
         """Projections kept."""
