@@ -80,12 +80,9 @@ def made(tmp_path_factory: pytest.TempPathFactory):
     """``made(src, tol)``: the container of ``src`` at ``tol`` (defaults
     otherwise; ``tol`` None: lossless-brep), made once for the whole run, by
     whichever worker asks first: a folder that every pytest-xdist worker
-    shares, a lock file per container.
-    ``made(src, tol, have=path)`` offers a container a test made already.
-    Where it compressed the container, ``compress_file``'s report is beside
+    shares, a lock file per container; ``compress_file``'s report is beside
     it (``.json``)."""
     import fcntl
-    import shutil
 
     from nurbscomp import pipeline
 
@@ -95,18 +92,14 @@ def made(tmp_path_factory: pytest.TempPathFactory):
     folder = root / "made"
     folder.mkdir(exist_ok=True)
 
-    def get(src: Path, tol: float | None, have: Path | None = None) -> Path:
+    def get(src: Path, tol: float | None) -> Path:
         out = folder / f"{src.name}.{tol}.nzc"
         with open(folder / f"{src.name}.{tol}.lock", "w") as lock:
             fcntl.flock(lock, fcntl.LOCK_EX)
             if not out.exists():
-                if have is not None:
-                    shutil.copyfile(have, out)
-                else:
-                    # written whole or not at all; tol None: lossless-brep
-                    rep = pipeline.compress_file(src, out, tol=tol, lossless=tol is None)
-                    report = out.with_suffix(".json")
-                    report.write_text(json.dumps(rep, default=str))
+                # written whole or not at all; tol None: lossless-brep
+                rep = pipeline.compress_file(src, out, tol=tol, lossless=tol is None)
+                out.with_suffix(".json").write_text(json.dumps(rep, default=str))
         return out
 
     return get

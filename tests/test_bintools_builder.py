@@ -30,8 +30,6 @@ from nurbscomp.occ import bintools, shape_to_model, topology
 
 from .conftest import brep_bytes
 
-_brep = brep_bytes
-
 
 def _rotated(shape: Any, angle: float, dx: float) -> Any:
     t = gp_Trsf()
@@ -85,7 +83,7 @@ def _compare(m: Any) -> dict[str, int]:
     topology.FAST_STATS["fast"] = 0
     slow = topology.slow_model_to_shape(m)
     fast = topology.model_to_shape(m)
-    assert _brep(fast) == _brep(slow)
+    assert brep_bytes(fast) == brep_bytes(slow)
     assert differences(shape_to_model(fast)[0], shape_to_model(slow)[0]) == []
     return dict(topology.FAST_STATS)
 
@@ -118,7 +116,7 @@ def test_the_comparison_sees_a_difference() -> None:
     m.face_tol = changed
     a = bintools.root(bintools.read(data), m, index)
     b = bintools.root(bintools.read(other), m, index)
-    assert _brep(a) != _brep(b)
+    assert brep_bytes(a) != brep_bytes(b)
 
 
 def test_translations_fall_back_and_are_counted() -> None:

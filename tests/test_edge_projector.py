@@ -23,8 +23,6 @@ from nurbscomp.occ import shape_to_model, topology
 
 from .conftest import brep_bytes
 
-_brep = brep_bytes
-
 
 def _shapes() -> dict[str, Any]:
     loft = cq.Workplane().circle(5).workplane(offset=8).rect(4, 6).loft()
@@ -72,11 +70,11 @@ def test_kept_analyses_give_the_plain_calls_pcurves(
     m = _model(name, mixed)
     assert (m.edge_reps[:, EC.CURVE] == REBUILD).sum() >= 3  # projections are made
     monkeypatch.setattr(topology, "SPLIT_PROJECTIONS", False)
-    kept = _brep(topology.model_to_shape(m))
+    kept = brep_bytes(topology.model_to_shape(m))
     monkeypatch.setattr(topology, "ANALYSES_KEPT", 0)
-    none_kept = _brep(topology.model_to_shape(m))
+    none_kept = brep_bytes(topology.model_to_shape(m))
     monkeypatch.setattr(topology, "EdgeProjector", _Plain)
-    plain = _brep(topology.model_to_shape(m))
+    plain = brep_bytes(topology.model_to_shape(m))
     assert kept == plain
     assert none_kept == plain
 
@@ -133,10 +131,10 @@ def test_a_shared_precision_would_differ(monkeypatch: pytest.MonkeyPatch) -> Non
     differ = 0
     for name in SHAPES:
         m = _model(name)
-        ours = _brep(topology.model_to_shape(m))
+        ours = brep_bytes(topology.model_to_shape(m))
         with monkeypatch.context() as mp:
             mp.setattr(topology, "EdgeProjector", _PerFace)
-            differ += _brep(topology.model_to_shape(m)) != ours
+            differ += brep_bytes(topology.model_to_shape(m)) != ours
     assert differ > 0
 
 

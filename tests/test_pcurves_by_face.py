@@ -34,9 +34,6 @@ from .conftest import brep_bytes
 GOLDEN = Path(__file__).resolve().parent / "golden"
 
 
-_brep = brep_bytes
-
-
 def _shapes() -> dict[str, Any]:
     blend = cq.Workplane().box(10, 8, 6).edges().fillet(1.2)
     loft = cq.Workplane().circle(5).workplane(offset=8).rect(4, 6).loft()
@@ -138,17 +135,17 @@ def test_a_warm_cache_builds_what_a_cold_build_does(name: str) -> None:
     tolerances changed on a few edges projects those faces again, and every
     build is the cold build's ``.brep``."""
     m = _model(name)
-    cold = _brep(topology.model_to_shape(m))
+    cold = brep_bytes(topology.model_to_shape(m))
     cache = topology.PcurveCache()
-    assert _brep(topology.model_to_shape(m, cache)) == cold
+    assert brep_bytes(topology.model_to_shape(m, cache)) == cold
     misses = cache.misses
-    assert _brep(topology.model_to_shape(m, cache)) == cold
+    assert brep_bytes(topology.model_to_shape(m, cache)) == cold
     assert cache.misses == misses and cache.hits >= misses  # all replayed
     m2 = _model(name)
     m2.edge_tol = m2.edge_tol.copy()
     m2.edge_tol[::5] *= 2.0
-    cold2 = _brep(topology.model_to_shape(m2))
-    assert _brep(topology.model_to_shape(m2, cache)) == cold2
+    cold2 = brep_bytes(topology.model_to_shape(m2))
+    assert brep_bytes(topology.model_to_shape(m2, cache)) == cold2
     assert cache.misses > misses  # the changed faces were projected again
 
 
@@ -161,7 +158,7 @@ def test_the_order_changes_the_pcurves() -> None:
         a = topology.model_to_shape(_model(name, by_face=False))
         b = topology.model_to_shape(_model(name, by_face=True))
         assert is_valid(a) == is_valid(b)  # (the tolerances set here fail two of them)
-        differ += _brep(a) != _brep(b)
+        differ += brep_bytes(a) != brep_bytes(b)
     assert differ > 0
 
 

@@ -750,11 +750,7 @@ class EdgeProjector:
             sas = got[1]
             self._analyses.move_to_end(key)
         else:
-            loc = TopLoc_Location()
-            surf: Any = BRep_Tool.Surface_s(face, loc)
-            if not loc.IsIdentity():
-                surf = surf.Transformed(loc.Transformation())
-            sas = ShapeAnalysis_Surface(surf)
+            sas = _analysis(face)
             self._analyses[key] = (face, sas)
             self._analyses.move_to_end(key)
             if len(self._analyses) > ANALYSES_KEPT:
@@ -765,17 +761,22 @@ class EdgeProjector:
     def start_face(self, face: Any) -> Any:
         """A new analysis of ``face``'s located surface, for :meth:`add`'s
         ``sas``, with the projector's cache of end points emptied."""
-        loc = TopLoc_Location()
-        surf: Any = BRep_Tool.Surface_s(face, loc)
-        if not loc.IsIdentity():
-            surf = surf.Transformed(loc.Transformation())
         self.fix.Projector().SetSurface(self._spare)
-        return ShapeAnalysis_Surface(surf)
+        return _analysis(face)
 
     def plain(self) -> bool:
         """Whether the last call neither failed nor replaced the 3-D curve."""
         fix = self.fix
         return not (fix.Status(ShapeExtend_FAIL) or fix.Projector().Status(ShapeExtend_DONE3))
+
+
+def _analysis(face: Any) -> Any:
+    """A new ``ShapeAnalysis_Surface`` of ``face``'s surface, located."""
+    loc = TopLoc_Location()
+    surf: Any = BRep_Tool.Surface_s(face, loc)
+    if not loc.IsIdentity():
+        surf = surf.Transformed(loc.Transformation())
+    return ShapeAnalysis_Surface(surf)
 
 
 #: Whether a build with no :class:`PcurveCache` or an empty one (a decode, or
@@ -1162,17 +1163,20 @@ def _by_face(
     done: set[tuple[int, int]] = set()
     for f, order in zip(faces, face_edges):
         mine, ats, whole = [], [], True
+        on: tuple[Any, Any] | None = None  # the face's located surface, once
         for k in order:
             job = by_key.get((k, id(f)))
             if job is None or (k, id(f)) in done:
                 continue
             done.add((k, id(f)))
             edge, face, seam = job[:3]
-            surf_loc = TopLoc_Location()
-            surf = BRep_Tool.Surface_s(face, surf_loc)
-            if sae.IsSeam(edge, surf, surf_loc) if seam else sae.HasPCurve(edge, surf, surf_loc):
+            if on is None:
+                surf_loc = TopLoc_Location()
+                on = BRep_Tool.Surface_s(face, surf_loc), surf_loc
+            if sae.IsSeam(edge, *on) if seam else sae.HasPCurve(edge, *on):
                 continue  # FixAddPCurve returns at once
-            at = _settled(edge, face, k, dirty, sae)
+            # as _settled: a seam with one pcurve there, or a dirty edge, is not
+            at = None if k in dirty or (seam and sae.HasPCurve(edge, *on)) else on
             whole = whole and at is not None
             mine.append(job)
             ats.append(at)
