@@ -264,3 +264,43 @@ def test_a_reduced_curve_with_rounded_knots_is_within_its_bridged_bound(
     # a rational row against a plain one has no such bound
     plain = BSplineCurve(coarse.poles, None, coarse.knots, coarse.mults, 3, False)
     assert rational == (K.bridged(plain, dense) == float("inf"))
+
+
+@pytest.mark.parametrize("n, degree", [(132, 1), (150, 3), (300, 8), (200, 14)])
+def test_banded_fit_is_the_dense_fit(n: int, degree: int) -> None:
+    """From ``BANDED_MIN`` inner poles a fit solves the band's normal
+    equations; it gives the dense least-squares poles to rounding, with a knot
+    removed anywhere, the ends held."""
+    rng = np.random.default_rng(n + degree)
+    inner = np.sort(rng.uniform(0.0, 1.0, n - degree - 1))
+    full = np.concatenate([[0.0] * (degree + 1), inner, [1.0] * (degree + 1)])
+    for gone in (degree + 1, degree + 1 + n // 3, len(full) - degree - 2):
+        band = removal._insertion(np.delete(full, gone), full, degree)
+        assert band[2] - 2 >= removal.BANDED_MIN
+        h = rng.normal(size=(n, 4)) * 50.0
+        a = removal._dense(*band)
+        rhs = h - np.outer(a[:, 0], h[0]) - np.outer(a[:, -1], h[-1])
+        dense = np.linalg.lstsq(a[:, 1:-1], rhs, rcond=None)[0]
+        fit = removal._fit(h, *band)
+        assert np.array_equal(fit[[0, -1]], h[[0, -1]])
+        assert np.abs(fit[1:-1] - dense).max() < 1e-9
+
+
+def test_a_long_curve_of_high_degree_loses_knots() -> None:
+    """A curve of some 400 poles and degree 8 (as an offset's approximation
+    has) that is a curve of 13 poles with knots inserted loses most of them
+    within its budget (to 130 of 403), the move certified (the band's fits, O(n·p²) each)."""
+    rng = np.random.default_rng(5)
+    k = np.r_[0.0, np.sort(rng.uniform(0.05, 0.95, 4)), 1.0]
+    m = np.r_[9, np.ones(4, int), 9]
+    fine_k = np.unique(np.r_[k, rng.uniform(0.0, 1.0, 390)])
+    fine_m = np.r_[9, np.ones(len(fine_k) - 2, int), 9]
+    a = removal._dense(*removal._insertion(np.repeat(k, m), np.repeat(fine_k, fine_m), 8))
+    poles = a @ (rng.normal(size=(a.shape[1], 3)) * 20.0)
+    fine = BSplineCurve(poles, None, fine_k, fine_m, 8, False)
+    assert len(poles) > 300
+    out = removal.removed(fine, 1e-6)
+    assert out is not None
+    reduced, moved = out
+    assert moved <= 1e-6
+    assert len(reduced.poles) < len(poles) // 2
