@@ -24,7 +24,12 @@ it falls short, cheapest first.  Two checks:
    at all.  A source face that comes back otherwise (:func:`step_losses`)
    climbs one rung of :class:`Rung` per round; a face whose rungs are all
    spent passes the blame to its edge neighbours, then to its vertex
-   neighbours.  Faces that come back split with no face to blame get the
+   neighbours.  Where the same faces come back lost from two such rounds in
+   a row (:data:`STALLED`), the rounds of that plan stop: its candidates are
+   not the cause there (a lofted solid whose fillets OCCT's reader merges
+   with their neighbours made 13 more round trips with every face around at
+   its last rung, and passed at once with nets coded to the pole bound).
+   Faces that come back split with no face to blame get the
    deliberate rule of :func:`encode.nets.kinked_records`.
 
 Faces and edges are always indices of the *source* model (``m``): a re-read
@@ -71,6 +76,9 @@ log = logging.getLogger(__name__)
 
 #: Rounds of remedies before the fallbacks.
 MAX_ROUNDS = 20
+#: Rounds in a row whose blame passed on to the neighbours of the same lost
+#: faces (all at their last rung) before a plan's rounds stop.
+STALLED = 2
 
 #: OCCT's own STEP round trip of the source (the floor) is begun at the
 #: start, in a child beside the net search, in case a candidate needs it,
@@ -692,15 +700,17 @@ class _Plan:
             self.still_v |= set(self.verts_of[f])
             self.as_read_e |= set(self.edges_of[f])
 
-    def step(self, blamed: set[int]) -> None:
+    def step(self, blamed: set[int]) -> frozenset[int] | None:
         """One rung up for each blamed source face whose rungs are not all
-        spent; when all are, for their neighbours (by edge, then by vertex).
+        spent; when all are, for their neighbours (by edge, then by vertex),
+        and the faces blamed are returned (else None).
         (A blame of spent and unspent faces at once used to climb the spent
         ones past the last rung: compress crashed on an assembly of blended
         bodies, with "6 is not a valid Rung".)"""
         if self.ungrid(blamed, "grid-step"):
-            return
+            return None
         spent = {f for f, r in self.rung.items() if r == Rung.PCURVES}
+        widened = frozenset(blamed) if blamed <= spent else None
         if blamed <= spent:
             wider = {g for f in blamed for e in self.edges_of[f] for g in self.faces_of[e]}
             if wider <= spent:
@@ -723,6 +733,7 @@ class _Plan:
             else:
                 self.keep_f.add(f)
                 self.keep_e |= set(self.edges_of[f])
+        return widened
 
     def tightened(self) -> int:
         """Faces coded tighter than tol for a fault."""
@@ -853,9 +864,12 @@ def _rounds(
     cache: Any,
 ) -> Target | None:
     """The rounds of remedies of :func:`_search` on ``plan``: the first
-    candidate that passes, or None where a round changes nothing or after
-    ``MAX_ROUNDS``.  ``old``: the source's own faults (``occ.failures``)."""
+    candidate that passes, or None where a round changes nothing, after
+    ``MAX_ROUNDS``, or where the blame of the same lost faces passed on to
+    their neighbours :data:`STALLED` rounds in a row.  ``old``: the source's
+    own faults (``occ.failures``)."""
     old_e, old_f = old
+    passed_on: list[frozenset[int]] = []  # the faces of the last rounds that passed the blame
     for _ in range(MAX_ROUNDS):
         before = plan.state()
         cand, codes, report = plan.candidate()
@@ -878,7 +892,11 @@ def _rounds(
         elif blamed is None:
             return _done(plan, cand, codes, report, shape, vr, early)
         elif blamed:
-            plan.step(blamed)
+            who = plan.step(blamed)
+            passed_on = passed_on + [who] if who is not None else []
+            if len(passed_on) >= STALLED and len(set(passed_on[-STALLED:])) == 1:
+                log.debug("STEP check: faces %s lost again after their neighbours' rungs", blamed)
+                break
         else:  # split or merged with no face to blame: C0 knots stay exact
             plan.make_exact(nets.kinked_records(plan.m), "kinked")
         if plan.state() == before:
