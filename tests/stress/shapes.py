@@ -15,9 +15,11 @@ Categories (see ``CATEGORIES``):
 ``shell``
     cadquery ``.shell()`` of boxes, cylinders, filleted boxes, and hollow solids;
 ``loft``, ``sweep``, ``revolve``
-    lofts through closed and open spline sections, sweeps of circles and
-    spline sections along spline paths, revolves of spline profiles (partial,
-    and touching the axis);
+    lofts through closed and open spline sections (two shelled: offset
+    surfaces whose edges OCCT approximates by curves of hundreds of poles;
+    two filleted at both ends: fillets that OCCT's STEP reader mends), sweeps
+    of circles and spline sections along spline paths, revolves of spline
+    profiles (partial, and touching the axis);
 ``periodic``
     one face each on a periodic B-spline surface: periodic in u, v or both;
     degrees 1-5; uniform and non-uniform knots; interior multiplicities > 1;
@@ -430,7 +432,30 @@ def _lofts(rng: np.random.Generator) -> list[tuple[str, Callable[[], TopoDS_Shap
             for y in np.cumsum(rng.uniform(5, 12, ns))
         ]
         out.append((f"open_{k:02d}", partial(_loft_open, sections, k % 2 == 1)))
+    # shelled lofts (offset surfaces, whose edges OCCT approximates by curves
+    # of hundreds of poles) and lofts filleted at both ends (fillets that
+    # OCCT's STEP reader mends)
+    for k in range(2):
+        sections = [
+            _closed_spline(rng, int(rng.integers(6, 13)), rng.uniform(9, 14), z)
+            for z in np.cumsum(rng.uniform(6, 10, 4))
+        ]
+        out.append((f"shelled_{k:02d}", partial(_loft_shelled, sections, rng.uniform(0.6, 1.2))))
+    for k in range(2):
+        out.append((f"filleted_{k:02d}", partial(_loft_filleted, rng.uniform(18, 22))))
     return out
+
+
+def _loft_shelled(sections: list[np.ndarray], thick: float) -> TopoDS_Shape:
+    solid = cq.Workplane().add(cq.Shape.cast(_loft_closed(sections, False)))
+    return solid.faces(">Z").shell(-float(thick)).val().wrapped
+
+
+def _loft_filleted(w: float) -> TopoDS_Shape:
+    w = float(w)
+    loft = cq.Workplane().rect(w, w / 2).workplane(offset=w / 2).circle(0.3 * w)
+    loft = loft.workplane(offset=w / 2).rect(0.4 * w, 0.8 * w).loft()
+    return loft.edges(">Z or <Z").fillet(0.05 * w).val().wrapped
 
 
 def _loft_closed(sections: list[np.ndarray], ruled: bool) -> TopoDS_Shape:
