@@ -156,11 +156,11 @@ def test_a_blame_of_spent_and_fresh_faces_climbs_the_fresh_ones() -> None:
 def test_a_plan_stops_when_the_same_faces_are_lost_past_their_neighbours(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    """Where the same lost faces, all at their last rung, pass the blame to
-    their neighbours ``STALLED`` rounds in a row, the plan's rounds stop (a
-    lofted, filleted solid made 27 rounds at 0.01 mm, 13 of them so, and
-    passed at once with the pole bound; now 16 rounds, the same bytes).
-    Faces still climbing, or other faces lost, do not stop it."""
+    """At the ``STALLED``-th round whose lost faces, all at their last rung,
+    pass the blame to their neighbours, the plan's rounds stop (a lofted,
+    filleted solid made 27 rounds at 0.01 mm, 13 of them so, and passed at
+    once with the pole bound; now 16 rounds, the same bytes).  Faces that
+    climb their rungs do not count."""
     cad = occ.read_cad(next(p for p in sample_files() if p.name == "bracket.step"))
     m, _ = occ.shape_to_model(cad.shape)
 
@@ -178,9 +178,9 @@ def test_a_plan_stops_when_the_same_faces_are_lost_past_their_neighbours(
         return vr.rounds
 
     assert validity.STALLED == 2
-    assert rounds([{0}, {0}, {0}]) == 2  # the same face, twice past its neighbours: stop
-    assert rounds([{0}, {1}, {1}]) == 3  # another face the second time: one more round
-    assert rounds([{0}, {2}, {0}, {0}]) == 4  # face 2 climbs in between: counted again
+    assert rounds([{0}, {0}, {0}]) == 2  # twice past its neighbours: stop
+    assert rounds([{0}, {2}, {1}, {0}]) == 3  # face 2 climbs in between: not counted
+    assert rounds([{2}] * 8) == 7  # five rounds up face 2's rungs, then twice past them
     plan = validity._Plan(m, 0.01, cad.shape)
     plan.gridded = frozenset()
     assert plan.step({2}) is None  # a face with rungs left climbs: nothing passed on

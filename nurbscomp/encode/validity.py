@@ -24,11 +24,11 @@ it falls short, cheapest first.  Two checks:
    at all.  A source face that comes back otherwise (:func:`step_losses`)
    climbs one rung of :class:`Rung` per round; a face whose rungs are all
    spent passes the blame to its edge neighbours, then to its vertex
-   neighbours.  Where the same faces come back lost from two such rounds in
-   a row (:data:`STALLED`), the rounds of that plan stop: its candidates are
-   not the cause there (a lofted solid whose fillets OCCT's reader merges
-   with their neighbours made 13 more round trips with every face around at
-   its last rung, and passed at once with nets coded to the pole bound).
+   neighbours.  At the :data:`STALLED`-th round of a plan that passes the
+   blame on, the rounds of that plan stop: its candidates are not the cause
+   there (a lofted solid whose fillets OCCT's reader merges with their
+   neighbours made 13 more round trips with every face around at its last
+   rung, and passed at once with nets coded to the pole bound).
    Faces that come back split with no face to blame get the
    deliberate rule of :func:`encode.nets.kinked_records`.
 
@@ -76,8 +76,11 @@ log = logging.getLogger(__name__)
 
 #: Rounds of remedies before the fallbacks.
 MAX_ROUNDS = 20
-#: Rounds in a row whose blame passed on to the neighbours of the same lost
-#: faces (all at their last rung) before a plan's rounds stop.
+#: Rounds of a plan whose blame passed on to the neighbours of lost faces
+#: all at their last rung before the plan's rounds stop.  On the corpus and
+#: on 200 generated parts (seed 7, 0.1 mm) no round passes the blame on; on
+#: two lofts filleted at both ends, no plan passed after it did (13 and 6
+#: more rounds), one passed with the pole bound.
 STALLED = 2
 
 #: OCCT's own STEP round trip of the source (the floor) is begun at the
@@ -865,11 +868,11 @@ def _rounds(
 ) -> Target | None:
     """The rounds of remedies of :func:`_search` on ``plan``: the first
     candidate that passes, or None where a round changes nothing, after
-    ``MAX_ROUNDS``, or where the blame of the same lost faces passed on to
-    their neighbours :data:`STALLED` rounds in a row.  ``old``: the source's
-    own faults (``occ.failures``)."""
+    ``MAX_ROUNDS``, or at the :data:`STALLED`-th round whose blame passed on
+    to the lost faces' neighbours.  ``old``: the source's own faults
+    (``occ.failures``)."""
     old_e, old_f = old
-    passed_on: list[frozenset[int]] = []  # the faces of the last rounds that passed the blame
+    passed_on = 0  # rounds whose lost faces were all at their last rung
     for _ in range(MAX_ROUNDS):
         before = plan.state()
         cand, codes, report = plan.candidate()
@@ -892,11 +895,11 @@ def _rounds(
         elif blamed is None:
             return _done(plan, cand, codes, report, shape, vr, early)
         elif blamed:
-            who = plan.step(blamed)
-            passed_on = passed_on + [who] if who is not None else []
-            if len(passed_on) >= STALLED and len(set(passed_on[-STALLED:])) == 1:
-                log.debug("STEP check: faces %s lost again after their neighbours' rungs", blamed)
-                break
+            if plan.step(blamed) is not None:
+                passed_on += 1
+                if passed_on >= STALLED:
+                    log.debug("STEP check: faces %s lost, their rungs spent: plan stops", blamed)
+                    break
         else:  # split or merged with no face to blame: C0 knots stay exact
             plan.make_exact(nets.kinked_records(plan.m), "kinked")
         if plan.state() == before:
