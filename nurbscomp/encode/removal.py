@@ -80,27 +80,27 @@ def _dense(first: np.ndarray, w: np.ndarray, ncols: int) -> np.ndarray:
     return a
 
 
-def _banded(first: np.ndarray, w: np.ndarray, ncols: int, rhs: np.ndarray) -> np.ndarray | None:
+def _banded(
+    first: np.ndarray, w: np.ndarray, inner: np.ndarray, rhs: np.ndarray
+) -> np.ndarray | None:
     """The least-squares poles of the inner columns 1 .. ncols − 2 of the band
-    (``first``, ``w``) against ``rhs``, by the normal equations AᵀA x = Aᵀ rhs:
-    AᵀA is a band of half-width p = ``w.shape[1]`` − 1, gathered from the
-    rows' products and solved by Cholesky in O(n·p²).  None where it is not
-    positive definite (the caller then solves densely)."""
+    (``first``, ``w``), ``inner`` those columns dense, against ``rhs``, by the
+    normal equations AᵀA x = Aᵀ rhs: AᵀA is a band of half-width p =
+    ``w.shape[1]`` − 1, gathered from the rows' products and solved by
+    Cholesky in O(n·p²).  None where it is not positive definite (the caller
+    then solves densely)."""
     from scipy.linalg import LinAlgError, solveh_banded
 
-    n, k = ncols - 2, w.shape[1]
+    n, k = inner.shape[1], w.shape[1]
     cols = first[:, None] + np.arange(k)[None, :] - 1  # each weight's inner column
-    wv = np.where((cols >= 0) & (cols < n), w, 0.0)
     t1, t2 = np.triu_indices(k)
-    # row r adds wv[r, t1]·wv[r, t2] to AᵀA[i, j], i = cols[r, t1] <= j = cols[r, t2],
+    # row r adds w[r, t1]·w[r, t2] to AᵀA[i, j], i = cols[r, t1] <= j = cols[r, t2],
     # held (upper form) at ab[p − (j − i), j] = ab[p − (t2 − t1), j]
     at = (k - 1 - (t2 - t1))[None, :] * n + cols[:, t2]
     ok = (cols[:, t1] >= 0) & (cols[:, t2] < n)
-    ab = np.bincount(at[ok], (wv[:, t1] * wv[:, t2])[ok], minlength=k * n).reshape(k, n)
+    ab = np.bincount(at[ok], (w[:, t1] * w[:, t2])[ok], minlength=k * n).reshape(k, n)
     try:
-        return np.asarray(
-            solveh_banded(ab, _dense(first, wv, ncols)[:, 1:-1].T @ rhs, check_finite=False)
-        )
+        return np.asarray(solveh_banded(ab, inner.T @ rhs, check_finite=False))
     except (LinAlgError, ValueError):
         return None
 
@@ -115,18 +115,11 @@ def _fit(h: np.ndarray, first: np.ndarray, w: np.ndarray, ncols: int) -> np.ndar
     x = np.empty((ncols, flat.shape[1]))
     x[0], x[-1] = flat[0], flat[-1]
     if ncols > 2:
-        a = None if ncols - 2 >= BANDED_MIN else _dense(first, w, ncols)
-        if a is None:
-            cols = first[:, None] + np.arange(w.shape[1])[None, :]
-            a0 = np.where(cols == 0, w, 0.0).sum(1)
-            a1 = np.where(cols == ncols - 1, w, 0.0).sum(1)
-        else:
-            a0, a1 = a[:, 0], a[:, -1]
-        rhs = flat - np.outer(a0, x[0]) - np.outer(a1, x[-1])
-        inner = _banded(first, w, ncols, rhs) if a is None else None
+        a = _dense(first, w, ncols)
+        rhs = flat - np.outer(a[:, 0], x[0]) - np.outer(a[:, -1], x[-1])
+        inner = _banded(first, w, a[:, 1:-1], rhs) if ncols - 2 >= BANDED_MIN else None
         if inner is None:
-            dense = _dense(first, w, ncols) if a is None else a
-            inner = np.linalg.lstsq(dense[:, 1:-1], rhs, rcond=None)[0]
+            inner = np.linalg.lstsq(a[:, 1:-1], rhs, rcond=None)[0]
         x[1:-1] = inner
     return x.reshape((ncols, *h.shape[1:]))
 
