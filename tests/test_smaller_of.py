@@ -26,12 +26,15 @@ def _fake_stage(
 ) -> list[float]:
     """``validity.lossy_target`` replaced: at ``tol`` a target whose container
     has ``bytes_at[tol]`` bytes and whose remedies reached ``climbed_at[tol]``
-    faces; the tolerances asked for, in order."""
+    faces, or ``Costlier`` where that is the ceiling given or more; the
+    tolerances asked for, in order."""
     asked: list[float] = []
 
-    def lossy_target(m, shape, tol, step_safe, pack, pcurves):  # type: ignore[no-untyped-def]
+    def lossy_target(m, shape, tol, step_safe, pack, pcurves, ceiling):  # type: ignore[no-untyped-def]
         asked.append(tol)
         key = min(bytes_at, key=lambda t: abs(t - tol))
+        if ceiling is not None and bytes_at[key] >= ceiling:
+            raise validity.Costlier
         vr = validity.ValidityReport(tightened=climbed_at.get(key, 0))
         return SimpleNamespace(validity=vr, early=b"x" * bytes_at[key], model=m, codes={})
 
@@ -124,6 +127,66 @@ def test_no_tighter_code_below_the_least_tolerance(monkeypatch: pytest.MonkeyPat
     asked = _fake_stage(monkeypatch, {5e-6: 900, 5e-7: 10}, {5e-6: 3})
     c = stage._coded(_model(1), SimpleNamespace(shape=None, pcurves=True), 5e-6, True, _packer)
     assert asked == [5e-6] and c.tol == 5e-6
+
+
+def test_a_tighter_coding_is_held_to_the_size_in_hand(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The tighter coding is given the container in hand as its ceiling; at
+    or past it, it gives up (``validity.Costlier``) and the looser one is
+    kept, as it would be if it had gone on: a tighter one still is not
+    tried."""
+    ceilings: list[int | None] = []
+    real = _fake_stage(monkeypatch, {0.1: 500, 0.01: 500, 0.001: 10}, {0.1: 3, 0.01: 3})
+    fake = validity.lossy_target
+
+    def spy(*args: Any) -> Any:
+        ceilings.append(args[-1])
+        return fake(*args)
+
+    monkeypatch.setattr(validity, "lossy_target", spy)
+    c = stage._coded(_model(4), SimpleNamespace(shape=None, pcurves=True), 0.1, True, _packer)
+    assert real == [0.1, pytest.approx(0.01)] and ceilings == [None, 500]
+    assert c is not None and c.tol == 0.1 and len(c.data) == 500
+
+
+def test_a_round_that_packs_to_the_ceiling_ends_the_search(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """With a ceiling, each round's candidate is packed before it is built:
+    the first at the ceiling or past it raises ``Costlier`` and nothing is
+    built; a ceiling above every candidate changes nothing, and the packing
+    of the round that passes serves as the early result (one packing a
+    round)."""
+    from nurbscomp import occ
+
+    from .test_isolated import SAMPLES, _pack
+
+    cad = occ.read_cad(SAMPLES / "loft.step")
+    m, _ = occ.shape_to_model(cad.shape)
+    built: list[object] = []
+    build = validity.build
+    monkeypatch.setattr(validity, "build", lambda *a: built.append(a) or build(*a))
+    packs: list[int] = []
+
+    class Sized(tuple):  # type: ignore[type-arg]
+        """``_pack``'s (model id, bytes), as long as its bytes."""
+
+        def __len__(self) -> int:
+            return len(self[1])
+
+    def pack(*args: Any) -> Any:
+        out = Sized(_pack(*args))
+        packs.append(len(out))
+        return out
+
+    with pytest.raises(validity.Costlier):
+        validity.lossy_target(m, cad.shape, 0.01, False, pack, True, 1)
+    assert len(packs) == 1 and not built
+    packs.clear()
+    t = validity.lossy_target(m, cad.shape, 0.01, False, pack, True, 10**9)
+    base = validity.lossy_target(m, cad.shape, 0.01, False)
+    assert _pack(t.model, t.codes, True, None)[1] == _pack(base.model, base.codes, True, None)[1]
+    assert len(packs) == t.validity.rounds >= 1
+    assert t.early is not None and t.early[1] == _pack(t.model, t.codes, True, None)[1]
 
 
 def _write(name: str, fmt: str, folder: Path) -> Path:
