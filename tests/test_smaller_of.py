@@ -181,12 +181,16 @@ def test_a_round_that_packs_to_the_ceiling_ends_the_search(
     with pytest.raises(validity.Costlier):
         validity.lossy_target(m, cad.shape, 0.01, False, pack, True, 1)
     assert len(packs) == 1 and not built
-    packs.clear()
-    t = validity.lossy_target(m, cad.shape, 0.01, False, pack, True, 10**9)
     base = validity.lossy_target(m, cad.shape, 0.01, False)
-    assert _pack(t.model, t.codes, True, None)[1] == _pack(base.model, base.codes, True, None)[1]
-    assert len(packs) == t.validity.rounds >= 1
-    assert t.early is not None and t.early[1] == _pack(t.model, t.codes, True, None)[1]
+    assert base.validity.rounds == 1  # the sample passes at once
+    first = len(_pack(base.model, base.codes, True, None)[1])
+    for ceiling in (first + 1, 10**9):  # just above the candidate that passes, far above
+        packs.clear()
+        t = validity.lossy_target(m, cad.shape, 0.01, False, pack, True, ceiling)
+        made = _pack(t.model, t.codes, True, None)[1]
+        assert made == _pack(base.model, base.codes, True, None)[1]
+        assert len(packs) == 1 and t.validity.rounds == base.validity.rounds
+        assert t.early is not None and t.early[1] == _pack(t.model, t.codes, True, None)[1]
 
 
 def _write(name: str, fmt: str, folder: Path) -> Path:
