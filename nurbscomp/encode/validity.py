@@ -905,7 +905,7 @@ def _rounds(
     passed_on = 0  # rounds whose lost faces were all at their last rung
     if ceiling is not None and meanwhile is not None:
         meanwhile = _last_packed(meanwhile)  # the check's packing of a candidate that passes
-    reach = None  # the most the rounds since the last packing can have reached
+    reach: float | None = None  # the most the rounds since the last packing can have reached
     for _ in range(MAX_ROUNDS):
         before = plan.state()
         cand, codes, report = plan.candidate()
