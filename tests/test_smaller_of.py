@@ -193,6 +193,36 @@ def test_a_round_that_packs_to_the_ceiling_ends_the_search(
         assert t.early is not None and t.early[1] == _pack(t.model, t.codes, True, None)[1]
 
 
+@pytest.mark.slow
+def test_a_fallback_at_the_ceiling_is_not_built(monkeypatch: pytest.MonkeyPatch) -> None:
+    """No round passes (none is made here), so the fallbacks follow: under
+    a ceiling both are built (the one with every pcurve stored is checked,
+    and fails, as the STEP reader crashes); at a ceiling neither is, and the
+    search ends with ``Costlier``."""
+    from nurbscomp import occ
+
+    from .test_isolated import SAMPLES, _crash, _pack
+
+    monkeypatch.setattr(validity.occ, "step_round_trip", lambda *a: _crash())
+    monkeypatch.setattr(validity.occ, "spare_core", lambda: True)
+    monkeypatch.setattr(validity, "_rounds", lambda *a: None)
+    built: list[object] = []
+    build = validity.build
+    monkeypatch.setattr(validity, "build", lambda *a: built.append(a) or build(*a))
+    cad = occ.read_cad(SAMPLES / "loft.step")
+    m, _ = occ.shape_to_model(cad.shape)
+
+    def pack(*args: Any) -> Any:
+        return _pack(*args)[1]
+
+    t = validity.lossy_target(m, cad.shape, 0.01, True, pack, True, 10**9)
+    assert t.validity.fallback == "exact" and len(built) == 2
+    built.clear()
+    with pytest.raises(validity.Costlier):
+        validity.lossy_target(m, cad.shape, 0.01, True, pack, True, 1)
+    assert not built
+
+
 def _write(name: str, fmt: str, folder: Path) -> Path:
     return files.write_entry(ENTRIES[name], folder, (fmt,))[0]
 

@@ -799,9 +799,11 @@ def lossy_target(
         ``step_pcurves`` says whether it did.
     ceiling : int, optional
         The size of a container already in hand (a coding within a larger
-        tolerance, ``stages.compress``): with ``meanwhile``, each round's
-        candidate is packed before it is built, and one that comes to
-        ``ceiling`` bytes or more ends the search (:class:`Costlier`).
+        tolerance, ``stages.compress``): with ``meanwhile``, a round's
+        candidate is packed before it is built (where the rounds since the
+        last packing could have reached the ceiling, :data:`CEILING_STEP`),
+        and one that comes to ``ceiling`` bytes or more ends the search
+        (:class:`Costlier`); a fallback that does is not built.
 
     Raises
     ------
@@ -848,40 +850,45 @@ def _search(
     edges = _source_edges(m, source)
     old_e, old_f = occ.failures(source)
     cache = occ.PcurveCache()  # the candidates differ from round to round in a few records
+    if ceiling is not None and meanwhile is not None:
+        meanwhile = _last_packed(meanwhile)  # the check's packing of a candidate that passes
     for spread in (True, False):
         plan = _Plan(start, tol, source, spread, edges)
         done = _rounds(plan, (old_e, old_f), floor, vr, meanwhile, cache, ceiling)
         if done is not None:
             return done
         log.debug("no candidate passed with the %s bound", "refined" if spread else "pole")
-    # coded geometry with every pcurve stored, if that passes
+    # coded geometry with every pcurve stored, if that passes (and is under the ceiling)
     target, codes, report = assembly.assemble(
         plan.m, plan.coded, plan.exact, plan.still_v, plan.grid
     )
     target = pcurves.stretch_short(target)
-    shape = build(target, cache)
-    vr.rounds += 1
-    new_e, new_f, blamed, early = _check_candidate(
-        plan, target, codes, shape, (old_e, old_f), floor, meanwhile
-    )
-    log.debug(
-        "fallback with every pcurve stored: new faults on %d edges, %d faces; STEP losses %s",
-        len(new_e),
-        len(new_f),
-        blamed,
-    )
-    if not new_e and not new_f and blamed is None:
-        vr.fallback = "pcurves"
-        vr.exact_faces = plan.exact_faces(report)
-        vr.pcurves_kept = len(m.face_surface)
-        vr.tightened = plan.tightened()
-        return Target(target, codes, report, shape, vr, 0, early)
+    if not _over(ceiling, meanwhile, floor, target, codes):
+        shape = build(target, cache)
+        vr.rounds += 1
+        new_e, new_f, blamed, early = _check_candidate(
+            plan, target, codes, shape, (old_e, old_f), floor, meanwhile
+        )
+        log.debug(
+            "fallback with every pcurve stored: new faults on %d edges, %d faces; STEP losses %s",
+            len(new_e),
+            len(new_f),
+            blamed,
+        )
+        if not new_e and not new_f and blamed is None:
+            vr.fallback = "pcurves"
+            vr.exact_faces = plan.exact_faces(report)
+            vr.pcurves_kept = len(m.face_surface)
+            vr.tightened = plan.tightened()
+            return Target(target, codes, report, shape, vr, 0, early)
     # every record: coded ones, and analytic ones (straightened otherwise)
     everything: set[Rec | None] = {
         *records(m.surfaces, Table.SURFACE),
         *records(m.curves3d, Table.CURVE3D),
     }
     target, codes, report = assembly.assemble(m, plan.coded, everything, grid=False)
+    if _over(ceiling, meanwhile, floor, target, codes):
+        raise Costlier
     vr.fallback = "exact"
     vr.exact_faces = {"fallback": sum(1 for x in report.face_method if x == "exact")}
     return Target(target, codes, report, build(target, cache), vr, 0)
@@ -903,15 +910,12 @@ def _rounds(
     (``occ.failures``)."""
     old_e, old_f = old
     passed_on = 0  # rounds whose lost faces were all at their last rung
-    if ceiling is not None and meanwhile is not None:
-        meanwhile = _last_packed(meanwhile)  # the check's packing of a candidate that passes
     reach: float | None = None  # the most the rounds since the last packing can have reached
     for _ in range(MAX_ROUNDS):
         before = plan.state()
         cand, codes, report = plan.candidate()
         if ceiling is not None and meanwhile is not None and (reach is None or reach >= ceiling):
-            written = (True, None) if floor is None else (floor.pcurves, floor.uncertainty)
-            reach = len(meanwhile(cand, codes, *written))
+            reach = _packed_size(meanwhile, floor, cand, codes)
             if reach >= ceiling:
                 log.debug("validity round %d: the candidate packs to the ceiling", vr.rounds + 1)
                 raise Costlier
@@ -945,6 +949,26 @@ def _rounds(
         if plan.state() == before:
             break  # nothing left to try here
     return None
+
+
+def _packed_size(pack: Meanwhile, floor: _Floor | None, cand: BRepModel, codes: Any) -> int:
+    """Bytes of the container of ``cand`` as the STEP check would pack it now."""
+    written = (True, None) if floor is None else (floor.pcurves, floor.uncertainty)
+    return len(pack(cand, codes, *written))
+
+
+def _over(
+    ceiling: int | None,
+    pack: Meanwhile | None,
+    floor: _Floor | None,
+    cand: BRepModel,
+    codes: Any,
+) -> bool:
+    """Whether a fallback's ``cand`` packs to ``ceiling`` bytes or more (never
+    without a ceiling and a packer): it need not be built or checked."""
+    if ceiling is None or pack is None:
+        return False
+    return _packed_size(pack, floor, cand, codes) >= ceiling
 
 
 def _last_packed(pack: Meanwhile) -> Meanwhile:
