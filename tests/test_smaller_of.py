@@ -135,7 +135,7 @@ def test_a_tighter_coding_is_held_to_the_size_in_hand(monkeypatch: pytest.Monkey
     kept, as it would be if it had gone on: a tighter one still is not
     tried."""
     ceilings: list[int | None] = []
-    real = _fake_stage(monkeypatch, {0.1: 500, 0.01: 500, 0.001: 10}, {0.1: 3, 0.01: 3})
+    asked = _fake_stage(monkeypatch, {0.1: 500, 0.01: 500, 0.001: 10}, {0.1: 3, 0.01: 3})
     fake = validity.lossy_target
 
     def spy(*args: Any) -> Any:
@@ -144,8 +144,16 @@ def test_a_tighter_coding_is_held_to_the_size_in_hand(monkeypatch: pytest.Monkey
 
     monkeypatch.setattr(validity, "lossy_target", spy)
     c = stage._coded(_model(4), SimpleNamespace(shape=None, pcurves=True), 0.1, True, _packer)
-    assert real == [0.1, pytest.approx(0.01)] and ceilings == [None, 500]
+    assert asked == [0.1, pytest.approx(0.01)] and ceilings == [None, 500]
     assert c is not None and c.tol == 0.1 and len(c.data) == 500
+
+
+def _builds(monkeypatch: pytest.MonkeyPatch) -> list[object]:
+    """The arguments of each ``validity.build`` from now on (it still builds)."""
+    built: list[object] = []
+    build = validity.build
+    monkeypatch.setattr(validity, "build", lambda *a: built.append(a) or build(*a))
+    return built
 
 
 def test_a_round_that_packs_to_the_ceiling_ends_the_search(
@@ -162,9 +170,7 @@ def test_a_round_that_packs_to_the_ceiling_ends_the_search(
 
     cad = occ.read_cad(SAMPLES / "loft.step")
     m, _ = occ.shape_to_model(cad.shape)
-    built: list[object] = []
-    build = validity.build
-    monkeypatch.setattr(validity, "build", lambda *a: built.append(a) or build(*a))
+    built = _builds(monkeypatch)
     packs: list[int] = []
 
     class Sized(tuple):  # type: ignore[type-arg]
@@ -206,9 +212,7 @@ def test_a_fallback_at_the_ceiling_is_not_built(monkeypatch: pytest.MonkeyPatch)
     monkeypatch.setattr(validity.occ, "step_round_trip", lambda *a: _crash())
     monkeypatch.setattr(validity.occ, "spare_core", lambda: True)
     monkeypatch.setattr(validity, "_rounds", lambda *a: None)
-    built: list[object] = []
-    build = validity.build
-    monkeypatch.setattr(validity, "build", lambda *a: built.append(a) or build(*a))
+    built = _builds(monkeypatch)
     cad = occ.read_cad(SAMPLES / "loft.step")
     m, _ = occ.shape_to_model(cad.shape)
 
