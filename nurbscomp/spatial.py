@@ -114,9 +114,12 @@ def eg_bits(r: np.ndarray) -> np.ndarray:
 
 def rd_extrapolate(
     p: np.ndarray, h: np.ndarray, bound: float | np.ndarray, qo: np.ndarray
-) -> np.ndarray:
+) -> tuple[np.ndarray, np.ndarray]:
     """Residuals (R, nu, nv, 3) of :func:`extrapolate` chosen within ``bound``
-    (one for all, or one per step), on each grid step of ``h`` (R,) at once.
+    (one for all, or one per step), on each grid step of ``h`` (R,) at once,
+    and the grid points (R, nu, nv, 3) they decode to (:func:`unextrapolate`
+    of the residuals with the origin's grid point added to the first: the
+    closed loop computes the same integers).
 
     The closed loop of the decoder, run in its own order along the
     anti-diagonals (each pole's predictors lie on earlier ones, so a diagonal
@@ -147,7 +150,8 @@ def rd_extrapolate(
             rr = _choose(t_all[:, at] - pred, rho, rho2, corner)
             r[:, at] = rr
             flat[:, pad] = pred + rr
-    return r.reshape(nr, nu, nv, c)
+    grid = flat.reshape(nr, nu + 2, nv + 2, c)[:, 2:, 2:]
+    return r.reshape(nr, nu, nv, c), grid
 
 
 def _choose(t: np.ndarray, rho: np.ndarray, rho2: np.ndarray, corner: np.ndarray) -> np.ndarray:

@@ -363,6 +363,22 @@ def test_spatial2_holds_its_bound_and_decodes_as_written(
     assert np.array_equal(codec.decode_net(moved, p.shape, None, None, tol)[0], dec)
 
 
+@settings(max_examples=60, deadline=None)
+@given(st.integers(1, 9), st.integers(1, 9), st.integers(0, 2**31))
+def test_spatial2_closed_loop_grid_is_the_decoders(nu: int, nv: int, seed: int) -> None:
+    """The grid points ``rd_extrapolate`` returns are what its residuals decode
+    to (the search measures its trials on them, not on a decoded net)."""
+    rng = np.random.default_rng(seed)
+    p = _smooth_net(rng, nu, nv) if min(nu, nv) >= 2 else rng.uniform(-900, 900, (nu, nv, 3))
+    qo = rng.integers(-(10**5), 10**5, (3, 3))
+    h = np.array([0.01, 0.02, 0.005])
+    res, grid = spatial.rd_extrapolate(p, h, np.array([0.012, 0.03, 0.004]), qo)
+    for k in range(3):
+        r = res[k].copy()
+        r[0, 0] += qo[k]
+        assert np.array_equal(spatial.unextrapolate(r), grid[k])
+
+
 def test_spatial2_beats_the_parallelogram_on_smooth_nets() -> None:
     rng = np.random.default_rng(3)
     u, v = np.meshgrid(np.linspace(0, 1, 12), np.linspace(0, 1, 12), indexing="ij")

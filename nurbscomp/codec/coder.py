@@ -495,7 +495,7 @@ class _Writer:
         qo = spatial.snap(_first(origin), h)[None]
         hs = np.array([h])
         if weights is None:
-            ints = spatial.rd_extrapolate(p, hs, bound, qo)[0].reshape(-1)
+            ints = spatial.rd_extrapolate(p, hs, bound, qo)[0][0].reshape(-1)
         else:
             ints = spatial.rd_lifted(p, hs, bound, qo, *weights)[0][0].reshape(-1)
         if not np.abs(ints).max() <= MAX_INT:

@@ -40,7 +40,6 @@ from .coder import (
     _Stepper,
     _tol_ladder,
     _tol_table,
-    _unextrapolated,
     _Unusable,
     _Writer,
     cost_bits,
@@ -572,9 +571,10 @@ def _extrapolated_codes(
     abscissae ``s``, ``t``) of a net within ``limit`` on the rungs of
     :data:`EXTRAPOLATED_RUNGS` (and, with a measure, :data:`SPREAD_COARSER`
     and :data:`SPREAD_SHARES`): the residuals of all trials chosen at once
-    (:func:`spatial.rd_extrapolate`), each trial's net then decoded from its
-    integers as the decoder does (:func:`_unextrapolated`) and its bound
-    certified on that net, as :func:`_try` does."""
+    (:func:`spatial.rd_extrapolate`), with the grid points each trial's
+    integers decode to (the decoder's, :func:`_unextrapolated`: the closed
+    loop computes the same integers), and every trial's bound certified on
+    its net in one call to the measure, as :func:`_try` certifies one."""
     if p.shape[0] * p.shape[1] > EXTRAPOLATED_MAX:
         return []
     memo = memo or _Memo()
@@ -604,22 +604,22 @@ def _extrapolated_codes(
     o = _first(origin)
     qo = np.stack([spatial.snap(o, x) for x in h])
     w = lifted_weights(method, s, t) if method in LIFTED else None
-    grids = None
+    # the closed loop's grid points are the decoder's (tests/test_lifted.py,
+    # tests/test_spatial.py): every trial's net is measured in one call
     if w is None:
-        res = spatial.rd_extrapolate(p, h, shares * limit, qo)
-    else:  # the closed loop's grid points are the decoder's (tests/test_lifted.py)
+        res, grids = spatial.rd_extrapolate(p, h, shares * limit, qo)
+    else:
         res, grids = spatial.rd_lifted(p, h, shares * limit, qo, *w)
+    usable = [k for k in range(len(settings)) if np.abs(res[k]).max() <= MAX_INT]
+    if not usable:
+        return []
+    nets = grids[usable] * h[usable].reshape(-1, 1, 1, 1)
+    bounds = memo.bounds(nets - p[None]).tolist()
     out = []
-    for k, ((st, _), r) in enumerate(zip(settings, res)):
-        ints = r.reshape(-1)
-        if not np.abs(ints).max() <= MAX_INT:
-            continue
-        if grids is None:
-            net = _unextrapolated(ints, p.shape, origin, st.grid)
-        else:
-            net = grids[k] * st.grid
-        bound = float(memo.bounds((net - p)[None])[0])
+    for k, bound in zip(usable, bounds):
         if bound <= limit:
+            st = settings[k][0]
+            ints = res[k].reshape(-1)
             out.append(
                 NetCode(
                     method,
