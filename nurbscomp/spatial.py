@@ -107,9 +107,12 @@ _MARGIN = 1e-6
 
 
 def eg_bits(r: np.ndarray) -> np.ndarray:
-    """Exp-Golomb length of zig-zag mapped integers (as ``codec.cost_bits``), elementwise."""
+    """Exp-Golomb length of zig-zag mapped integers (as ``codec.cost_bits``),
+    elementwise: 2·floor(log2(z + 1)) + 1 for z = 2|r| − (r < 0), the floor
+    read off the binary exponent (exact, where a rounded log2 of 2^k − 1
+    reaches k past 2^48)."""
     z = np.abs(r).astype(np.float64) * 2 - (r < 0)
-    return 2 * np.floor(np.log2(z + 1.0)) + 1
+    return 2.0 * (np.frexp(z + 1.0)[1] - 1) + 1.0
 
 
 def rd_extrapolate(
@@ -159,7 +162,8 @@ def _choose(t: np.ndarray, rho: np.ndarray, rho2: np.ndarray, corner: np.ndarray
     one anti-diagonal, ``t`` the residuals that would land on the poles."""
     c = t.shape[-1]
     norm = np.sqrt((t * t).sum(-1))
-    shrink = np.nan_to_num(np.clip(1 - rho / norm, 0, 1))
+    # clipped to [0, 1], NaN (a NaN target) to 0: fmax and fmin drop NaN
+    shrink = np.fmin(np.fmax(1 - rho / norm, 0.0), 1.0)
     base = np.rint(t * shrink[..., None])
     if c == 3:
         best, nearest = _cheapest3(base, t, rho2)
@@ -182,7 +186,8 @@ def _cheapest3(base: np.ndarray, t: np.ndarray, rho2: np.ndarray) -> tuple[np.nd
     (R, k, 27, 3) arrays would sum them, so the costs are theirs bit for bit."""
     cand = base[..., None] + _STEPS  # (R, k, 3 coordinates, 3 offsets)
     bits = eg_bits(cand) + (cand != 0)
-    sq = (cand - t[..., None]) ** 2
+    d = cand - t[..., None]
+    sq = d * d
     shape = (*base.shape[:2], 27)
     dist = _combined(sq).reshape(shape)
     # one bit more per non-zero integer: of two candidates of equal
@@ -191,7 +196,7 @@ def _cheapest3(base: np.ndarray, t: np.ndarray, rho2: np.ndarray) -> tuple[np.nd
     cost[dist > rho2[:, :, None]] = np.inf
     pick = cost.argmin(-1)
     best = base + _OFFSETS[pick]
-    nearest = ~np.isfinite(np.take_along_axis(cost, pick[..., None], axis=2)[..., 0])
+    nearest = np.isinf(cost.min(-1))  # the pick's cost: inf where every candidate is out
     return best, nearest
 
 
