@@ -1055,9 +1055,9 @@ def _certified(new: Any, original: Any, tol: float) -> tuple[Any, float]:
     poles further than its code did)."""
     bound = knots.moved(new, original)
     if (
-        bound > feature_limit(original.poles, tol)
-        and original.weights is not None
+        original.weights is not None
         and new.poles.shape == original.poles.shape
+        and bound > feature_limit(original.poles, tol)
     ):
         new = replace(new, weights=original.weights)
         bound = knots.moved(new, original)
