@@ -930,7 +930,9 @@ def report(
             return "met"
         if val is None:
             return "**behind** (not measured)"
-        return f"**behind** ({(val / goal if above else goal / val):.0%} of goal)"
+        if above:
+            return f"**behind** ({val / goal:.0%} of goal)"
+        return f"**behind** ({val / goal:.1f}× the goal)"
 
     xz_r = f.total_ratio(f.peer_column("xz -9e"))
     exact_r = exact_ratio(f.names)
