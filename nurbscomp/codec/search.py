@@ -605,7 +605,7 @@ def _extrapolated_codes(
     qo = np.stack([spatial.snap(o, x) for x in h])
     w = lifted_weights(method, s, t) if method in LIFTED else None
     # the closed loop's grid points are the decoder's (tests/test_lifted.py,
-    # tests/test_spatial.py): every trial's net is measured in one call
+    # tests/test_codec.py): every trial's net is measured in one call
     if w is None:
         res, grids = spatial.rd_extrapolate(p, h, shares * limit, qo)
     else:
