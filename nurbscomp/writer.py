@@ -9,7 +9,6 @@ net codes in the order and on the origins the decoder will use
 
 from __future__ import annotations
 
-import hashlib
 from collections.abc import Collection
 from dataclasses import replace
 from typing import Any, cast
@@ -17,6 +16,7 @@ from typing import Any, cast
 import numpy as np
 
 from . import codec, serialize, spatial
+from .memo import Memo, digest
 from .model import BRepModel, BSplineCurve, BSplineSurface, Geometry, Rec, Table, first_row
 from .rules import joins
 from .rules.nets import net_abscissae
@@ -91,9 +91,7 @@ def _net_table(
 #: packs a part once or more per round, and most of its rows are the same
 #: from one round to the next (trj7 at 0.01 mm: 168 surface rows packed 16
 #: times, some 0.36 ms each).
-_CHOSEN: dict[bytes, tuple[np.ndarray, int, list[int]]] = {}
-#: Answers kept before the memo starts again.
-CHOSEN_MEMO = 20_000
+_CHOSEN: Memo[tuple[np.ndarray, int, list[int]]] = Memo(20_000)
 
 
 def _chosen(
@@ -109,28 +107,8 @@ def _chosen(
     its corners against the cheapest of them (:func:`_corner_choice`); with
     the pick (0: the origin) and the corners' picks.  Only the integers
     change, so only they are remembered (:data:`_CHOSEN`)."""
-    h = hashlib.blake2b(digest_size=20)
-    for a in (
-        code.ints,
-        code.dcs,
-        code.origin,
-        origin,
-        points,
-        g.uknots,
-        g.umults,
-        g.vknots,
-        g.vmults,
-    ):
-        h.update(b"-" if a is None else f"{a.dtype.str}{a.shape}".encode())
-        if a is not None:
-            h.update(np.ascontiguousarray(a).data)
-    h.update(
-        repr((int(code.method), int(code.quant), code.level, code.slope, g.poles.shape)).encode()
-    )
-    h.update(repr((g.udegree, g.vdegree, tol)).encode())
-    key = h.digest()
-    hit = _CHOSEN.get(key)
-    if hit is None:
+
+    def make() -> tuple[np.ndarray, int, list[int]]:
         out = codec.reorigin(code, origin, tol)
         k = _anchor_choice(out, points, tol)
         if k:
@@ -142,11 +120,15 @@ def _chosen(
             corners = _corner_choice(out, shape, grid, points, tol)
             at = {c: points[j - 1] for c, j in enumerate(corners, 1) if j}
             out = codec.recorner(out, shape, at, tol, grid)
-        if len(_CHOSEN) >= CHOSEN_MEMO:
-            _CHOSEN.clear()
-        hit = _CHOSEN[key] = (out.ints, k, corners)
-        out.ints.flags.writeable = False
-    ints, k, corners = hit
+        out.ints.flags.writeable = False  # shared by every row that asks again
+        return out.ints, k, corners
+
+    key = digest(
+        *(code.ints, code.dcs, code.origin, origin, points),
+        *(g.uknots, g.umults, g.vknots, g.vmults, g.poles.shape, g.udegree, g.vdegree),
+        *(int(code.method), int(code.quant), code.level, code.slope, tol),
+    )
+    ints, k, corners = _CHOSEN.get(key, make)
     return replace(code, ints=ints), k, list(corners)
 
 

@@ -23,7 +23,7 @@ LAYERS: list[tuple[str, set[str]]] = [
         {
             "errors", "formats", "units", "model", "lazy", "signals", "_version", "report",
             "bspline", "coons", "dct", "dmap", "spatial", "streams", "entropy", "budget",
-            "topocode", "product", "heatmap", "nearby",
+            "topocode", "product", "heatmap", "nearby", "memo",
         },
     ),
     ("codec", {"codec", "codec.coder", "codec.search", "rules.joins"}),

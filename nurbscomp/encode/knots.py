@@ -59,13 +59,14 @@ surface's (or one a surface has too) to significant bits.
 
 from __future__ import annotations
 
-import hashlib
 from collections.abc import Iterable
 from dataclasses import fields, replace
+from typing import Any
 
 import numpy as np
 
 from .. import bspline, entropy
+from ..memo import Memo, digest
 from ..model import BSplineCurve, BSplineSurface, Geometry
 from ..rules.joins import clamped_curve, clamped_surface
 from ..serialize.geometry import evenly_spaced
@@ -328,31 +329,23 @@ def raised(new: Net, original: Net) -> Net | None:
 #: :func:`moved`'s answers, by a digest of the two rows: the validity stage
 #: assembles a candidate a round, and most rows are the last round's
 #: (trj7 at 0.01 mm: 21,503 measures for some 2,000 distinct pairs).
-_MOVED: dict[bytes, float] = {}
-#: Answers kept before the memo starts again (some 100 bytes each).
-MOVED_MEMO = 100_000
+_MOVED: Memo[float] = Memo(100_000)
 
 
 #: Per row class, its name and its fields' names (:func:`_digest`).
-_FIELDS: dict[type, tuple[bytes, tuple[str, ...]]] = {}
+_FIELDS: dict[type, tuple[str, tuple[str, ...]]] = {}
 
 
 def _digest(*rows: Net) -> bytes:
-    """A digest of every field of ``rows`` (arrays by dtype, shape and bytes)."""
-    h = hashlib.blake2b(digest_size=20)
+    """A digest of every field of ``rows`` (:func:`memo.digest`)."""
+    parts: list[Any] = []
     for g in rows:
         kind = _FIELDS.get(type(g))
         if kind is None:
-            kind = _FIELDS[type(g)] = (type(g).__name__.encode(), tuple(f.name for f in fields(g)))
-        h.update(kind[0])
-        for name in kind[1]:
-            a = getattr(g, name)
-            if isinstance(a, np.ndarray):
-                h.update(f"{a.dtype.str}{a.shape}".encode())
-                h.update(np.ascontiguousarray(a).data)  # no copy where it is contiguous
-            else:
-                h.update(repr(a).encode())
-    return h.digest()
+            kind = _FIELDS[type(g)] = (type(g).__name__, tuple(f.name for f in fields(g)))
+        parts.append(kind[0])
+        parts.extend(getattr(g, name) for name in kind[1])
+    return digest(*parts)
 
 
 def moved(new: Net, original: Net) -> float:
@@ -364,14 +357,7 @@ def moved(new: Net, original: Net) -> float:
     with ``ROUNDING`` ulps per term and direction for the insertion; inf for
     a row with other poles that is not such a row.  Answered from
     ``_MOVED`` where the same two rows were measured before."""
-    key = _digest(new, original)
-    got = _MOVED.get(key)
-    if got is None:
-        got = _moved(new, original)
-        if len(_MOVED) >= MOVED_MEMO:
-            _MOVED.clear()
-        _MOVED[key] = got
-    return got
+    return _MOVED.get(_digest(new, original), lambda: _moved(new, original))
 
 
 def _moved(new: Net, original: Net) -> float:

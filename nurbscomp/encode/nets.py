@@ -16,7 +16,6 @@ Still exact in this version: analytic geometry, and B-splines under an offset
 from __future__ import annotations
 
 import collections
-import hashlib
 from collections.abc import Iterable, Sequence, Set
 from dataclasses import dataclass, field, replace
 from typing import Any, cast
@@ -24,6 +23,7 @@ from typing import Any, cast
 import numpy as np
 
 from .. import codec, serialize
+from ..memo import Memo, digest
 from ..model import (
     EC,
     BRepModel,
@@ -162,9 +162,7 @@ def _polyline(p: np.ndarray) -> np.ndarray:
 #: :func:`feature_limit`'s answers by a digest of the poles and tol: the
 #: validity stage asks again for the same rows in every round's assembly
 #: (bearing.iges at 0.01 mm: 69,514 asks, 20 µs each).
-_LIMITS: dict[bytes, float] = {}
-#: Answers kept before the memo starts again.
-LIMITS_MEMO = 100_000
+_LIMITS: Memo[float] = Memo(100_000)
 
 
 def feature_limit(poles: np.ndarray, tol: float) -> float:
@@ -177,20 +175,15 @@ def feature_limit(poles: np.ndarray, tol: float) -> float:
     STEP reader re-projecting its edges adds or drops edges there (measured
     on an IGES file whose 213 faces have edges of 2-10 µm, at tol 10 µm).
     """
-    h = hashlib.blake2b(np.ascontiguousarray(poles).data, digest_size=16)
-    h.update(f"{poles.dtype.str}{poles.shape}{tol!r}".encode())
-    key = h.digest()
-    got = _LIMITS.get(key)
-    if got is None:
-        if poles.ndim == 3:
-            size = min(_polyline(np.swapaxes(poles, 0, 1)).max(), _polyline(poles).max())
-        else:
-            size = float(_polyline(poles))
-        got = float(np.clip(FEATURE_FRACTION * size, tol / 1024, tol))
-        if len(_LIMITS) >= LIMITS_MEMO:
-            _LIMITS.clear()
-        _LIMITS[key] = got
-    return got
+    return _LIMITS.get(digest(poles, tol), lambda: _feature_limit(poles, tol))
+
+
+def _feature_limit(poles: np.ndarray, tol: float) -> float:
+    if poles.ndim == 3:
+        size = min(_polyline(np.swapaxes(poles, 0, 1)).max(), _polyline(poles).max())
+    else:
+        size = float(_polyline(poles))
+    return float(np.clip(FEATURE_FRACTION * size, tol / 1024, tol))
 
 
 #: Whether a code's bound is measured on the refined error net
