@@ -37,7 +37,7 @@ LAYERS: list[tuple[str, set[str]]] = [
                "encode.knots", "encode.removal", "encode.deviation",
                "occ", "occ.cq", "occ.exchange",
                "occ.files", "occ.geometry", "occ.isolated", "occ.lists", "occ.measure",
-               "occ.mesh", "occ.topology", "occ.xcaf", "occ.bintools"}),
+               "occ.mesh", "occ.topology", "occ.xcaf", "occ.bintools", "occ.approx"}),
     ("wiring", {"paths", "passthrough", "stages", "stages.common", "stages.decompress",
                 "stages.compress", "stages.evaluate", "pipeline", "_api", "batch", "", "cli",
                 "__main__"}),

@@ -82,6 +82,8 @@ class LossyReport:
     loose_v: frozenset[int] = frozenset()
     #: the planes and cylinders through a vertex (:func:`_surfaces_through`)
     through_s: frozenset[Rec] = frozenset()
+    #: edges whose stored pcurves were re-approximated (``pcurves.compact_kept``)
+    compacted: frozenset[int] = frozenset()
 
     def method_counts(self) -> dict[str, int]:
         return dict(collections.Counter(self.face_method))

@@ -10,14 +10,16 @@ the ranges of edges on lines and circles as the rule "what the vertices give".
 from __future__ import annotations
 
 import collections
+import functools
 import math
 from collections.abc import Callable, Set
-from dataclasses import replace
+from dataclasses import fields, replace
 from typing import Any
 
 import numpy as np
 
 from .. import budget, codec, entropy
+from ..memo import Memo, digest
 from ..model import (
     EC,
     REBUILD,
@@ -792,3 +794,103 @@ def stretch_short(m: BRepModel) -> BRepModel:
     out.edge_reps = reps
     out.edge_tol = np.where(widen > 0, round_up(m.edge_tol + MARGIN * widen), m.edge_tol)
     return out
+
+
+#: A stored B-spline pcurve of at least this many poles is offered to
+#: :func:`compact_kept`.
+COMPACT_MIN_POLES = 32
+#: How far on its surface a re-approximated pcurve may move, as a share of
+#: tol: the edge's and its vertices' tolerances grow by as much.
+COMPACT_SHARE = 0.25
+
+#: What :func:`compact_kept` asks the approximation: (surfaces, curves2d,
+#: curve row, surface row, first, last, within) -> (record, uv ends, moved) or
+#: None (``occ.compact_pcurve``).
+Approximate = Callable[
+    [list[Geometry], list[Geometry], int, int, float, float, float],
+    "tuple[BSplineCurve, np.ndarray, float] | None",
+]
+#: Its answers by a digest of all they read (the rounds ask again for the
+#: same rows: 0.1 s for a pcurve of 2,000 poles).
+_COMPACTED: Memo[Any] = Memo(10_000)
+
+
+def _record_parts(table: list[Geometry], i: int) -> list[Any]:
+    """Every field of row ``i`` of ``table`` and of the rows it derives from."""
+    out: list[Any] = []
+    while True:
+        g = table[i]
+        out.append(type(g).__name__)
+        out.extend(getattr(g, f.name) for f in fields(g))
+        if not isinstance(g, Derived):
+            return out
+        i = g.basis
+
+
+def compact_kept(
+    m: BRepModel, tol: float, whole: Set[int], approximate: Approximate
+) -> tuple[BRepModel, frozenset[int]]:
+    """``m`` (a candidate, its ranges final) with each stored B-spline pcurve
+    of ``COMPACT_MIN_POLES`` or more replaced by ``approximate``'s curve of at
+    most half its poles that stays within ``COMPACT_SHARE``·tol of it on its
+    surface, where there is one; and the edges whose pcurves were replaced.
+
+    The stored pcurves are those the validity stage keeps (OCCT's projection
+    of the coded edge failed a check), as the source was read: an offset
+    face's trimming curves can have 2,000 poles of degree 11 where the edge's
+    3-D curve has 26 (a shelled loft written by OCCT: 26 of its 34 kB at
+    0.1 mm).  The pcurve moves by the measured distance on the surface, so
+    the edge's tolerance and its vertices' grow by it (``MARGIN``, rounded
+    up to a power of two, as ``assembly`` widens them); its uv end points
+    are the new curve's.  Edges in ``whole`` keep their pcurves as they are
+    (a rung of the validity stage); so do pcurves another edge, a vertex or
+    a derived curve refers to."""
+    reps = m.edge_reps
+    kind = reps[:, EC.KIND]
+    closed = kind == RepKind.ON_CLOSED_SURFACE
+    pc = (kind == RepKind.ON_SURFACE) | closed
+    refs = collections.Counter(reps[pc, EC.CURVE].tolist() + reps[closed, EC.CURVE2].tolist())
+    vr = m.vertex_reps
+    held = set(vr[vr[:, VC.KIND] == PointRepKind.ON_CURVE_ON_SURFACE, VC.CURVE].tolist())
+    held |= {g.basis for g in m.curves2d if isinstance(g, Derived)}
+    within = COMPACT_SHARE * tol
+    curves2d, uv = list(m.curves2d), m.edge_rep_uv.copy()
+    moved_e = np.zeros(len(m.edge_tol))
+    for q in np.flatnonzero(pc).tolist():
+        e, surface = int(reps[q, EC.EDGE]), int(reps[q, EC.SURFACE])
+        if e in whole:
+            continue
+        first, last = m.edge_rep_range[q].tolist()
+        for col, at in ((EC.CURVE, 0), (EC.CURVE2, 4)):
+            c = int(reps[q, col])
+            g = m.curves2d[c] if c >= 0 and (col == EC.CURVE or closed[q]) else None
+            if not isinstance(g, BSplineCurve) or len(g.poles) < COMPACT_MIN_POLES:
+                continue
+            if refs[c] != 1 or c in held:
+                continue
+            key = digest(
+                *_record_parts(m.curves2d, c),
+                *_record_parts(m.surfaces, surface),
+                first,
+                last,
+                within,
+            )
+            ask = functools.partial(approximate, m.surfaces, m.curves2d, c, surface, first, last)
+            got = _COMPACTED.get(key, functools.partial(ask, within))
+            if got is None:
+                continue
+            curves2d[c], uv[q, at : at + 4] = got[0], got[1]
+            moved_e[e] = max(moved_e[e], got[2])
+    if not moved_e.any():
+        return m, frozenset()
+    tidx = m.type_index()
+    edge_shape = np.flatnonzero(m.shape_type == ShapeType.EDGE)
+    moved_v = np.zeros(len(m.vertex_tol))
+    for e in np.flatnonzero(moved_e).tolist():
+        for v in below(m, int(edge_shape[e]), ShapeType.VERTEX):
+            moved_v[tidx[v]] = max(moved_v[tidx[v]], moved_e[e])
+    out: Any = replace(m)
+    out.curves2d, out.edge_rep_uv = curves2d, uv
+    out.edge_tol = np.where(moved_e > 0, round_up(m.edge_tol + MARGIN * moved_e), m.edge_tol)
+    out.vertex_tol = np.where(moved_v > 0, round_up(m.vertex_tol + MARGIN * moved_v), m.vertex_tol)
+    return out, frozenset(np.flatnonzero(moved_e).tolist())

@@ -49,7 +49,7 @@ import functools
 import logging
 import tempfile
 from collections.abc import Callable, Iterable, Sequence, Set
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from enum import IntEnum
 from pathlib import Path
 from typing import Any, cast
@@ -496,6 +496,8 @@ class _Plan:
         self.keep_f: set[int] = set()
         self.still_v: set[int] = set()
         self.as_read_e: set[int] = set()  # edges whose ranges stay as read
+        self.whole_e: set[int] = set()  # edges whose stored pcurves stay as read
+        self.compacted: frozenset[int] = frozenset()  # the last candidate's (LossyReport)
         self.rung: dict[int, Rung] = {}  # source face -> highest rung taken
         self.tight_f: set[int] = set()  # faces tightened for a BRepCheck fault
         self.plain_f: set[int] = set()  # faces whose nets around lost SPATIAL2 (nets.plain)
@@ -583,6 +585,7 @@ class _Plan:
             len(self.tight_f),
             len(self.plain_f),
             len(self.plain_s),
+            len(self.whole_e),
         )
 
     def candidate(self) -> tuple[BRepModel, dict[Rec, Any], assembly.LossyReport]:
@@ -595,6 +598,7 @@ class _Plan:
         out = self._candidate() if fresh else made[2]  # type: ignore[index]
         self.gridded, self.loose_v = out[2].gridded, out[2].loose_v
         self.through_s = out[2].through_s
+        self.compacted = out[2].compacted
         return out
 
     def _candidate(self) -> tuple[BRepModel, dict[Rec, Any], assembly.LossyReport]:
@@ -608,7 +612,9 @@ class _Plan:
             pcurves.unit_surfaces(cand, codes, self.knot_memo), self.knot_memo
         )
         ranged = pcurves.vertex_ranges(cand, self.tol, self.as_read_e, self.m.vertex_point)
-        return pcurves.rounded_ranges(ranged, self.tol, self.as_read_e), codes, report
+        rounded = pcurves.rounded_ranges(ranged, self.tol, self.as_read_e)
+        out, compacted = pcurves.compact_kept(rounded, self.tol, self.whole_e, occ.compact_pcurve)
+        return out, codes, replace(report, compacted=compacted)
 
     def with_leaders(self, recs: set[Rec | None]) -> set[Rec | None]:
         """``recs`` with the records their copies follow: a copied curve's leader
@@ -635,9 +641,11 @@ class _Plan:
         self.exact |= recs
 
     def brepcheck(self, new_e: set[int], new_f: set[int]) -> None:
-        """A fault's faces whose vertices were snapped beside a curve kept
-        exact (``LossyReport.loose_v``) get those vertices back where they
-        were first, and nothing else this round.  Other faults' faces are
+        """A fault's edges (or its faces' edges) whose stored pcurves were
+        re-approximated (:meth:`whole`) keep them as read, and nothing else
+        this round.  A fault's faces whose vertices were snapped beside a
+        curve kept exact (``LossyReport.loose_v``) get those vertices back
+        where they were first, and nothing else this round.  Other faults' faces are
         coded ``TIGHTER``² times tighter first (a code
         that is valid at a smaller tolerance is valid at this one, and costs
         far less than stored pcurves: ec_turbine at 0.1 mm grew by 2 KB
@@ -647,6 +655,8 @@ class _Plan:
         (``pcurves.vertex_ranges`` moves an end along a line or circle by up
         to 1e-3 tol, past a 1e-7 tolerance: a surface of revolution in a
         faces-mode IGES file)."""
+        if self.whole({*new_e, *(e for f in new_f for e in self.edges_of[f])}):
+            return  # first, pcurves re-approximated go back to the source's
         faces = set(new_f) | {f for e in new_e for f in self.faces_of[e]}
         loose = {f for f in faces if set(self.verts_of[f]) & self.loose_v}
         if loose:  # first, vertices snapped beside a curve kept exact stay
@@ -685,6 +695,15 @@ class _Plan:
             self.make_exact({self.faces_rec[f]}, "brepcheck")
         self.keep_e |= new_e
         self.keep_f |= new_f
+
+    def whole(self, edges: Iterable[int]) -> bool:
+        """The first rung for a fault on ``edges`` (or on their faces) where
+        the last candidate stored re-approximated pcurves
+        (``pcurves.compact_kept``): those edges keep their pcurves as read;
+        whether there were any."""
+        hit = set(edges) & self.compacted - self.whole_e
+        self.whole_e |= hit
+        return bool(hit)
 
     def ungrid(self, faces: Iterable[int], why: str) -> bool:
         """The first rung for a fault: the analytic records of ``faces`` and
@@ -727,6 +746,8 @@ class _Plan:
         (A blame of spent and unspent faces at once used to climb the spent
         ones past the last rung: compress crashed on an assembly of blended
         bodies, with "6 is not a valid Rung".)"""
+        if self.whole(e for f in blamed for e in self.edges_of[f]):
+            return None
         if self.ungrid(blamed, "grid-step"):
             return None
         spent = {f for f, r in self.rung.items() if r == Rung.PCURVES}

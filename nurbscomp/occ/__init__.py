@@ -5,6 +5,7 @@ on the plain numpy data of :mod:`nurbscomp.model`.
 """
 
 from . import cq
+from .approx import compact_pcurve
 from .files import (
     UNITS_MM,
     CadFile,
@@ -45,6 +46,7 @@ __all__ = [
     "ReaderTimeout",
     "RoundTrip",
     "bintools_bytes",
+    "compact_pcurve",
     "counts",
     "cq",
     "deviation",
