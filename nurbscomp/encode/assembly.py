@@ -43,7 +43,7 @@ from ..model import (
 from ..rules import joins
 from ..serialize import SWEPT
 from ..serialize.vertices import TWIN_EXP, twin_offset
-from . import analytic, coincide, knots, nets
+from . import analytic, coincide, knots, nets, offsets
 from .nets import TRIM_C, TRIM_S, Coded, feature_limit, first_rows, poles_of, resolve_row
 
 
@@ -276,6 +276,12 @@ def _assembled(
             # sweeping is an isometry of each curve point: the surface moves as the curve
             face_bound[f] = curve_bound(b.basis)
             face_method.append("swept" if face_bound[f] > 0 else "exact")
+        elif isinstance(b, Derived) and b.kind == Kind.OFFSET_SURFACE and srec[b.basis] in codes:
+            # an offset moves by more than its basis's poles (encode.offsets)
+            d = float(b.params[0])
+            box = offsets.face_box(source, b.basis)
+            face_bound[f] = offsets.moved(source.surfaces[b.basis], surfaces[b.basis], d, box)
+            face_method.append(codes[srec[b.basis]].method.name.lower())
         else:
             face_method.append("exact")
     reps = m.edge_reps

@@ -44,7 +44,7 @@ from ..rules import joins
 from ..rules.nets import net_abscissae, net_basis
 from ..serialize import SWEPT
 from ..serialize.geometry import evenly_spaced
-from . import coincide, deviation, knots, removal, weights
+from . import coincide, deviation, knots, offsets, removal, weights
 
 
 def resolve_row(table: list[Geometry], i: int, through: tuple[Kind, ...]) -> int:
@@ -73,6 +73,32 @@ def _offset_bases(
                     r = b.basis
                 else:
                     break
+    return out
+
+
+def _offset_limits(m: BRepModel, srec: list[Rec], tol: float) -> dict[Rec, float]:
+    """The B-spline rows that are only the basis of offset surfaces (no face
+    lies on them, no other record derives from them), each with the pole
+    bound its code is held to so that its offsets move by at most tol
+    (:func:`offsets.limit`); a row with no such bound is not listed (it stays
+    exact, :func:`_offset_bases`)."""
+    by_basis = offsets.offsets_by_basis(m.surfaces)
+    used = {srec[r] for r in m.face_surface.tolist()}
+    used |= {
+        srec[g.basis]
+        for g in m.surfaces
+        if isinstance(g, Derived) and g.kind != Kind.OFFSET_SURFACE
+    }
+    out: dict[Rec, float] = {}
+    for r, d in sorted(by_basis.items()):
+        g, k = m.surfaces[r], srec[r]
+        if not isinstance(g, BSplineSurface) or k in used or k in out:
+            continue
+        # every offset of this record counts (a record may be several rows)
+        d = max(dd for rr, dd in by_basis.items() if srec[rr] == k)
+        lim = offsets.limit(g, d, tol, offsets.face_box(m, r))
+        if lim is not None:
+            out[k] = min(lim, feature_limit(g.poles, tol))
     return out
 
 
@@ -645,10 +671,14 @@ def code_model(
     eps = min(coincide.TWIN_EPS, tol / 64)
     srec, crec = records(m.surfaces, Table.SURFACE), records(m.curves3d, Table.CURVE3D)
     keep_s = _offset_bases(m.surfaces, Table.SURFACE, Kind.OFFSET_SURFACE, TRIM_S)
+    held = _offset_limits(m, srec, tol)  # bases coded within what their offsets allow
+    keep_s -= set(held)
     srows0 = first_rows(
         {k for k, g in zip(srec, m.surfaces) if isinstance(g, BSplineSurface)} - keep_s
     )
-    sides = _affordable(m.surfaces, coincide.twin_sides(m.surfaces, sorted(srows0), eps), tol)
+    plain_rows = {k.row for k in held}  # coded as they are: no sides, knots, removal
+    twin = coincide.twin_sides(m.surfaces, sorted(srows0 - plain_rows), eps)
+    sides = _affordable(m.surfaces, twin, tol)
     # where faces share an edge, its tolerance covers their coding errors: no
     # side needs joining there (joining would only move them off their other edges)
     on = _edges_by_surface(m)
@@ -668,7 +698,7 @@ def code_model(
     joined = {r for k, v in sides.items() for r in (k[0], v.leader[0])}
     # a side set to its leader's keeps the leader's pole errors, which the
     # follower's own refined bound did not average: both take the pole bound
-    rigid = {srec[r] for r in joined} if spread else {*srec, *crec}
+    rigid = {srec[r] for r in joined} | set(held) if spread else {*srec, *crec}
     copied = coincide.iso_sources(m, crows, srows0)
     where = joins.curve_placements(m)
     pairs = coincide.twin_curves(m.curves3d, crows, eps, set(copied), where)
@@ -676,7 +706,12 @@ def code_model(
     kplan = knots.plan(
         [
             *(
-                (g, _limit(g, tol) if sfirst[r] in srows0 and sfirst[r] not in joined else None)
+                (
+                    g,
+                    _limit(g, tol)
+                    if sfirst[r] in srows0 and sfirst[r] not in joined | plain_rows
+                    else None,
+                )
                 for r, g in enumerate(m.surfaces)
             ),
             *(
@@ -696,7 +731,10 @@ def code_model(
         along[v.leader[0]].add(v.leader[1] // 2)
     spares: dict[Rec, tuple[codec.NetCode, Geometry]] = {}
     removable = (
-        {srec[r]: tuple(axis for axis in (0, 1) if 1 - axis not in along[r]) for r in srows0}
+        {
+            srec[r]: tuple(axis for axis in (0, 1) if 1 - axis not in along[r])
+            for r in srows0 - plain_rows
+        }
         if REMOVAL
         else {}
     )
@@ -707,7 +745,7 @@ def code_model(
         keep_s,
         searched,
         paper,
-        limits=_leader_limits(m.surfaces, srec, sides, tol),
+        limits={**_leader_limits(m.surfaces, srec, sides, tol), **held},
         uncodable=uncodable,
         wbits=wbits,
         kplan=kplan,
@@ -1069,8 +1107,9 @@ def first_rows(recs: Iterable[Rec], which: Table | None = None) -> set[int]:
 
 
 def face_records(m: BRepModel) -> list[Rec]:
-    """Per face, the record it moves with: its surface (trimmed -> basis), or
-    for a swept surface the swept curve (trimmed -> basis)."""
+    """Per face, the record it moves with: its surface (trimmed -> basis), for
+    a swept surface the swept curve (trimmed -> basis), for an offset surface
+    its basis."""
     sfirst, cfirst = first_row(m.surfaces), first_row(m.curves3d)
     out = []
     for r in m.face_surface.tolist():
@@ -1078,6 +1117,8 @@ def face_records(m: BRepModel) -> list[Rec]:
         g = m.surfaces[r]
         if isinstance(g, Derived) and g.kind in SWEPT:
             out.append(Rec(Table.CURVE3D, cfirst[resolve_row(m.curves3d, g.basis, TRIM_C)]))
+        elif isinstance(g, Derived) and g.kind == Kind.OFFSET_SURFACE:
+            out.append(Rec(Table.SURFACE, sfirst[g.basis]))  # it moves with its basis
         else:
             out.append(Rec(Table.SURFACE, sfirst[r]))
     return out

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Any
 
 from .. import budget, container, product, serialize, units
 from .._version import version
-from ..encode import knots
+from ..encode import knots, offsets, pcurves
 from ..errors import (
     InputError,
     LimitError,
@@ -25,6 +25,8 @@ from ..model import (
     BRepModel,
     BSplineCurve,
     BSplineSurface,
+    Derived,
+    Kind,
     differences,
     nonfinite,
 )
@@ -363,6 +365,12 @@ def compress_report(enc: Encoded, verified: bool) -> dict[str, Any]:
             "analytic geometry on grids where that is smaller; pcurves exact"
             if lossy_report and "analytic" in lossy_report.face_method
             else "pcurves and analytic geometry exact"
+        )
+        + (
+            f" but the dense ones of {len(lossy_report.compacted)} edges, within "
+            f"{pcurves.COMPACT_SHARE:g} tol on their surfaces"
+            if lossy_report and lossy_report.compacted
+            else ""
         ),
         "faces_by_method": lossy_report.method_counts() if lossy_report else {},
         "face_method_list": lossy_report.face_method if lossy_report else [],
@@ -397,11 +405,18 @@ def max_net_displacement(a: BRepModel, b: BRepModel) -> float:
     point of a surface or curve moves further than its farthest pole, plus
     what its rounded weights and knots add (:func:`encode.knots.moved`); a
     row with inner knots removed is compared on the source's knots
-    (:func:`encode.knots.raised`).
+    (:func:`encode.knots.raised`); an offset surface whose basis moved, by
+    :func:`encode.offsets.moved`.
     """
     worst = 0.0
     pairs = [*zip(a.surfaces, b.surfaces), *zip(a.curves3d, b.curves3d)]
     for x, y in pairs:
         if isinstance(x, (BSplineSurface, BSplineCurve)) and type(x) is type(y):
             worst = max(worst, knots.moved(y, x))  # inf for other poles
+    for s in a.surfaces:  # an offset moves by more than its basis (encode.offsets)
+        if isinstance(s, Derived) and s.kind == Kind.OFFSET_SURFACE:
+            x, y = a.surfaces[s.basis], b.surfaces[s.basis]
+            if isinstance(x, BSplineSurface) and x is not y:
+                box = offsets.face_box(a, s.basis)
+                worst = max(worst, offsets.moved(x, y, float(s.params[0]), box))
     return worst
