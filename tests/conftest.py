@@ -239,6 +239,20 @@ def assert_step_keeps_floor(cad, nzc: Path, tmp_path: Path):
 
 
 @pytest.fixture(scope="session")
+def thick_step(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A shelled loft written by OCCT's STEP writer (the stress corpus's
+    ``feature_thick_00``): its inner face is an offset of a B-spline no face
+    lies on, and its pcurves there are stored and dense (1,992 and 307 poles)."""
+    from tests.stress.files import write_step
+    from tests.stress.shapes import entries
+
+    entry = {e.name: e for e in entries(0)}["feature_thick_00"]
+    path = tmp_path_factory.mktemp("thick") / "thick.step"
+    write_step(entry.build(), path, "thick")
+    return path
+
+
+@pytest.fixture(scope="session")
 def small_step() -> Path:
     return SAMPLES / "bracket.step"
 

@@ -68,19 +68,6 @@ def test_compact_pcurve_declines() -> None:
     assert occ.compact_pcurve([s], [few], 0, 0, 0.0, 1.0, 0.01) is None
 
 
-@pytest.fixture(scope="module")
-def thick_step(tmp_path_factory: pytest.TempPathFactory):
-    """A shelled loft written by OCCT's STEP writer: its offset face's pcurves
-    are stored and dense (the stress corpus's ``feature_thick_00``)."""
-    from tests.stress.files import write_step
-    from tests.stress.shapes import entries
-
-    entry = {e.name: e for e in entries(0)}["feature_thick_00"]
-    path = tmp_path_factory.mktemp("thick") / "thick.step"
-    write_step(entry.build(), path, "thick")
-    return path
-
-
 def _stored_poles(path) -> list[int]:
     m, _ = pipeline.decode(pipeline.read_container(path), None)
     reps = m.edge_reps

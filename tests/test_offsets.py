@@ -108,19 +108,6 @@ def test_moved_refuses_other_knots() -> None:
     assert offsets.moved(g, g, 1.0, WHOLE) == 0.0
 
 
-@pytest.fixture(scope="module")
-def thick_step(tmp_path_factory: pytest.TempPathFactory):
-    """A shelled loft written by OCCT: its inner face is an offset of a
-    B-spline no face lies on (the stress corpus's ``feature_thick_00``)."""
-    from tests.stress.files import write_step
-    from tests.stress.shapes import entries
-
-    entry = {e.name: e for e in entries(0)}["feature_thick_00"]
-    path = tmp_path_factory.mktemp("offset") / "thick.step"
-    write_step(entry.build(), path, "thick")
-    return path
-
-
 @pytest.mark.slow
 @pytest.mark.parametrize("tol", [0.1, 0.01])
 def test_offset_face_coded_within_tol(thick_step, tmp_path, monkeypatch, tol: float) -> None:

@@ -798,7 +798,7 @@ def stretch_short(m: BRepModel) -> BRepModel:
 
 #: A stored B-spline pcurve of at least this many poles is offered to
 #: :func:`compact_kept`.
-COMPACT_MIN_POLES = 32
+COMPACT_MIN_POLES = 12
 #: How far on its surface a re-approximated pcurve may move, as a share of
 #: tol: the edge's and its vertices' tolerances grow by as much.
 COMPACT_SHARE = 0.25
