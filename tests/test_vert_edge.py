@@ -176,6 +176,7 @@ def test_a_brepcheck_fault_at_loose_vertices_keeps_them_first() -> None:
     plan.edges_of = [[0], [1]]
     plan.edge_recs = lambda f: [plan.edges_rec[e] for e in plan.edges_of[f]]
     plan.coded, plan.m = None, None
+    plan.whole = lambda edges: False  # no pcurve re-approximated here
     plan.ungrid = lambda faces, why: False  # no analytic record on a grid here
     plan.ease = lambda faces: set()  # no SPATIAL2 net here
     calls: list[list[str]] = []

@@ -84,10 +84,10 @@ def _offset_limits(m: BRepModel, srec: list[Rec], tol: float) -> dict[Rec, float
     exact, :func:`_offset_bases`)."""
     by_basis = offsets.offsets_by_basis(m.surfaces)
     used = {srec[r] for r in m.face_surface.tolist()}
-    used |= {
+    used |= {  # a trimmed surface's basis (a swept one's is a curve)
         srec[g.basis]
         for g in m.surfaces
-        if isinstance(g, Derived) and g.kind != Kind.OFFSET_SURFACE
+        if isinstance(g, Derived) and g.kind == Kind.TRIMMED_SURFACE
     }
     out: dict[Rec, float] = {}
     for r, d in sorted(by_basis.items()):
