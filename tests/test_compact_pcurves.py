@@ -44,7 +44,7 @@ def _on_surface(surface, curve, t: np.ndarray) -> np.ndarray:
 def test_compact_pcurve_fewer_poles_within_the_distance() -> None:
     s, c = _surface(), _dense_pcurve()
     within = 0.01
-    got = occ.compact_pcurve([s], [c], 0, 0, 0.0, 1.0, within)
+    got = occ.compact_pcurve([s], [], [c], 0, 0, 0.0, 1.0, within)
     assert got is not None
     rec, uv, moved = got
     assert 2 * len(rec.poles) <= len(c.poles)
@@ -62,10 +62,38 @@ def test_compact_pcurve_fewer_poles_within_the_distance() -> None:
 def test_compact_pcurve_declines() -> None:
     s, c = _surface(), _dense_pcurve()
     # so tight that half the poles cannot hold it
-    assert occ.compact_pcurve([s], [c], 0, 0, 0.0, 1.0, 1e-9) is None
+    assert occ.compact_pcurve([s], [], [c], 0, 0, 0.0, 1.0, 1e-9) is None
     # a curve with few poles: nothing to gain
     few = _dense_pcurve(12, 3)
-    assert occ.compact_pcurve([s], [few], 0, 0, 0.0, 1.0, 0.01) is None
+    assert occ.compact_pcurve([s], [], [few], 0, 0, 0.0, 1.0, 0.01) is None
+    # an edge range past the curve's own (an IGES faces model of a shelled
+    # box has them): left as it is, not a crash
+    assert occ.compact_pcurve([s], [], [c], 0, 0, -1e-3, 1.0, 0.01) is None
+
+
+def test_compact_pcurve_on_a_swept_surface() -> None:
+    """A swept surface's basis is a 3-D curve row: the approximation builds it
+    from that table (an IGES faces model of a shelled box crashed compress
+    with an IndexError before)."""
+    from nurbscomp.model import Derived, Kind
+
+    t = np.linspace(0, 1, 8)
+    curve = BSplineCurve(
+        np.c_[40 * t, 6 * np.sin(3 * t), np.zeros(8)],
+        None,
+        np.linspace(0, 1, 7),
+        np.r_[3, 1, 1, 1, 1, 1, 3],
+        2,
+        False,
+    )
+    extrusion = Derived(Kind.EXTRUSION, 0, np.array([[0.0, 0.0, 1.0]]), np.zeros(0))
+    dense = _dense_pcurve()
+    dense = BSplineCurve(
+        dense.poles * np.array([1.0, 20.0]), None, dense.knots, dense.mults, dense.degree, False
+    )  # (u along the curve, v along the extrusion, in mm)
+    got = occ.compact_pcurve([extrusion], [curve], [dense], 0, 0, 0.0, 1.0, 0.01)
+    assert got is not None and 2 * len(got[0].poles) <= len(dense.poles)
+    assert got[2] <= 0.01
 
 
 def _stored_poles(path) -> list[int]:

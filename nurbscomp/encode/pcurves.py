@@ -803,11 +803,11 @@ COMPACT_MIN_POLES = 12
 #: tol: the edge's and its vertices' tolerances grow by as much.
 COMPACT_SHARE = 0.25
 
-#: What :func:`compact_kept` asks the approximation: (surfaces, curves2d,
-#: curve row, surface row, first, last, within) -> (record, uv ends, moved) or
-#: None (``occ.compact_pcurve``).
+#: What :func:`compact_kept` asks the approximation: (surfaces, curves3d,
+#: curves2d, curve row, surface row, first, last, within) -> (record, uv ends,
+#: moved) or None (``occ.compact_pcurve``).
 Approximate = Callable[
-    [list[Geometry], list[Geometry], int, int, float, float, float],
+    [list[Geometry], list[Geometry], list[Geometry], int, int, float, float, float],
     "tuple[BSplineCurve, np.ndarray, float] | None",
 ]
 #: Its answers by a digest of all they read (the rounds ask again for the
@@ -815,15 +815,19 @@ Approximate = Callable[
 _COMPACTED: Memo[Any] = Memo(10_000)
 
 
-def _record_parts(table: list[Geometry], i: int) -> list[Any]:
-    """Every field of row ``i`` of ``table`` and of the rows it derives from."""
+def _record_parts(m: BRepModel, which: str, i: int) -> list[Any]:
+    """Every field of row ``i`` of ``m``'s table ``which`` ("surface",
+    "curve3d", "curve2d") and of the rows it derives from (a swept surface's
+    curve is a 3-D curve row)."""
     out: list[Any] = []
     while True:
-        g = table[i]
-        out.append(type(g).__name__)
+        g = {"surface": m.surfaces, "curve3d": m.curves3d, "curve2d": m.curves2d}[which][i]
+        out.extend((which, type(g).__name__))
         out.extend(getattr(g, f.name) for f in fields(g))
         if not isinstance(g, Derived):
             return out
+        if which == "surface" and g.kind in SWEPT:
+            which = "curve3d"
         i = g.basis
 
 
@@ -869,13 +873,15 @@ def compact_kept(
             if refs[c] != 1 or c in held:
                 continue
             key = digest(
-                *_record_parts(m.curves2d, c),
-                *_record_parts(m.surfaces, surface),
+                *_record_parts(m, "curve2d", c),
+                *_record_parts(m, "surface", surface),
                 first,
                 last,
                 within,
             )
-            ask = functools.partial(approximate, m.surfaces, m.curves2d, c, surface, first, last)
+            ask = functools.partial(
+                approximate, m.surfaces, m.curves3d, m.curves2d, c, surface, first, last
+            )
             got = _COMPACTED.get(key, functools.partial(ask, within))
             if got is None:
                 continue

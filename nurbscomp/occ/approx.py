@@ -31,6 +31,9 @@ from .geometry import GeometryBuilder, GeometryReader
 #: 0.025 mm; C2 took 107, degree 5 C1 78).
 DEGREE = 3
 MAX_SEGMENTS = 1000
+#: The rounding grids of :func:`_rounded`, as fractions of the (u, v) bound
+#: and of the shortest knot span.
+ROUND = 8
 #: Samples per pole (of both curves) where the distance on the surface is
 #: measured, and at least this many.
 PER_POLE = 8
@@ -60,6 +63,7 @@ def _speed(surface: Any, curve: Any, t: np.ndarray) -> float:
 
 def compact_pcurve(
     surfaces: list[Geometry],
+    curves3d: list[Geometry],
     curves2d: list[Geometry],
     curve: int,
     surface: int,
@@ -68,15 +72,18 @@ def compact_pcurve(
     within: float,
 ) -> tuple[BSplineCurve, np.ndarray, float] | None:
     """A cubic B-spline standing for pcurve ``curve`` (a row of ``curves2d``)
-    on ``surface`` over [first, last], or None where none has at most half
-    its poles.
+    on ``surface`` (a row of ``surfaces``; a swept one's curve is a row of
+    ``curves3d``) over [first, last], or None where none has at most half
+    its poles (or where the curve is periodic, or [first, last] is not
+    within its parameters).
 
     The approximation (``Geom2dConvert_ApproxCurve``, C1) is held to
     ``within`` / L in (u, v), L the largest sqrt(|S_u|² + |S_v|²) along the
     pcurve; then the distance between the two curves' points *on the
     surface* at the same parameter is measured at ``PER_POLE`` samples per
     pole of the old curve and must be at most ``within`` (else once more
-    with half the (u, v) bound).  Returned: the new
+    with half the (u, v) bound).  Its poles and knots are first rounded to
+    binary grids (:func:`_rounded`), where that stays within.  Returned: the new
     record, its (u, v) at ``first`` and ``last`` (4 numbers, as
     ``BRepModel.edge_rep_uv`` holds them) and the measured distance.
 
@@ -85,10 +92,12 @@ def compact_pcurve(
     candidate to, as OCCT's own tolerances are found (``BRepLib``).
     """
     old = curves2d[curve]
-    if not isinstance(old, BSplineCurve) or not first < last:
+    if not isinstance(old, BSplineCurve) or old.periodic or not first < last:
         return None
-    build = GeometryBuilder(surfaces, [], curves2d)
+    build = GeometryBuilder(surfaces, curves3d, curves2d)
     c, s = build.curve2d(curve), build.surface(surface)
+    if not c.FirstParameter() <= first < last <= c.LastParameter():
+        return None  # a range past the curve's own (its end extrapolated): as it is
     n_old = len(old.poles)
     t = np.linspace(first, last, max(MIN_SAMPLES, PER_POLE * n_old))
     speed = _speed(s, c, t[:: max(1, len(t) // MIN_SAMPLES)])
@@ -96,18 +105,35 @@ def compact_pcurve(
         return None
     trimmed, at = Geom2d_TrimmedCurve(c, first, last), _points(s, c, t)
     for share in (1, 2):
-        a = Geom2dConvert_ApproxCurve(
-            trimmed, within / (share * speed), GeomAbs_C1, MAX_SEGMENTS, DEGREE
-        )
+        uv = within / (share * speed)
+        a = Geom2dConvert_ApproxCurve(trimmed, uv, GeomAbs_C1, MAX_SEGMENTS, DEGREE)
         if not a.HasResult() or 2 * a.Curve().NbPoles() > n_old:
             return None
-        new = a.Curve()
-        moved = float(np.linalg.norm(_points(s, new, t) - at, axis=1).max())
-        if moved <= within:
-            break
-    else:
-        return None
-    rec = GeometryReader()._curve(new, 2)
-    assert isinstance(rec, BSplineCurve)
-    p, q = new.Value(first), new.Value(last)
-    return rec, np.array([p.X(), p.Y(), q.X(), q.Y()]), moved
+        exact = GeometryReader()._curve(a.Curve(), 2)
+        assert isinstance(exact, BSplineCurve)
+        for rec in (_rounded(exact, uv), exact):
+            new = GeometryBuilder([], [], [rec]).curve2d(0)
+            moved = float(np.linalg.norm(_points(s, new, t) - at, axis=1).max())
+            if moved <= within:
+                p, q = new.Value(first), new.Value(last)
+                return rec, np.array([p.X(), p.Y(), q.X(), q.Y()]), moved
+    return None
+
+
+def _rounded(g: BSplineCurve, uv: float) -> BSplineCurve:
+    """``g`` with its inner poles on the binary grid of step ≤ ``uv`` /
+    ``ROUND`` (the end poles, which its neighbours in a wire meet, stay) and
+    its inner knots on one of step ≤ its shortest span / ``ROUND`` (the
+    ends kept): doubles that end in zero bits, which the entropy stage codes
+    for little (as ``encode.pcurves.rounded_ranges`` rounds ranges).  The
+    caller measures the rounded curve again."""
+    step = 2.0 ** math.floor(math.log2(uv / ROUND))
+    knots = g.knots.copy()
+    if len(knots) > 2:
+        q = 2.0 ** math.floor(math.log2(float(np.diff(knots).min()) / ROUND))
+        knots[1:-1] = np.round(knots[1:-1] / q) * q
+        if not (np.diff(knots) > 0).all():
+            knots = g.knots
+    poles = g.poles.copy()  # the end poles, the curve's ends, stay: a wire's
+    poles[1:-1] = np.round(poles[1:-1] / step) * step  # pcurves meet there
+    return BSplineCurve(poles, None, knots, g.mults, g.degree, False)
