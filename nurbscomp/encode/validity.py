@@ -697,10 +697,10 @@ class _Plan:
         self.keep_f |= new_f
 
     def whole(self, edges: Iterable[int]) -> bool:
-        """The first rung for a fault on ``edges`` (or on their faces) where
-        the last candidate stored re-approximated pcurves
-        (``pcurves.compact_kept``): those edges keep their pcurves as read;
-        whether there were any."""
+        """The first rung for a fault on ``edges`` (or on their faces), or for
+        a STEP loss of their faces (:func:`_rounds`), where the last candidate
+        stored re-approximated pcurves (``pcurves.compact_kept``): those edges
+        keep their pcurves as read; whether there were any."""
         hit = set(edges) & self.compacted - self.whole_e
         self.whole_e |= hit
         return bool(hit)
@@ -746,8 +746,6 @@ class _Plan:
         (A blame of spent and unspent faces at once used to climb the spent
         ones past the last rung: compress crashed on an assembly of blended
         bodies, with "6 is not a valid Rung".)"""
-        if self.whole(e for f in blamed for e in self.edges_of[f]):
-            return None
         if self.ungrid(blamed, "grid-step"):
             return None
         spent = {f for f, r in self.rung.items() if r == Rung.PCURVES}
@@ -960,7 +958,15 @@ def _rounds(
         elif blamed is None:
             return _done(plan, cand, codes, report, shape, vr, early)
         elif blamed:
-            if plan.step(blamed) is not None:
+            if plan.whole(e for f in blamed for e in plan.edges_of[f]):
+                # the re-approximated pcurves go back first; what the lossy
+                # candidate settled of the way candidates are written (with
+                # OCCT's default uncertainty, without pcurves) was settled on
+                # them: the next lossy candidate settles it again
+                if floor is not None:
+                    floor.uncertainty_compared &= floor.uncertainty is not None
+                    floor.compared &= floor.pcurves
+            elif plan.step(blamed) is not None:
                 passed_on += 1
                 if passed_on >= STALLED:
                     log.debug("STEP check: faces %s lost, their rungs spent: plan stops", blamed)
