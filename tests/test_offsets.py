@@ -98,6 +98,54 @@ def test_offset_move_is_bounded(seed: int, d: float, b: float) -> None:
     assert moved.max() <= bound
 
 
+def _tube(seed: int, n: int = 9, nv: int = 5) -> BSplineSurface:
+    """A cubic B-spline tube, periodic in u (uniform knots, every
+    multiplicity 1), open in v, bent and uneven."""
+    rng = np.random.default_rng(seed)
+    a = np.linspace(0, 2 * np.pi, n, endpoint=False)[:, None]
+    z = np.linspace(0, 30, nv)[None, :]
+    r = 8 + rng.uniform(-0.8, 0.8, (n, nv))
+    poles = np.stack([r * np.cos(a) + 0 * z, r * np.sin(a) + 0.05 * z**1.5, z + 0 * a], -1)
+    uk, um = np.linspace(0, 1, n + 1), np.ones(n + 1, int)
+    vk, vm = np.r_[0.0, 1.0], np.r_[nv, nv]  # a Bezier direction
+    return BSplineSurface(poles, None, uk, vk, um, vm, 3, nv - 1, True, False)
+
+
+@settings(max_examples=8, deadline=None)
+@given(seed=st.integers(0, 10_000), d=st.floats(-2.0, 2.0), b=st.floats(1e-4, 0.05))
+def test_periodic_offset_move_is_bounded(seed: int, d: float, b: float) -> None:
+    """The same on a basis periodic in u: written out over one period, its
+    ends clamped by knot insertion (``offsets._direction``)."""
+    g = _tube(seed)
+    t = offsets.terms(g, WHOLE)
+    assert t is not None
+    us, vs = np.linspace(0, 1, 37), np.linspace(0, 1, 11)
+    assert t.n_min <= _normals(g, us, vs).min() * (1 + 1e-9)
+    e = np.random.default_rng(seed + 1).uniform(-1, 1, g.poles.shape)
+    e *= b / np.sqrt((e * e).sum(-1)).max()
+    h = BSplineSurface(
+        g.poles + e, None, g.uknots, g.vknots, g.umults, g.vmults, 3, g.vdegree, True, False
+    )
+    moved = np.sqrt(((_offset_points(h, d, us, vs) - _offset_points(g, d, us, vs)) ** 2).sum(-1))
+    assert moved.max() <= offsets.moved(g, h, d, WHOLE)
+
+
+def test_periodic_direction_written_out_is_the_same_surface() -> None:
+    from nurbscomp import bspline
+    from nurbscomp.occ.geometry import GeometryBuilder
+
+    g = _tube(5)
+    p, tu = offsets._direction(np.asarray(g.poles), g.uknots, g.umults, 3, True, 0)
+    tv = np.repeat(g.vknots, g.vmults).astype(float)
+    us, vs = np.linspace(0, 1, 29), np.linspace(0, 1, 7)
+    a = bspline.points(tu, p.reshape(len(p), -1), 3, us).reshape(len(us), p.shape[1], 3)
+    mine = bspline.points(tv, a.transpose(1, 0, 2).reshape(p.shape[1], -1), g.vdegree, vs)
+    mine = mine.reshape(len(vs), len(us), 3).transpose(1, 0, 2)
+    s = GeometryBuilder([g], [], []).surface(0)
+    ref = np.array([[[*s.Value(u, v).Coord()] for v in vs.tolist()] for u in us.tolist()])
+    assert np.abs(mine - ref).max() < 1e-9
+
+
 def test_moved_refuses_other_knots() -> None:
     g = _surface(3)
     h = BSplineSurface(
@@ -134,3 +182,41 @@ def test_offset_face_coded_within_tol(thick_step, tmp_path, monkeypatch, tol: fl
     dev = occ.deviation(src, back, n=15)
     assert dev.max() <= tol
     assert dev[on_offset].max() > 0  # the offset face did move
+
+
+@pytest.mark.slow
+def test_coded_offset_basis_never_costs_more(tmp_path, monkeypatch) -> None:
+    """A revolved spline body shelled from its flat bottom, as an IGES faces
+    model: its offset face lies on a periodic basis, and coding that basis
+    sends the face up the validity ladder for more than the basis cost.  The
+    part is then coded again with the basis exact and the smaller kept: no
+    larger than with offset bases never coded."""
+    import cadquery as cq
+    from OCP.BRepOffsetAPI import BRepOffsetAPI_MakeThickSolid
+    from OCP.TopTools import TopTools_ListOfShape
+
+    from tests.stress.files import write_iges
+
+    body = (
+        cq.Workplane("XZ")
+        .spline([(5, 0), (8, 6), (6, 12), (3, 16)])
+        .lineTo(0, 16)
+        .lineTo(0, 0)
+        .close()
+        .revolve()
+        .val()
+    )
+    opened = TopTools_ListOfShape()
+    opened.Append(min(body.Faces(), key=lambda f: f.Center().z).wrapped)
+    thick = BRepOffsetAPI_MakeThickSolid()
+    thick.MakeThickSolidByJoin(body.wrapped, opened, -0.6, 1e-3)
+    thick.Build()
+    src = tmp_path / "shelled.faces.igs"
+    write_iges(thick.Shape(), src, 0)
+    sizes = []
+    for gain in (offsets.MAX_GAIN, 0.0):
+        monkeypatch.setattr(offsets, "MAX_GAIN", gain)
+        out = tmp_path / f"{gain}.nzc"
+        pipeline.compress_file(src, out, tol=0.1)
+        sizes.append(out.stat().st_size)
+    assert sizes[0] <= sizes[1], sizes

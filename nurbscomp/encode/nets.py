@@ -641,9 +641,12 @@ def code_model(
     points: np.ndarray | None = None,
     sewn: Sequence[tuple[int, int]] = (),
     spread: bool = True,
+    offsets_coded: bool = True,
 ) -> Coded:
     """Run the per-net search (:func:`codec.encode_net`) on every B-spline surface
-    and 3-D curve of ``m`` that may move (not under an offset).
+    and 3-D curve of ``m`` that may move (not under an offset, but for an
+    offset's basis no face lies on, within what the offset allows:
+    :func:`_offset_limits`; not even those without ``offsets_coded``).
 
     With ``spread``, a code's bound is measured on its refined error net
     (:mod:`.deviation`) but for the surfaces with joined sides; without,
@@ -671,7 +674,8 @@ def code_model(
     eps = min(coincide.TWIN_EPS, tol / 64)
     srec, crec = records(m.surfaces, Table.SURFACE), records(m.curves3d, Table.CURVE3D)
     keep_s = _offset_bases(m.surfaces, Table.SURFACE, Kind.OFFSET_SURFACE, TRIM_S)
-    held = _offset_limits(m, srec, tol)  # bases coded within what their offsets allow
+    # bases coded within what their offsets allow
+    held = _offset_limits(m, srec, tol) if offsets_coded else {}
     keep_s -= set(held)
     srows0 = first_rows(
         {k for k, g in zip(srec, m.surfaces) if isinstance(g, BSplineSurface)} - keep_s

@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 
@@ -49,7 +50,6 @@ from ..model import (
     Kind,
     RepKind,
 )
-from ..rules.joins import clamped_surface
 
 #: Samples per knot span (each direction) where |S_u × S_v| is taken, tried
 #: in turn until the bound from below is positive.
@@ -189,13 +189,69 @@ def _n_min(
     return float(low.min()) - slack
 
 
-def _terms(g: BSplineSurface, box: Box) -> Terms | None:
-    if g.weights is not None or not clamped_surface(g) or min(g.udegree, g.vdegree) < 1:
+def _insert(
+    t: np.ndarray, q: np.ndarray, p: int, x: float, side: Literal["left", "right"]
+) -> tuple[np.ndarray, np.ndarray]:
+    """Knot ``x`` inserted once into the B-spline of flat knots ``t`` and poles
+    ``q`` (along axis 0), of degree ``p`` (Boehm; eq. 1): its span is the one
+    ``x`` opens (``side`` "right") or closes ("left")."""
+    k = int(np.searchsorted(t, x, side=side)) - 1
+    i = np.arange(k - p + 1, k + 1)
+    alpha = ((x - t[i]) / (t[i + p] - t[i])).reshape(-1, *([1] * (q.ndim - 1)))
+    mid = (1 - alpha) * q[i - 1] + alpha * q[i]
+    return np.concatenate([t[: k + 1], [x], t[k + 1 :]]), np.concatenate(
+        [q[: k - p + 1], mid, q[k:]]
+    )
+
+
+def _direction(
+    p: np.ndarray, knots: np.ndarray, mults: np.ndarray, degree: int, periodic: bool, axis: int
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """Poles and flat knots of the same surface, clamped along ``axis`` over
+    [knots[0], knots[-1]]: as they are where it is clamped already; a
+    periodic direction written out over one period (OCCT's flat sequence
+    starts degree + 1 − mults[0] knots before the first, and the first
+    degree poles come again after the last) and its ends inserted to
+    multiplicity degree (each new pole a convex combination of two).  None
+    for an unclamped, non-periodic direction."""
+    if not periodic:
+        if mults[0] != degree + 1 or mults[-1] != degree + 1:
+            return None
+        return p, np.repeat(knots, mults).astype(float)
+    q = np.moveaxis(p, axis, 0)
+    n, period = q.shape[0], float(knots[-1] - knots[0])
+    inner = np.repeat(knots[:-1], mults[:-1]).astype(float)
+    lead = degree + 1 - int(mults[0])
+    if len(inner) != n or not 0 <= lead <= degree:
         return None
-    p = np.asarray(g.poles, float)
-    tu = np.repeat(g.uknots, g.umults).astype(float)
-    tv = np.repeat(g.vknots, g.vmults).astype(float)
+    t = np.concatenate([inner[n - lead :] - period, inner, inner[: 2 * degree + 1 - lead] + period])
+    qe = np.concatenate([q, q[:degree]])
+    a, b = float(knots[0]), float(knots[-1])
+    while (t == a).sum() < degree:
+        t, qe = _insert(t, qe, degree, a, "right")
+    while (t == b).sum() < degree:
+        t, qe = _insert(t, qe, degree, b, "left")
+    s, e = int(np.flatnonzero(t == a)[0]), int(np.flatnonzero(t == b)[0])
+    flat = np.concatenate([[a], t[s : e + degree], [b]])
+    return np.moveaxis(qe[s - 1 : e], 0, axis), flat
+
+
+def _terms(g: BSplineSurface, box: Box) -> Terms | None:
+    if g.weights is not None or min(g.udegree, g.vdegree) < 1:
+        return None
     pu, pv = g.udegree, g.vdegree
+    along_u = _direction(np.asarray(g.poles, float), g.uknots, g.umults, pu, g.uperiodic, 0)
+    along_v = (
+        None if along_u is None else _direction(along_u[0], g.vknots, g.vmults, pv, g.vperiodic, 1)
+    )
+    if along_u is None or along_v is None:
+        return None
+    p, tu, tv = along_v[0], along_u[1], along_v[1]
+    # a periodic direction's pcurves may lie a period off: all of it counts
+    box = (
+        *((-math.inf, math.inf) if g.uperiodic else box[:2]),
+        *((-math.inf, math.inf) if g.vperiodic else box[2:]),
+    )
     su_p, cu = _hodograph(p, tu, pu, 0)
     sv_p, cv = _hodograph(p, tv, pv, 1)
     n_min = -1.0

@@ -471,12 +471,16 @@ class _Plan:
         source: Any,
         spread: bool = True,
         edges: tuple[Any, Sequence[tuple[int, int]]] | None = None,
+        offsets_coded: bool = True,
     ) -> None:
-        """``edges``: :func:`_source_edges` of ``source``, when already measured."""
+        """``edges``: :func:`_source_edges` of ``source``, when already measured;
+        ``offsets_coded``: :func:`nets.code_model`'s."""
         self.m, self.tol = m, tol
         self.knot_memo: dict[tuple[Any, ...], bool] = {}  # pcurves.unit_curves's answers
         points, sewn = edges if edges is not None else _source_edges(m, source)
-        self.coded = nets.code_model(m, tol, points=points, sewn=sewn, spread=spread)
+        self.coded = nets.code_model(
+            m, tol, points=points, sewn=sewn, spread=spread, offsets_coded=offsets_coded
+        )
         self.faces_rec, self.edges_rec = nets.face_records(m), nets.edge_records(m)
         self.faces_of = faces_around(m, ShapeType.EDGE)
         self.edges_of: list[list[int]] = [[] for _ in self.faces_rec]
@@ -795,6 +799,7 @@ def lossy_target(
     meanwhile: Meanwhile | None = None,
     step_pcurves: bool = True,
     ceiling: int | None = None,
+    offsets_coded: bool = True,
 ) -> Target:
     """The cheapest decodable model that is as valid as the source (module docstring).
 
@@ -823,6 +828,8 @@ def lossy_target(
         last packing could have reached the ceiling, :data:`CEILING_STEP`),
         and one that comes to ``ceiling`` bytes or more ends the search
         (:class:`Costlier`); a fallback that does is not built.
+    offsets_coded : bool
+        Code the bases of offset surfaces (``nets.code_model``).
 
     Raises
     ------
@@ -838,7 +845,7 @@ def lossy_target(
             floor.begin()  # beside the candidates': a loop costs one limit, not two
         elif floor is not None and occ.spare_core():
             floor.begin(speculative=True)
-        return _search(m, source, tol, vr, floor, meanwhile, ceiling)
+        return _search(m, source, tol, vr, floor, meanwhile, ceiling, offsets_coded)
     finally:
         if floor is not None:
             floor.close()
@@ -857,6 +864,7 @@ def _search(
     floor: _Floor | None,
     meanwhile: Meanwhile | None,
     ceiling: int | None = None,
+    offsets_coded: bool = True,
 ) -> Target:
     """The rounds and the fallbacks of :func:`lossy_target`.
 
@@ -872,7 +880,7 @@ def _search(
     if ceiling is not None and meanwhile is not None:
         meanwhile = _last_packed(meanwhile)  # the check's packing of a candidate that passes
     for spread in (True, False):
-        plan = _Plan(start, tol, source, spread, edges)
+        plan = _Plan(start, tol, source, spread, edges, offsets_coded)
         done = _rounds(plan, (old_e, old_f), floor, vr, meanwhile, cache, ceiling)
         if done is not None:
             return done
