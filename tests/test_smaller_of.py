@@ -30,7 +30,7 @@ def _fake_stage(
     tolerances asked for, in order."""
     asked: list[float] = []
 
-    def lossy_target(m, shape, tol, step_safe, pack, pcurves, ceiling):  # type: ignore[no-untyped-def]
+    def lossy_target(m, shape, tol, step_safe, pack, pcurves, ceiling, offsets_coded=True):  # type: ignore[no-untyped-def]
         asked.append(tol)
         key = min(bytes_at, key=lambda t: abs(t - tol))
         if ceiling is not None and bytes_at[key] >= ceiling:
@@ -139,7 +139,7 @@ def test_a_tighter_coding_is_held_to_the_size_in_hand(monkeypatch: pytest.Monkey
     fake = validity.lossy_target
 
     def spy(*args: Any) -> Any:
-        ceilings.append(args[-1])
+        ceilings.append(args[6])  # (m, shape, tol, step_safe, pack, pcurves, ceiling, ...)
         return fake(*args)
 
     monkeypatch.setattr(validity, "lossy_target", spy)
