@@ -95,7 +95,8 @@ def test_offset_move_is_bounded(seed: int, d: float, b: float) -> None:
     bound = offsets.moved(g, h, d, WHOLE)
     assert math.isclose(bound, t.gain(d, b) * b, rel_tol=1e-9)
     moved = np.sqrt(((_offset_points(h, d, us, vs) - _offset_points(g, d, us, vs)) ** 2).sum(-1))
-    assert moved.max() <= bound
+    # the points differ by rounding too (an ulp of 40 mm): d = 0 makes the bound b itself
+    assert moved.max() <= bound + 1e-12 * np.abs(g.poles).max()
 
 
 def _tube(seed: int, n: int = 9, nv: int = 5) -> BSplineSurface:
@@ -127,7 +128,7 @@ def test_periodic_offset_move_is_bounded(seed: int, d: float, b: float) -> None:
         g.poles + e, None, g.uknots, g.vknots, g.umults, g.vmults, 3, g.vdegree, True, False
     )
     moved = np.sqrt(((_offset_points(h, d, us, vs) - _offset_points(g, d, us, vs)) ** 2).sum(-1))
-    assert moved.max() <= offsets.moved(g, h, d, WHOLE)
+    assert moved.max() <= offsets.moved(g, h, d, WHOLE) + 1e-12 * np.abs(g.poles).max()
 
 
 def test_periodic_direction_written_out_is_the_same_surface() -> None:
