@@ -306,6 +306,14 @@ class _Floor:
         )
         return stack.enter_context(occ.RoundTrip(make, nice, self.limit))
 
+    def unsettle(self) -> None:
+        """Let the next lossy candidate settle again how candidates are
+        written (:func:`_check`: without pcurves, with OCCT's default
+        uncertainty), where what settled it was not the coding: a candidate
+        whose re-approximated pcurves lost a face (``_Plan.whole``)."""
+        self.uncertainty_compared &= self.uncertainty is not None
+        self.compared &= self.pcurves
+
     def begin(self, speculative: bool = False) -> None:
         """Begin the floor's round trip now (it is counted once asked); a
         ``speculative`` one runs at a lower priority (:data:`SPECULATIVE_NICE`),
@@ -967,13 +975,8 @@ def _rounds(
             return _done(plan, cand, codes, report, shape, vr, early)
         elif blamed:
             if plan.whole(e for f in blamed for e in plan.edges_of[f]):
-                # the re-approximated pcurves go back first; what the lossy
-                # candidate settled of the way candidates are written (with
-                # OCCT's default uncertainty, without pcurves) was settled on
-                # them: the next lossy candidate settles it again
-                if floor is not None:
-                    floor.uncertainty_compared &= floor.uncertainty is not None
-                    floor.compared &= floor.pcurves
+                if floor is not None:  # the re-approximated pcurves go back first
+                    floor.unsettle()
             elif plan.step(blamed) is not None:
                 passed_on += 1
                 if passed_on >= STALLED:

@@ -109,7 +109,8 @@ def compact_pcurve(
         a = Geom2dConvert_ApproxCurve(trimmed, uv, GeomAbs_C1, MAX_SEGMENTS, DEGREE)
         if not a.HasResult() or 2 * a.Curve().NbPoles() > n_old:
             return None
-        exact = GeometryReader()._curve(a.Curve(), 2)
+        reader = GeometryReader()
+        exact = reader.curves2d.records[reader.curve2d(a.Curve())]
         assert isinstance(exact, BSplineCurve)
         for rec in (_rounded(exact, uv), exact):
             new = GeometryBuilder([], [], [rec]).curve2d(0)
