@@ -752,12 +752,22 @@ def _snap_vertices(
     if (ok & loose).sum() < MIN_LOOSE:  # too few to pay for their grid integers
         ok &= ~loose
     lead = coded.vlead if len(coded.vlead) == len(ok) else np.arange(len(ok))
+    snaps = ok.copy()
     ok &= ~_merging(m.vertex_point[lead], coded.vgrid)
     at_grid = _twin_points(m.vertex_point, lead, coded.vgrid)
     ok &= _kept_apart(m.vertex_point, at_grid, lead)
     ok &= ~np.isin(lead, lead[~ok])  # a cluster moves as one or stays
     p = m.vertex_point
     fine, at_fine, fine_bound = _fine_levels(p, lead, ~ok & ~trails & ~held, scale, coded.tol)
+    # Those that would snap but for a vertex they would land on (a sliver
+    # edge where a chamfer meets a fillet) round finer instead, however few
+    # and beside whatever curve: snapped they would have moved further.
+    crowded = snaps & ~ok & ~fine & ~held
+    if crowded.any():
+        moved_fine = np.where(fine[:, None], at_fine, p)
+        more, at_more, more_bound = _fine_levels(moved_fine, lead, crowded, scale, coded.tol, 1)
+        fine, at_fine = fine | more, np.where(more[:, None], at_more, at_fine)
+        fine_bound = np.where(more, more_bound, fine_bound)
     # Not the validity ladder's held vertices, nor the twins at their point
     # (moved even this little, bearing.iges fell back to every record exact,
     # 75 kB, and ec_turbine and trj7 at 0.1 mm too); the rest of a held
@@ -812,7 +822,12 @@ MIN_FINE = 16
 
 
 def _fine_levels(
-    p: np.ndarray, lead: np.ndarray, may: np.ndarray, scale: np.ndarray, tol: float
+    p: np.ndarray,
+    lead: np.ndarray,
+    may: np.ndarray,
+    scale: np.ndarray,
+    tol: float,
+    least: int = MIN_FINE,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Which vertices of ``may`` move to a binary grid (:func:`_fine_points`),
     the points there, and each one's bound: the coarse grid of
@@ -823,15 +838,21 @@ def _fine_levels(
     across, keeps today's grid).  The fine pass sees the coarse vertices
     where they went, so no vertex lands on another."""
     coarse = 2.0 ** (np.floor(np.log2(tol)) - COARSE_BITS) * np.sqrt(3.0) / 2
-    fine, at, b = _fine_points(p, lead, may & (scale >= COARSE_ROOM * coarse), tol, COARSE_BITS)
+    room = may & (scale >= COARSE_ROOM * coarse)
+    fine, at, b = _fine_points(p, lead, room, tol, COARSE_BITS, least)
     moved = np.where(fine[:, None], at, p)
-    finer, at_finer, b_finer = _fine_points(moved, lead, may & ~fine, tol, FINE_BITS)
+    finer, at_finer, b_finer = _fine_points(moved, lead, may & ~fine, tol, FINE_BITS, least)
     at = np.where(finer[:, None], at_finer, moved)
     return fine | finer, at, np.where(fine, b, np.where(finer, b_finer, 0.0))
 
 
 def _fine_points(
-    p: np.ndarray, lead: np.ndarray, may: np.ndarray, tol: float, bits: int = FINE_BITS
+    p: np.ndarray,
+    lead: np.ndarray,
+    may: np.ndarray,
+    tol: float,
+    bits: int = FINE_BITS,
+    least: int = MIN_FINE,
 ) -> tuple[np.ndarray, np.ndarray, float]:
     """Which vertices of ``may`` move to a fine binary grid, the points there,
     and the bound on the move.
@@ -857,7 +878,7 @@ def _fine_points(
     if every vertex of it may, it lands on no other cluster's point, the
     clusters within TWIN_VERTEX of each other stay the same, and its twins
     stay distinct or equal as they were; none moves where fewer than
-    :data:`MIN_FINE` would, or where a coordinate is past ``2**52`` steps.
+    ``least`` (:data:`MIN_FINE`) would, or where a coordinate is past ``2**52`` steps.
     """
     none = np.zeros(len(p), bool)
     if not (tol > 0) or not may.any():
@@ -883,7 +904,7 @@ def _fine_points(
         fine &= ~np.isin(lead, lead[changed | np.isin(moved_to, moved_to[changed])])
     else:
         return none, p, 0.0
-    if fine.sum() < MIN_FINE or _distinct(p[fine]) != _distinct(at[fine]):
+    if fine.sum() < least or _distinct(p[fine]) != _distinct(at[fine]):
         return none, p, 0.0
     return fine, at, float(step * np.sqrt(3.0) / 2 + _twin_slack(at[fine]))
 
