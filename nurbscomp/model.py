@@ -462,14 +462,15 @@ _FLOAT_FIELDS = (
 
 def nonfinite(m: BRepModel, bound: float) -> str | None:
     """Where ``m`` holds a number that is not finite or not below ``bound`` in
-    magnitude (``"SURF poles"``, ``"VERT points"`` …), the first such place;
+    magnitude (a geometry's ``params``: above it; ``"SURF poles"``, ``"VERT points"`` …), the first such place;
     None if none.  A reader refuses such values (``serialize.finite``); the
     encoder asks first, so that lossless and tolerance modes refuse the same
     source with the same words."""
 
-    def bad(a: np.ndarray | None) -> bool:
+    def bad(a: np.ndarray | None, at_most: bool = False) -> bool:
         with np.errstate(invalid="ignore"):
-            return a is not None and a.size > 0 and not bool((np.abs(a) < bound).all())
+            ok = np.abs(a) <= bound if at_most else np.abs(a) < bound
+            return a is not None and a.size > 0 and not bool(ok.all())
 
     for name, where in _FLOAT_FIELDS:
         if bad(getattr(m, name)):
@@ -482,7 +483,9 @@ def nonfinite(m: BRepModel, bound: float) -> str | None:
         for g in getattr(m, name):
             for f in fields(g):
                 v = getattr(g, f.name)
-                if isinstance(v, np.ndarray) and v.dtype.kind == "f" and bad(v):
+                # params may be ±bound itself (serialize.geometry: a trimmed
+                # surface's untrimmed direction keeps ±Precision::Infinite())
+                if isinstance(v, np.ndarray) and v.dtype.kind == "f" and bad(v, f.name == "params"):
                     return f"{tag} {f.name}"
     return None
 

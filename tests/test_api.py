@@ -301,3 +301,28 @@ def test_compress_report(tmp_path: Path) -> None:
 
     _, s = nurbscomp.compress(cq.Workplane().box(1, 2, 3).val(), report=True)
     assert (s.source_format, s.input_bytes, s.ratio) == ("BREP", 0, None)
+
+
+def test_surface_trimmed_in_one_direction(cq) -> None:
+    """A cylinder trimmed in u only keeps OCCT's infinite bounds in v,
+    ±Precision::Infinite() itself (OCCT's booleans make such faces: a slot cut
+    into a filleted, pocketed block was refused, "SURF params: a value is not
+    finite or out of range").  Both modes take it; B-rep exact gives the
+    bounds back bit for bit."""
+    from OCP.BRep import BRep_Tool
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeFace
+    from OCP.Geom import Geom_CylindricalSurface, Geom_RectangularTrimmedSurface
+    from OCP.gp import gp_Ax3
+    from OCP.Precision import Precision
+
+    cyl = Geom_CylindricalSurface(gp_Ax3(), 5.0)
+    trimmed = Geom_RectangularTrimmedSurface(cyl, np.pi, 3 * np.pi, True)
+    assert trimmed.Bounds()[2:] == (-Precision.Infinite_s(), Precision.Infinite_s())
+    face = cq.Face(BRepBuilderAPI_MakeFace(trimmed, np.pi, 2.5 * np.pi, 0.0, 8.0, 1e-7).Face())
+    for kw in ({"tol": 0.01}, {"lossless": "brep"}):
+        data = nurbscomp.compress(face, **kw)  # type: ignore[arg-type]
+        back = nurbscomp.decompress(data)
+        assert back.isValid() and nurbscomp.evaluate(face, data).within_tolerance is not False
+    raw = nurbscomp.decompress(nurbscomp.compress(face, lossless="brep"), raw=True)
+    got = BRep_Tool.Surface_s(cq.Shape.cast(raw).Faces()[0].wrapped)
+    assert got.Bounds() == trimmed.Bounds()

@@ -583,7 +583,9 @@ def _read_geometry(
     r.done()
     kr.knots, kr.mults = knots, mults
     finite(frames.a, f"{tag} frames", MAX_COORD)
-    finite(params.a, f"{tag} params", MAX_COORD)
+    # ±Precision::Infinite() itself: the bounds of a trimmed surface's
+    # untrimmed direction (OCCT's booleans make cylinders trimmed in u only)
+    finite(params.a, f"{tag} params", MAX_COORD, at_most=True)
     finite(poles.a, f"{tag} poles", MAX_COORD)
     out: list[Geometry] = []
     surface = tag == "SURF"

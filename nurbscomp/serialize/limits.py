@@ -29,10 +29,11 @@ MAX_COORD = 2e100
 MAX_LEVEL = 96
 
 
-def finite(a: np.ndarray, where: str, bound: float = np.inf) -> None:
-    """Raise ``SectionError`` unless every value of ``a`` is finite (and below ``bound``)."""
+def finite(a: np.ndarray, where: str, bound: float = np.inf, at_most: bool = False) -> None:
+    """Raise ``SectionError`` unless every value of ``a`` is finite and below
+    ``bound`` in magnitude (``at_most``: or equal to it)."""
     with np.errstate(invalid="ignore"):
-        if a.size and not (np.abs(a) < bound).all():
+        if a.size and not (np.abs(a) <= bound if at_most else np.abs(a) < bound).all():
             raise SectionError(f"{where}: a value is not finite or out of range")
 
 
