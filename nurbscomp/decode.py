@@ -309,6 +309,9 @@ ARC_ROWS = container.VERSIONS.index((2, 14))
 #: by face, the projector's end points carried along each face's wires
 #: (docs/format.md §3, *(2.15)*).
 PCURVES_BY_FACE = container.VERSIONS.index((2, 15))
+#: Format 2.16: the first revision whose computed seams that ``FixShifted``
+#: put onto one another are set again (docs/format.md §2.8, *(2.16)*).
+SEAMS_SET = container.VERSIONS.index((2, 16))
 
 
 def sections_to_model(
@@ -327,6 +330,7 @@ def sections_to_model(
     m.poles_follow = revision >= POLES_FOLLOW
     m.periods_in_range = revision >= PERIODS_IN_RANGE
     m.pcurves_by_face = revision >= PCURVES_BY_FACE
+    m.seams_set = revision >= SEAMS_SET
     with np.errstate(all="ignore"):  # overflows become non-finite values, refused by name
         apply(m, t, serialize.tolerance(meta), revision)
     if limits is not None:

@@ -401,6 +401,10 @@ class BRepModel:
     #: wire order, the projector's end points carried from edge to edge
     #: (``occ.topology.rebuild_pcurves``, format 2.15).
     pcurves_by_face: bool = True
+    #: Whether a computed seam whose two pcurves ``FixShifted`` put onto one
+    #: another is set as OCCT's readers set it (``occ.topology.shift_wire``,
+    #: format 2.16).
+    seams_set: bool = True
 
     def type_index(self) -> np.ndarray:
         """Position of each shape within the rows of its own type, shape (S,).
@@ -462,15 +466,18 @@ _FLOAT_FIELDS = (
 
 def nonfinite(m: BRepModel, bound: float) -> str | None:
     """Where ``m`` holds a number that is not finite or not below ``bound`` in
-    magnitude (a geometry's ``params``: above it; ``"SURF poles"``, ``"VERT points"`` …), the first such place;
-    None if none.  A reader refuses such values (``serialize.finite``); the
-    encoder asks first, so that lossless and tolerance modes refuse the same
-    source with the same words."""
+    magnitude (a geometry's ``params``: above it), as ``"SURF poles"``,
+    ``"VERT points"`` …, the first such place; None if none.  A reader
+    refuses such values (``serialize.finite``); the encoder asks first, so
+    that lossless and tolerance modes refuse the same source with the same
+    words."""
 
     def bad(a: np.ndarray | None, at_most: bool = False) -> bool:
+        if a is None or not a.size:
+            return False
         with np.errstate(invalid="ignore"):
             ok = np.abs(a) <= bound if at_most else np.abs(a) < bound
-            return a is not None and a.size > 0 and not bool(ok.all())
+            return not bool(ok.all())
 
     for name, where in _FLOAT_FIELDS:
         if bad(getattr(m, name)):

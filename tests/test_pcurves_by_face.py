@@ -177,6 +177,6 @@ def test_a_new_container_is_built_face_by_face(tmp_path: Path) -> None:
     out = tmp_path / "b.nzc"
     pipeline.compress_file(src, out, tol=0.01)
     c = pipeline.read_container(out)
-    assert (c.major, c.minor) == (container.MAJOR, container.MINOR) == (2, 15)
+    assert (c.major, c.minor) == (container.MAJOR, container.MINOR) and c.minor >= 15
     m, _ = pipeline.decode(c)
     assert m.pcurves_by_face

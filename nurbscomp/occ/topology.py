@@ -38,6 +38,7 @@ from OCP.BRep import (
     BRep_Tool,
     BRep_TVertex,
 )
+from OCP.BRepCheck import BRepCheck_NoError, BRepCheck_Wire
 from OCP.Geom import Geom_Plane, Geom_RectangularTrimmedSurface
 from OCP.GeomAbs import GeomAbs_Shape
 from OCP.gp import gp_Pln, gp_Pnt, gp_Pnt2d, gp_Trsf, gp_TrsfForm, gp_Vec, gp_Vec2d
@@ -670,6 +671,7 @@ def _model_pcurves(
         m.poles_follow,
         m.periods_in_range,
         face_edge_order(m) if m.pcurves_by_face else None,
+        m.seams_set,
     )
 
 
@@ -801,6 +803,7 @@ def rebuild_pcurves(
     poles_follow: bool = True,
     in_range: bool = True,
     face_edges: list[list[int]] | None = None,
+    seams: bool = True,
 ) -> int:
     """Compute the pcurves a model left out, on the faces whose surface they name.
 
@@ -811,6 +814,9 @@ def rebuild_pcurves(
     as OCCT's own STEP reader does; (``in_range``, format 2.9) on a trimmed
     surface of a periodic basis, which ``FixShifted`` takes for not periodic,
     the projected pcurves are moved into its bounds (:func:`into_range`);
+    (``seams``, format 2.16) where ``FixShifted`` put one pcurve of a
+    computed seam onto the other, the wire's shifts are undone and its
+    seams set as OCCT's readers set them (:func:`shift_wire`);
     and (``poles_follow``, format 2.8) the pcurves of their degenerated
     edges are made to meet them (:func:`align_degenerated`).
     The calls are made in format 2.14's order (:func:`_one_by_one`), or
@@ -856,7 +862,7 @@ def rebuild_pcurves(
         while it.More():
             w = it.Value()
             if w.ShapeType() == TopAbs_WIRE:
-                ShapeFix_Wire(TopoDS.Wire(w), f, 1e-7).FixShifted()
+                shift_wire(f, TopoDS.Wire(w), seams)
                 if periods is not None:
                     into_range(f, TopoDS.Wire(w), periods, projected[at])
                 if poles_follow:
@@ -958,6 +964,174 @@ def into_range(face: Any, wire: Any, periods: _Periods, projected: Any) -> int:
             _translate(cr, shift)
             moved += 1
     return moved
+
+
+def shift_wire(face: Any, wire: Any, guarded: bool = True) -> int:
+    """``ShapeFix_Wire.FixShifted`` on ``wire`` of ``face`` (docs/format.md
+    §2.8); with ``guarded`` (format 2.16), where the wire holds a seam and
+    the shift leaves it open in 2-D (``BRepCheck_Wire.Closed2d``), the first
+    of eight trials that closes it, each from the pcurves as they were
+    before the shift (:func:`_to_base`, :func:`_swap_seams`, the shift in
+    the wire's order or in the order its edges connect,
+    :func:`chain_order`), or the plain shift where none does.  Returns the
+    number of the trial kept (0: the plain shift).
+
+    ``FixShifted`` shifts each pcurve by whole periods to meet the one
+    before it in the wire.  On a hole's cylinder or a countersink's cone as
+    OCCT's modelling makes them (circle, seam, circle, seam, each circle a
+    whole period long), with the seam's second pcurve projected a period
+    the wrong way, it put one use of the seam onto the other, or swapped
+    the two, and BRepCheck called the face unorientable: a cadquery block
+    with one hole kept that face's pcurves in its container."""
+    fix = ShapeFix_Wire(wire, face, 1e-7)
+    if not guarded or not _seams_of(face, wire):
+        fix.FixShifted()
+        return 0
+    kept = _wire_pcurves(face, wire)
+    fix.FixShifted()
+    check = BRepCheck_Wire(wire)
+    if check.Closed2d(face) == BRepCheck_NoError:
+        return 0
+    wd = ShapeExtend_WireData(wire)
+    order = chain_order(wd)
+    chained = ShapeExtend_WireData()
+    for i in order:
+        chained.Add(wd.Edge(i))
+    # (to base: 0 none, 1 the seams, 2 every edge; swap the seams; shift on)
+    trials: list[tuple[int, bool, Any]] = [
+        (0, False, None),
+        (0, True, wd),
+        (1, False, None),
+        (1, True, None),
+        (2, False, None),
+        (2, True, None),
+    ]
+    if order != list(range(1, wd.NbEdges() + 1)):
+        trials += [(0, False, chained), (0, True, chained)]
+    for k, (base, swap, edges) in enumerate(trials, 1):
+        _put_back(face, kept)
+        if base:
+            _to_base(face, wire, base == 2)
+        if swap:
+            _swap_seams(face, wire)
+        if edges is not None:
+            shift = ShapeFix_Wire()
+            shift.Load(edges)
+            shift.SetFace(face)
+            shift.SetPrecision(1e-7)
+            shift.FixShifted()
+        if check.Closed2d(face) == BRepCheck_NoError:
+            return k
+    _put_back(face, kept)
+    ShapeFix_Wire(wire, face, 1e-7).FixShifted()
+    return 0
+
+
+def _to_base(face: Any, wire: Any, every: bool) -> None:
+    """Move the pcurves of each seam of ``wire`` (``every``: of each edge of
+    it; a seam's two together) by the whole periods of ``face``'s surface
+    that bring the least of their coordinates at the ends of the edge's
+    range into [first, first + period) of the surface's bounds, in each
+    periodic direction."""
+    surf = BRep_Tool.Surface_s(face)
+    u0, _, v0, _ = surf.Bounds()
+    periods = (
+        surf.UPeriod() if surf.IsUPeriodic() else 0.0,
+        surf.VPeriod() if surf.IsVPeriodic() else 0.0,
+    )
+    for edge, c1, c2 in _wire_pcurves(face, wire):
+        if c2 is None and not every:
+            continue
+        first, last = BRep_Tool.Range_s(edge, face)
+        pts = [c.Value(t) for c in (c1, c2) if c is not None for t in (first, last)]
+        low = (min(p.X() for p in pts), min(p.Y() for p in pts))
+        shift = [
+            -p * math.floor((lo - start) / p + 1e-9) if p > 0 else 0.0
+            for lo, start, p in zip(low, (u0, v0), periods)
+        ]
+        if any(shift):
+            got = _oriented_pcurve(edge, face)
+            assert got is not None
+            cr, vec = got[0], gp_Vec2d(*shift)
+            cr.PCurve(c1.Translated(vec))
+            if c2 is not None:
+                cr.PCurve2(c2.Translated(vec))
+            cr.SetRange(cr.First(), cr.Last())
+
+
+def _swap_seams(face: Any, wire: Any) -> None:
+    """Swap the two pcurves of each seam of ``wire`` on ``face``."""
+    for edge, c1, c2 in _seams_of(face, wire):
+        got = _oriented_pcurve(edge, face)
+        assert got is not None
+        cr = got[0]
+        cr.PCurve(c2)
+        cr.PCurve2(c1)
+        cr.SetRange(cr.First(), cr.Last())
+
+
+def _put_back(face: Any, kept: list[tuple[Any, Any, Any]]) -> None:
+    """The pcurves of :func:`_wire_pcurves` back on ``face``."""
+    for edge, c1, c2 in kept:
+        got = _oriented_pcurve(edge, face)
+        if got is not None:
+            cr = got[0]
+            cr.PCurve(c1)
+            if c2 is not None and cr.IsCurveOnClosedSurface():
+                cr.PCurve2(c2)
+            cr.SetRange(cr.First(), cr.Last())
+
+
+def _wire_pcurves(face: Any, wire: Any) -> list[tuple[Any, Any, Any]]:
+    """The pcurves on ``face`` of the edges of ``wire``, each edge once:
+    (edge, pcurve, the second pcurve of a seam or None)."""
+    out = []
+    seen = TopTools_MapOfShape()
+    wd = ShapeExtend_WireData(wire)
+    for i in range(1, wd.NbEdges() + 1):
+        edge = wd.Edge(i)
+        if not seen.Add(edge):
+            continue
+        got = _oriented_pcurve(edge, face)
+        if got is not None:
+            cr = got[0]
+            out.append((edge, cr.PCurve(), cr.PCurve2() if cr.IsCurveOnClosedSurface() else None))
+    return out
+
+
+def _seams_of(face: Any, wire: Any) -> list[tuple[Any, Any, Any]]:
+    """The seams of ``wire`` on ``face``, each once, with their two pcurves."""
+    out = []
+    seen = TopTools_MapOfShape()
+    wd = ShapeExtend_WireData(wire)
+    for i in range(1, wd.NbEdges() + 1):
+        edge = wd.Edge(i)
+        if not seen.Add(edge):
+            continue
+        got = _oriented_pcurve(edge, face)
+        if got is not None and got[0].IsCurveOnClosedSurface():
+            out.append((edge, got[0].PCurve(), got[0].PCurve2()))
+    return out
+
+
+def chain_order(wd: Any) -> list[int]:
+    """The edges of ``wd`` (a ``ShapeExtend_WireData``, numbered from 1) in
+    the order in which they connect: from edge 1, each next one the first
+    edge not yet taken, in ``wd``'s order, whose first vertex is the last
+    vertex of the one taken before (``TopExp.FirstVertex``/``LastVertex``
+    with the edges' orientations; ``IsSame``), or the first not yet taken
+    where none is."""
+    n = wd.NbEdges()
+    first = [TopExp.FirstVertex_s(wd.Edge(i), True) for i in range(1, n + 1)]
+    last = [TopExp.LastVertex_s(wd.Edge(i), True) for i in range(1, n + 1)]
+    order = [0] if n else []
+    free = list(range(1, n))
+    while free:
+        end = last[order[-1]]
+        nxt = next((i for i in free if not end.IsNull() and first[i].IsSame(end)), free[0])
+        free.remove(nxt)
+        order.append(nxt)
+    return [i + 1 for i in order]
 
 
 def _translate(cr: Any, shift: list[float]) -> None:
