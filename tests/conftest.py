@@ -242,7 +242,8 @@ def assert_step_keeps_floor(cad, nzc: Path, tmp_path: Path):
 def thick_step(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A shelled loft written by OCCT's STEP writer (the stress corpus's
     ``feature_thick_00``): its inner face is an offset of a B-spline no face
-    lies on, and its pcurves there are stored and dense (1,992 and 307 poles)."""
+    lies on, and its pcurves there are dense (1,992 and 307 poles); they are
+    stored under format 2.15's rule, not under 2.16's."""
     from tests.stress.files import write_step
     from tests.stress.shapes import entries
 

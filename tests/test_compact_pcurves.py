@@ -12,6 +12,7 @@ import pytest
 from nurbscomp import occ, pipeline
 from nurbscomp.encode import pcurves
 from nurbscomp.model import EC, BSplineCurve, BSplineSurface, RepKind
+from nurbscomp.occ import topology
 
 
 def _surface() -> BSplineSurface:
@@ -111,7 +112,13 @@ def _stored_poles(path) -> list[int]:
 def test_thick_part_stores_compact_pcurves(thick_step, tmp_path, monkeypatch) -> None:
     """Compressed at 0.1 mm, the shelled loft keeps its offset face's pcurves
     compacted: the container is a fraction of the one with the source's, the
-    decoded shape is valid, within tol, with the same counts."""
+    decoded shape is valid, within tol, with the same counts.
+
+    Built with ``FixShifted`` unguarded (format 2.15's rule), under which the
+    offset face's pcurves must be stored; 2.16's guard closes its wire
+    without them (2,502 bytes, no pcurve stored)."""
+    shift = topology.shift_wire
+    monkeypatch.setattr(topology, "shift_wire", lambda f, w, guarded=True: shift(f, w, False))
     out = tmp_path / "new.nzc"
     report = pipeline.compress_file(thick_step, out, tol=0.1)
     assert report["verified"]

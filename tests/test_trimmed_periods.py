@@ -29,5 +29,6 @@ def test_a_pcurve_a_period_beyond_a_trimmed_surface_comes_back() -> None:
     assert cand.periods_in_range
     e, f = occ.failures(validity.build(cand))
     assert (e - source_faults[0], f - source_faults[1]) == (set(), set())
-    e, f = occ.failures(validity.build(replace(cand, periods_in_range=False)))
+    # (and without 2.16's guard of FixShifted, which closes that wire too)
+    e, f = occ.failures(validity.build(replace(cand, periods_in_range=False, seams_set=False)))
     assert not e - source_faults[0] and len(f - source_faults[1]) == 1
