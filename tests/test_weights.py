@@ -130,3 +130,29 @@ def replace_rational(g: BSplineSurface) -> BSplineSurface:
     return BSplineSurface(
         g.poles, None, g.uknots, g.vknots, g.umults, g.vmults, g.udegree, g.vdegree, False, False
     )
+
+
+def test_weights_rounded_where_the_code_left_no_room(tmp_path) -> None:
+    """A rational net whose code takes its whole limit at 0.1 mm (with its
+    rounded knots) left no room for the rounded weights, so its table kept
+    the source's: the container grew with the tolerance (746 bytes at
+    0.01 mm, 1,122 at 0.1).  The net is now coded again within the limit less
+    the weights' term, its weights rounded."""
+    from nurbscomp import pipeline
+    from tests.stress.files import write_step
+    from tests.stress.shapes import entries
+
+    entry = {e.name: e for e in entries(7)}["net_rational_01"]
+    src = tmp_path / "rational.step"
+    write_step(entry.build(), src, "rational")
+    sizes = []
+    for tol in (0.01, 0.1):
+        out = tmp_path / f"r{tol}.nzc"
+        pipeline.compress_file(src, out, tol=tol)
+        sizes.append(out.stat().st_size)
+        m, _ = pipeline.decode(pipeline.read_container(out))
+        (g,) = [s for s in m.surfaces if isinstance(s, BSplineSurface)]
+        assert g.weights is not None
+        m_, e = np.frexp(g.weights)
+        assert (np.ldexp(m_, 16) == np.rint(np.ldexp(m_, 16))).all()  # on a short grid
+    assert sizes[1] <= sizes[0], sizes
