@@ -1106,7 +1106,7 @@ def _seams_of(face: Any, wire: Any) -> list[tuple[Any, Any, Any]]:
     wd = ShapeExtend_WireData(wire)
     for i in range(1, wd.NbEdges() + 1):
         edge = wd.Edge(i)
-        if not seen.Add(edge):
+        if not BRep_Tool.IsClosed_s(edge, face) or not seen.Add(edge):
             continue
         got = _oriented_pcurve(edge, face)
         if got is not None and got[0].IsCurveOnClosedSurface():
