@@ -235,8 +235,12 @@ def _write(name: str, fmt: str, folder: Path) -> Path:
 def test_a_closed_net_the_reader_mends_is_no_larger_at_a_larger_tolerance(tmp_path: Path) -> None:
     """A closed net written as IGES faces: at 0.1 mm OCCT's STEP reader split
     its seam until its surface was left exact (1,308 bytes); coded within
-    0.01 mm it passes at once (535 bytes).  At 0.1 mm it is now the part
-    coded within 0.01 mm, said so in the report, and within both."""
+    0.01 mm it passed at once (535 bytes), and the part at 0.1 mm was the
+    one coded within 0.01 mm.  Since the twenty-sixth session the part coded
+    within 0.1 mm climbs to the same size (485 bytes at both tolerances,
+    four rounds at 0.1 mm), and the smaller of the two is kept, either way:
+    never larger than at 0.01 mm, within what the report says it was coded
+    to, and the report says which."""
     src = _write("net_closed_01", "faces", tmp_path)
     at = {}
     for tol in (0.01, 0.1):
@@ -244,8 +248,9 @@ def test_a_closed_net_the_reader_mends_is_no_larger_at_a_larger_tolerance(tmp_pa
         at[tol] = rep
     assert at[0.1]["output_bytes"] <= at[0.01]["output_bytes"]
     assert at[0.1]["tolerance_mm"] == 0.1
-    assert at[0.1]["coded_tolerance_mm"] == pytest.approx(0.01)
-    assert any("coded within 0.01 mm, not 0.1 mm" in w for w in at[0.1]["warnings"])
-    assert (tmp_path / "0.1.nzc").read_bytes() == (tmp_path / "0.01.nzc").read_bytes()
+    coded = at[0.1]["coded_tolerance_mm"]
+    assert coded in (pytest.approx(0.01), pytest.approx(0.1))
+    said = any("coded within 0.01 mm, not 0.1 mm" in w for w in at[0.1]["warnings"])
+    assert said == (coded == pytest.approx(0.01))
     ev = pipeline.evaluate(src, tmp_path / "0.1.nzc")
-    assert ev["max_deviation_mm"] <= 0.01
+    assert ev["max_deviation_mm"] <= coded
