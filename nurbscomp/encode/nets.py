@@ -22,7 +22,7 @@ from typing import Any, cast
 
 import numpy as np
 
-from .. import codec, entropy, serialize
+from .. import codec, serialize
 from ..memo import Memo, digest
 from ..model import (
     EC,
@@ -329,8 +329,6 @@ def _code_one(
     # rounded knots: the bound measured against the source row (knots.moved)
     was = g if h is not g else None
     out = _rounded_weights(replace(code, limit=limit), g, replace(h, poles=net), wbits, limit, was)
-    if wbits is not None and g.weights is not None and code.method not in _OWN_WEIGHTS:
-        out = _room_for_weights(out, g, h, kterm, tol, methods, origin, limit, wbits, spread, was)
     if removable:
         fewer = _removed(g, tol, methods, origin, limit, wbits, removable, spread, kplan)
         if fewer is not None and _size(fewer, _left_knot_bits(fewer[1], g)) < _size(out):
@@ -338,63 +336,6 @@ def _code_one(
                 spare.append(out)
             return fewer
     return out
-
-
-#: Codes whose rows keep their weights where the code left no room for rounded
-#: ones (:func:`_room_for_weights`): a D-map's basis holds them (eq. 18), and
-#: rows of arcs have a conic's exact weights, which other rows share bit for
-#: bit (rounded, four of NIST_MBE_PMI_2's lost that and it grew by 67 bytes
-#: at 0.1 mm).
-_OWN_WEIGHTS = frozenset({codec.Method.DMAP, codec.Method.ARCS_U, codec.Method.ARCS_V})
-
-
-def _room_for_weights(
-    out: tuple[codec.NetCode, Geometry],
-    g: BSplineSurface | BSplineCurve,
-    h: BSplineSurface | BSplineCurve,
-    kterm: float,
-    tol: float,
-    methods: tuple[codec.Method, ...],
-    origin: np.ndarray | None,
-    limit: float,
-    wbits: int,
-    spread: bool,
-    was: BSplineSurface | BSplineCurve | None,
-) -> tuple[codec.NetCode, Geometry]:
-    """``out`` (``g`` coded on ``h``, its knots as rounded, ``kterm`` their
-    move), or, where its code left no room for ``g``'s weights rounded to
-    ``wbits`` (:func:`_rounded_weights`), ``g`` coded again within ``limit``
-    less the knots' and the weights' terms with its weights rounded, where
-    the finer code costs fewer estimated bits (:func:`_size`) than the
-    rounded weights save (LZMA of the row's weights alone).  A rational net
-    whose code took its whole limit at 0.1 mm kept its weights exact, and its
-    file grew with the tolerance (746 bytes at 0.01 mm, 1,122 at 0.1)."""
-    assert g.weights is not None
-    w = weights.rounded(g.weights, wbits)
-    if _has_weights(out[1], w):
-        return out
-    room = limit - kterm - weights.weight_bound(g, w)
-    try:
-        finer, net = _net_code(h, tol, methods, origin, room, spread)
-    except codec.NoCodeError:
-        return out
-    if not finer.bound <= room:
-        return out
-    again = replace(finer, bound=finer.bound + kterm, limit=limit)
-    made = _rounded_weights(again, g, replace(h, poles=net), wbits, limit, was)
-    saved = 8 * (entropy.lzma_size(g.weights.tobytes()) - entropy.lzma_size(w.tobytes()))
-    if _has_weights(made[1], w) and made[0].bits - out[0].bits < saved:
-        return made
-    return out
-
-
-def _has_weights(g: Geometry, w: np.ndarray) -> bool:
-    """Whether ``g`` is a B-spline row with the weights ``w``."""
-    return (
-        isinstance(g, BSplineSurface | BSplineCurve)
-        and g.weights is not None
-        and np.array_equal(g.weights, w)
-    )
 
 
 def _rounded_weights(
