@@ -292,21 +292,20 @@ def sample_face(face: Any, n: int = 7) -> tuple[np.ndarray, np.ndarray]:
         Points of the located face surface, in model space.
     """
     u0, u1, v0, v1 = BRepTools.UVBounds_s(face)
-    surf = BRep_Tool.Surface_s(face)
+    surf = BRep_Tool.Surface_s(face)  # located: the face's placement applied
     cls = BRepTopAdaptor_FClass2d(face, 1e-9)
     t = (np.arange(n) + 0.5) / n
     uv, xyz = [], []
-    trsf = face.Location().Transformation()
     for a in t:
         for b in t:
             u, v = u0 + a * (u1 - u0), v0 + b * (v1 - v0)
             if cls.Perform(gp_Pnt2d(u, v)) in (TopAbs_IN, TopAbs_ON):
-                p = surf.Value(u, v).Transformed(trsf)
+                p = surf.Value(u, v)
                 uv.append((u, v))
                 xyz.append((p.X(), p.Y(), p.Z()))
     if not uv:  # a sliver: fall back to the middle of its UV box
         u, v = (u0 + u1) / 2, (v0 + v1) / 2
-        p = surf.Value(u, v).Transformed(trsf)
+        p = surf.Value(u, v)
         uv.append((u, v))
         xyz.append((p.X(), p.Y(), p.Z()))
     return np.array(uv), np.array(xyz)
@@ -323,16 +322,14 @@ def face_distances(original: Any, decoded: Any, n: int = 7, tol: float = 0.0) ->
     one domain onto the other.
     """
     uv, xyz = sample_face(original, n)
-    surf = BRep_Tool.Surface_s(decoded)
+    surf = BRep_Tool.Surface_s(decoded)  # located: the face's placement applied
     uv = _onto(uv, BRep_Tool.Surface_s(original).Bounds(), surf.Bounds())
-    trsf = decoded.Location().Transformation()
-    inv = trsf.Inverted()
     out = []
     for (u, v), p in zip(uv, xyz):
-        q = surf.Value(u, v).Transformed(trsf)
+        q = surf.Value(u, v)
         d = float(np.sqrt((q.X() - p[0]) ** 2 + (q.Y() - p[1]) ** 2 + (q.Z() - p[2]) ** 2))
         if d > tol:
-            proj = GeomAPI_ProjectPointOnSurf(gp_Pnt(*p).Transformed(inv), surf)
+            proj = GeomAPI_ProjectPointOnSurf(gp_Pnt(*p), surf)
             if proj.NbPoints():
                 d = min(d, proj.LowerDistance())
         out.append(d)

@@ -672,7 +672,33 @@ def _model_pcurves(
         m.periods_in_range,
         face_edge_order(m) if m.pcurves_by_face else None,
         m.seams_set,
+        face_uses(m) if m.seams_set else None,
     )
+
+
+def face_uses(m: BRepModel) -> list[bool]:
+    """Per face row, whether the walk of the shapes table from the root (in
+    child order, orientations composed: REVERSED flips) first meets it
+    reversed: the face as its shell uses it, as BRepCheck checks it."""
+    tidx = m.type_index().tolist()
+    types = m.shape_type.tolist()
+    start, kids, ors = m.child_start.tolist(), m.child_shape.tolist(), m.child_orient.tolist()
+    out = [False] * int((m.shape_type == _FACE).sum())
+    seen: set[int] = set()
+    stack = [(m.root_shape, m.root_orient == 1)]
+    while stack:
+        s, rev = stack.pop()
+        if s in seen:
+            continue
+        seen.add(s)
+        if types[s] == _FACE:
+            out[tidx[s]] = rev
+            continue
+        if types[s] > _FACE:
+            continue
+        for k in range(start[s + 1] - 1, start[s] - 1, -1):
+            stack.append((kids[k], rev != (ors[k] == 1)))
+    return out
 
 
 def face_edge_order(m: BRepModel) -> list[list[int]]:
@@ -804,6 +830,7 @@ def rebuild_pcurves(
     in_range: bool = True,
     face_edges: list[list[int]] | None = None,
     seams: bool = True,
+    uses: list[bool] | None = None,
 ) -> int:
     """Compute the pcurves a model left out, on the faces whose surface they name.
 
@@ -814,9 +841,10 @@ def rebuild_pcurves(
     as OCCT's own STEP reader does; (``in_range``, format 2.9) on a trimmed
     surface of a periodic basis, which ``FixShifted`` takes for not periodic,
     the projected pcurves are moved into its bounds (:func:`into_range`);
-    (``seams``, format 2.16) where ``FixShifted`` put one pcurve of a
-    computed seam onto the other, the wire's shifts are undone and its
-    seams set as OCCT's readers set them (:func:`shift_wire`);
+    (``seams``, format 2.16) a wire with a seam that ``FixShifted`` leaves
+    open in 2-D, as the face is used (``uses``: per face, whether reversed,
+    :func:`face_uses`), gets the first trial that closes it
+    (:func:`shift_wire`);
     and (``poles_follow``, format 2.8) the pcurves of their degenerated
     edges are made to meet them (:func:`align_degenerated`).
     The calls are made in format 2.14's order (:func:`_one_by_one`), or
@@ -855,6 +883,7 @@ def rebuild_pcurves(
         _by_face(fix, faces, face_edges, jobs, where, cache, keys, dirty)
     else:
         handed = _one_by_one(fix, jobs, cache, keys, dirty)
+    turned = {id(f) for f, r in zip(faces, uses or []) if r}
     for at, face in touched.items():
         f = TopoDS.Face(face)
         periods = trimmed_periods(f) if in_range else None
@@ -862,7 +891,7 @@ def rebuild_pcurves(
         while it.More():
             w = it.Value()
             if w.ShapeType() == TopAbs_WIRE:
-                shift_wire(f, TopoDS.Wire(w), seams)
+                shift_wire(f, TopoDS.Wire(w), seams, at in turned)
                 if periods is not None:
                     into_range(f, TopoDS.Wire(w), periods, projected[at])
                 if poles_follow:
@@ -966,10 +995,11 @@ def into_range(face: Any, wire: Any, periods: _Periods, projected: Any) -> int:
     return moved
 
 
-def shift_wire(face: Any, wire: Any, guarded: bool = True) -> int:
+def shift_wire(face: Any, wire: Any, guarded: bool = True, turned: bool = False) -> int:
     """``ShapeFix_Wire.FixShifted`` on ``wire`` of ``face`` (docs/format.md
     §2.8); with ``guarded`` (format 2.16), where the wire holds a seam and
-    the shift leaves it open in 2-D (``BRepCheck_Wire.Closed2d``), the first
+    the shift leaves it open in 2-D (``BRepCheck_Wire.Closed2d`` on the face
+    as its shell uses it: reversed where ``turned``), the first
     of eight trials that closes it, each from the pcurves as they were
     before the shift (:func:`_to_base`, :func:`_swap_seams`, the shift in
     the wire's order or in the order its edges connect,
@@ -989,8 +1019,16 @@ def shift_wire(face: Any, wire: Any, guarded: bool = True) -> int:
         return 0
     kept = _wire_pcurves(face, wire)
     fix.FixShifted()
-    check = BRepCheck_Wire(wire)
-    if check.Closed2d(face) == BRepCheck_NoError:
+    used = TopoDS.Face(face.Reversed()) if turned else face
+    it = TopoDS_Iterator(used)  # the wire as the used face holds it
+    while not it.Value().IsSame(wire):
+        it.Next()
+    check = BRepCheck_Wire(TopoDS.Wire(it.Value()))
+
+    def closed() -> bool:
+        return check.Closed2d(used) == BRepCheck_NoError
+
+    if closed():
         return 0
     wd = ShapeExtend_WireData(wire)
     order = chain_order(wd)
@@ -1020,7 +1058,7 @@ def shift_wire(face: Any, wire: Any, guarded: bool = True) -> int:
             shift.SetFace(face)
             shift.SetPrecision(1e-7)
             shift.FixShifted()
-        if check.Closed2d(face) == BRepCheck_NoError:
+        if closed():
             return k
     _put_back(face, kept)
     ShapeFix_Wire(wire, face, 1e-7).FixShifted()

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Any
 
 from .. import budget, container, product, serialize, units
 from .._version import version
-from ..encode import knots, offsets, pcurves
+from ..encode import knots, offsets, pcurves, placed
 from ..errors import (
     InputError,
     LimitError,
@@ -223,6 +223,10 @@ def encode_cad(
     except LimitError as e:
         raise UnsupportedError(f"{e}; not compressed") from None
     m.unit, m.source_format, m.product = cad.unit, cad.source_format, cad.product
+    if not lossless and cad.source_format == "BREP" and cad.product is None:
+        # a shape made in memory: its placements into its geometry, as a
+        # STEP reader writes them (encode.placed)
+        m = placed.bake(m) or m
     meta = {
         "mode": "lossless" if lossless else "tolerance",
         "tolerance_mm": None if lossless else tol,
