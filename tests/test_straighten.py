@@ -60,10 +60,13 @@ def test_what_is_not_noise_stays() -> None:
     assert analytic.straighten(_cylinder(3e-11), 1e9, 0.001) is None
 
 
-def _axes(data: bytes) -> tuple[int, int]:
-    """(directions that are axes, directions) of the analytic rows of a container."""
+def _axes(data: bytes, through: bool = True) -> tuple[int, int]:
+    """(directions that are axes, directions) of the analytic rows of a
+    container; without ``through``, not those of lines through their
+    vertices, whose direction the decoder takes from the vertices."""
     m, _ = pipeline.decode(container.unpack(data))  # lines through vertices made
     rows = [g for g in (*m.surfaces, *m.curves3d) if isinstance(g, Analytic)]
+    rows = [g for g in rows if through or not (g.kind == Kind.LINE and g.through)]
     d = np.concatenate([g.frame[1:] for g in rows if g.kind in analytic.STRAIGHT_KINDS])
     axis = (np.sort(np.abs(d), axis=-1) == [0.0, 0.0, 1.0]).all(-1)
     return int(axis.sum()), len(d)
@@ -91,8 +94,16 @@ def test_a_part_turned_by_noise_comes_back_on_its_axes(angle: float, straight: b
     )
     tol = 0.001
     data = nurbscomp.compress(part, tol=tol)
-    axes, total = _axes(data)
+    # (made in memory, its holes' placements are baked: the lines through
+    # vertices that stay off the grid, fewer than MIN_LOOSE, keep the noise
+    # of those vertices, 1e-12 at most here)
+    axes, total = _axes(data, through=False)
     assert (axes == total) is straight
+    if straight:
+        m, _ = pipeline.decode(container.unpack(data))
+        lines = [g for g in m.curves3d if isinstance(g, Analytic) and g.kind == Kind.LINE]
+        d = np.sort(np.abs(np.array([g.frame[1] for g in lines])), axis=-1)
+        assert np.abs(d - [0.0, 0.0, 1.0]).max() <= 1e-11
     report = nurbscomp.evaluate(part, data)
     assert report.within_tolerance and report.same_topology and report.valid_reconstructed
     assert report.max_deviation_mm <= tol
