@@ -163,13 +163,17 @@ def test_the_order_changes_the_pcurves() -> None:
 
 
 @pytest.mark.parametrize(
-    "name, by_face",
-    [("blob.v2_14.tol0.01.nzc", False), ("blob.v2_15.tol0.01.nzc", True)],
+    "name, by_face, seams",
+    [
+        ("blob.v2_14.tol0.01.nzc", False, False),
+        ("blob.v2_15.tol0.01.nzc", True, False),
+        ("bracket.v2_16.tol0.01.nzc", True, True),  # and 2.16's guard (test_seam_shift)
+    ],
 )
-def test_the_rule_follows_the_format_minor(name: str, by_face: bool) -> None:
+def test_the_rule_follows_the_format_minor(name: str, by_face: bool, seams: bool) -> None:
     c = container.unpack((GOLDEN / name).read_bytes())
     m, _ = pipeline.decode(c)
-    assert m.pcurves_by_face == by_face
+    assert (m.pcurves_by_face, m.seams_set) == (by_face, seams)
 
 
 def test_a_new_container_is_built_face_by_face(tmp_path: Path) -> None:
