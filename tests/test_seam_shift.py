@@ -11,8 +11,6 @@ import pytest
 from nurbscomp import occ, pipeline
 from nurbscomp.occ import topology
 
-GOLDEN = Path(__file__).resolve().parent / "golden"
-
 
 def _holes():
     """cadquery blocks as its modelling makes them, in memory: OCCT lists a
