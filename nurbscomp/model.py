@@ -76,6 +76,15 @@ def first_row(table: list[Any]) -> list[int]:
     return [seen.setdefault(id(g), i) for i, g in enumerate(table)]
 
 
+def rows_by_owner(owner: np.ndarray, n: int) -> list[list[int]]:
+    """Rows of a representation table (``owner``: its owner column), grouped
+    by owner row 0 … n − 1, each group in table order."""
+    out: list[list[int]] = [[] for _ in range(n)]
+    for q, o in enumerate(owner.tolist()):
+        out[o].append(q)
+    return out
+
+
 def records(table: list[Any], which: Table) -> list[Rec]:
     """Per row of ``table`` (the ``which`` table of a model), its record."""
     return [Rec(which, r) for r in first_row(table)]

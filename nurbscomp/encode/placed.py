@@ -23,6 +23,7 @@ changes each point by rounding only (a few ulps).
 from __future__ import annotations
 
 from dataclasses import replace
+from typing import Any
 
 import numpy as np
 
@@ -40,8 +41,9 @@ from ..model import (
     PointRepKind,
     RepKind,
     ShapeType,
+    rows_by_owner,
 )
-from ..rules.joins import location_matrix
+from ..rules.joins import location_matrix, placed
 
 #: Two placements within this (matrix entries, translation in mm) are one.
 SAME = 1e-9
@@ -115,7 +117,7 @@ class _Tables:
     def _move(self, g: Geometry, t: np.ndarray, surface: bool) -> Geometry:
         r, d = t[:3, :3], t[:3, 3]
         if isinstance(g, BSplineSurface | BSplineCurve):
-            return replace(g, poles=g.poles @ r.T + d)
+            return replace(g, poles=placed(g.poles, t))
         if isinstance(g, Analytic):
             frame = g.frame @ r.T
             frame[0] += d  # the origin; the other rows are directions
@@ -135,16 +137,16 @@ class _Tables:
 
 def bake(m: BRepModel) -> BRepModel | None:
     """``m`` with its sub-shapes' locations written into their geometry
-    (see the module's docstring); None where it has none to bake, where a
-    location is not rigid, or where a 2-D analytic or located pcurve table
-    would need moving (never: pcurves are 2-D)."""
-    if all(k == 0 for k in m.child_loc.tolist()) and not (
-        m.face_loc.any()
-        or (len(m.edge_reps) and m.edge_reps[:, EC.LOC].any())
-        or (len(m.edge_reps) and (m.edge_reps[:, EC.LOC2] > 0).any())
-        or (len(m.vertex_reps) and m.vertex_reps[:, VC.LOC].any())
-        or m.root_loc != 0
-    ):
+    (see the module's docstring); None where it has none to bake, or where a
+    location is not rigid."""
+    used = (
+        m.child_loc,
+        m.face_loc,
+        m.edge_reps[:, EC.LOC],
+        m.edge_reps[:, EC.LOC2],  # -1 where the row has no second surface
+        m.vertex_reps[:, VC.LOC],
+    )
+    if m.root_loc == 0 and not any((a > 0).any() for a in used):
         return None
     mats = [location_matrix(m, k) for k in range(len(m.locations))]
     if not all(_rigid(t) for t in mats):
@@ -210,66 +212,66 @@ def bake(m: BRepModel) -> BRepModel | None:
     out.face_loc = np.zeros(len(faces), m.face_loc.dtype)
     out.face_tol = m.face_tol[rows]
     out.face_natural = m.face_natural[rows]
-    # edges and their representations
-    reps_of = _grouped(m.edge_reps[:, EC.EDGE], len(m.edge_tol))
+    # edges, vertices and their representations
     erows = [e for e, _ in edges]
     out.edge_tol, out.edge_flags = m.edge_tol[erows], m.edge_flags[erows]
-    picked: list[int] = []
-    new_reps = []
-    for new_e, (e, t) in enumerate(edges):
-        for q in reps_of[e]:
-            row = m.edge_reps[q].copy()
-            row[EC.EDGE] = new_e
-            place = t @ mats[int(row[EC.LOC])]
-            kind = int(row[EC.KIND])
-            if kind == RepKind.CURVE3D:
-                row[EC.CURVE] = tables.curve(int(row[EC.CURVE]), place)
-            else:
-                row[EC.SURFACE] = tables.surface(int(row[EC.SURFACE]), place)
-                if kind == RepKind.ON_TWO_SURFACES:
-                    place2 = t @ mats[int(row[EC.LOC2])]
-                    row[EC.SURFACE2] = tables.surface(int(row[EC.SURFACE2]), place2)
-                    row[EC.LOC2] = 0
-            row[EC.LOC] = 0
-            new_reps.append(row)
-            picked.append(q)
-    out.edge_reps = np.array(new_reps, m.edge_reps.dtype) if new_reps else m.edge_reps[:0].copy()
+
+    def edge_rep(row: np.ndarray, place: np.ndarray, t: np.ndarray) -> None:
+        kind = int(row[EC.KIND])
+        if kind == RepKind.CURVE3D:
+            row[EC.CURVE] = tables.curve(int(row[EC.CURVE]), place)
+            return
+        row[EC.SURFACE] = tables.surface(int(row[EC.SURFACE]), place)
+        if kind == RepKind.ON_TWO_SURFACES:
+            place2 = t @ mats[int(row[EC.LOC2])]
+            row[EC.SURFACE2] = tables.surface(int(row[EC.SURFACE2]), place2)
+            row[EC.LOC2] = 0
+
+    n = len(m.edge_tol)
+    out.edge_reps, picked = _reps(m.edge_reps, EC.EDGE, EC.LOC, edges, n, mats, edge_rep)
     out.edge_rep_cont = m.edge_rep_cont[picked]
     out.edge_rep_range = m.edge_rep_range[picked]
     out.edge_rep_uv = m.edge_rep_uv[picked]
-    # vertices and their representations
     vrows = [v for v, _ in vertices]
-    out.vertex_point = np.array(
-        [m.vertex_point[v] @ t[:3, :3].T + t[:3, 3] for v, t in vertices]
-    ).reshape(-1, 3)
+    out.vertex_point = np.array([placed(m.vertex_point[v], t) for v, t in vertices]).reshape(-1, 3)
     out.vertex_tol = m.vertex_tol[vrows]
-    vreps_of = _grouped(m.vertex_reps[:, VC.VERTEX], len(m.vertex_tol))
-    vpicked: list[int] = []
-    new_vreps = []
-    for new_v, (v, t) in enumerate(vertices):
-        for q in vreps_of[v]:
-            row = m.vertex_reps[q].copy()
-            row[VC.VERTEX] = new_v
-            place = t @ mats[int(row[VC.LOC])]
-            kind = int(row[VC.KIND])
-            if kind == PointRepKind.ON_CURVE:
-                row[VC.CURVE] = tables.curve(int(row[VC.CURVE]), place)
-            else:
-                row[VC.SURFACE] = tables.surface(int(row[VC.SURFACE]), place)
-            row[VC.LOC] = 0
-            new_vreps.append(row)
-            vpicked.append(q)
-    out.vertex_reps = (
-        np.array(new_vreps, m.vertex_reps.dtype) if new_vreps else m.vertex_reps[:0].copy()
-    )
-    out.vertex_rep_params = m.vertex_rep_params[vpicked]
+
+    def vertex_rep(row: np.ndarray, place: np.ndarray, t: np.ndarray) -> None:
+        if int(row[VC.KIND]) == PointRepKind.ON_CURVE:
+            row[VC.CURVE] = tables.curve(int(row[VC.CURVE]), place)
+        else:
+            row[VC.SURFACE] = tables.surface(int(row[VC.SURFACE]), place)
+
+    n = len(m.vertex_tol)
+    out.vertex_reps, picked = _reps(m.vertex_reps, VC.VERTEX, VC.LOC, vertices, n, mats, vertex_rep)
+    out.vertex_rep_params = m.vertex_rep_params[picked]
     out.surfaces, out.curves3d = tables.surfaces, tables.curves
     return out
 
 
-def _grouped(owner: np.ndarray, n: int) -> list[list[int]]:
-    """Per owner row 0 … n − 1, the rows of ``owner`` that name it, in order."""
-    out: list[list[int]] = [[] for _ in range(n)]
-    for q, o in enumerate(owner.tolist()):
-        out[o].append(q)
-    return out
+def _reps(
+    table: np.ndarray,
+    owner: int,
+    loc: int,
+    placed_rows: list[tuple[int, np.ndarray]],
+    n: int,
+    mats: list[np.ndarray],
+    move: Any,
+) -> tuple[np.ndarray, list[int]]:
+    """The representation rows of the new owners (``placed_rows``: per new
+    row, the old row and its placement; ``table``'s column ``owner`` names
+    one of ``n`` old rows), each moved by ``move(row, placement of the
+    representation, placement of its owner)`` and its ``loc`` column set to
+    the identity; and the old rows they came from."""
+    groups = rows_by_owner(table[:, owner], n)
+    picked: list[int] = []
+    out = []
+    for new, (old, t) in enumerate(placed_rows):
+        for q in groups[old]:
+            row = table[q].copy()
+            row[owner] = new
+            move(row, t @ mats[int(row[loc])], t)
+            row[loc] = 0
+            out.append(row)
+            picked.append(q)
+    return np.array(out, table.dtype).reshape(-1, table.shape[1]), picked

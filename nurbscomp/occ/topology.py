@@ -84,6 +84,7 @@ from ..model import (
     RepKind,
     ShapeType,
     Table,
+    rows_by_owner,
 )
 from . import bintools
 from .geometry import GeometryBuilder, GeometryReader, record_key, segment2d
@@ -500,7 +501,7 @@ def _fast_build(m: BRepModel, cache: PcurveCache | None) -> Any:
             pending.append((sh, srow, loc, kind == _ON_CLOSED_SURFACE, k))
         keys = None
         if cache is not None:
-            keys = _PcurveKeys(m, _group(m.edge_reps[:, EC.EDGE], len(m.edge_tol)))
+            keys = _PcurveKeys(m, rows_by_owner(m.edge_reps[:, EC.EDGE], len(m.edge_tol)))
         wanted = {(srow, loc) for _, srow, loc, _, _ in pending}
         rows = list(zip(m.face_surface.tolist(), m.face_loc.tolist()))
         _model_pcurves(m, pending, [bintools.face(ss, s) for s in face_shape], cache, keys)
@@ -553,7 +554,7 @@ def _restore(ss: Any, m: BRepModel) -> None:
         return
     uv = m.edge_rep_uv.tolist()
     rows = reps[:, :3].tolist()
-    by_edge = _group(reps[:, EC.EDGE], len(m.edge_tol))
+    by_edge = rows_by_owner(reps[:, EC.EDGE], len(m.edge_tol))
     for e in sorted(set(reps[on, EC.EDGE].tolist())):
         written = [q for q in by_edge[e] if rows[q][2] != REBUILD]
         got = items(cast(BRep_TEdge, bintools.edge(ss, edge_shape[e]).TShape()).Curves())
@@ -584,9 +585,9 @@ def slow_model_to_shape(m: BRepModel, cache: PcurveCache | None = None) -> Any:
         locs.append(acc)
 
     tidx = m.type_index().tolist()
-    vreps = _group(m.vertex_reps[:, VC.VERTEX], len(m.vertex_tol))
+    vreps = rows_by_owner(m.vertex_reps[:, VC.VERTEX], len(m.vertex_tol))
     pending: list[tuple[Any, int, int, bool, int]] = []
-    ereps = _group(m.edge_reps[:, EC.EDGE], len(m.edge_tol))
+    ereps = rows_by_owner(m.edge_reps[:, EC.EDGE], len(m.edge_tol))
     built: list[Any] = []
     start, child_shape = m.child_start.tolist(), m.child_shape.tolist()
     child_orient, child_loc = m.child_orient.tolist(), m.child_loc.tolist()
@@ -1014,7 +1015,7 @@ def shift_wire(face: Any, wire: Any, guarded: bool = True, turned: bool = False)
     the two, and BRepCheck called the face unorientable: a cadquery block
     with one hole kept that face's pcurves in its container."""
     fix = ShapeFix_Wire(wire, face, 1e-7)
-    if not guarded or not _seams_of(face, wire):
+    if not guarded or not _wire_pcurves(face, wire, True):
         fix.FixShifted()
         return 0
     kept = _wire_pcurves(face, wire)
@@ -1032,9 +1033,6 @@ def shift_wire(face: Any, wire: Any, guarded: bool = True, turned: bool = False)
         return 0
     wd = ShapeExtend_WireData(wire)
     order = chain_order(wd)
-    chained = ShapeExtend_WireData()
-    for i in order:
-        chained.Add(wd.Edge(i))
     # (to base: 0 none, 1 the seams, 2 every edge; swap the seams; shift on)
     trials: list[tuple[int, bool, Any]] = [
         (0, False, None),
@@ -1045,6 +1043,9 @@ def shift_wire(face: Any, wire: Any, guarded: bool = True, turned: bool = False)
         (2, True, None),
     ]
     if order != list(range(1, wd.NbEdges() + 1)):
+        chained = ShapeExtend_WireData()
+        for i in order:
+            chained.Add(wd.Edge(i))
         trials += [(0, False, chained), (0, True, chained)]
     for k, (base, swap, edges) in enumerate(trials, 1):
         _put_back(face, kept)
@@ -1088,68 +1089,55 @@ def _to_base(face: Any, wire: Any, every: bool) -> None:
             for lo, start, p in zip(low, (u0, v0), periods)
         ]
         if any(shift):
-            got = _oriented_pcurve(edge, face)
-            assert got is not None
-            cr, vec = got[0], gp_Vec2d(*shift)
-            cr.PCurve(c1.Translated(vec))
-            if c2 is not None:
-                cr.PCurve2(c2.Translated(vec))
-            cr.SetRange(cr.First(), cr.Last())
+            vec = gp_Vec2d(*shift)
+            _set_pcurves(face, edge, c1.Translated(vec), None if c2 is None else c2.Translated(vec))
 
 
 def _swap_seams(face: Any, wire: Any) -> None:
     """Swap the two pcurves of each seam of ``wire`` on ``face``."""
-    for edge, c1, c2 in _seams_of(face, wire):
-        got = _oriented_pcurve(edge, face)
-        assert got is not None
-        cr = got[0]
-        cr.PCurve(c2)
-        cr.PCurve2(c1)
-        cr.SetRange(cr.First(), cr.Last())
+    for edge, c1, c2 in _wire_pcurves(face, wire, True):
+        _set_pcurves(face, edge, c2, c1)
 
 
 def _put_back(face: Any, kept: list[tuple[Any, Any, Any]]) -> None:
     """The pcurves of :func:`_wire_pcurves` back on ``face``."""
     for edge, c1, c2 in kept:
-        got = _oriented_pcurve(edge, face)
-        if got is not None:
-            cr = got[0]
-            cr.PCurve(c1)
-            if c2 is not None and cr.IsCurveOnClosedSurface():
-                cr.PCurve2(c2)
-            cr.SetRange(cr.First(), cr.Last())
+        _set_pcurves(face, edge, c1, c2)
 
 
-def _wire_pcurves(face: Any, wire: Any) -> list[tuple[Any, Any, Any]]:
+def _wire_pcurves(face: Any, wire: Any, seams: bool = False) -> list[tuple[Any, Any, Any]]:
     """The pcurves on ``face`` of the edges of ``wire``, each edge once:
-    (edge, pcurve, the second pcurve of a seam or None)."""
+    (edge, pcurve, the second pcurve of a seam or None); with ``seams``,
+    of its seams only (found with ``BRep_Tool::IsClosed`` before any pcurve
+    is read)."""
     out = []
     seen = TopTools_MapOfShape()
     wd = ShapeExtend_WireData(wire)
     for i in range(1, wd.NbEdges() + 1):
         edge = wd.Edge(i)
-        if not seen.Add(edge):
+        if (seams and not BRep_Tool.IsClosed_s(edge, face)) or not seen.Add(edge):
             continue
         got = _oriented_pcurve(edge, face)
-        if got is not None:
-            cr = got[0]
-            out.append((edge, cr.PCurve(), cr.PCurve2() if cr.IsCurveOnClosedSurface() else None))
+        if got is None:
+            continue
+        cr = got[0]
+        closed = cr.IsCurveOnClosedSurface()
+        if closed or not seams:
+            out.append((edge, cr.PCurve(), cr.PCurve2() if closed else None))
     return out
 
 
-def _seams_of(face: Any, wire: Any) -> list[tuple[Any, Any, Any]]:
-    """The seams of ``wire`` on ``face``, each once, with their two pcurves."""
-    out = []
-    seen = TopTools_MapOfShape()
-    wd = ShapeExtend_WireData(wire)
-    for i in range(1, wd.NbEdges() + 1):
-        edge = wd.Edge(i)
-        if not BRep_Tool.IsClosed_s(edge, face) or not seen.Add(edge):
-            continue
-        got = _oriented_pcurve(edge, face)
-        if got is not None and got[0].IsCurveOnClosedSurface():
-            out.append((edge, got[0].PCurve(), got[0].PCurve2()))
-    return out
+def _set_pcurves(face: Any, edge: Any, c1: Any, c2: Any = None) -> None:
+    """``edge``'s pcurve on ``face`` set to ``c1`` (and a seam's second to
+    ``c2``), its stored (u, v) ends following."""
+    got = _oriented_pcurve(edge, face)
+    if got is None:
+        return
+    cr = got[0]
+    cr.PCurve(c1)
+    if c2 is not None and cr.IsCurveOnClosedSurface():
+        cr.PCurve2(c2)
+    cr.SetRange(cr.First(), cr.Last())
 
 
 def chain_order(wd: Any) -> list[int]:
@@ -1689,14 +1677,6 @@ class _PcurveKeys:
                     out.append((self._record(Table.CURVE3D, c), self.location(loc), rng))
             got = self._edge[k] = tuple(out)
         return got
-
-
-def _group(owner: np.ndarray, n: int) -> list[list[int]]:
-    """Row numbers of a representation table, grouped by owner, in table order."""
-    out: list[list[int]] = [[] for _ in range(n)]
-    for q, o in enumerate(owner.tolist()):
-        out[o].append(q)
-    return out
 
 
 def _edge_rep(m: BRepModel, q: int, geo: GeometryBuilder, locs: list[Any], row: list[int]) -> Any:
