@@ -411,3 +411,28 @@ def test_surface_nets_anchored_at_their_face_vertices(tmp_path: Path) -> None:
     bad.anchor[k] = -1
     with pytest.raises(SectionError, match="no anchor vertex"):
         decode._surface_anchors(m, bad, rows)
+
+
+def test_twin_of_a_side_with_knots_removed(tmp_path: Path) -> None:
+    """A curve whose twin leads it and is a coded surface's side, that side's
+    knots removed with the surface's (fewer poles): the copy takes the
+    leader's knots and multiplicities.  It took the leader's poles with its
+    own multiplicities, and the bound's knot refinement failed (an
+    ``IndexError``, exit 70) on a swept square's IGES surface model."""
+    import cadquery as cq
+
+    path = cq.Workplane("XZ").spline([(0, 0), (10, 10), (20, 5), (30, 20)])
+    swept = cq.Workplane("XY").rect(4, 4).sweep(path, transition="round")
+    step = tmp_path / "sweep.step"
+    cq.exporters.export(swept, str(step))
+    src = _faces_iges(step, tmp_path / "sweep.igs")
+    nzc = tmp_path / "sweep.nzc"
+    report = pipeline.compress_file(src, nzc, tol=0.01)  # verify: decodes, within tol
+    c = container.unpack(nzc.read_bytes())
+    m, _ = decode.sections_to_model(c.get, c.revision)
+    crv = [g for g in m.curves3d if isinstance(g, BSplineCurve)]
+    # every B-spline row holds as many poles as its knots say
+    assert all(len(g.poles) == int(g.mults.sum()) - g.degree - 1 for g in crv)
+    got = pipeline.evaluate(src, nzc)
+    assert got["within_tolerance"] and got["topology_same"], got
+    assert report["verified"] and report["output_bytes"] < src.stat().st_size / 20

@@ -1133,6 +1133,11 @@ def _join_sides(
     return np.array(rows, np.int64).reshape(-1, 5)
 
 
+def _same_knots(a: BSplineCurve, b: BSplineCurve) -> bool:
+    """Whether two curves have the same knot vector, values and multiplicities."""
+    return np.array_equal(a.knots, b.knots) and np.array_equal(a.mults, b.mults)
+
+
 def _copy_twins(
     m: BRepModel,
     coded: Coded,
@@ -1166,10 +1171,15 @@ def _copy_twins(
         was = m.curves3d[r]
         assert isinstance(was, BSplineCurve)
         like = None
-        if not (g.bezier or leader.bezier or np.array_equal(leader.knots, was.knots)):
-            # the leader's knots were rounded (:mod:`.knots`): the copy takes them,
-            # mapped onto its own ends as the two were in the source
-            like = replace(g, knots=knots.mapped(leader.knots, g.knots, bool(rev)))
+        if not (g.bezier or leader.bezier or _same_knots(leader, was)):
+            # the leader's knots were rounded (:mod:`.knots`) or, where it is a
+            # surface's side, removed with the surface's (:mod:`.removal`): the
+            # copy takes them, mapped onto its own ends as the two were in the
+            # source, with their multiplicities
+            mults = leader.mults[::-1] if rev else leader.mults
+            like = replace(
+                g, knots=knots.mapped(leader.knots, g.knots, bool(rev)), mults=mults.copy()
+            )
         new, bound = _follow(g, poles, w, coded.tol, like)
         if bound > feature_limit(g.poles, coded.tol):
             continue
