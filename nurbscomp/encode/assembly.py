@@ -1133,11 +1133,6 @@ def _join_sides(
     return np.array(rows, np.int64).reshape(-1, 5)
 
 
-def _same_knots(a: BSplineCurve, b: BSplineCurve) -> bool:
-    """Whether two curves have the same knot vector, values and multiplicities."""
-    return np.array_equal(a.knots, b.knots) and np.array_equal(a.mults, b.mults)
-
-
 def _copy_twins(
     m: BRepModel,
     coded: Coded,

@@ -43,6 +43,7 @@ from ..model import (
     ShapeType,
     rows_by_owner,
 )
+from ..product import INSTANCE, ProductData
 from ..rules.joins import location_matrix, placed
 
 #: Two placements within this (matrix entries, translation in mm) are one.
@@ -137,8 +138,10 @@ class _Tables:
 
 def bake(m: BRepModel) -> BRepModel | None:
     """``m`` with its sub-shapes' locations written into their geometry
-    (see the module's docstring); None where it has none to bake, or where a
-    location is not rigid."""
+    (see the module's docstring); None where it has none to bake, where a
+    location is not rigid, or where ``m``'s product data places anything or
+    names a shape the bake makes two rows of (:func:`_product_refs`; its
+    references are otherwise mapped onto the new rows)."""
     used = (
         m.child_loc,
         m.face_loc,
@@ -246,7 +249,30 @@ def bake(m: BRepModel) -> BRepModel | None:
     out.vertex_reps, picked = _reps(m.vertex_reps, VC.VERTEX, VC.LOC, vertices, n, mats, vertex_rep)
     out.vertex_rep_params = m.vertex_rep_params[picked]
     out.surfaces, out.curves3d = tables.surfaces, tables.curves
+    if m.product is not None:
+        refs = _product_refs(m.product, shapes)
+        if refs is None:
+            return None
+        out.product = replace(m.product, ref=refs)
     return out
+
+
+def _product_refs(p: ProductData, shapes: _Placed) -> np.ndarray | None:
+    """``p``'s references to ``SHAP`` rows, as rows of the baked shapes
+    table; None where ``p`` places anything (an assembly's instances, a
+    sub-shape's placement: the structure a user gets back) or refers to a
+    shape that the bake made more than one row of."""
+    if len(p.placements) or (p.kind == INSTANCE).any() or (p.place >= 0).any():
+        return None
+    refs = p.ref.copy()
+    for i, r in enumerate(p.ref.tolist()):
+        if r < 0:
+            continue
+        rows = shapes.rows.get(r, [])
+        if len(rows) != 1:
+            return None
+        refs[i] = rows[0][1]
+    return refs
 
 
 def _reps(

@@ -223,9 +223,11 @@ def encode_cad(
     except LimitError as e:
         raise UnsupportedError(f"{e}; not compressed") from None
     m.unit, m.source_format, m.product = cad.unit, cad.source_format, cad.product
-    if not lossless and cad.source_format == "BREP" and cad.product is None:
-        # a shape made in memory: its placements into its geometry, as a
-        # STEP reader writes them (encode.placed)
+    if not lossless:
+        # a shape made in memory, or a part read with located faces (IGES
+        # surfaces under a transformation matrix): its placements into its
+        # geometry, as a STEP reader writes them (encode.placed); not an
+        # assembly's
         m = placed.bake(m) or m
     meta = {
         "mode": "lossless" if lossless else "tolerance",
