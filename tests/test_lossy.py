@@ -694,17 +694,21 @@ def test_split_projections_survive_their_child(
     assert _split_and_serial("blob.tol0.01.nzc", tmp_path, monkeypatch) == [0, 0]
 
 
-def test_fault_with_everything_exact_keeps_its_ranges(tmp_path: Path, one_coding: None) -> None:
+def test_fault_with_everything_exact_keeps_its_ranges(
+    tmp_path: Path, one_coding: None, monkeypatch: pytest.MonkeyPatch
+) -> None:
     """A filleted box moved to x = 120 and written as faces-mode IGES: two
     faces on a surface of revolution keep a BRepCheck fault with their
     surface and curves exact and their pcurves stored, because
     ``pcurves.vertex_ranges`` moved their circle edges' ends (by up to 1e-3
     tol, past their 1e-7 tolerance).  The ladder's last rung keeps their
     vertices and ranges as read; without it every pcurve was stored (the
-    "pcurves" fallback)."""
+    "pcurves" fallback).  Its located faces are left as read
+    (``encode.placed.bake`` off): baked, no face has the fault."""
     from OCP.BRepBuilderAPI import BRepBuilderAPI_Transform
     from OCP.gp import gp_Trsf, gp_Vec
 
+    from nurbscomp.encode import placed
     from tests.stress.files import write_iges
     from tests.stress.shapes import entries
 
@@ -713,7 +717,11 @@ def test_fault_with_everything_exact_keeps_its_ranges(tmp_path: Path, one_coding
     move.SetTranslation(gp_Vec(120, 0, 0))
     src = tmp_path / "moved.igs"
     write_iges(BRepBuilderAPI_Transform(entry.build(), move, True).Shape(), src, 0)
+    baked = pipeline.compress_file(src, tmp_path / "baked.nzc", tol=0.01)
+    assert baked["validity"]["exact_faces"] == {} and baked["verified"]
+    monkeypatch.setattr(placed, "bake", lambda m: None)
     report = pipeline.compress_file(src, tmp_path / "moved.nzc", tol=0.01)
+    assert report["output_bytes"] > baked["output_bytes"]
     assert report["validity"]["fallback"] == ""
     exact = report["validity"]["exact_faces"]
     # the two faulty faces end exact: taken off their grids (their basis
