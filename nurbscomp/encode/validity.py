@@ -171,7 +171,15 @@ class Costlier(Exception):
     exact, pcurves kept, vertices held, codes tightened), each of which costs
     bytes, so none comes out under the ceiling either (bearing.iges at 0.1 mm,
     coded within 0.01 mm: 9,519 bytes at its first round, growing to 10,083
-    at its sixth, against the 9,350 already in hand)."""
+    at its sixth, against the 9,350 already in hand).
+
+    ``fell_back``: raised where no coded candidate passed and the last
+    resort, every record exact, came to the ceiling or more (so a coding
+    within a smaller tolerance may still pass where this one did not)."""
+
+    def __init__(self, fell_back: bool = False) -> None:
+        super().__init__()
+        self.fell_back = fell_back
 
 
 @dataclass
@@ -923,7 +931,7 @@ def _search(
     }
     target, codes, report = assembly.assemble(m, plan.coded, everything, grid=False)
     if _over(ceiling, meanwhile, floor, target, codes):
-        raise Costlier
+        raise Costlier(fell_back=True)
     vr.fallback = "exact"
     vr.exact_faces = {"fallback": sum(1 for x in report.face_method if x == "exact")}
     return Target(target, codes, report, build(target, cache), vr, 0)
