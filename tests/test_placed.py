@@ -192,3 +192,59 @@ def test_an_assembly_is_not_baked() -> None:
     # a shape the bake makes two rows of cannot keep its reference
     m.product = replace(plain, ref=np.array([int(m.child_shape[0])]))
     assert placed.bake(m) is None
+
+
+def _offset_face():
+    """A face on an offset of a B-spline surface (``Geom_OffsetSurface``)."""
+    import cadquery as cq
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeFace
+    from OCP.Geom import Geom_OffsetSurface
+
+    net = [
+        [cq.Vector(i, j, ((i - 2) ** 2 - (j - 2) ** 2) * 0.3) for j in range(5)] for i in range(5)
+    ]
+    base = cq.Face.makeSplineApprox(net)
+    from OCP.BRep import BRep_Tool
+
+    surf = Geom_OffsetSurface(BRep_Tool.Surface_s(base.wrapped), 0.5)
+    return BRepBuilderAPI_MakeFace(surf, 1e-7).Face()
+
+
+@pytest.mark.parametrize("kind", ["plane", "axis", "point"])
+def test_a_mirror_is_baked_at_the_same_parameters(kind: str) -> None:
+    """Located under a mirror (OCCT's IGES reader places some surfaces so),
+    every point keeps its parameters: a conic's frame (a right-handed
+    ``gp_Ax2``), a revolution's axis and an offset's sign are turned back,
+    as the mirror turns the sense of rotations and cross products.  Without
+    that, circles and revolutions ran the other way (BRepCheck faults, 5 to
+    26 mm at the same parameters)."""
+    import cadquery as cq
+    from OCP.gp import gp_Ax1, gp_Ax2, gp_Dir, gp_Pnt, gp_Trsf
+    from OCP.TopLoc import TopLoc_Location
+
+    spline = cq.Workplane("XZ").spline([(1, 0), (3, 2), (2, 5), (1, 7)])
+    parts = [
+        spline.lineTo(0, 7).lineTo(0, 0).close().revolve().val().wrapped,  # a revolution
+        cq.Workplane().circle(4).extrude(12).edges(">Z").fillet(1).faces("<Z").workplane()
+        .hole(2).val().wrapped,  # planes, cylinders, a torus, circles
+        cq.Workplane("XZ").center(10, 0).ellipse(4, 2).revolve(180, (-10, 0, 0), (-10, 1, 0))
+        .val().wrapped,  # ellipses
+        _offset_face(),
+    ]  # fmt: skip
+    t = gp_Trsf()
+    if kind == "plane":
+        t.SetMirror(gp_Ax2(gp_Pnt(0, 0, 5), gp_Dir(1, 1, 0)))
+    elif kind == "point":
+        t.SetMirror(gp_Pnt(1, 2, 3))
+    else:  # a half turn: no mirror, the case that always worked
+        t.SetMirror(gp_Ax1(gp_Pnt(0, 0, 0), gp_Dir(0, 0, 1)))
+    for part in parts:
+        shape = part.Moved(TopLoc_Location(t))
+        m, _ = occ.shape_to_model(shape)
+        b = placed.bake(m)
+        assert b is not None and not b.child_loc.any()
+        built = topology.model_to_shape(b)
+        assert occ.is_valid(built) == occ.is_valid(shape)
+        assert occ.counts(built) == occ.counts(shape)
+        # each point where the same (u, v) puts it (a large tol: no projection)
+        assert occ.deviation(shape, built, 5, 1e9).max() < 1e-9

@@ -12,12 +12,17 @@ writes every placement into the geometry.
 :func:`bake` does what that reader does, on the model: every placed
 occurrence of a shape (the shape and the product of the locations on the
 path from the root) becomes a row of its own, with its geometry moved by
-that placement, and no location is left.  Occurrences at one placement
-stay one row, so what the shape shares stays shared; one at two placements
-(a hole placed twice) becomes two rows, as the shape's explorers already
+that placement (a rotation, a mirror or both, and a translation), and no
+location is left.  A part read from a file gets the same where it has
+located faces (OCCT's IGES reader places a surface under a transformation
+matrix so, the face's wires under the inverse, which kept every pcurve on
+such a face in the container).  Occurrences at one placement stay one
+row, so what the shape shares stays shared; one at two placements (a hole
+placed twice) becomes two rows, as the shape's explorers already
 count it (``TopExp::MapShapes``: same counts, faces in the same order).  The
-move is rigid, so pcurves, parameters and ranges are unchanged, and it
-changes each point by rounding only (a few ulps).
+move keeps each point at its parameters (:meth:`_Tables._move`), so pcurves,
+parameters and ranges are unchanged, and it changes each point by rounding
+only (a few ulps).
 """
 
 from __future__ import annotations
@@ -53,10 +58,16 @@ SAME = 1e-9
 _SWEPT = (Kind.REVOLUTION, Kind.EXTRUSION)
 
 
-def _rigid(t: np.ndarray) -> bool:
-    """Whether ``t`` (4 x 4) is a rotation (no mirror, no scale) and a translation."""
+def _isometry(t: np.ndarray) -> bool:
+    """Whether ``t`` (4 x 4) is a rotation, a mirror or both (no scale), and a
+    translation."""
     r = t[:3, :3]
-    return bool(np.abs(r @ r.T - np.eye(3)).max() < 1e-12 and np.linalg.det(r) > 0)
+    return bool(np.abs(r @ r.T - np.eye(3)).max() < 1e-12)
+
+
+#: Analytic curves whose frame is a ``gp_Ax2`` (right-handed: its Y is its
+#: main direction times its X).
+_AX2 = (Kind.CIRCLE, Kind.ELLIPSE, Kind.HYPERBOLA, Kind.PARABOLA)
 
 
 class _Placed:
@@ -116,12 +127,20 @@ class _Tables:
         return self._objects[key]
 
     def _move(self, g: Geometry, t: np.ndarray, surface: bool) -> Geometry:
+        """``g`` moved by ``t``, each point of it at the same parameters: a
+        mirror (``t`` of determinant -1) turns the sense of a rotation about
+        an axis and of a cross product, so there a conic's main direction, a
+        revolution's axis and an offset's sign are turned back (a plane's or
+        quadric's ``gp_Ax3`` becomes indirect, as OCCT's own move makes it)."""
         r, d = t[:3, :3], t[:3, 3]
+        mirror = bool(np.linalg.det(r) < 0)
         if isinstance(g, BSplineSurface | BSplineCurve):
             return replace(g, poles=placed(g.poles, t))
         if isinstance(g, Analytic):
             frame = g.frame @ r.T
             frame[0] += d  # the origin; the other rows are directions
+            if mirror and not surface and g.kind in _AX2:
+                frame[1] = -frame[1]
             return replace(g, frame=frame)
         assert isinstance(g, Derived)
         if g.kind in _SWEPT:
@@ -131,16 +150,21 @@ class _Tables:
         else:
             basis = self.curve(g.basis, t)
         frame = g.frame @ r.T if len(g.frame) else g.frame
+        params = g.params
         if g.kind == Kind.REVOLUTION:
             frame[0] += d  # the axis' origin
-        return replace(g, basis=basis, frame=frame)
+            if mirror:
+                frame[1] = -frame[1]
+        elif mirror and g.kind in (Kind.OFFSET_SURFACE, Kind.OFFSET_CURVE):
+            params = -params
+        return replace(g, basis=basis, frame=frame, params=params)
 
 
 def bake(m: BRepModel) -> BRepModel | None:
     """``m`` with its sub-shapes' locations written into their geometry
     (see the module's docstring); None where it has none to bake, where a
-    location is not rigid, or where ``m``'s product data places anything or
-    names a shape the bake makes two rows of (:func:`_product_refs`; its
+    location is not an isometry (it scales), or where ``m``'s product data
+    places anything or names a shape the bake makes two rows of (:func:`_product_refs`; its
     references are otherwise mapped onto the new rows)."""
     used = (
         m.child_loc,
@@ -152,7 +176,7 @@ def bake(m: BRepModel) -> BRepModel | None:
     if m.root_loc == 0 and not any((a > 0).any() for a in used):
         return None
     mats = [location_matrix(m, k) for k in range(len(m.locations))]
-    if not all(_rigid(t) for t in mats):
+    if not all(_isometry(t) for t in mats):
         return None
     tables = _Tables(m)
     tidx = m.type_index().tolist()
