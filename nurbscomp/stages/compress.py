@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Any
 
 from .. import budget, container, product, serialize, units
 from .._version import version
-from ..encode import knots, offsets, pcurves, placed
+from ..encode import canonical, knots, offsets, pcurves, placed
 from ..errors import (
     InputError,
     LimitError,
@@ -243,6 +243,8 @@ def encode_cad(
         # geometry, as a STEP reader writes them (encode.placed); not an
         # assembly's
         m = placed.bake(m) or m
+        # IGES cylinders and cones: surfaces of revolution of a line (encode.canonical)
+        m = canonical.revolved_lines(m) or m
     meta = {
         "mode": "lossless" if lossless else "tolerance",
         "tolerance_mm": None if lossless else tol,
