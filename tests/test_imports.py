@@ -35,7 +35,7 @@ LAYERS: list[tuple[str, set[str]]] = [
     ("sides", {"decode", "encode", "encode.analytic", "encode.assembly", "encode.nets",
                "encode.pcurves", "encode.validity", "encode.coincide", "encode.weights",
                "encode.knots", "encode.removal", "encode.deviation", "encode.offsets",
-               "encode.placed",
+               "encode.placed", "encode.canonical",
                "occ", "occ.cq", "occ.exchange",
                "occ.files", "occ.geometry", "occ.isolated", "occ.lists", "occ.measure",
                "occ.mesh", "occ.topology", "occ.xcaf", "occ.bintools", "occ.approx"}),
