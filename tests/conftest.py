@@ -275,4 +275,5 @@ def one_coding(monkeypatch: pytest.MonkeyPatch) -> None:
     from nurbscomp.stages import compress
 
     monkeypatch.setattr(compress, "RETRY_SHARE", float("inf"))
+    monkeypatch.setattr(compress, "RETRY_SMALL", 0)
     monkeypatch.setattr(compress, "FINE_SHARE", float("inf"))
