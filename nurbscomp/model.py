@@ -11,7 +11,7 @@ and the container see only these records.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field, fields, replace
 from enum import IntEnum
 from typing import Any, NamedTuple
 
@@ -284,6 +284,24 @@ class Derived:
 
 
 Geometry = Analytic | BSplineCurve | BSplineSurface | Derived
+
+
+def kept_rows(table: list[Geometry], used: np.ndarray) -> tuple[list[Geometry], np.ndarray]:
+    """The rows of a curve table that are ``used`` (a bool per row, changed
+    in place) or are the bases of used rows (a trimmed or offset curve's:
+    bases precede their curves), those bases renumbered; and each old row's
+    new index (``cumsum(used) - 1``), to renumber what refers to the table."""
+    for i in range(len(table) - 1, -1, -1):
+        g = table[i]
+        if used[i] and isinstance(g, Derived):
+            used[g.basis] = True
+    new_index = np.cumsum(used) - 1
+    kept = [
+        replace(g, basis=int(new_index[g.basis])) if isinstance(g, Derived) else g
+        for g, u in zip(table, used.tolist())
+        if u
+    ]
+    return kept, new_index
 
 
 @dataclass(frozen=True, eq=False)

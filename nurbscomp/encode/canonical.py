@@ -30,7 +30,18 @@ from typing import Any
 
 import numpy as np
 
-from ..model import EC, VC, Analytic, BRepModel, Derived, Geometry, Kind, PointRepKind, RepKind
+from ..model import (
+    EC,
+    VC,
+    Analytic,
+    BRepModel,
+    Derived,
+    Geometry,
+    Kind,
+    PointRepKind,
+    RepKind,
+    kept_rows,
+)
 from ..serialize import SWEPT
 
 #: How far (relative to the surface's size) a sampled point of the quadric
@@ -160,19 +171,10 @@ def prune_curves3d(m: BRepModel) -> BRepModel:
     for g in m.surfaces:
         if isinstance(g, Derived) and g.kind in SWEPT:
             used[g.basis] = True
-    for i in range(len(m.curves3d) - 1, -1, -1):  # bases precede their curves
-        g = m.curves3d[i]
-        if used[i] and isinstance(g, Derived):
-            used[g.basis] = True
-    if used.all():
-        return m
-    new_index = np.cumsum(used) - 1
     out: Any = replace(m)
-    out.curves3d = [
-        replace(g, basis=int(new_index[g.basis])) if isinstance(g, Derived) else g
-        for g, u in zip(m.curves3d, used.tolist())
-        if u
-    ]
+    out.curves3d, new_index = kept_rows(m.curves3d, used)
+    if len(out.curves3d) == len(m.curves3d):
+        return m
     out.surfaces = [
         replace(g, basis=int(new_index[g.basis]))
         if isinstance(g, Derived) and g.kind in SWEPT

@@ -37,6 +37,7 @@ from ..model import (
     Table,
     below,
     first_row,
+    kept_rows,
     records,
 )
 from ..rules import joins, ranges
@@ -167,17 +168,7 @@ def prune_curves2d(m: BRepModel) -> BRepModel:
     vr = m.vertex_reps
     idx = vr[vr[:, VC.KIND] == PointRepKind.ON_CURVE_ON_SURFACE, VC.CURVE]
     used[idx[idx >= 0]] = True
-    for i in range(len(m.curves2d) - 1, -1, -1):  # bases precede their curves
-        g = m.curves2d[i]
-        if used[i] and isinstance(g, Derived):
-            used[g.basis] = True
-    new_index = np.cumsum(used) - 1
-    table: list[Geometry] = []
-    for i, g in enumerate(m.curves2d):
-        if used[i]:
-            if isinstance(g, Derived):
-                g = replace(g, basis=int(new_index[g.basis]))
-            table.append(g)
+    table, new_index = kept_rows(m.curves2d, used)
     out: Any = replace(m)
     out.curves2d = table
     reps = reps.copy()

@@ -169,14 +169,14 @@ def _coded(
 
     pack = packer(tol)
     tighter = tol / RETRY_FACTOR
-    deeper = bool(level) and tighter >= units.TOL_RANGE_MM[0] and level < RETRY_LEVELS
+    room = tighter >= units.TOL_RANGE_MM[0] and level < RETRY_LEVELS  # for a tighter coding
 
     def deepest() -> _Coded | None:
         # a tighter coding asked for that fell back to every record exact:
         # one tighter still may pass where it did not (a twisted loft with
         # filleted ends as an IGES B-rep: 30,208 bytes at 0.1 mm, every record
         # exact, where its coding within 0.001 mm passes in 4,639)
-        if not deeper:
+        if not (level and room):
             return None
         return _coded(m, cad, tighter, step_safe, packer, level + 1, ceiling, offsets_coded)
 
@@ -205,8 +205,7 @@ def _coded(
             or (climbed and faces <= RETRY_SMALL)
             or (not level and fine_share(m, tol) >= FINE_SHARE)
         )
-        and tighter >= units.TOL_RANGE_MM[0]
-        and level < RETRY_LEVELS
+        and room
     ):
         other = _coded(m, cad, tighter, step_safe, packer, level + 1, len(data), offsets_coded)
         if other is not None:
