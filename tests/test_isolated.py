@@ -204,6 +204,30 @@ def test_a_reader_that_loops_on_the_source_too_leaves_no_check(
     assert occ.counts(pipeline.decode_file(tmp_path / "o.nzc")[0])["faces"] == 1
 
 
+@pytest.mark.slow
+def test_a_reader_that_loops_on_any_model_is_stopped(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A part no rule names (a lofted solid) whose every round trip loops is
+    stopped after its time limit too (``validity.LIMIT_SECONDS``), not
+    waited for forever: compress goes on with no STEP check and says why."""
+    assert not validity.step_reader_hangs(
+        occ.shape_to_model(occ.read_cad(SAMPLES / "loft.step").shape)[0]
+    )
+
+    def looping(*a: object, **k: object) -> None:
+        time.sleep(600)
+
+    monkeypatch.setattr(validity.occ, "step_round_trip", looping)
+    monkeypatch.setattr(validity, "LIMIT_SECONDS", 1.0)
+    monkeypatch.setattr(validity, "LIMIT_PER_FACE", 0.0)
+    t0 = time.perf_counter()
+    report = pipeline.compress_file(SAMPLES / "loft.step", tmp_path / "o.nzc", tol=0.01)
+    assert time.perf_counter() - t0 < 60
+    assert "did not finish within 1 s" in report["validity"]["step_skipped"]
+    assert pipeline.evaluate(SAMPLES / "loft.step", tmp_path / "o.nzc")["verdict"] == "pass"
+
+
 def _pack(
     model: object, codes: dict, step_pcurves: bool = True, uncertainty: float | None = None
 ) -> tuple[int, bytes]:

@@ -221,13 +221,20 @@ def step_reader_hangs(m: BRepModel) -> str:
 #: (a round trip takes some 2.5 ms a face: NIST_MBE_PMI_2's 597 in 1.5 s).
 HANG_SECONDS = 10.0
 HANG_PER_FACE = 0.02
+#: Any other model's round trip may take this many seconds, plus
+#: :data:`LIMIT_PER_FACE` a face (some 100 times what it takes): a loop of
+#: OCCT's reader that no rule foresaw costs that much, not the whole compress.
+LIMIT_SECONDS = 120.0
+LIMIT_PER_FACE = 0.25
 
 
-def step_time_limit(m: BRepModel) -> float | None:
-    """Seconds a STEP round trip of ``m`` may take (None: no limit)."""
-    if not step_reader_hangs(m):
-        return None
-    return HANG_SECONDS + HANG_PER_FACE * len(m.face_surface)
+def step_time_limit(m: BRepModel) -> float:
+    """Seconds a STEP round trip of ``m`` may take before it is taken for a
+    loop of OCCT's reader (``occ.ReaderTimeout``): short where
+    :func:`step_reader_hangs` names a cause, generous elsewhere."""
+    if step_reader_hangs(m):
+        return HANG_SECONDS + HANG_PER_FACE * len(m.face_surface)
+    return LIMIT_SECONDS + LIMIT_PER_FACE * len(m.face_surface)
 
 
 def build(m: BRepModel, cache: occ.PcurveCache | None = None, pcurves: bool = True) -> Any:
@@ -857,7 +864,7 @@ def lossy_target(
     if step_check:
         floor = _Floor(source, m.unit, vr, m.product, step_time_limit(m), step_pcurves)
     try:
-        if floor is not None and floor.limit is not None:
+        if floor is not None and step_reader_hangs(m):
             floor.begin()  # beside the candidates': a loop costs one limit, not two
         elif floor is not None and occ.spare_core():
             floor.begin(speculative=True)
