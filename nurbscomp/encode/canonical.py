@@ -1,5 +1,5 @@
-"""Surfaces of revolution of a line written as the cylinders and cones they
-are (tolerance mode; issue 28).
+"""Surfaces of revolution of a line or a circle written as the cylinders,
+cones, tori and spheres they are (tolerance mode; issue 28).
 
 IGES has no cylinder or cone among the entities most writers use: they write
 a surface of revolution of a line (entity 120 about a 110), which OCCT's IGES
@@ -16,6 +16,13 @@ same (u, v): u is the angle of the rotation about the axis, so the quadric's
 Y direction is the axis times its X direction (the radial direction of the
 line's origin); v is the line's own parameter, so its main direction is the
 line's (a ``gp_Ax3`` that is indirect where the line runs against the axis).
+A surface of revolution of a circle in a plane through the axis, whose X
+direction points away from the axis and whose Y direction is the axis's (or
+its opposite), is a ``TORUS`` (its centre off the axis) or a ``SPHERE`` (on
+it, the circle's range within [−π/2, π/2]) at the same (u, v): v is the
+circle's angle, the quadric's X direction the circle's, its main direction
+the circle's Y direction (IGES writers' tori and spheres, entity 120 about
+a 100 in the plane of the axis, read so).
 Pcurves, ranges and orientations are then unchanged, and each point moves by
 rounding only (a few ulps; a surface whose sampled points would move by more
 than :data:`SAME` of its size is left as it is).  The lines and trims nothing
@@ -88,11 +95,14 @@ def _quadric(m: BRepModel, g: Geometry) -> Analytic | None:
     it is a surface of revolution of a line."""
     if not (isinstance(g, Derived) and g.kind == Kind.REVOLUTION):
         return None
+    o, a = g.frame[0], g.frame[1] / np.linalg.norm(g.frame[1])
+    circle = _circle_of(m.curves3d, g.basis)
+    if circle is not None:
+        return _revolved_circle(o, a, *circle)
     line = _line_of(m.curves3d, g.basis)
     if line is None:
         return None
     p, d, reach = line
-    o, a = g.frame[0], g.frame[1] / np.linalg.norm(g.frame[1])
     along = p - o
     radial = along - float(along @ a) * a
     r = float(np.linalg.norm(radial))
@@ -122,6 +132,77 @@ def _quadric(m: BRepModel, g: Geometry) -> Analytic | None:
     return new
 
 
+def _circle_of(
+    curves: list[Geometry], c: int
+) -> tuple[Analytic, tuple[float, float] | None] | None:
+    """The circle that 3-D curve ``c`` is (through trims) and the range of
+    the innermost trim (None: untrimmed); None if it is not a circle."""
+    g, span = curves[c], None
+    while isinstance(g, Derived) and g.kind == Kind.TRIMMED_CURVE:
+        span = (float(g.params[0]), float(g.params[1]))
+        g = curves[g.basis]
+    if not (isinstance(g, Analytic) and g.kind == Kind.CIRCLE and g.frame.shape == (3, 3)):
+        return None
+    return g, span
+
+
+def _revolved_circle(
+    o: np.ndarray, a: np.ndarray, circle: Analytic, span: tuple[float, float] | None
+) -> Analytic | None:
+    """The torus or sphere that the revolution of ``circle`` about (``o``,
+    ``a``) is at the same (u, v), or None."""
+    c, n, x = circle.frame
+    r = float(circle.params[0])
+    y = np.cross(n, x)
+    if abs(abs(float(y @ a)) - 1.0) > SAME or abs(float(x @ a)) > SAME:
+        return None  # not in a plane through the axis, or turned in it
+    w = c - o
+    radial = w - float(w @ a) * a
+    big = float(np.linalg.norm(radial))
+    scale = max(1.0, float(np.abs(c).max()), float(np.abs(o).max()), r)
+    if abs(float(radial @ np.cross(a, x))) > SAME * scale:
+        return None  # the centre is off the circle's plane through the axis
+    if big <= SAME * scale:
+        if span is None or not -math.pi / 2 <= min(span) <= max(span) <= math.pi / 2:
+            return None  # a sphere's v stays within its poles
+        new = Analytic(Kind.SPHERE, _frame(c, y, x, a), np.array([r]))
+    else:
+        if float(radial @ x) < 0 or big <= r * (1 + 1e-9):
+            return None  # the circle round the other way, or crossing the axis
+        new = Analytic(Kind.TORUS, _frame(o + float(w @ a) * a, y, x, a), np.array([big, r]))
+    if _circle_gap(new, o, a, circle) > SAME * scale * 64:
+        return None
+    return new
+
+
+def _circle_gap(q: Analytic, o: np.ndarray, a: np.ndarray, circle: Analytic) -> float:
+    """The largest distance, over sampled (u, v), between the revolution of
+    ``circle`` about (``o``, ``a``) and the torus or sphere ``q``."""
+    us = np.linspace(0.0, 2 * math.pi, 7)
+    vs = np.linspace(-math.pi / 2, math.pi / 2, 5) if q.kind == Kind.SPHERE else us
+    u, v = np.meshgrid(us, vs, indexing="ij")
+    u, v = u.ravel()[:, None], v.ravel()[:, None]
+    c, n, x = circle.frame
+    r = float(circle.params[0])
+    w = c[None, :] + r * (np.cos(v) * x + np.sin(v) * np.cross(n, x)) - o[None, :]
+    rev = o[None, :] + _turned(w, a, u)
+    origin, z, qx, qy = q.frame
+    big = 0.0 if q.kind == Kind.SPHERE else float(q.params[0])
+    rad = float(q.params[-1])
+    quad = origin + (big + rad * np.cos(v)) * (np.cos(u) * qx + np.sin(u) * qy)
+    return float(np.abs(rev - (quad + rad * np.sin(v) * z)).max())
+
+
+def _turned(w: np.ndarray, a: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """Points ``w`` (from the axis's origin) turned by ``u`` about the unit
+    ``a`` (Rodrigues)."""
+    return (
+        w * np.cos(u)
+        + np.cross(a[None, :], w) * np.sin(u)
+        + a[None, :] * (w @ a)[:, None] * (1 - np.cos(u))
+    )
+
+
 def _frame(origin: np.ndarray, z: np.ndarray, x: np.ndarray, axis: np.ndarray) -> np.ndarray:
     """A ``gp_Ax3``'s rows: origin, main, X, and Y the axis times X (the sense
     the revolution turns in)."""
@@ -138,13 +219,7 @@ def _gap(
     u, v = np.meshgrid(us, vs, indexing="ij")
     u, v = u.ravel()[:, None], v.ravel()[:, None]
     w = p[None, :] + v * d[None, :] - o[None, :]  # the line's point, from the axis
-    # Rodrigues: the point turned by u about a
-    turned = (
-        w * np.cos(u)
-        + np.cross(a[None, :], w) * np.sin(u)
-        + a[None, :] * (w @ a)[:, None] * (1 - np.cos(u))
-    )
-    rev = o[None, :] + turned
+    rev = o[None, :] + _turned(w, a, u)
     origin, z, x, y = q.frame
     if q.kind == Kind.CYLINDER:
         rad = q.params[0]
