@@ -59,7 +59,7 @@ MAGIC = CONTAINER_MAGIC  # b"\x89NZC", formats' (it tells a container apart from
 #: The version this writer writes (docs/format.md §0).  Format 1.x is frozen:
 #: 1.0, 1.1 and 1.2 decode forever, and no 1.3 will be written.
 MAJOR = 2
-MINOR = 16
+MINOR = 17
 #: Every version this reader reads, oldest first.  A file's *revision* is its
 #: index here (:attr:`Container.revision`); the sections' readers branch on it.
 VERSIONS = (
@@ -83,6 +83,7 @@ VERSIONS = (
     (2, 14),
     (2, 15),
     (2, 16),
+    (2, 17),
 )
 #: The revision this writer writes.
 REVISION = VERSIONS.index((MAJOR, MINOR))
@@ -98,6 +99,7 @@ _KNOWN_FLAGS = (
     FLAG_LOSSLESS,
     FLAG_LOSSLESS,
     FLAG_LOSSLESS | FLAG_PASSTHROUGH,
+    FLAG_LOSSLESS | FLAG_PASSTHROUGH | FLAG_EXACT,
     FLAG_LOSSLESS | FLAG_PASSTHROUGH | FLAG_EXACT,
     FLAG_LOSSLESS | FLAG_PASSTHROUGH | FLAG_EXACT,
     FLAG_LOSSLESS | FLAG_PASSTHROUGH | FLAG_EXACT,

@@ -1,6 +1,6 @@
 """Generate the small STEP sample files used by nurbscomp.
 
-The script builds four solids / surface models with cadquery and OCP and
+The script builds solids and surface models with cadquery and OCP and
 writes them as AP214 STEP files (millimetres) next to this script:
 
 ``loft.step``
@@ -19,6 +19,11 @@ writes them as AP214 STEP files (millimetres) next to this script:
     to rational B-splines (``BRepBuilderAPI_NurbsConvert``): its circles,
     cylinders, cones and tori as rational quadratic nets, the rows of arcs
     of format 2.14.
+``crossed.step``
+    Two cylinders of different radii crossed at right angles and fused:
+    their intersection curves are B-splines, which an IGES surface model
+    writes once per face, the second running the other way (format 2.17's
+    mapped knot vectors).
 ``assembly.step``
     A cadquery ``Assembly`` with product data (format 1.2's ``PROD``): a
     plate with four bolts (one part placed three times, and a red one), a
@@ -508,6 +513,20 @@ def make_rings() -> TopoDS_Shape:
     return BRepBuilderAPI_NurbsConvert(part.wrapped, True).Shape()
 
 
+def make_crossed() -> TopoDS_Shape:
+    """Fuse a cylinder along z (radius 8) with one along x (radius 6), both
+    40 long: two B-spline intersection curves.
+
+    Returns
+    -------
+    OCP.TopoDS.TopoDS_Shape
+        The fused solid.
+    """
+    a = cq.Workplane("XY").cylinder(40.0, 8.0)
+    b = cq.Workplane("YZ").cylinder(40.0, 6.0)
+    return a.union(b).val().wrapped
+
+
 def make_bracket() -> TopoDS_Shape:
     """Build a filleted and chamfered mechanical bracket.
 
@@ -907,6 +926,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         "teapot": lambda: make_teapot(args.teapot_bpt.resolve()),
         "blob": make_blob,
         "rings": make_rings,
+        "crossed": make_crossed,
     }
     paths = []
     for name, build in builders.items():

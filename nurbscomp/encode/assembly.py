@@ -1158,6 +1158,21 @@ def _join_sides(
     return np.array(rows, np.int64).reshape(-1, 5)
 
 
+#: How far (in ulps of the vector's span) a copy's knots may be from its
+#: leader's mapped onto its ends for the copy to take the mapped ones.
+NEAR_KNOTS = 64
+
+
+def _near_knots(k: np.ndarray, mults: np.ndarray, g: BSplineCurve) -> bool:
+    """Whether the knots ``k`` and multiplicities ``mults`` are ``g``'s own
+    within :data:`NEAR_KNOTS` ulps of its span (and not bit for bit)."""
+    if len(k) != len(g.knots) or not np.array_equal(mults, g.mults):
+        return False
+    span = float(g.knots[-1] - g.knots[0])
+    gap = float(np.abs(k - g.knots).max(initial=0.0))
+    return 0.0 < gap <= NEAR_KNOTS * float(np.finfo(float).eps) * span
+
+
 def _copy_twins(
     m: BRepModel,
     coded: Coded,
@@ -1191,15 +1206,17 @@ def _copy_twins(
         was = m.curves3d[r]
         assert isinstance(was, BSplineCurve)
         like = None
-        if not (g.bezier or leader.bezier or _same_knots(leader, was)):
+        if not (g.bezier or leader.bezier):
             # the leader's knots were rounded (:mod:`.knots`) or, where it is a
-            # surface's side, removed with the surface's (:mod:`.removal`): the
-            # copy takes them, mapped onto its own ends as the two were in the
-            # source, with their multiplicities
+            # surface's side, removed with the surface's (:mod:`.removal`), or
+            # they map onto the copy's within a few ulps (an IGES surface
+            # model's twin running the other way): the copy takes them,
+            # mapped onto its own ends as the two were in the source, with
+            # their multiplicities (a mapped knot vector, format 2.17)
             mults = leader.mults[::-1] if rev else leader.mults
-            like = replace(
-                g, knots=knots.mapped(leader.knots, g.knots, bool(rev)), mults=mults.copy()
-            )
+            lk = knots.mapped(leader.knots, g.knots, bool(rev))
+            if not _same_knots(leader, was) or _near_knots(lk, mults, g):
+                like = replace(g, knots=lk, mults=mults.copy())
         new, bound = _follow(g, poles, w, coded.tol, like)
         if bound > feature_limit(g.poles, coded.tol):
             continue

@@ -69,7 +69,7 @@ from .. import bspline, entropy
 from ..memo import Memo, digest
 from ..model import BSplineCurve, BSplineSurface, Geometry
 from ..rules.joins import clamped_curve, clamped_surface
-from ..serialize.geometry import evenly_spaced
+from ..serialize.geometry import evenly_spaced, mapped_knots
 from . import weights
 
 #: The share of a row's limit its rounded knots may take.
@@ -245,10 +245,7 @@ def mapped(lead: np.ndarray, own: np.ndarray, reverse: bool) -> np.ndarray:
     ``k[-1] + k[0] - k[::-1]``), mapped affinely onto the ends of ``own``,
     which keeps them bit for bit: the knots of a copy (a twin curve) whose
     leader's knots were rounded."""
-    k = lead[-1] + lead[0] - lead[::-1] if reverse else np.array(lead, dtype=float)
-    out = own[0] + (k - k[0]) * ((own[-1] - own[0]) / (k[-1] - k[0]))
-    out[0], out[-1] = own[0], own[-1]
-    return out
+    return mapped_knots(lead, float(own[0]), float(own[-1]), reverse)
 
 
 def _back(a: np.ndarray, b: np.ndarray) -> np.ndarray:

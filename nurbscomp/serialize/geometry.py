@@ -77,6 +77,15 @@ K_EXPLICIT, K_REPEAT, K_EVEN, K_SIMPLE = 0, 1, 2, 4
 K_UNIT = 8
 #: Format 2.12: the first revision with :data:`K_UNIT` and weights on a grid.
 UNIT_KNOTS = container.VERSIONS.index((2, 12))
+#: Knot vector form (format 2.17): an earlier vector, mirrored or not,
+#: mapped onto this one's ends (:func:`mapped_knots`).
+K_MAPPED = 3
+#: Format 2.17: the first revision with :data:`K_MAPPED`.
+MAPPED_KNOTS = container.VERSIONS.index((2, 17))
+#: The writer maps a vector from one of this many latest earlier vectors of
+#: its knot count (2.17), and only a vector of at least :data:`MAPPED_MIN` knots.
+MAPPED_REACH = 16
+MAPPED_MIN = 8
 #: Largest |residual| (ulps) the writer codes an evenly spaced vector with.
 EVEN_WRITE = 1 << 15
 #: Largest |residual| (ulps) a reader accepts.
@@ -122,6 +131,17 @@ def _unkeys(keys: list[int], where: str) -> np.ndarray:
     return np.array(bits, dtype="<i8").view("<f8").astype(np.float64)
 
 
+def mapped_knots(lead: np.ndarray, a: float, b: float, mirrored: bool) -> np.ndarray:
+    """The knot vector ``lead``, mirrored if ``mirrored`` (``c - lead[::-1]``,
+    ``c = lead[-1] + lead[0]``), mapped affinely onto the ends ``a``, ``b``,
+    which it keeps bit for bit (docs/format.md §2.3, form 3, 2.17): in
+    binary64, ``a + (t - t[0]) * ((b - a) / (t[-1] - t[0]))``."""
+    t = (lead[-1] + lead[0]) - lead[::-1] if mirrored else np.asarray(lead, np.float64)
+    out = np.float64(a) + (t - t[0]) * ((np.float64(b) - np.float64(a)) / (t[-1] - t[0]))
+    out[0], out[-1] = a, b
+    return out
+
+
 def _even_prediction(a: float, b: float, nk: int) -> np.ndarray:
     """Inner knots of an evenly spaced vector from ``a`` to ``b``:
     ``a + j * ((b - a) / (nk - 1))``, j = 1 ... nk - 2, in binary64."""
@@ -159,6 +179,9 @@ class _KnotWriter:
         self.res: list[int] = []
         self._n = 0
         self._seen: dict[tuple[bytes, bytes], int] = {}
+        self.mapped = revision >= MAPPED_KNOTS
+        #: per knot count, the latest vectors (number, knots, multiplicities)
+        self._by_count: dict[int, list[tuple[int, np.ndarray, np.ndarray]]] = {}
         self._weights: dict[bytes, int] = {}
         self._nw = 0
 
@@ -183,6 +206,12 @@ class _KnotWriter:
         ends = k[[0, -1]]
         unit = self.unit and ends.astype("<f8").tobytes() == _UNIT_ENDS
         r = _even_residuals(k)
+        source = None if r is not None else self._source(n, k, mu)
+        if source is not None:  # 2.17: mapped from an earlier vector
+            self.hdr += [K_MAPPED | (K_UNIT if unit else 0), *source]
+            if not unit:
+                knots.append(ends)
+            return
         if r is not None:
             form = K_EVEN
             if not unit:
@@ -200,6 +229,29 @@ class _KnotWriter:
         else:
             mults += m
         self.hdr.append(form)
+
+    def _source(self, n: int, k: np.ndarray, mu: np.ndarray) -> tuple[int, int] | None:
+        """(distance back, mirrored) of an earlier vector that maps onto
+        ``k`` and its multiplicities ``mu`` bit for bit (form 3, 2.17), or
+        None; vector ``n`` is remembered for the later ones."""
+        if not self.mapped or len(k) < MAPPED_MIN:
+            return None
+        seen = self._by_count.setdefault(len(k), [])
+        out = None
+        a, b = float(k[0]), float(k[-1])
+        with np.errstate(all="ignore"):
+            for j, lead, lmu in reversed(seen):
+                for mirrored in (0, 1):
+                    if np.array_equal(lmu[::-1] if mirrored else lmu, mu) and np.array_equal(
+                        mapped_knots(lead, a, b, bool(mirrored)), k
+                    ):
+                        out = (n - j, mirrored)
+                        break
+                if out is not None:
+                    break
+        seen.append((n, k, np.asarray(mu)))
+        del seen[:-MAPPED_REACH]
+        return out
 
     def weights(self, w: np.ndarray, out: list[np.ndarray]) -> None:
         key = w.astype("<f8").tobytes()
@@ -459,6 +511,7 @@ class _KnotReader:
     def __init__(self, r: BlockReader, revision: int, tag: str, hdr: _Cursor) -> None:
         self.new = revision >= 3
         self.unit = revision >= UNIT_KNOTS
+        self.mapped = revision >= MAPPED_KNOTS
         self.hdr = hdr
         self.knots = _Cursor(np.zeros(0), f"{tag} knot")  # set by the caller
         self.mults = _Cursor(np.zeros(0, np.int64), f"{tag} mults")  # set by the caller
@@ -488,6 +541,19 @@ class _KnotReader:
             if len(k) != nk:
                 raise SectionError(f"{where}: a repeated knot vector has {len(k)} knots, not {nk}")
             mu = mu.copy()
+        elif self.mapped and form & ~self._unit == K_MAPPED:
+            d, mirrored = self.hdr.one(), self.hdr.one()
+            if not 1 <= d <= n or mirrored not in (0, 1):
+                raise SectionError(f"{where}: a mapped knot vector refers to none")
+            lead, lmu = self.vectors[n - d]
+            if len(lead) != nk:
+                raise SectionError(f"{where}: a mapped knot vector has {len(lead)} knots, not {nk}")
+            a, b = (0.0, 1.0) if form & K_UNIT else self.knots.take(2).tolist()
+            with np.errstate(all="ignore"):
+                k = mapped_knots(lead, a, b, bool(mirrored))
+            if not np.isfinite(k).all():
+                raise SectionError(f"{where}: mapped knots are not finite")
+            mu = (lmu[::-1] if mirrored else lmu).copy()
         elif form & ~(K_SIMPLE | self._unit) == K_EXPLICIT:
             if form & K_UNIT:
                 if nk < 2:

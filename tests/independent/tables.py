@@ -159,11 +159,29 @@ def read_geometry(raw: bytes, tag: str, dim: int, revision: int) -> tuple[list[R
             out = (knots(nk).copy(), mults(nk).copy())
         else:
             f = header()
-            unit = revision >= 15 and f in (8, 10, 12, 14)  # §2.3 (2.12): ends 0 and 1
-            if unit:
+            unit = revision >= 15 and f in (8, 10, 12, 14) or revision >= 20 and f == 11
+            if unit:  # §2.3 (2.12): ends 0 and 1
                 f -= 8
             end = degree + 1 if revision >= 15 else 0  # end multiplicities stored less this
-            if f == 1:
+            if f == 3 and revision >= 20:  # §2.3 (2.17): an earlier vector mapped
+                d, s = header(), header()
+                if not 1 <= d <= len(vectors) or s not in (0, 1):
+                    raise ReadError(f"{tag}: mapped knot vector {d}, {s}")
+                lk, lm = vectors[len(vectors) - d]
+                if len(lk) != nk:
+                    raise ReadError(f"{tag}: mapped knot count")
+                a, b = (0.0, 1.0) if unit else (float(x) for x in knots(2))
+                n = len(lk)
+                if s:
+                    c = float(lk[-1]) + float(lk[0])
+                    t = [c - float(lk[n - 1 - j]) for j in range(n)]
+                else:
+                    t = [float(x) for x in lk]
+                h = (b - a) / (t[-1] - t[0])
+                kv = np.array([a] + [a + (t[j] - t[0]) * h for j in range(1, n - 1)] + [b])
+                mv = (lm[::-1] if s else lm).copy()
+                out = (kv, mv)
+            elif f == 1:
                 d = header()
                 if not 1 <= d <= len(vectors):
                     raise ReadError(f"{tag}: knot repeat {d}")
