@@ -122,7 +122,7 @@ def test_sample_assembly_decodes_to_an_assembly(cq) -> None:
 
 
 @pytest.mark.slow
-def test_evaluate_report(cq, tmp_path: Path) -> None:
+def test_evaluate_report(cq, tmp_path: Path, one_coding: None) -> None:
     part = cq.Workplane().box(1, 2, 3).edges().fillet(0.2).val()
     r = nurbscomp.evaluate(part, nurbscomp.compress(part, tol=0.001))
     assert isinstance(r, nurbscomp.Report)
@@ -187,8 +187,10 @@ def test_every_sample_gives_the_cli_bytes(name: str, tmp_path: Path) -> None:
 @pytest.mark.parametrize(
     "tol, mm", [("5um", 0.005), ("0.01mm", 0.01), ("1mil", 0.0254), (" 2 um", 0.002), (1, 1.0)]
 )
-def test_tol_takes_lengths_with_units(cq, tol: Any, mm: float) -> None:
-    """``tol`` as ``--tol`` takes it: a length with a unit, or a number of mm."""
+def test_tol_takes_lengths_with_units(cq, tol: Any, mm: float, one_coding: None) -> None:
+    """``tol`` as ``--tol`` takes it: a length with a unit, or a number of mm
+    (coded within that tolerance only: a small part is coded tighter too,
+    and the smaller container, which names its own tolerance, kept)."""
     box = cq.Workplane().box(1, 2, 3).val()
     data = nurbscomp.compress(box, tol=tol)
     assert nurbscomp.info(data)["tolerance_mm"] == pytest.approx(mm, rel=1e-12)
