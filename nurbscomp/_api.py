@@ -22,6 +22,7 @@ from . import budget, container, passthrough, pipeline
 from .errors import ArgumentError, CorruptError, InputError, NoBRepError
 from .formats import sniff_format
 from .lazy import lazy_module
+from .paths import read_input
 from .report import CompressReport, InfoReport, Report
 from .units import check_tolerance, parse_length
 
@@ -278,7 +279,16 @@ def _compress_file(
     except NoBRepError as e:
         reason = str(e)
     else:
-        enc = pipeline.encode_cad(cad, name, path.stat().st_size, for_verify=verify, **opts)
+        size = path.stat().st_size
+        enc = pipeline.encode_cad(cad, name, size, for_verify=verify, **opts)
+        if name and len(enc.data) * pipeline.EXACT_CHECK_RATIO >= size:  # a file of the user's
+            source = read_input(path)
+            exact = pipeline.smaller_exact(source, name, enc)
+            if exact is not None:
+                blob, meta = exact
+                if verify and passthrough.read(container.unpack(blob))[1] != source:
+                    raise CorruptError("the byte-exact container does not give the file back")
+                return blob, lambda: pipeline.exact_report(source, blob, meta, enc, verify)
         if verify:
             pipeline.verify_encoded(enc, enc.data)
         return enc.data, lambda: pipeline.compress_report(enc, verify)

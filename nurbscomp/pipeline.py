@@ -20,6 +20,8 @@ from typing import TYPE_CHECKING, Any
 
 from . import budget, container, passthrough, product
 from .errors import (
+    CorruptError,
+    InputError,
     NoBRepError,
 )
 from .lazy import lazy_module
@@ -106,6 +108,44 @@ __all__ = [
 # ---------------------------------------------------------------- compress
 
 
+#: A tolerance-mode container that makes its source no more than this many
+#: times smaller is set against the source stored byte for byte (the text
+#: model of ``--lossless``, a fraction of a second), and the smaller kept: a
+#: thickened loft as an IGES surface model, one face of 120 edges kept
+#: exact with its pcurves for OCCT's STEP reader, came out 48,597 bytes
+#: within 0.1 mm and 28,870 byte for byte (xz -9e: 39,416).
+EXACT_CHECK_RATIO = 16
+
+
+def smaller_exact(data: bytes, name: str, enc: Encoded) -> tuple[bytes, dict[str, Any]] | None:
+    """The byte-exact container of the source ``data`` (named ``name``) and
+    its META, where ``enc`` is a tolerance-mode container at most
+    :data:`EXACT_CHECK_RATIO` times smaller than ``data`` and that one is
+    smaller still; else None.  The file itself is then what the user gets
+    back: within any tolerance, and the smaller container."""
+    if enc.lossless or len(enc.data) * EXACT_CHECK_RATIO < len(data):
+        return None
+    try:
+        blob, meta = passthrough.pack_file(data, name)
+    except InputError:  # not a text the model takes (too large): the coded one stays
+        return None
+    return (blob, meta) if len(blob) < len(enc.data) else None
+
+
+def exact_report(
+    data: bytes, blob: bytes, meta: dict[str, Any], enc: Encoded, verified: bool
+) -> dict[str, Any]:
+    """The compress report of a byte-exact container kept by
+    :func:`smaller_exact` in place of ``enc``'s, saying so."""
+    out = passthrough.report(data, blob, meta, None, verified)
+    out["warnings"] = [
+        *enc.warnings,
+        f"stored byte for byte: {len(blob)} bytes, smaller than the {len(enc.data)} "
+        f"of the container coded within {enc.tol:g} mm",
+    ]
+    return out
+
+
 def compress_file(
     src: str | os.PathLike[str],
     dst: str | os.PathLike[str] | None = None,
@@ -174,17 +214,32 @@ def compress_file(
         step_safe=step_safe,
         for_verify=verify,
     )
+    size = src_p.stat().st_size
+    source = read_input(src_p) if len(enc.data) * EXACT_CHECK_RATIO >= size else b""
+    kept = smaller_exact(source, src_p.name, enc) if source else None
     stage("write")
     with atomic_output(dst_p, force, (src_p,)) as tmp:
-        tmp.write_bytes(enc.data)
-        if verify:
-            stage("check")
-            verify_encoded(enc, tmp.read_bytes())
+        if kept is not None:
+            tmp.write_bytes(kept[0])
+            if verify:
+                stage("check")
+                if passthrough.read(read_container(tmp))[1] != source:
+                    raise CorruptError("the byte-exact container does not give the file back")
+        else:
+            tmp.write_bytes(enc.data)
+            if verify:
+                stage("check")
+                verify_encoded(enc, tmp.read_bytes())
+    made = (
+        exact_report(source, *kept, enc, verify)
+        if kept is not None
+        else compress_report(enc, verify)
+    )
     return {
         "command": "compress",
         "input": str(src_p),
         "output": str(dst_p),
-        **compress_report(enc, verify),
+        **made,
         "seconds": time.perf_counter() - t0,
         "read_seconds": t_read,
     }
