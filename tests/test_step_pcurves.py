@@ -130,7 +130,7 @@ def _losing(monkeypatch: pytest.MonkeyPatch, bare: int, whole: int) -> list[bool
 
 
 def test_a_candidate_that_loses_a_face_only_without_pcurves_is_written_with_them(
-    sources: dict[bool, Path], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+    sources: dict[bool, Path], tmp_path: Path, monkeypatch: pytest.MonkeyPatch, one_coding: None
 ) -> None:
     """The check falls back to writing pcurves (one more round trip) rather
     than climbing the ladder for a loss that only the missing pcurves make."""
@@ -147,7 +147,7 @@ def test_a_candidate_that_loses_a_face_only_without_pcurves_is_written_with_them
 
 
 def test_a_loss_with_and_without_pcurves_keeps_them_out(
-    sources: dict[bool, Path], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+    sources: dict[bool, Path], tmp_path: Path, monkeypatch: pytest.MonkeyPatch, one_coding: None
 ) -> None:
     """A face lost either way is the coding's doing: the ladder climbs, and
     the candidates are still written without pcurves (compared once only)."""
