@@ -84,11 +84,17 @@ def test_a_tighter_coding_that_fell_back_goes_tighter_still(monkeypatch) -> None
         assert asked == pytest.approx(want) and got is not None and len(got.data) == size
     # a small part's tighter coding cut short by the size in hand goes one
     # tighter still, fallen back or not (a chamfered box as an IGES B-rep:
-    # 239 bytes within 0.01 mm, 229 within 0.001, 237 within 0.1)
+    # 239 bytes within 0.01 mm, 229 within 0.001, 237 within 0.1), down to
+    # SMALL_FLOOR whatever RETRY_LEVELS says
     monkeypatch.setattr(compress, "RETRY_SMALL", 64)
     asked.clear()
     got = compress._coded(m, cad, 0.1, True, lambda tol: None)
-    assert asked == pytest.approx([0.1, 0.01, 0.001]) and got is not None and len(got.data) == 100
+    assert asked == pytest.approx([0.1, 0.01, 0.001, 1e-4, 1e-5])
+    assert got is not None and len(got.data) == 100
+    monkeypatch.setattr(compress, "SMALL_FLOOR", 1e-3)
+    asked.clear()
+    compress._coded(m, cad, 0.1, True, lambda tol: None)
+    assert asked == pytest.approx([0.1, 0.01, 0.001])  # RETRY_LEVELS, then the floor
 
 
 @pytest.mark.slow
