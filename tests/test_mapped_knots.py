@@ -113,6 +113,16 @@ def test_hostile_mapped_vectors_are_refused() -> None:
     for change in (far, flag):
         with pytest.raises(SectionError, match="refers to none"):
             G._read_geometry(_with_header(raw, change), "CRV3", 3, REV)
+    # the mapped vector's ends (the last two knots stored) swapped, or infinite
+    for ends, match in (([9.25, 1.5], "do not increase"), ([1.5, np.inf], "not finite")):
+        arrays = _arrays(raw, "CRV3")
+        knots = arrays[-1][1].copy()
+        knots[-2:] = ends
+        w = BlockWriter()
+        for i, (k, a) in enumerate(arrays):
+            (w.floats if k == "f" else w.ints)(knots if i == len(arrays) - 1 else a)
+        with pytest.raises(SectionError, match=match):
+            G._read_geometry(bytes(w), "CRV3", 3, REV)
 
 
 def test_the_golden_surface_model_maps_its_twins() -> None:
