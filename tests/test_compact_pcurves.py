@@ -137,7 +137,9 @@ def test_thick_part_stores_compact_pcurves(thick_step, tmp_path, monkeypatch) ->
 
 
 @pytest.mark.slow
-def test_step_loss_on_compacted_pcurves_settles_writing_again(tmp_path, monkeypatch) -> None:
+def test_step_loss_on_compacted_pcurves_settles_writing_again(
+    tmp_path, monkeypatch, one_coding
+) -> None:
     """An IGES faces model of a shelled loft at 0.01 mm: its first candidate
     with re-approximated pcurves loses a face in OCCT's STEP re-read, and the
     source's pcurves go back.  Whether candidates are written with a widened

@@ -321,7 +321,7 @@ def _thick_loft() -> object:
 
 
 @pytest.mark.slow
-def test_edges_that_meet_in_part_keep_meeting(tmp_path: Path) -> None:
+def test_edges_that_meet_in_part_keep_meeting(tmp_path: Path, one_coding: None) -> None:
     """Faces-mode IGES (written at 1e-5) of a thick loft: its faces meet along
     edges cut at different points, or apart by up to their 1e-5 tolerances;
     the sewing of the free-edge measure joins them (``occ.sewn_edge_pairs``),
