@@ -19,10 +19,9 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal, Union, overload
 
 from . import budget, container, passthrough, pipeline
-from .errors import ArgumentError, CorruptError, InputError, NoBRepError
+from .errors import ArgumentError, InputError, NoBRepError
 from .formats import sniff_format
 from .lazy import lazy_module
-from .paths import read_input
 from .report import CompressReport, InfoReport, Report
 from .units import check_tolerance, parse_length
 
@@ -234,8 +233,8 @@ def _compress_exact(obj: Source, verify: bool) -> tuple[bytes, _Made]:
 def _pack_verbatim(data: bytes, name: str, reason: str | None, verify: bool) -> tuple[bytes, _Made]:
     """``passthrough.pack_file``, read back when ``verify``; and its report's maker."""
     blob, meta = passthrough.pack_file(data, name, reason)
-    if verify and passthrough.read(container.unpack(blob))[1] != data:
-        raise CorruptError("the byte-exact container does not give the file back")
+    if verify:
+        passthrough.check_gives_back(container.unpack(blob), data)
     return blob, lambda: passthrough.report(data, blob, meta, reason, verify)
 
 
@@ -279,16 +278,13 @@ def _compress_file(
     except NoBRepError as e:
         reason = str(e)
     else:
-        size = path.stat().st_size
-        enc = pipeline.encode_cad(cad, name, size, for_verify=verify, **opts)
-        if name and len(enc.data) * pipeline.EXACT_CHECK_RATIO >= size:  # a file of the user's
-            source = read_input(path)
-            exact = pipeline.smaller_exact(source, name, enc)
-            if exact is not None:
-                blob, meta = exact
-                if verify and passthrough.read(container.unpack(blob))[1] != source:
-                    raise CorruptError("the byte-exact container does not give the file back")
-                return blob, lambda: pipeline.exact_report(source, blob, meta, enc, verify)
+        enc = pipeline.encode_cad(cad, name, path.stat().st_size, for_verify=verify, **opts)
+        exact = pipeline.smaller_exact(path, name, enc) if name else None  # a file of the user's
+        if exact is not None:
+            source, blob, meta = exact
+            if verify:
+                passthrough.check_gives_back(container.unpack(blob), source)
+            return blob, lambda: pipeline.exact_report(source, blob, meta, enc, verify)
         if verify:
             pipeline.verify_encoded(enc, enc.data)
         return enc.data, lambda: pipeline.compress_report(enc, verify)

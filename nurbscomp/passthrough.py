@@ -244,8 +244,8 @@ def compress_file(
     blob, meta = pack_file(data, src.name, reason)
     with atomic_output(dst, force, (src,)) as tmp:
         tmp.write_bytes(blob)
-        if verify and read(read_container(tmp))[1] != data:
-            raise CorruptError("the byte-exact container does not give the file back")
+        if verify:
+            check_gives_back(read_container(tmp), data)
     return {
         "command": "compress",
         "input": str(src),
@@ -253,6 +253,13 @@ def compress_file(
         **report(data, blob, meta, reason, verify),
         "seconds": time.perf_counter() - t0,
     }
+
+
+def check_gives_back(c: container.Container, data: bytes) -> None:
+    """Raise ``CorruptError`` unless the byte-exact container ``c`` gives
+    ``data`` back (the check of ``verify``)."""
+    if read(c)[1] != data:
+        raise CorruptError("the byte-exact container does not give the file back")
 
 
 def report(

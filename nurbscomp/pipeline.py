@@ -20,7 +20,6 @@ from typing import TYPE_CHECKING, Any
 
 from . import budget, container, passthrough, product
 from .errors import (
-    CorruptError,
     InputError,
     NoBRepError,
 )
@@ -117,19 +116,21 @@ __all__ = [
 EXACT_CHECK_RATIO = 16
 
 
-def smaller_exact(data: bytes, name: str, enc: Encoded) -> tuple[bytes, dict[str, Any]] | None:
-    """The byte-exact container of the source ``data`` (named ``name``) and
-    its META, where ``enc`` is a tolerance-mode container at most
-    :data:`EXACT_CHECK_RATIO` times smaller than ``data`` and that one is
-    smaller still; else None.  The file itself is then what the user gets
-    back: within any tolerance, and the smaller container."""
-    if enc.lossless or len(enc.data) * EXACT_CHECK_RATIO < len(data):
+def smaller_exact(src: Path, name: str, enc: Encoded) -> tuple[bytes, bytes, dict[str, Any]] | None:
+    """The source file ``src`` (named ``name`` in META), its byte-exact
+    container and that container's META, where ``enc`` is a tolerance-mode
+    container at most :data:`EXACT_CHECK_RATIO` times smaller than the file
+    (else the file is not read) and the byte-exact one is smaller still;
+    else None.  The file itself is then what the user gets back: within any
+    tolerance, and the smaller container."""
+    if enc.lossless or len(enc.data) * EXACT_CHECK_RATIO < src.stat().st_size:
         return None
+    data = read_input(src)
     try:
         blob, meta = passthrough.pack_file(data, name)
     except InputError:  # not a text the model takes (too large): the coded one stays
         return None
-    return (blob, meta) if len(blob) < len(enc.data) else None
+    return (data, blob, meta) if len(blob) < len(enc.data) else None
 
 
 def exact_report(
@@ -214,27 +215,20 @@ def compress_file(
         step_safe=step_safe,
         for_verify=verify,
     )
-    size = src_p.stat().st_size
-    source = read_input(src_p) if len(enc.data) * EXACT_CHECK_RATIO >= size else b""
-    kept = smaller_exact(source, src_p.name, enc) if source else None
+    kept = smaller_exact(src_p, src_p.name, enc)
     stage("write")
     with atomic_output(dst_p, force, (src_p,)) as tmp:
         if kept is not None:
-            tmp.write_bytes(kept[0])
+            tmp.write_bytes(kept[1])
             if verify:
                 stage("check")
-                if passthrough.read(read_container(tmp))[1] != source:
-                    raise CorruptError("the byte-exact container does not give the file back")
+                passthrough.check_gives_back(read_container(tmp), kept[0])
         else:
             tmp.write_bytes(enc.data)
             if verify:
                 stage("check")
                 verify_encoded(enc, tmp.read_bytes())
-    made = (
-        exact_report(source, *kept, enc, verify)
-        if kept is not None
-        else compress_report(enc, verify)
-    )
+    made = exact_report(*kept, enc, verify) if kept is not None else compress_report(enc, verify)
     return {
         "command": "compress",
         "input": str(src_p),

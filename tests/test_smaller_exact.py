@@ -51,7 +51,7 @@ def test_the_smaller_of_the_coded_and_the_byte_exact_container(
 
 
 def test_a_file_the_text_model_refuses_keeps_its_coded_container(
-    monkeypatch: pytest.MonkeyPatch,
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     from nurbscomp import passthrough
     from nurbscomp.errors import InputError
@@ -61,4 +61,6 @@ def test_a_file_the_text_model_refuses_keeps_its_coded_container(
 
     monkeypatch.setattr(passthrough, "pack_file", refuse)
     enc = dataclasses.make_dataclass("E", ["lossless", "data"])(False, b"x" * 1000)
-    assert pipeline.smaller_exact(b"y" * 2000, "a.step", enc) is None
+    src = tmp_path / "a.step"
+    src.write_bytes(b"y" * 2000)
+    assert pipeline.smaller_exact(src, "a.step", enc) is None

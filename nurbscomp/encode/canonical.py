@@ -32,6 +32,7 @@ else uses leave the table.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import replace
 from typing import Any
 
@@ -91,8 +92,8 @@ def _line_of(curves: list[Geometry], c: int) -> tuple[np.ndarray, np.ndarray, fl
 
 
 def _quadric(m: BRepModel, g: Geometry) -> Analytic | None:
-    """The cylinder or cone that surface ``g`` is at the same parameters, if
-    it is a surface of revolution of a line."""
+    """The cylinder, cone, torus or sphere that surface ``g`` is at the same
+    parameters, if it is a surface of revolution of a line or a circle."""
     if not (isinstance(g, Derived) and g.kind == Kind.REVOLUTION):
         return None
     o, a = g.frame[0], g.frame[1] / np.linalg.norm(g.frame[1])
@@ -127,7 +128,8 @@ def _quadric(m: BRepModel, g: Geometry) -> Analytic | None:
         if r <= SAME * scale:
             r = 0.0
         new = Analytic(Kind.CONE, _frame(p - r * x, z, x, a), np.array([r, angle]))
-    if _gap(new, o, a, p, d, reach) > SAME * scale * 64:
+    vs = np.linspace(-reach, reach, 5)
+    if _gap(new, o, a, lambda v: p[None, :] + v * d[None, :], vs) > SAME * scale * 64:
         return None
     return new
 
@@ -170,37 +172,15 @@ def _revolved_circle(
         if float(radial @ x) < 0 or big <= r * (1 + 1e-9):
             return None  # the circle round the other way, or crossing the axis
         new = Analytic(Kind.TORUS, _frame(o + float(w @ a) * a, y, x, a), np.array([big, r]))
-    if _circle_gap(new, o, a, circle) > SAME * scale * 64:
+    sphere = new.kind == Kind.SPHERE
+    vs = np.linspace(-math.pi / 2, math.pi / 2, 5) if sphere else np.linspace(0.0, 2 * math.pi, 7)
+
+    def arc(v: np.ndarray) -> np.ndarray:
+        return c[None, :] + r * (np.cos(v) * x + np.sin(v) * y)
+
+    if _gap(new, o, a, arc, vs) > SAME * scale * 64:
         return None
     return new
-
-
-def _circle_gap(q: Analytic, o: np.ndarray, a: np.ndarray, circle: Analytic) -> float:
-    """The largest distance, over sampled (u, v), between the revolution of
-    ``circle`` about (``o``, ``a``) and the torus or sphere ``q``."""
-    us = np.linspace(0.0, 2 * math.pi, 7)
-    vs = np.linspace(-math.pi / 2, math.pi / 2, 5) if q.kind == Kind.SPHERE else us
-    u, v = np.meshgrid(us, vs, indexing="ij")
-    u, v = u.ravel()[:, None], v.ravel()[:, None]
-    c, n, x = circle.frame
-    r = float(circle.params[0])
-    w = c[None, :] + r * (np.cos(v) * x + np.sin(v) * np.cross(n, x)) - o[None, :]
-    rev = o[None, :] + _turned(w, a, u)
-    origin, z, qx, qy = q.frame
-    big = 0.0 if q.kind == Kind.SPHERE else float(q.params[0])
-    rad = float(q.params[-1])
-    quad = origin + (big + rad * np.cos(v)) * (np.cos(u) * qx + np.sin(u) * qy)
-    return float(np.abs(rev - (quad + rad * np.sin(v) * z)).max())
-
-
-def _turned(w: np.ndarray, a: np.ndarray, u: np.ndarray) -> np.ndarray:
-    """Points ``w`` (from the axis's origin) turned by ``u`` about the unit
-    ``a`` (Rodrigues)."""
-    return (
-        w * np.cos(u)
-        + np.cross(a[None, :], w) * np.sin(u)
-        + a[None, :] * (w @ a)[:, None] * (1 - np.cos(u))
-    )
 
 
 def _frame(origin: np.ndarray, z: np.ndarray, x: np.ndarray, axis: np.ndarray) -> np.ndarray:
@@ -210,25 +190,42 @@ def _frame(origin: np.ndarray, z: np.ndarray, x: np.ndarray, axis: np.ndarray) -
 
 
 def _gap(
-    q: Analytic, o: np.ndarray, a: np.ndarray, p: np.ndarray, d: np.ndarray, reach: float
+    q: Analytic,
+    o: np.ndarray,
+    a: np.ndarray,
+    basis: Callable[[np.ndarray], np.ndarray],
+    vs: np.ndarray,
 ) -> float:
-    """The largest distance, over sampled (u, v), between the revolution of
-    the line (``p``, ``d``) about (``o``, ``a``) and the quadric ``q``."""
+    """The largest distance, over sampled (u, v) (``vs`` in v, seven angles
+    in u), between the revolution about (``o``, ``a``) of the curve whose
+    points ``basis(v)`` gives and the quadric ``q`` (:func:`_quadric_points`)."""
     us = np.linspace(0.0, 2 * math.pi, 7)
-    vs = np.linspace(-reach, reach, 5)
     u, v = np.meshgrid(us, vs, indexing="ij")
     u, v = u.ravel()[:, None], v.ravel()[:, None]
-    w = p[None, :] + v * d[None, :] - o[None, :]  # the line's point, from the axis
-    rev = o[None, :] + _turned(w, a, u)
+    w = basis(v) - o[None, :]  # the curve's point, from the axis
+    # Rodrigues: the point turned by u about a
+    turned = (
+        w * np.cos(u)
+        + np.cross(a[None, :], w) * np.sin(u)
+        + a[None, :] * (w @ a)[:, None] * (1 - np.cos(u))
+    )
+    return float(np.abs(o[None, :] + turned - _quadric_points(q, u, v)).max())
+
+
+def _quadric_points(q: Analytic, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """The points of the cylinder, cone, torus or sphere ``q`` at (u, v)."""
     origin, z, x, y = q.frame
     if q.kind == Kind.CYLINDER:
         rad = q.params[0]
-        quad = origin + rad * (np.cos(u) * x + np.sin(u) * y) + v * z
-    else:
+        return origin + rad * (np.cos(u) * x + np.sin(u) * y) + v * z
+    if q.kind == Kind.CONE:
         rad, angle = q.params
         quad = origin + (rad + v * math.sin(angle)) * (np.cos(u) * x + np.sin(u) * y)
-        quad = quad + v * math.cos(angle) * z
-    return float(np.abs(rev - quad).max())
+        return quad + v * math.cos(angle) * z
+    big = 0.0 if q.kind == Kind.SPHERE else float(q.params[0])
+    rad = float(q.params[-1])
+    quad = origin + (big + rad * np.cos(v)) * (np.cos(u) * x + np.sin(u) * y)
+    return quad + rad * np.sin(v) * z
 
 
 def prune_curves3d(m: BRepModel) -> BRepModel:

@@ -237,18 +237,18 @@ class _KnotWriter:
         if not self.mapped or len(k) < MAPPED_MIN:
             return None
         seen = self._by_count.setdefault(len(k), [])
-        out = None
         a, b = float(k[0]), float(k[-1])
         with np.errstate(all="ignore"):
-            for j, lead, lmu in reversed(seen):
-                for mirrored in (0, 1):
-                    if np.array_equal(lmu[::-1] if mirrored else lmu, mu) and np.array_equal(
-                        mapped_knots(lead, a, b, bool(mirrored)), k
-                    ):
-                        out = (n - j, mirrored)
-                        break
-                if out is not None:
-                    break
+            out = next(
+                (
+                    (n - j, mirrored)
+                    for j, lead, lmu in reversed(seen)
+                    for mirrored in (0, 1)
+                    if np.array_equal(lmu[::-1] if mirrored else lmu, mu)
+                    and np.array_equal(mapped_knots(lead, a, b, bool(mirrored)), k)
+                ),
+                None,
+            )
         seen.append((n, k, np.asarray(mu)))
         del seen[:-MAPPED_REACH]
         return out
