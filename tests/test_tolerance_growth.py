@@ -120,3 +120,32 @@ def test_a_small_part_whose_faces_climb_is_coded_tighter_too(tmp_path, monkeypat
     monkeypatch.setattr(compress, "RETRY_SMALL", 0)
     without = sizes()
     assert without[1] > without[0] and without[1] > got[1], without
+
+
+def test_a_part_of_few_faces_and_large_nets_is_not_small(monkeypatch) -> None:
+    """``compress.small_part`` counts B-spline poles as well as faces: a part
+    of few faces whose nets are large costs seconds a coding (ec_turbine-A,
+    53 faces and 6,994 poles: 2.2 s each, four codings at 0.01 mm), so it
+    takes the rules of larger parts."""
+    import cadquery as cq
+
+    from nurbscomp.occ import topology
+    from nurbscomp.stages import compress
+
+    pts = [(x, y, 0.3 * ((x * y) % 5)) for x in range(6) for y in range(6)]
+    grid = [[cq.Vector(*pts[6 * i + j]) for j in range(6)] for i in range(6)]
+    face = cq.Face.makeSplineApprox(grid, tol=1e-4)
+    m, _ = topology.shape_to_model(face.wrapped)
+    poles = sum(
+        g.poles.size // g.poles.shape[-1]
+        for g in (*m.surfaces, *m.curves3d)
+        if type(g).__name__ in ("BSplineSurface", "BSplineCurve")
+    )
+    assert poles > 20 and len(m.face_surface) == 1
+    assert compress.small_part(m)
+    monkeypatch.setattr(compress, "RETRY_SMALL_POLES", poles - 1)
+    assert not compress.small_part(m)
+    monkeypatch.setattr(compress, "RETRY_SMALL_POLES", poles)
+    assert compress.small_part(m)
+    monkeypatch.setattr(compress, "RETRY_SMALL", 0)
+    assert not compress.small_part(m)

@@ -105,7 +105,7 @@ def _refined(err: np.ndarray, mats: list[np.ndarray], w: np.ndarray | None) -> n
         r = mats[0] @ we
         if w is not None:
             r = r / (mats[0] @ w)[None, :, None]
-    refined = np.sqrt((r * r).sum(-1)).reshape(len(r), -1).max(axis=1) * (1.0 + ROUNDING)
+    refined = codec.largest_norms(r) * (1.0 + ROUNDING)
     return np.minimum(refined, codec.pole_bounds(err))  # each is a bound: the smaller
 
 

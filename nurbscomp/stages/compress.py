@@ -92,6 +92,12 @@ RETRY_SHARE = 0.25
 #: META (seven of 105 small IGES surface models grew by 2 to 10 bytes from
 #: 0.01 to 0.1 mm; none with the retry, for 38 % more time on them).
 RETRY_SMALL = 64
+#: ... and at most this many B-spline poles (surfaces and 3-D curves): the
+#: net search of every coding grows with them, and a part of few faces with
+#: large nets codes in seconds, not in one (ec_turbine-A, 53 faces and 6,994
+#: poles: 2.2 s a coding, four of them at 0.01 mm, where the first was the
+#: smallest; every part of stress seed 8 has at most 2,069).
+RETRY_SMALL_POLES = 4096
 #: A small part's tighter codings go down to this tolerance (mm), whatever
 #: ``RETRY_LEVELS`` says: a filleted box as an IGES B-rep came out 700 bytes
 #: at 0.01 mm (coded within 0.0001 mm, two levels down) and 689 at 0.001 mm
@@ -111,6 +117,15 @@ RETRY_LEVELS = 2
 #: look for a tighter one still for this reason (bearing at 0.1 mm would be
 #: coded three times).
 FINE_SHARE = 0.5
+
+
+def small_part(m: BRepModel) -> bool:
+    """Whether ``m`` is a small part, which is always coded tighter too
+    (:data:`RETRY_SMALL`, :data:`RETRY_SMALL_POLES`)."""
+    if not 0 < len(m.face_surface) <= RETRY_SMALL:
+        return False
+    rows = (g for g in (*m.surfaces, *m.curves3d) if isinstance(g, (BSplineSurface, BSplineCurve)))
+    return sum(g.poles.size // g.poles.shape[-1] for g in rows) <= RETRY_SMALL_POLES
 
 
 def fine_share(m: BRepModel, tol: float) -> float:
@@ -172,13 +187,13 @@ def _coded(
     One that stops so at its last resort (every record exact:
     ``Costlier.fell_back``), where no coded candidate passed, is followed by
     one tighter still (within the same ``RETRY_LEVELS``), and so is any that
-    stops so on a part of at most ``RETRY_SMALL`` faces."""
+    stops so on a small part (:func:`small_part`)."""
     from ..encode import validity
 
     pack = packer(tol)
     tighter = tol / RETRY_FACTOR
     faces = len(m.face_surface)
-    small = 0 < faces <= RETRY_SMALL
+    small = small_part(m)
     # room for a tighter coding: a small part's goes down to SMALL_FLOOR
     # whatever the level, so that what a tolerance tries holds what every
     # smaller one down to the floor tries, and no file grows with it
