@@ -165,7 +165,8 @@ def test_exact_vertices_take_their_coarsest_grid_at_every_tolerance() -> None:
     filleted bosses), and reads back bit for bit."""
     m = _model()
     rng = np.random.default_rng(7)
-    p = np.ldexp(np.rint(np.ldexp(m.vertex_point + rng.uniform(-1, 1, m.vertex_point.shape), 3)), -3)
+    moved = m.vertex_point + rng.uniform(-1, 1, m.vertex_point.shape)
+    p = np.ldexp(np.rint(np.ldexp(moved, 3)), -3)
     m = replace(m, vertex_point=p)
     raws = []
     for tol in (0.01, 0.1):

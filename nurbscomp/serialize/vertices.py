@@ -263,7 +263,8 @@ def _write_vertices(m: BRepModel, tol: float = 0.0) -> bytes:
             grids.append((bi, e, q))
             ec = coarsest_exponent(pts[bi], e)
             if ec > e:
-                grids.append((bi, ec, np.where(bi[:, None], _on_step(pts, np.ldexp(1.0, ec))[1], q)))
+                qc = _on_step(pts, float(np.ldexp(1.0, ec)))[1]
+                grids.append((bi, ec, np.where(bi[:, None], qc, q)))
         for b, eb, qb in grids:
             raw = _vertex_arrays(m, on_grid & ~tw, qb, ref, k, tw, near, b, eb)
             n = entropy.xz_size(raw)
