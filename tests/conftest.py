@@ -276,4 +276,5 @@ def one_coding(monkeypatch: pytest.MonkeyPatch) -> None:
 
     monkeypatch.setattr(compress, "RETRY_SHARE", float("inf"))
     monkeypatch.setattr(compress, "RETRY_SMALL", 0)
+    monkeypatch.setattr(compress, "RETRY_MEDIUM", 0)
     monkeypatch.setattr(compress, "FINE_SHARE", float("inf"))

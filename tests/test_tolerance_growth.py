@@ -149,3 +149,38 @@ def test_a_part_of_few_faces_and_large_nets_is_not_small(monkeypatch) -> None:
     assert compress.small_part(m)
     monkeypatch.setattr(compress, "RETRY_SMALL", 0)
     assert not compress.small_part(m)
+
+
+def test_a_medium_part_is_coded_tighter_once(monkeypatch) -> None:
+    """A part of at most ``RETRY_MEDIUM`` faces (and ``RETRY_SMALL_POLES``)
+    is coded within tol/10 too, once, and the smaller kept; a small part's
+    codings go on down to ``SMALL_FLOOR``; a larger part's stop at tol where
+    nothing climbed."""
+    import math
+    from types import SimpleNamespace
+
+    from nurbscomp.encode import validity
+    from nurbscomp.occ import topology
+    from nurbscomp.stages import compress
+
+    m, _ = topology.shape_to_model(_parts()["cylinder"].val().wrapped)  # 3 faces
+    cad = SimpleNamespace(shape=None, pcurves=True)
+    asked: list[float] = []
+
+    def target(m, shape, tol, *args):
+        asked.append(tol)
+        size = int(500 + 100 * math.log10(tol / 0.1))  # tighter, smaller
+        return SimpleNamespace(validity=validity.ValidityReport(), early=b"x" * size, codes={})
+
+    monkeypatch.setattr(validity, "lossy_target", target)
+    for small, medium, want in (
+        (0, 0, [0.1]),
+        (0, 3, [0.1, 0.01]),
+        (3, 3, [0.1, 0.01, 0.001, 1e-4, 1e-5]),
+    ):
+        monkeypatch.setattr(compress, "RETRY_SMALL", small)
+        monkeypatch.setattr(compress, "RETRY_MEDIUM", medium)
+        asked.clear()
+        got = compress._coded(m, cad, 0.1, True, lambda tol: None)
+        assert asked == pytest.approx(want)
+        assert got is not None and got.tol == pytest.approx(want[-1])
