@@ -28,10 +28,11 @@ def _fake_stage(
     has ``bytes_at[tol]`` bytes and whose remedies reached ``climbed_at[tol]``
     faces, or ``Costlier`` where that is the ceiling given or more; the
     tolerances asked for, in order.  The fake parts have a few faces, which
-    ``RETRY_SMALL`` would code tighter whatever they climb: held off, so
-    that the rules for parts of any size show."""
+    ``RETRY_SMALL`` and ``RETRY_MEDIUM`` would code tighter whatever they
+    climb: held off, so that the rules for parts of any size show."""
     asked: list[float] = []
     monkeypatch.setattr(stage, "RETRY_SMALL", 0)
+    monkeypatch.setattr(stage, "RETRY_MEDIUM", 0)
 
     def lossy_target(m, shape, tol, step_safe, pack, pcurves, ceiling, offsets_coded=True):  # type: ignore[no-untyped-def]
         asked.append(tol)

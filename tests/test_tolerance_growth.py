@@ -118,6 +118,7 @@ def test_a_small_part_whose_faces_climb_is_coded_tighter_too(tmp_path, monkeypat
     got = sizes()
     assert got[1] <= got[0], got
     monkeypatch.setattr(compress, "RETRY_SMALL", 0)
+    monkeypatch.setattr(compress, "RETRY_MEDIUM", 0)
     without = sizes()
     assert without[1] > without[0] and without[1] > got[1], without
 

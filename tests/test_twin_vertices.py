@@ -165,3 +165,111 @@ def serialize_points(shape) -> np.ndarray:
     from nurbscomp import occ
 
     return occ.shape_to_model(shape)[0].vertex_point
+
+
+GOLDEN_2_18 = Path(__file__).resolve().parent / "golden" / "bracket.v2_18.faces.tol0.01.nzc"
+
+
+def _golden_2_18():
+    c = container.unpack(GOLDEN_2_18.read_bytes())
+    m, _, _ = serialize.read_sections(c.get, c.revision)
+    return c, m
+
+
+def _twin_block(raw: bytes) -> tuple[np.ndarray, list[int]]:
+    """The kinds, and the offset at which the kind-2 arrays start, of a
+    ``VERT`` section (walking its arrays as the reader does)."""
+    r = BlockReader(raw, "VERT")
+    k = r.ints()
+    r.floats(3 * int((k == 0).sum()))
+    for _ in range(3):
+        r.ints(int((k == 1).sum()))
+    if (k == 3).any():
+        r.ints(1)
+        for _ in range(3):
+            r.ints(int((k == 3).sum()))
+    back = r.ints(int((k == 2).sum()))
+    return back, r.ints(2).tolist()
+
+
+@pytest.mark.parametrize("deltas", [False, True])
+def test_twin_references_both_ways_read_back_bit_for_bit(deltas: bool) -> None:
+    """Format 2.18: a kind-2 vertex's reference as a distance back (mode 0)
+    or as the difference from the previous one's (mode 1); both read back
+    the same points, and the 2.18 writer keeps the smaller."""
+    c, m = _golden_2_18()
+    pts = m.vertex_point
+    ref, k = vertices._twin_refs(pts)
+    twin = ref >= 0
+    assert twin.sum() > 50
+    none = np.zeros(len(pts), bool)
+    q = np.zeros_like(pts, dtype=np.int64)
+    raw = vertices._vertex_arrays(m, none, q, ref, k, twin, ([], {}), none, 0, deltas)
+    back, (e, mode) = _twin_block(raw)
+    assert mode == int(deltas) and e == vertices.TWIN_EXP
+    rows = np.flatnonzero(twin)
+    assert back.tolist() == (np.diff(ref[rows], prepend=0) if deltas else rows - ref[rows]).tolist()
+    got = serialize.read_sections(c.get, c.revision)[0]
+    vertices._read_vertices(raw, got, 0.01, container.REVISION)
+    assert got.vertex_point.tobytes() == pts.tobytes()
+
+
+def test_the_golden_surface_model_codes_its_references_as_differences() -> None:
+    """The 2.18 golden file (the bracket as an IGES surface model) holds
+    references as differences, far smaller than the distances; the independent
+    reader decodes it as ``nurbscomp`` does."""
+    from tests.independent import reader
+
+    from .test_independent_reader import same_floats
+
+    c, m = _golden_2_18()
+    back, (_, mode) = _twin_block(c.get("VERT"))
+    assert mode == 1
+    ref = np.cumsum(back)
+    rows = np.flatnonzero(vertices._twin_refs(m.vertex_point)[0] >= 0)
+    assert np.median(np.abs(back)) * 2 < np.median(rows - ref)  # differences, not distances
+    data = GOLDEN_2_18.read_bytes()
+    assert same_floats(data, reader.read(data).floats()) == []
+
+
+@pytest.mark.parametrize(
+    "mode, change, fragment",
+    [
+        (2, None, "unknown reference mode"),
+        (1, lambda b: b[:-1] + [10**6], "not an earlier vertex"),  # past its own row
+        (1, lambda b: [-1] + b[1:], "not an earlier vertex"),  # below row 0
+        (1, lambda b: [2**31] + b[1:], "not an earlier vertex"),
+        (0, lambda b: [0] + b[1:], "not an earlier vertex"),
+    ],
+)
+def test_reader_refuses_bad_twin_references(mode, change, fragment) -> None:
+    """A 2.18 section whose mode is unknown, or whose references leave the
+    earlier rows, is refused; the same arrays in 2.17's layout read as
+    distances."""
+    from nurbscomp.streams import BlockWriter
+
+    c, m = _golden_2_18()
+    pts = m.vertex_point
+    ref, k = vertices._twin_refs(pts)
+    twin = ref >= 0
+    rows = np.flatnonzero(twin)
+    back = (np.diff(ref[rows], prepend=0) if mode == 1 else rows - ref[rows]).tolist()
+    if change is not None:
+        back = change(back)[: len(rows)]
+    w = BlockWriter()
+    w.ints(np.where(twin, 2, 0))
+    w.floats(pts[~twin].reshape(-1))
+    for _ in range(3):
+        w.ints([])
+    w.ints(back)
+    w.ints([vertices.TWIN_EXP, mode])
+    for axis in range(3):
+        w.ints(k[rows, axis])
+    vertices._write_tolerances(w, m.vertex_tol)
+    w.ints([])
+    for _ in range(4):
+        w.ints([])
+    w.floats([])
+    got = serialize.read_sections(c.get, c.revision)[0]
+    with pytest.raises(SectionError, match=fragment):
+        vertices._read_vertices(bytes(w), got, 0.01, container.REVISION)

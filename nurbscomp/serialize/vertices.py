@@ -3,6 +3,8 @@ their neighbours), tolerances on a quarter-power scale, point representations.""
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 
 from .. import container, entropy
@@ -265,8 +267,10 @@ def _write_vertices(m: BRepModel, tol: float = 0.0) -> bytes:
             if ec > e:
                 qc = _on_step(pts, float(np.ldexp(1.0, ec)))[1]
                 grids.append((bi, ec, np.where(bi[:, None], qc, q)))
-        for b, eb, qb in grids:
-            raw = _vertex_arrays(m, on_grid & ~tw, qb, ref, k, tw, near, b, eb)
+        for (b, eb, qb), deltas in itertools.product(
+            grids, (False, True) if tw.any() else (False,)
+        ):
+            raw = _vertex_arrays(m, on_grid & ~tw, qb, ref, k, tw, near, b, eb, deltas)
             n = entropy.xz_size(raw)
             if not best or n < size:
                 best, size = raw, n
@@ -306,10 +310,13 @@ def _vertex_arrays(
     near: tuple[list[list[int]], Quads],
     binary: np.ndarray,
     e: int,
+    deltas: bool = False,
 ) -> bytes:
-    """The section with the vertices of ``twin`` as kind 2, of ``on_grid`` as
-    kind 1 (predicted from ``near``: the model's vertex neighbours and quads),
-    of ``binary`` as kind 3 (integers ``q`` on the grid 2**``e``, predicted so)."""
+    """The section with the vertices of ``twin`` as kind 2 (their references
+    as differences from the previous one's where ``deltas``, format 2.18, else
+    as distances back), of ``on_grid`` as kind 1 (predicted from ``near``: the
+    model's vertex neighbours and quads), of ``binary`` as kind 3 (integers
+    ``q`` on the grid 2**``e``, predicted so)."""
     w = BlockWriter()
     pts = m.vertex_point
     w.ints(np.select([twin, binary, on_grid], [2, 3, 1], 0))
@@ -320,8 +327,8 @@ def _vertex_arrays(
         _write_predicted(w, near, np.flatnonzero(binary), q)
     tw = np.flatnonzero(twin)
     if len(tw):
-        w.ints(tw - ref[tw])
-        w.ints([TWIN_EXP])
+        w.ints(np.diff(ref[tw], prepend=0) if deltas else tw - ref[tw])
+        w.ints([TWIN_EXP, int(deltas)])
         for axis in range(3):
             w.ints(k[tw, axis])
     _write_tolerances(w, m.vertex_tol)
@@ -365,7 +372,7 @@ def _read_vertices(data: bytes, m: BRepModel, tol: float = 0.0, revision: int = 
             raise SectionError("VERT: an integer on the binary grid is out of range")
         pts[binary] = np.ldexp(qb.astype(np.float64), e)
     if revision >= 8:
-        _read_twins(r, pts, np.flatnonzero(twin))
+        _read_twins(r, pts, np.flatnonzero(twin), revision >= container.TWIN_DELTAS)
     finite(pts, "VERT points", MAX_COORD)
     m.vertex_point = pts
     m.vertex_tol = _read_tolerances(r, nv, "VERT") if revision >= 3 else r.floats(nv)
@@ -391,17 +398,31 @@ def _read_predicted(
     return _grid_from_residuals(near[0], rows, res, near[1]) if len(rows) else res
 
 
-def _read_twins(r: BlockReader, pts: np.ndarray, rows: np.ndarray) -> None:
+def _read_twins(r: BlockReader, pts: np.ndarray, rows: np.ndarray, modes: bool = False) -> None:
     """Format 2.5: the points of the kind-2 vertices (``rows``), each at its
-    offset from its reference, in row order (docs/format.md §2.6)."""
+    offset from its reference, in row order (docs/format.md §2.6); from 2.18
+    (``modes``) the references as distances back or as differences from the
+    previous one's, as the exponent's second integer says."""
     n = len(rows)
     if not n:
         return
     back = r.ints(n)
-    e = r.ints(1)
+    e = r.ints(2 if modes else 1)
     k = np.stack([r.ints(n) for _ in range(3)], axis=1)
-    ref = rows - back
-    if (back < 1).any() or (ref < 0).any():
+    if modes and int(e[1]) not in (0, 1):
+        raise SectionError("VERT: unknown reference mode")
+    if modes and int(e[1]) == 1:
+        # each difference below 2^31 in size: their sums cannot overflow
+        if (np.abs(back) >= 2**31).any():
+            raise SectionError("VERT: a vertex's reference is not an earlier vertex")
+        ref = np.cumsum(back)
+        if (ref >= rows).any():
+            raise SectionError("VERT: a vertex's reference is not an earlier vertex")
+    else:
+        ref = rows - back
+        if (back < 1).any():
+            raise SectionError("VERT: a vertex's reference is not an earlier vertex")
+    if (ref < 0).any():
         raise SectionError("VERT: a vertex's reference is not an earlier vertex")
     if not -1074 <= int(e[0]) <= 0:
         raise SectionError("VERT: the offsets' exponent is out of range")

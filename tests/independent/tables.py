@@ -515,11 +515,15 @@ def read_vertices(raw: bytes, revision: int, shapes: Shapes, tol: float | None) 
         if (np.abs(binary) >= 2**53).any():
             raise ReadError("VERT: binary integer")
     n2 = int((kind == 2).sum()) if revision >= 8 else 0
+    deltas = False
     if n2:  # 2.5: back, exponent, offsets
         back, ex = a.ints(), a.ints()
         off = np.stack([a.ints(), a.ints(), a.ints()], axis=1)
-        if len(back) != n2 or len(ex) != 1 or len(off) != n2:
+        if len(back) != n2 or len(ex) != (2 if revision >= 21 else 1) or len(off) != n2:
             raise ReadError("VERT: twin arrays")
+        if revision >= 21 and ex[1] not in (0, 1):
+            raise ReadError("VERT: twin reference mode")
+        deltas = revision >= 21 and ex[1] == 1  # 2.18: references as differences
     point = np.zeros((nv, 3))
     i0 = i1 = i2 = i3 = 0
     h = (tol / math.sqrt(3.0)) if tol else 0.0
@@ -535,9 +539,15 @@ def read_vertices(raw: bytes, revision: int, shapes: Shapes, tol: float | None) 
             i3 += 1
         elif not (kind[v] == 2 and revision >= 8):
             raise ReadError("VERT kind")
+    r = 0
     for v in range(nv):  # then each vertex near an earlier one, in row order
         if kind[v] == 2:
-            r = v - int(back[i2])
+            if deltas:
+                if abs(int(back[i2])) >= 2**31:
+                    raise ReadError("VERT: twin reference")
+                r += int(back[i2])
+            else:
+                r = v - int(back[i2])
             if not 0 <= r < v:
                 raise ReadError("VERT: twin reference")
             for c in range(3):
