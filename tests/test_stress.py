@@ -1,6 +1,6 @@
 """A fast slice of the stress corpus (issue 10; ``make stress`` runs all of it).
 
-Sixteen generated shapes spread over the categories of
+Sixteen generated shapes (one of them long: ``LONG_CASES``) spread over the categories of
 :mod:`tests.stress.shapes`, each written in one of the three file kinds
 (STEP, IGES BRep, IGES faces), compressed at 0.01 mm (three of them at
 0.1 mm) and checked as ``tests.stress.run`` checks every file: no crash and no
@@ -36,10 +36,13 @@ CASES = [
     # a BRepCheck fault on a located instance's face is the model's one face
     ("instance_sphere_3x_01", "step", (0.1,)),
     ("sewn_patches8_00", "brep", (0.01,)),
-    # faces meeting along edges cut at other points (free edges grew 171 -> 188)
-    ("feature_thick_00", "faces", (0.01,)),
     ("feature_nurbs_fillet_box", "step", (0.01,)),
 ]
+#: Cases over half a minute on 2 cores: run by ``make stress`` (long).
+#: feature_thick_00 as a surface model: faces meeting along edges cut at
+#: other points (free edges grew 171 -> 188); a small part whose every
+#: tighter coding climbs to its one face OCCT's reader splits (45 s).
+LONG_CASES = [("feature_thick_00", "faces", (0.01,))]
 
 
 def test_the_corpus_is_large_varied_and_named_uniquely() -> None:
@@ -48,13 +51,14 @@ def test_the_corpus_is_large_varied_and_named_uniquely() -> None:
     # the same seed gives the same list; another seed other parameters
     again = shapes.entries(seed=0)
     assert [e.name for e in again] == list(ENTRIES)
-    assert {name for name, _, _ in CASES} <= set(ENTRIES)
+    assert {name for name, _, _ in CASES + LONG_CASES} <= set(ENTRIES)
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize(
     "name, fmt, tol",
-    [(n, f, t) for n, f, tols in CASES for t in tols],
+    [(n, f, t) for n, f, tols in CASES for t in tols]
+    + [pytest.param(n, f, t, marks=pytest.mark.long) for n, f, tols in LONG_CASES for t in tols],
     ids=lambda x: str(x),
 )
 def test_stress_file(name: str, fmt: str, tol: float, tmp_path: Path) -> None:

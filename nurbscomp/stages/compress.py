@@ -132,9 +132,10 @@ FINE_SHARE = 0.5
 
 
 def small_part(m: BRepModel, faces: int | None = None) -> bool:
-    """Whether ``m`` is a small part, which is always coded tighter too: at
-    most ``faces`` faces (default :data:`RETRY_SMALL`) and
-    :data:`RETRY_SMALL_POLES` B-spline poles."""
+    """Whether ``m`` has at most ``faces`` faces and :data:`RETRY_SMALL_POLES`
+    B-spline poles: with the default :data:`RETRY_SMALL`, a small part, coded
+    tighter down to :data:`SMALL_FLOOR`; with :data:`RETRY_MEDIUM`, a part
+    coded within tol/10 once."""
     if not 0 < len(m.face_surface) <= (RETRY_SMALL if faces is None else faces):
         return False
     rows = (g for g in (*m.surfaces, *m.curves3d) if isinstance(g, (BSplineSurface, BSplineCurve)))
