@@ -3,8 +3,6 @@ their neighbours), tolerances on a quarter-power scale, point representations.""
 
 from __future__ import annotations
 
-import itertools
-
 import numpy as np
 
 from .. import container, entropy
@@ -267,13 +265,23 @@ def _write_vertices(m: BRepModel, tol: float = 0.0) -> bytes:
             if ec > e:
                 qc = _on_step(pts, float(np.ldexp(1.0, ec)))[1]
                 grids.append((bi, ec, np.where(bi[:, None], qc, q)))
-        for (b, eb, qb), deltas in itertools.product(
-            grids, (False, True) if tw.any() else (False,)
-        ):
-            raw = _vertex_arrays(m, on_grid & ~tw, qb, ref, k, tw, near, b, eb, deltas)
+        # the grids weighed with the references as distances, then the best
+        # of them with the references as differences (the choices hardly
+        # depend on each other, and each trial is an LZMA run)
+        pick, here = b"", 0
+        for b, eb, qb in grids:
+            raw = _vertex_arrays(m, on_grid & ~tw, qb, ref, k, tw, near, b, eb)
             n = entropy.xz_size(raw)
-            if not best or n < size:
-                best, size = raw, n
+            if not pick or n < here:
+                pick, here, chosen = raw, n, (b, eb, qb)
+        if tw.any():
+            b, eb, qb = chosen
+            raw = _vertex_arrays(m, on_grid & ~tw, qb, ref, k, tw, near, b, eb, True)
+            n = entropy.xz_size(raw)
+            if n < here:
+                pick, here = raw, n
+        if not best or here < size:
+            best, size = pick, here
     return best
 
 
