@@ -255,7 +255,7 @@ def _write_vertices(m: BRepModel, tol: float = 0.0) -> bytes:
     near = (vertex_neighbours(m), vertex_quads(m)) if (on_grid | binary).any() else ([], {})
     none = np.zeros(len(pts), bool)
     twin = ref >= 0
-    best, size = b"", 0
+    kept: list[tuple[int, bytes]] = []  # (LZMA size alone, section), in trial order
     for tw in (none, twin) if twin.any() else (none,):
         bi = binary & ~tw
         grids = [(none, e, q)]
@@ -268,21 +268,17 @@ def _write_vertices(m: BRepModel, tol: float = 0.0) -> bytes:
         # the grids weighed with the references as distances, then the best
         # of them with the references as differences (the choices hardly
         # depend on each other, and each trial is an LZMA run)
-        pick, here = b"", 0
-        for b, eb, qb in grids:
-            raw = _vertex_arrays(m, on_grid & ~tw, qb, ref, k, tw, near, b, eb)
-            n = entropy.xz_size(raw)
-            if not pick or n < here:
-                pick, here, chosen = raw, n, (b, eb, qb)
+        trials = [
+            _vertex_arrays(m, on_grid & ~tw, qb, ref, k, tw, near, b, eb) for b, eb, qb in grids
+        ]
+        sizes = [entropy.xz_size(raw) for raw in trials]
+        i = sizes.index(min(sizes))  # the first of the smallest
+        kept.append((sizes[i], trials[i]))
         if tw.any():
-            b, eb, qb = chosen
+            b, eb, qb = grids[i]
             raw = _vertex_arrays(m, on_grid & ~tw, qb, ref, k, tw, near, b, eb, True)
-            n = entropy.xz_size(raw)
-            if n < here:
-                pick, here = raw, n
-        if not best or here < size:
-            best, size = pick, here
-    return best
+            kept.append((entropy.xz_size(raw), raw))
+    return min(kept, key=lambda s: s[0])[1]  # the first of the smallest
 
 
 def coarsest_exponent(pts: np.ndarray, e: int) -> int:

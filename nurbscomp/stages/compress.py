@@ -136,10 +136,19 @@ def small_part(m: BRepModel, faces: int | None = None) -> bool:
     B-spline poles: with the default :data:`RETRY_SMALL`, a small part, coded
     tighter down to :data:`SMALL_FLOOR`; with :data:`RETRY_MEDIUM`, a part
     coded within tol/10 once."""
-    if not 0 < len(m.face_surface) <= (RETRY_SMALL if faces is None else faces):
-        return False
+    return _small(len(m.face_surface), _spline_poles(m), RETRY_SMALL if faces is None else faces)
+
+
+def _small(faces: int, poles: int, most: int) -> bool:
+    """:func:`small_part` of a part of ``faces`` faces and ``poles`` poles,
+    with at most ``most`` faces."""
+    return 0 < faces <= most and poles <= RETRY_SMALL_POLES
+
+
+def _spline_poles(m: BRepModel) -> int:
+    """The poles of ``m``'s B-spline surfaces and 3-D curves."""
     rows = (g for g in (*m.surfaces, *m.curves3d) if isinstance(g, (BSplineSurface, BSplineCurve)))
-    return sum(g.poles.size // g.poles.shape[-1] for g in rows) <= RETRY_SMALL_POLES
+    return sum(g.poles.size // g.poles.shape[-1] for g in rows)
 
 
 def fine_share(m: BRepModel, tol: float) -> float:
@@ -209,7 +218,8 @@ def _coded(
     pack = packer(tol)
     tighter = tol / RETRY_FACTOR
     faces = len(m.face_surface)
-    small = small_part(m)
+    poles = _spline_poles(m)
+    small = _small(faces, poles, RETRY_SMALL)
     # room for a tighter coding: a small part's goes down to SMALL_FLOOR
     # whatever the level, so that what a tolerance tries holds what every
     # smaller one down to the floor tries, and no file grows with it
@@ -251,7 +261,7 @@ def _coded(
         and (
             climbed >= RETRY_SHARE * faces
             or small
-            or (not level and small_part(m, RETRY_MEDIUM))
+            or (not level and _small(faces, poles, RETRY_MEDIUM))
             or (not level and fine_share(m, tol) >= FINE_SHARE)
         )
         and room
