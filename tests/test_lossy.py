@@ -457,12 +457,12 @@ def test_iso_boundary_curves_are_their_surfaces_boundaries(name: str, tmp_path: 
     iso = coincide.iso_sources(src, crows, srows)
     moved = [
         c
-        for c, (r, _, _) in iso.items()
+        for c, (r, _, _, _) in iso.items()
         if not np.array_equal(m.surfaces[r].poles, src.surfaces[r].poles)
     ]
     assert moved, "no coded surface has an iso-boundary edge: the test would prove nothing"
     for c in moved:
-        r, side, rev = iso[c]
+        r, side, rev, _ = iso[c]
         assert np.array_equal(
             m.curves3d[c].poles, joins.boundary(m.surfaces[r].poles, side, bool(rev))
         )

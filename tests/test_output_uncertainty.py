@@ -187,9 +187,14 @@ def test_an_uncertainty_that_keeps_nothing_more_is_not_written(
 @pytest.mark.parametrize("path", [in_corpus("occt__ec_turbine-A.stp")])
 def test_ec_turbine_at_a_tenth_of_a_mm_keeps_its_edges(path: Path, tmp_path: Path, made) -> None:
     """Read back with the average tolerance (0.2 mm) as its precision, the
-    first candidate came back with 140 edges against 131; with its widened
-    0.5 mm, as OCCT's own round trip does, and the file is 8.6 kB, not 12.2."""
+    first candidate came back with 140 edges against 131; written with its
+    widened 0.5 mm, it kept them as OCCT's own round trip does, and the file
+    was 8.6 kB, not 12.2.  Its 31 sides trimmed by a cut are now copies of
+    their surfaces (docs/method.md item 50), so the pcurves of two faces
+    meet at their vertices: 7.6 kB, whatever uncertainty it is written with."""
     nzc = made(path, 0.1)
-    assert _meta(nzc)["uncertainty"] == 0.5
+    assert nzc.stat().st_size < 8_000
     assert_step_keeps_floor(occ.read_cad(path, product=True), nzc, tmp_path)
-    assert _uncertainties(tmp_path / "out.step") == pytest.approx([0.5])
+    u = _meta(nzc).get("uncertainty")
+    if u is not None:
+        assert _uncertainties(tmp_path / "out.step") == pytest.approx([u])

@@ -1078,7 +1078,7 @@ def _copy_iso(
         src = coded.iso.get(crec[c])
         if src is None or crec[c] in exact or curves[c] is not g:
             continue
-        r, side, rev = src
+        r, side, rev, _ = src
         if srec[r] not in codes:
             continue  # the surface is exact, and so is its boundary: the curve as it is
         assert isinstance(g, BSplineCurve)

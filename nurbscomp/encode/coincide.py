@@ -40,11 +40,13 @@ from ..rules.joins import (
 
 class IsoSource(NamedTuple):
     """Where an iso-boundary curve comes from (:func:`iso_sources`): side
-    ``side`` of the net of surface row ``surface``, reversed if ``reversed``."""
+    ``side`` of the net of surface row ``surface``, reversed if ``reversed``;
+    its poles that side's up to ``distance`` (0: bit for bit)."""
 
     surface: int
     side: int
     reversed: int
+    distance: float = 0.0
 
 
 class Twin(NamedTuple):
@@ -57,16 +59,24 @@ class Twin(NamedTuple):
     distance: float
 
 
-def iso_sources(m: BRepModel, curve_rows: set[int], surface_rows: set[int]) -> dict[int, IsoSource]:
-    """Curves that are a boundary of a surface on the same edge, bit for bit.
+def iso_sources(
+    m: BRepModel, curve_rows: set[int], surface_rows: set[int], eps: float = 0.0
+) -> dict[int, IsoSource]:
+    """Curves that are a boundary of a surface on the same edge, up to ``eps``.
 
-    Returns ``{curve row: (surface row, side, reversed)}`` for each curve row in
-    ``curve_rows`` that an unlocated edge uses over its whole range, whose
-    degree, knots and weights are those of the boundary, and whose poles are
-    those of ``boundary(surface poles, side, reversed)``, for the surface (in
-    ``surface_rows``, clamped, unlocated face) of a face on that edge.  Such a
-    curve is not coded: the decoder copies it from the decoded surface, so
-    the two meet exactly (docs/design.md §4, "shared iso-boundaries coded once").
+    Returns ``{curve row: (surface row, side, reversed, distance)}`` for each
+    curve row in ``curve_rows`` that an unlocated edge uses over its whole
+    range or a part of it, whose degree, knots and weights are those of the
+    boundary, and whose poles are those of ``boundary(surface poles, side,
+    reversed)``, bit for bit or each within ``eps`` (the largest distance is
+    ``distance``: the encoder codes the surface within the curve's limit less
+    it, ``encode.nets.code_model``), for the surface (in ``surface_rows``,
+    clamped, unlocated face) of a face on that edge.  Such a curve is not
+    coded: the decoder copies it from the decoded surface, so the two meet
+    exactly (docs/design.md §4, "shared iso-boundaries coded once").  A part
+    of the range is what a boolean leaves of a loft's or a sweep's side (the
+    face trimmed, its surface not): the copy is the whole side, the edge's
+    range picks the part.
     """
     faces_of = faces_around(m, ShapeType.EDGE)
     out: dict[int, IsoSource] = {}
@@ -79,23 +89,27 @@ def iso_sources(m: BRepModel, curve_rows: set[int], surface_rows: set[int]) -> d
         if not isinstance(g, BSplineCurve) or not clamped_curve(g):
             continue
         first, last = (0.0, 1.0) if g.bezier else (g.knots[0], g.knots[-1])
-        if (m.edge_rep_range[q] != (first, last)).any():
+        lo, hi = m.edge_rep_range[q].tolist()
+        if not first <= lo < hi <= last:
             continue
         e = int(reps[q, EC.EDGE])
         for f in faces_of[e]:
             r = int(m.face_surface[f])
-            hit = _boundary_match(g, m.surfaces[r]) if r in surface_rows else None
+            hit = _boundary_match(g, m.surfaces[r], eps) if r in surface_rows else None
             if hit is not None and m.face_loc[f] == 0:
                 out[c] = IsoSource(r, *hit)
                 break
     return out
 
 
-def _boundary_match(g: BSplineCurve, s: Geometry) -> tuple[int, int] | None:
-    """(side, reversed) where curve ``g`` is bit for bit a boundary of ``s``, or None."""
+def _boundary_match(g: BSplineCurve, s: Geometry, eps: float) -> tuple[int, int, float] | None:
+    """(side, reversed, distance) where curve ``g``'s poles are a boundary of
+    ``s``'s within ``eps`` (the first bit for bit, else the nearest), its
+    degree, knots and weights that boundary's bit for bit; or None."""
     if not clamped_surface(s):
         return None
     assert isinstance(s, BSplineSurface)
+    best: tuple[int, int, float] | None = None
     for side in range(SIDES):
         along_u = side >= 2  # columns run along u
         deg = s.udegree if along_u else s.vdegree
@@ -103,7 +117,14 @@ def _boundary_match(g: BSplineCurve, s: Geometry) -> tuple[int, int] | None:
         wrow = None if w is None else boundary(w[..., None], side, False)[:, 0]
         for rev in (0, 1):
             p = boundary(s.poles, side, bool(rev))
-            if p.shape != g.poles.shape or not np.array_equal(p, g.poles):
+            if p.shape != g.poles.shape:
+                continue
+            d = (
+                0.0
+                if np.array_equal(p, g.poles)
+                else float(np.sqrt(((p - g.poles) ** 2).sum(-1)).max())
+            )
+            if d > eps or (best is not None and d >= best[2]):
                 continue
             wr = None if wrow is None else (wrow[::-1] if rev else wrow)
             if (wr is None) != (g.weights is None):
@@ -116,8 +137,10 @@ def _boundary_match(g: BSplineCurve, s: Geometry) -> tuple[int, int] | None:
                 kn, mu = side_knots(s, side, bool(rev))
                 if not (np.array_equal(kn, g.knots) and np.array_equal(mu, g.mults)):
                     continue
-            return side, rev
-    return None
+            if d == 0.0:
+                return side, rev, d
+            best = (side, rev, d)
+    return best
 
 
 # ------------------------------------------------------------ coincident curves and vertices
@@ -188,6 +211,9 @@ def nearest(points: np.ndarray, queries: np.ndarray) -> tuple[np.ndarray, np.nda
 #: Curves whose poles agree within this (mm) are one boundary, coded once
 #: (:func:`twin_curves`); capped at tol/64 so the copy costs little of tol.
 TWIN_EPS = 1e-6
+#: The farthest (mm) an edge curve's poles may be from its surface's side
+#: for the curve to be copied from the decoded side (:func:`iso_sources`).
+ISO_EPS = 1e-9
 
 
 @dataclass(frozen=True)

@@ -705,7 +705,7 @@ def code_model(
     # a side set to its leader's keeps the leader's pole errors, which the
     # follower's own refined bound did not average: both take the pole bound
     rigid = {srec[r] for r in joined} | set(held) if spread else {*srec, *crec}
-    copied = coincide.iso_sources(m, crows, srows0)
+    copied = coincide.iso_sources(m, crows, srows0, min(eps, coincide.ISO_EPS))
     where = joins.curve_placements(m)
     pairs = coincide.twin_curves(m.curves3d, crows, eps, set(copied), where)
     sfirst, cfirst = first_row(m.surfaces), first_row(m.curves3d)
@@ -782,7 +782,12 @@ def code_model(
         else:  # coded to suit, with every knot
             surfaces[k] = closer
             spares.pop(k, None)
-    iso = coincide.iso_sources(m, crows, first_rows(surfaces))
+    iso = coincide.iso_sources(m, crows, first_rows(surfaces), min(eps, coincide.ISO_EPS))
+    iso = {  # a near copy within half its limit: the surface is coded to the rest
+        c: v
+        for c, v in iso.items()
+        if v.distance <= feature_limit(poles_of(m.curves3d[c]), tol) / 2
+    }
     iso_recs = {crec[c]: src for c, src in iso.items()}
     twins = coincide.twin_curves(m.curves3d, crows, eps, set(iso), where)
     twins = _affordable(m.curves3d, twins, tol)
@@ -794,22 +799,25 @@ def code_model(
         twins = {c: v for c, v in twins.items() if c not in lonely}
     twin_recs = {crec[c]: (r, rev) for c, (r, rev, _) in twins.items()}
     limits = _leader_limits(m.curves3d, crec, twins, tol)
-    for c, (r, _, d) in twins.items():  # a surface whose boundary leads is coded to suit
-        if r in iso:
-            sg = m.surfaces[iso[r].surface]
-            need = feature_limit(cast(BSplineCurve, m.curves3d[c]).poles, tol) - d
-            sk = srec[iso[r].surface]
-            code = surfaces[sk][0] if sk in surfaces else None
-            if code is not None and code.bound > need:
-                assert isinstance(sg, BSplineSurface)
-                try:
-                    surfaces[sk] = _code_one(
-                        sg, tol, searched, paper, code.origin, need, wbits, kplan
-                    )
-                    spares.pop(sk, None)  # coded to suit, with every knot
-                except codec.NoCodeError:
-                    del surfaces[sk]
-                    uncodable.add(sk)
+    # a surface whose boundary a copy takes is coded to suit: a near copy
+    # moves by its distance more, a twin of that copy by the twins' distance
+    needs = [(c, src.surface, src.distance) for c, src in iso.items() if src.distance > 0]
+    needs += [
+        (c, iso[r].surface, d + iso[r].distance) for c, (r, _, d) in twins.items() if r in iso
+    ]
+    for c, s, d in needs:
+        need = feature_limit(cast(BSplineCurve, m.curves3d[c]).poles, tol) - d
+        sk = srec[s]
+        code = surfaces[sk][0] if sk in surfaces else None
+        if code is not None and code.bound > need:
+            sg = m.surfaces[s]
+            assert isinstance(sg, BSplineSurface)
+            try:
+                surfaces[sk] = _code_one(sg, tol, searched, paper, code.origin, need, wbits, kplan)
+                spares.pop(sk, None)  # coded to suit, with every knot
+            except codec.NoCodeError:
+                del surfaces[sk]
+                uncodable.add(sk)
     at = joins.anchors(m, m.curves3d, crows)
     if REMOVAL and CURVE_REMOVAL:
         # not a twin's leader (its copies take its poles), nor a curve whose
