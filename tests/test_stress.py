@@ -1,8 +1,8 @@
 """A fast slice of the stress corpus (issue 10; ``make stress`` runs all of it).
 
-Sixteen generated shapes (one of them long: ``LONG_CASES``) spread over the categories of
+Seventeen generated shapes (one of them long: ``LONG_CASES``) spread over the categories of
 :mod:`tests.stress.shapes`, each written in one of the three file kinds
-(STEP, IGES BRep, IGES faces), compressed at 0.01 mm (three of them at
+(STEP, IGES BRep, IGES faces), compressed at 0.01 mm (four of them at
 0.1 mm) and checked as ``tests.stress.run`` checks every file: no crash and no
 error, the same topology counts, every face within tol by independent
 sampling, valid where OCCT's own STEP round trip is, no more free edges
@@ -37,6 +37,8 @@ CASES = [
     ("instance_sphere_3x_01", "step", (0.1,)),
     ("sewn_patches8_00", "brep", (0.01,)),
     ("feature_nurbs_fillet_box", "step", (0.01,)),
+    # a loft cut by a box and a hole: sides used over a part of their range
+    ("boolean_loft_01", "step", (0.1,)),
 ]
 #: Cases over half a minute on 2 cores: run by ``make stress`` (long).
 #: feature_thick_00 as a surface model: faces meeting along edges cut at

@@ -1155,6 +1155,44 @@ def _feature_nurbs(kind: str, r: float) -> TopoDS_Shape:
     return BRepBuilderAPI_NurbsConvert(solid.wrapped, True).Shape()
 
 
+def _booleans(rng: np.random.Generator) -> list[tuple[str, Callable[[], TopoDS_Shape]]]:
+    """Lofts and sweeps cut by a box or a hole: the cut trims their faces but
+    not their surfaces, and the edges along a surface's side keep the whole
+    side as their curve over a part of its range (ec_turbine-A.stp's 31
+    such edges; docs/method.md item 50)."""
+    out: list[tuple[str, Callable[[], TopoDS_Shape]]] = []
+    for k in range(4):
+        w, h = rng.uniform(14, 24), rng.uniform(10, 16)
+        out.append((f"loft_{k:02d}", partial(_cut_loft, w, h, rng.uniform(0.3, 0.7), k % 2 == 1)))
+    for k in range(4):
+        pts = [(0.0, 0.0), (rng.uniform(3, 8), 10.0), (rng.uniform(-2, 2), rng.uniform(18, 24))]
+        dims = (rng.uniform(3, 6), rng.uniform(2, 4))
+        out.append((f"sweep_{k:02d}", partial(_cut_sweep, pts, dims, rng.uniform(0.3, 0.7))))
+    return out
+
+
+def _cut_loft(w: float, h: float, at: float, hole: bool) -> TopoDS_Shape:
+    w, h, at = float(w), float(h), float(at)
+    body = cq.Workplane().rect(w, 0.7 * w).workplane(offset=h / 2).circle(0.3 * w)
+    body = body.workplane(offset=h / 2).rect(0.5 * w, 0.4 * w).loft(ruled=False)
+    body = body.cut(cq.Workplane().box(0.4 * w, 2 * w, 0.15 * h).translate((0, 0, at * h)))
+    if hole:
+        body = body.cut(
+            cq.Workplane("YZ").circle(0.08 * w).extrude(w, both=True).translate((0, 0, 0.8 * h))
+        )
+    return body.val().wrapped
+
+
+def _cut_sweep(
+    pts: list[tuple[float, float]], dims: tuple[float, float], at: float
+) -> TopoDS_Shape:
+    path = cq.Workplane("XZ").spline([(float(x), float(y)) for x, y in pts])
+    body = cq.Workplane("XY").rect(float(dims[0]), float(dims[1])).sweep(path)
+    top = float(pts[-1][1])
+    body = body.cut(cq.Workplane("XY").box(4 * top, 4 * top, 0.2 * top).translate((0, 0, at * top)))
+    return body.val().wrapped
+
+
 CATEGORIES: dict[str, Callable[[np.random.Generator], list[tuple[str, Any]]]] = {
     "fillet": _fillets,
     "chamfer": _chamfers,
@@ -1171,6 +1209,7 @@ CATEGORIES: dict[str, Callable[[np.random.Generator], list[tuple[str, Any]]]] = 
     "seam": _seams,
     "analytic": _analytics,
     "feature": _features,
+    "boolean": _booleans,
 }
 
 #: Entries that are deliberately invalid, name -> why (none at present).
