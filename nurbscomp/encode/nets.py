@@ -18,7 +18,7 @@ from __future__ import annotations
 import collections
 from collections.abc import Iterable, Sequence, Set
 from dataclasses import dataclass, field, replace
-from typing import Any, cast
+from typing import Any, TypeVar, cast
 
 import numpy as np
 
@@ -705,7 +705,8 @@ def code_model(
     # a side set to its leader's keeps the leader's pole errors, which the
     # follower's own refined bound did not average: both take the pole bound
     rigid = {srec[r] for r in joined} | set(held) if spread else {*srec, *crec}
-    copied = coincide.iso_sources(m, crows, srows0, min(eps, coincide.ISO_EPS))
+    iso_eps = min(eps, coincide.ISO_EPS)
+    copied = coincide.iso_sources(m, crows, srows0, iso_eps)
     where = joins.curve_placements(m)
     pairs = coincide.twin_curves(m.curves3d, crows, eps, set(copied), where)
     sfirst, cfirst = first_row(m.surfaces), first_row(m.curves3d)
@@ -782,12 +783,10 @@ def code_model(
         else:  # coded to suit, with every knot
             surfaces[k] = closer
             spares.pop(k, None)
-    iso = coincide.iso_sources(m, crows, first_rows(surfaces), min(eps, coincide.ISO_EPS))
-    iso = {  # a near copy within half its limit: the surface is coded to the rest
-        c: v
-        for c, v in iso.items()
-        if v.distance <= feature_limit(poles_of(m.curves3d[c]), tol) / 2
-    }
+    # a near copy within half its limit: the surface is coded to the rest
+    iso = _affordable(
+        m.curves3d, coincide.iso_sources(m, crows, first_rows(surfaces), iso_eps), tol
+    )
     iso_recs = {crec[c]: src for c, src in iso.items()}
     twins = coincide.twin_curves(m.curves3d, crows, eps, set(iso), where)
     twins = _affordable(m.curves3d, twins, tol)
@@ -1077,12 +1076,15 @@ def _edges_by_surface(m: BRepModel) -> dict[int, set[int]]:
     return out
 
 
-def _affordable(
-    table: list[Geometry], pairs: dict[Any, coincide.Twin], tol: float
-) -> dict[Any, coincide.Twin]:
+#: What :func:`_affordable` sorts: twin pairs, or near iso-boundary copies.
+_Near = TypeVar("_Near", coincide.Twin, coincide.IsoSource)
+
+
+def _affordable(table: list[Geometry], pairs: dict[Any, _Near], tol: float) -> dict[Any, _Near]:
     """The twin pairs (``{member: (leader, reversed, distance)}``, keys a row or
-    (row, side)) whose distance is at most half the member's limit: the
-    leader is coded to the rest (:func:`_leader_limits`)."""
+    (row, side)), or the near iso-boundary copies (``{curve row: IsoSource}``),
+    whose distance is at most half the member's limit: the leader (the
+    surface) is coded to the rest (:func:`_leader_limits`, :func:`code_model`)."""
     return {
         k: v
         for k, v in pairs.items()

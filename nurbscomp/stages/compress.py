@@ -131,17 +131,16 @@ RETRY_LEVELS = 2
 FINE_SHARE = 0.5
 
 
-def small_part(m: BRepModel, faces: int | None = None) -> bool:
-    """Whether ``m`` has at most ``faces`` faces and :data:`RETRY_SMALL_POLES`
-    B-spline poles: with the default :data:`RETRY_SMALL`, a small part, coded
-    tighter down to :data:`SMALL_FLOOR`; with :data:`RETRY_MEDIUM`, a part
-    coded within tol/10 once."""
-    return _small(len(m.face_surface), _spline_poles(m), RETRY_SMALL if faces is None else faces)
+def small_part(m: BRepModel) -> bool:
+    """Whether ``m`` is a small part, coded tighter down to :data:`SMALL_FLOOR`
+    (:data:`RETRY_SMALL` faces, :data:`RETRY_SMALL_POLES` B-spline poles)."""
+    return _small(len(m.face_surface), _spline_poles(m), RETRY_SMALL)
 
 
 def _small(faces: int, poles: int, most: int) -> bool:
-    """:func:`small_part` of a part of ``faces`` faces and ``poles`` poles,
-    with at most ``most`` faces."""
+    """Whether a part of ``faces`` faces and ``poles`` B-spline poles has at
+    most ``most`` faces (:data:`RETRY_SMALL`, or :data:`RETRY_MEDIUM` for a
+    part coded within tol/10 once) and :data:`RETRY_SMALL_POLES` poles."""
     return 0 < faces <= most and poles <= RETRY_SMALL_POLES
 
 
