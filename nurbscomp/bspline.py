@@ -10,6 +10,8 @@ scipy: their values are part of the decoder's closed loop.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 
@@ -119,3 +121,66 @@ def refine(
     p = np.asarray(poles, float)
     rows = p[first[:, None] + np.arange(w.shape[1])[None, :]]  # (m, k, ...)
     return np.einsum("jk,jk...->j...", w, rows)
+
+
+def bezier_form(knots: np.ndarray, mults: np.ndarray, degree: int) -> np.ndarray:
+    """The expanded knot vector of a clamped B-spline of ``degree`` on
+    ``knots`` (distinct values) cut into its Bezier pieces: each inner value
+    ``degree`` times, the ends ``degree`` + 1 times (``mults`` gives only
+    the vector's length: the same values)."""
+    k = np.asarray(knots, float)
+    reps = np.full(len(k), int(degree))
+    reps[[0, -1]] = int(degree) + 1
+    return np.repeat(k, reps)
+
+
+def elevation(
+    knots: np.ndarray,
+    mults: np.ndarray,
+    degree: int,
+    to: int,
+    breaks: np.ndarray | None = None,
+) -> np.ndarray:
+    """The dense matrix E (n', n) that takes the poles of the clamped B-spline
+    of ``degree`` on ``knots`` (distinct values, with ``mults``) to those of
+    the same curve of degree ``to`` >= ``degree`` in its Bezier form over
+    ``breaks`` (distinct values holding ``knots``, the same ends; ``knots``
+    by default; :func:`bezier_form` at ``to``): knot insertion up to that
+    form (eq. 1, :func:`refinement`), then each piece raised t = ``to`` −
+    ``degree`` times at once, Q_i = Σ_j C(p, j)·C(t, i − j) / C(p + t, i)·P_j
+    (p = ``degree``).  Every row's weights are non-negative and sum to one.
+    The matrix is shared between calls (a cache): read it, do not write it."""
+    k = np.ascontiguousarray(knots, float)
+    b = k if breaks is None else np.ascontiguousarray(breaks, float)
+    m = np.ascontiguousarray(mults, np.int64)
+    return _elevation(k.tobytes(), m.tobytes(), int(degree), int(to), b.tobytes())
+
+
+@functools.lru_cache(maxsize=4096)
+def _elevation(k: bytes, m: bytes, p: int, q: int, b: bytes) -> np.ndarray:
+    from math import comb
+
+    if q < p:
+        raise ValueError("elevation lowers no degree")
+    knots, mults = np.frombuffer(k), np.frombuffer(m, np.int64)
+    breaks = np.frombuffer(b)
+    flat = np.repeat(knots, mults)
+    n = len(flat) - p - 1
+    first, w = refinement(flat, bezier_form(breaks, mults, p), p)
+    a = np.zeros((len(first), n))
+    a[np.arange(len(first))[:, None], first[:, None] + np.arange(w.shape[1])[None, :]] = w
+    t = q - p
+    if t == 0:
+        a.setflags(write=False)
+        return a
+    z = np.zeros((q + 1, p + 1))
+    for i in range(q + 1):
+        for j in range(max(0, i - t), min(p, i) + 1):
+            z[i, j] = comb(p, j) * comb(t, i - j) / comb(q, i)
+    pieces = len(breaks) - 1
+    e = np.zeros((q * pieces + 1, p * pieces + 1))
+    for s in range(pieces):  # neighbouring pieces share their end poles
+        e[q * s : q * s + q + 1, p * s : p * s + p + 1] = z
+    out = e @ a
+    out.setflags(write=False)
+    return out

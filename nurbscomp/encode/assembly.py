@@ -1090,9 +1090,12 @@ def _copy_iso(
             if lead.weights is None
             else joins.boundary(lead.weights[..., None], side, bool(rev))
         )
-        if not g.bezier:  # the side's knots, rounded or removed with the surface's
-            kn, mu = joins.side_knots(lead, side, bool(rev))
-            g = replace(g, knots=kn, mults=mu)
+        degree = lead.udegree if side >= 2 else lead.vdegree
+        if not g.bezier:  # the side's knots and degree, rounded, removed or lowered
+            kn, mu = joins.side_knots(lead, side, bool(rev))  # with the surface's
+            g = replace(g, knots=kn, mults=mu, degree=degree)
+        elif degree != g.degree:  # a Bezier side of a lowered surface
+            g = replace(g, degree=degree, mults=np.array([degree + 1, degree + 1]))
         source = m.curves3d[c]
         assert isinstance(source, BSplineCurve)
         new, bound = _follow(source, poles, None if w is None else w[:, 0], coded.tol, g)

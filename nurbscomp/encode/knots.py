@@ -358,15 +358,66 @@ def moved(new: Net, original: Net) -> float:
 
 
 def _moved(new: Net, original: Net) -> float:
+    if degrees(new) != degrees(original):
+        return lowered(new, original)
     if new.poles.shape == original.poles.shape:
         return weights.moved(new, original) + term(original, new)
     up = raised(new, original)
     if up is None:  # other poles, not on a part of the source's knots
         return bridged(new, original)
-    degrees = [new.udegree, new.vdegree] if isinstance(new, BSplineSurface) else [new.degree]
     scale = float(np.abs(new.poles).max(initial=0.0))
-    ulps = ROUNDING * sum(d + 1 for d in degrees) * scale * float(np.finfo(float).eps)
+    ulps = ROUNDING * sum(d + 1 for d in degrees(new)) * scale * float(np.finfo(float).eps)
     return weights.moved(up, original) + ulps * (2 if new.weights is not None else 1)
+
+
+def clamped(g: Net) -> bool:
+    """A non-periodic row (B-spline or Bezier) whose end poles are its ends."""
+    return clamped_surface(g) if isinstance(g, BSplineSurface) else clamped_curve(g)
+
+
+def degrees(g: Net) -> tuple[int, ...]:
+    """A row's degrees: (u, v) for a surface, (degree,) for a curve."""
+    return (g.udegree, g.vdegree) if isinstance(g, BSplineSurface) else (g.degree,)
+
+
+def directions(g: Net) -> list[tuple[np.ndarray, np.ndarray, int]]:
+    """Per direction (u then v, or the curve's), its knots, multiplicities and degree."""
+    if isinstance(g, BSplineSurface):
+        return [(g.uknots, g.umults, g.udegree), (g.vknots, g.vmults, g.vdegree)]
+    return [(g.knots, g.mults, g.degree)]
+
+
+def lowered(new: Net, original: Net) -> float:
+    """Certified distance between ``new``, a non-rational row of lower
+    degree in some direction than ``original`` (:func:`removal.removed`: its
+    degree lowered, inner knots then perhaps removed or rounded), and
+    ``original``: ``new``'s vectors mapped onto ``original``'s ends
+    (:func:`_back`: the same point set), both taken to their Bezier form at
+    ``original``'s degrees over every knot of either (knot insertion, eq. 1,
+    then ``new`` raised, :func:`bspline.elevation`: the same surface or
+    curve) and measured pole by pole, as a row with moved poles is (the
+    Bezier basis is non-negative and sums to one), with ``2·ROUNDING`` ulps
+    per term and direction.  inf where ``new`` is not such a row: another
+    type, rational, a degree higher, periodic."""
+    if type(new) is not type(original) or new.weights is not None or original.weights is not None:
+        return float("inf")
+    if not clamped(new) or not clamped(original):
+        return float("inf")
+    a, b = new.poles, original.poles
+    terms = 0
+    for axis, ((kn, mn, q), (ko, mo, p)) in enumerate(zip(directions(new), directions(original))):
+        kn = _back(ko, kn)  # a vector mapped onto [0, 1] (pcurves.unit_curves), rounded
+        if q > p or np.any(np.diff(kn) <= 0) or (mn[1:-1] > q).any() or (mo[1:-1] > p).any():
+            return float("inf")
+        breaks = np.union1d(kn, ko)  # both in their Bezier form over every knot of either
+        e_new = bspline.elevation(kn, mn, q, p, breaks)
+        e_old = bspline.elevation(ko, mo, p, p, breaks)
+        a = np.swapaxes(np.tensordot(e_new, np.swapaxes(a, 0, axis), axes=(1, 0)), 0, axis)
+        b = np.swapaxes(np.tensordot(e_old, np.swapaxes(b, 0, axis), axes=(1, 0)), 0, axis)
+        terms += 2 * (p + 1)
+    scale = max(float(np.abs(new.poles).max(initial=0.0)), float(np.abs(original.poles).max()))
+    ulps = ROUNDING * terms * scale * float(np.finfo(float).eps)
+    return float(np.sqrt(((a - b) ** 2).sum(-1)).max()) + ulps
 
 
 def bridged(new: Net, original: Net) -> float:

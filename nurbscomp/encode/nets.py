@@ -413,6 +413,13 @@ def _left_knot_bits(h: Geometry, g: Geometry) -> float:
     return RAW_KNOT_BITS if kept else KNOT_BITS
 
 
+#: Codes tried for a row of lowered degree (:func:`_removed`): its bound is
+#: measured against the source (:func:`knots.lowered`), which the sum of the
+#: code's and the lowering's bounds need not exceed; each try gives the code
+#: the room left less the excess.
+LOWERED_TRIES = 3
+
+
 def _removed(
     g: BSplineSurface | BSplineCurve,
     tol: float,
@@ -437,13 +444,24 @@ def _removed(
         hr, dr = knots.apply_reduced(h, g, kplan)
         if dr <= d + knots.SHARE * limit:
             h, d = hr, dr
-    try:
-        code, net = _net_code(h, tol, methods, origin, limit - d, spread)
-    except codec.NoCodeError:
+    lower = knots.degrees(h) != knots.degrees(g)
+    room = limit - d
+    for _ in range(LOWERED_TRIES if lower else 1):
+        try:
+            code, net = _net_code(h, tol, methods, origin, room, spread)
+        except codec.NoCodeError:
+            return None
+        bound = code.bound + d
+        if lower:  # measured as every later step measures it (knots.lowered)
+            bound = knots.moved(replace(h, poles=net), g)
+        if bound <= limit:
+            break
+        room -= bound - limit
+        if room <= 0:
+            return None
+    else:
         return None
-    if code.bound + d > limit:
-        return None
-    coded = replace(code, bound=code.bound + d, limit=limit)
+    coded = replace(code, bound=bound, limit=limit)
     return _rounded_weights(coded, h, replace(h, poles=net), wbits, limit, g)
 
 

@@ -133,15 +133,6 @@ def _from_homogeneous(g: Row, h: np.ndarray) -> Row | None:
     return replace(g, poles=h[..., :-1] / w[..., None], weights=w)
 
 
-def _knots(g: Row, axis: int) -> tuple[int, np.ndarray, np.ndarray]:
-    """Degree, knots and multiplicities of ``g`` along ``axis`` (0: u, or a curve's)."""
-    if isinstance(g, BSplineCurve):
-        return g.degree, g.knots, g.mults
-    if axis == 0:
-        return g.udegree, g.uknots, g.umults
-    return g.vdegree, g.vknots, g.vmults
-
-
 def _with_knots(g: Row, axis: int, k: np.ndarray, m: np.ndarray) -> Row:
     if isinstance(g, BSplineCurve):
         return replace(g, knots=k, mults=m)
@@ -154,7 +145,7 @@ def _direction(g: Row, source: Row, axis: int, budget: float) -> tuple[Row, floa
     """``g`` (``source`` reduced so far) with inner knots of direction ``axis``
     (0: u, or a curve's) removed, one multiplicity at a time, while its move from
     ``source`` (:func:`knots.moved`) stays within ``budget``."""
-    degree, full_k, full_m = _knots(g, axis)
+    full_k, full_m, degree = knots.directions(g)[axis]
     target = np.swapaxes(knots.homogeneous(g), 0, axis)  # fitted against, poles on full_k
     flat_full = np.repeat(full_k, full_m)
     best, moved = g, knots.moved(g, source)
@@ -182,16 +173,94 @@ def _direction(g: Row, source: Row, axis: int, budget: float) -> tuple[Row, floa
     return best, moved
 
 
+#: Whether a row's degree may be lowered before its knots are removed
+#: (:func:`lowered`).
+LOWER = True
+
+#: The share of the budget a lowered degree may take (:func:`removed`).
+LOWER_SHARE = 1.0
+
+#: Most poles of a direction's Bezier form that :func:`lowered` fits
+#: (a dense least-squares solve per degree tried).
+LOWER_MAX = 2048
+
+
+def _with_degree(g: Row, axis: int, degree: int, k: np.ndarray, m: np.ndarray) -> Row:
+    if isinstance(g, BSplineCurve):
+        return replace(g, degree=degree, knots=k, mults=m)
+    if axis == 0:
+        return replace(g, udegree=degree, uknots=k, umults=m)
+    return replace(g, vdegree=degree, vknots=k, vmults=m)
+
+
+def lowered_mults(m: np.ndarray, degree: int, to: int) -> np.ndarray:
+    """The multiplicities of a clamped vector of ``degree`` (``m``) lowered to
+    degree ``to``: the ends ``to`` + 1, each inner knot ``degree`` − ``to``
+    fewer times but at least once, so that a knot keeps its continuity
+    order where the lower degree allows it (C^(p − m) becomes
+    C^min(p − m, q − 1))."""
+    out = np.maximum(np.asarray(m, np.int64) - (degree - to), 1)
+    out[[0, -1]] = to + 1
+    return out
+
+
+def _lowered(g: Row, source: Row, axis: int, budget: float) -> tuple[Row, float]:
+    """``g`` (``source`` lowered so far) with the degree of direction ``axis``
+    lowered as far as keeps it within ``budget`` of ``source``
+    (:func:`knots.moved`, certified), one degree at a time while it fits;
+    the poles of each try fitted in least squares to ``g``'s in their Bezier
+    form at ``g``'s degree (:func:`bspline.elevation`: the quantity the bound
+    measures), the end poles held (clamped ends: corners and vertices stay)."""
+    kn, mn, p = knots.directions(g)[axis]
+    inner = len(kn) > 2
+    lowest = 2 if inner else 1  # a polyline's corners at inner knots: not made
+    d0 = 0.0 if g is source else knots.moved(g, source)
+    if p <= lowest:
+        return g, d0
+    to_bezier = bspline.elevation(kn, mn, p, p)
+    if len(to_bezier) > LOWER_MAX:
+        return g, d0
+    target = np.tensordot(to_bezier, np.swapaxes(g.poles, 0, axis), axes=(1, 0))
+    flat = target.reshape(target.shape[0], -1)
+    best = (g, d0)
+    for q in range(p - 1, lowest - 1, -1):  # down while it fits: a lower degree rarely fits then
+        mq = lowered_mults(mn, p, q)
+        e = bspline.elevation(kn, mq, q, p)
+        x = np.empty((e.shape[1], flat.shape[1]))
+        x[0], x[-1] = flat[0], flat[-1]
+        if e.shape[1] > 2:
+            rhs = flat - np.outer(e[:, 0], x[0]) - np.outer(e[:, -1], x[-1])
+            x[1:-1] = np.linalg.lstsq(e[:, 1:-1], rhs, rcond=None)[0]
+        poles = np.swapaxes(x.reshape((e.shape[1], *target.shape[1:])), 0, axis)
+        cand = replace(_with_degree(g, axis, q, kn, mq), poles=poles)
+        d = knots.moved(cand, source)
+        if d > budget:
+            break
+        best = (cand, d)
+    return best
+
+
 def removed(g: Row, budget: float, axes: tuple[int, ...] = (0, 1)) -> tuple[Row, float] | None:
-    """``g`` with as many inner knots of the directions ``axes`` (0: u)
-    removed as keep it within ``budget`` of itself (:func:`knots.moved`,
-    certified), and that move; None where no knot goes or ``g`` is not a row
-    this applies to (module docstring)."""
-    if not knots.codable(g) or budget <= 0:
+    """``g`` with the degree of the directions ``axes`` (0: u) lowered
+    (:func:`_lowered`, where ``LOWER``; non-rational rows) and then as many
+    of their inner knots removed as keep it within ``budget`` of itself
+    (:func:`knots.moved`, certified), and that move; None where nothing
+    changes or ``g`` is not a row this applies to (module docstring)."""
+    if budget <= 0:
         return None
-    out, d = g, 0.0
-    for axis in (0,) if isinstance(g, BSplineCurve) else axes:
-        out, d = _direction(out, g, axis, budget)
-    if out is g:
-        return None
-    return out, d
+    dirs = (0,) if isinstance(g, BSplineCurve) else axes
+    tries = [(g, 0.0)]
+    if LOWER and g.weights is None and knots.clamped(g):
+        out, d = g, 0.0
+        for axis in dirs:
+            out, d = _lowered(out, g, axis, LOWER_SHARE * budget)
+        if out is not g:
+            tries.append((out, d))
+    best: tuple[Row, float] | None = None
+    for out, d in tries:  # knots removed from the row as it is, and from it lowered
+        if knots.codable(g):
+            for axis in dirs:
+                out, d = _direction(out, g, axis, budget)
+        if out is not g and (best is None or out.poles.size < best[0].poles.size):
+            best = (out, d)
+    return best
