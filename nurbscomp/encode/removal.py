@@ -178,7 +178,7 @@ def _direction(g: Row, source: Row, axis: int, budget: float) -> tuple[Row, floa
 LOWER = True
 
 #: The share of the budget a lowered degree may take (:func:`removed`).
-LOWER_SHARE = 1.0
+LOWER_SHARE = 0.5
 
 #: Most poles of a direction's Bezier form that :func:`lowered` fits
 #: (a dense least-squares solve per degree tried).
