@@ -1,5 +1,5 @@
-"""Inner knots of coded surfaces removed within tol (issue 28: a ratio that grows
-with the tolerance).
+"""Inner knots of coded surfaces removed, and their degrees lowered, within
+tol (issue 28: a ratio that grows with the tolerance).
 
 A surface fitted by a CAD system to scattered data or to another surface
 (a sphere's rational patches re-approximated, a lens blended in Rhino)
@@ -19,7 +19,8 @@ K, with poles Q'; on K the basis is non-negative and sums to one, so
 limit, and its poles are then coded to the limit less that move
 (``nets._code_one``).
 
-**Which rows.**  Clamped B-spline surfaces (not periodic, not Bezier) whose
+**Which rows.**  Clamped B-spline surfaces (not periodic, not Bezier: a
+Bezier row has no inner knot, but may have its degree lowered) whose
 sides no other net copies (``coincide.twin_sides``).  Clamped ends keep
 their poles exactly (the least-squares fit holds the first and last row of
 poles of each direction), so corners and the boundaries across the reduced
@@ -37,6 +38,23 @@ Their end poles stay, so the vertices pinned to them and the edge ranges
 (the first and last knot) see the same ends; an interpolated edge of 50
 poles (a spline through points) keeps a dozen at 0.1 mm.  Their remaining
 knots are the source's, not rounded (``nets.RAW_KNOT_BITS`` prices them).
+
+**Degrees lowered** (:func:`_lowered`, ``LOWER``).  Some CAD systems write
+patches and edges of degree 5 to 12 (CATIA's Bezier patches: trj7's 167
+patches of degree (5, 5), 129 ruled ones of degree 8 along v) whose shape
+a cubic or a quadratic holds within 0.01 or 0.1 mm.  A non-rational
+clamped row (a Bezier one too) has each direction's degree lowered one at
+a time while it fits: the poles of degree q on the same knots (each inner
+knot p − q fewer times, at least once: :func:`lowered_mults`) fitted in
+least squares to the row's in their Bezier form at degree p (the lower
+row raised there is a linear map, :func:`bspline.elevation`), the end
+poles held as above.  Its move is certified by :func:`knots.lowered`:
+both rows in their Bezier form at degree p over every knot of either, the
+same surfaces, compared pole by pole.  It may take ``LOWER_SHARE`` of the
+budget; knots are then removed from the lowered row, and of that and the
+row with knots removed only, the one with fewer poles is kept.  An
+iso-boundary curve takes a lowered side's degree with its poles.  The
+reader needs nothing new: a row's degrees and knots are in its header.
 """
 
 from __future__ import annotations
@@ -177,6 +195,9 @@ def _direction(g: Row, source: Row, axis: int, budget: float) -> tuple[Row, floa
 #: (:func:`lowered`).
 LOWER = True
 
+#: The least degree a direction must have to be lowered (:func:`_lowered`).
+LOWER_FROM = 4
+
 #: The share of the budget a lowered degree may take (:func:`removed`).
 LOWER_SHARE = 0.5
 
@@ -215,7 +236,7 @@ def _lowered(g: Row, source: Row, axis: int, budget: float) -> tuple[Row, float]
     inner = len(kn) > 2
     lowest = 2 if inner else 1  # a polyline's corners at inner knots: not made
     d0 = 0.0 if g is source else knots.moved(g, source)
-    if p <= lowest:
+    if p <= lowest or p < LOWER_FROM:
         return g, d0
     to_bezier = bspline.elevation(kn, mn, p, p)
     if len(to_bezier) > LOWER_MAX:
