@@ -278,3 +278,27 @@ def one_coding(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(compress, "RETRY_SMALL", 0)
     monkeypatch.setattr(compress, "RETRY_MEDIUM", 0)
     monkeypatch.setattr(compress, "FINE_SHARE", float("inf"))
+
+
+def wavy_plate(
+    path: Path,
+    n: int,
+    size: tuple[float, float],
+    wave: tuple[float, float, float],
+    fit: float,
+    degree: int,
+) -> Path:
+    """A wavy plate written to STEP at ``path``: a face fitted by
+    ``makeSplineApprox`` (within ``fit`` mm, at ``degree``) through an
+    ``n`` x ``n`` grid of points over ``size`` (x, y), z = a·sin(x/px)·cos(y/py)
+    with ``wave`` = (a, px, py)."""
+    import cadquery as cq
+    import numpy as np
+
+    x = np.linspace(0.0, size[0], n)
+    y = np.linspace(0.0, size[1], n)
+    a, px, py = wave
+    pts = [[cq.Vector(u, v, a * np.sin(u / px) * np.cos(v / py)) for v in y.tolist()] for u in x]
+    face = cq.Face.makeSplineApprox(pts, tol=fit, minDeg=degree, maxDeg=degree)
+    cq.exporters.export(cq.Workplane().add(face), str(path))
+    return path

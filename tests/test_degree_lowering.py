@@ -7,7 +7,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import cadquery as cq
 import numpy as np
 import pytest
 
@@ -18,7 +17,7 @@ from nurbscomp.encode import removal
 from nurbscomp.model import BSplineCurve, BSplineSurface
 from nurbscomp.occ import topology
 
-from .conftest import assert_comes_back
+from .conftest import assert_comes_back, wavy_plate
 
 
 def _random_curve(rng: np.random.Generator, degree: int) -> BSplineCurve:
@@ -126,15 +125,7 @@ def _high_degree_plate(path: Path) -> Path:
     """A wavy plate fitted at degree 7 through a 30 x 30 grid of points to
     1e-5 mm: poles of a degree its shape does not need at 0.01 mm (as the
     Bezier patches of degree 5 to 9 some CAD systems write)."""
-    x = np.linspace(0.0, 60.0, 30)
-    y = np.linspace(0.0, 40.0, 30)
-    pts = [
-        [cq.Vector(a, b, 5.0 * np.sin(a / 9.0) * np.cos(b / 7.0)) for b in y.tolist()]
-        for a in x.tolist()
-    ]
-    face = cq.Face.makeSplineApprox(pts, tol=1e-5, minDeg=7, maxDeg=7)
-    cq.exporters.export(cq.Workplane().add(face), str(path))
-    return path
+    return wavy_plate(path, 30, (60.0, 40.0), (5.0, 9.0, 7.0), 1e-5, 7)
 
 
 def test_a_high_degree_face_comes_back_of_lower_degree(

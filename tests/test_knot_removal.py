@@ -18,7 +18,7 @@ from nurbscomp.encode import removal
 from nurbscomp.model import BSplineCurve, BSplineSurface
 from nurbscomp.occ import topology
 
-from .conftest import assert_comes_back
+from .conftest import assert_comes_back, wavy_plate
 
 
 def _coarse(rng: np.random.Generator, rational: bool) -> BSplineSurface:
@@ -134,15 +134,7 @@ def test_raised_refuses_rows_that_are_not_a_part() -> None:
 def _dense_face(path: Path) -> Path:
     """A smooth wavy plate fitted through a 40 x 40 grid of points to 1e-6
     mm (``makeSplineApprox``): far more poles than its shape needs at 0.1 mm."""
-    x = np.linspace(0.0, 80.0, 40)
-    y = np.linspace(0.0, 60.0, 40)
-    pts = [
-        [cq.Vector(a, b, 4.0 * np.sin(a / 25.0) * np.cos(b / 20.0)) for b in y.tolist()]
-        for a in x.tolist()
-    ]
-    face = cq.Face.makeSplineApprox(pts, tol=1e-6, minDeg=3, maxDeg=3)
-    cq.exporters.export(cq.Workplane().add(face), str(path))
-    return path
+    return wavy_plate(path, 40, (80.0, 60.0), (4.0, 25.0, 20.0), 1e-6, 3)
 
 
 def _coded_pairs(src: Path, tmp_path: Path, bound: str, table: str) -> list[tuple[Any, Any]]:
