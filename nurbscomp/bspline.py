@@ -123,11 +123,10 @@ def refine(
     return np.einsum("jk,jk...->j...", w, rows)
 
 
-def bezier_form(knots: np.ndarray, mults: np.ndarray, degree: int) -> np.ndarray:
+def bezier_form(knots: np.ndarray, degree: int) -> np.ndarray:
     """The expanded knot vector of a clamped B-spline of ``degree`` on
     ``knots`` (distinct values) cut into its Bezier pieces: each inner value
-    ``degree`` times, the ends ``degree`` + 1 times (``mults`` gives only
-    the vector's length: the same values)."""
+    ``degree`` times, the ends ``degree`` + 1 times."""
     k = np.asarray(knots, float)
     reps = np.full(len(k), int(degree))
     reps[[0, -1]] = int(degree) + 1
@@ -166,7 +165,7 @@ def _elevation(k: bytes, m: bytes, p: int, q: int, b: bytes) -> np.ndarray:
     breaks = np.frombuffer(b)
     flat = np.repeat(knots, mults)
     n = len(flat) - p - 1
-    first, w = refinement(flat, bezier_form(breaks, mults, p), p)
+    first, w = refinement(flat, bezier_form(breaks, p), p)
     a = np.zeros((len(first), n))
     a[np.arange(len(first))[:, None], first[:, None] + np.arange(w.shape[1])[None, :]] = w
     t = q - p
