@@ -257,19 +257,23 @@ def _boundary_reach(
     mat: Callable[[int], np.ndarray],
     o: np.ndarray,
     curve_of: dict[int, tuple[int, np.ndarray, int]],
+    tidx: list[int],
+    types: list[int],
 ) -> float:
     """The largest distance from ``o`` (homogeneous, in face shape ``s``'s own
-    frame) of a point of the face's boundary (inf where unknown)."""
-    tidx = m.type_index()
+    frame) of a point of the face's boundary (inf where unknown); ``tidx``
+    and ``types`` are ``m.type_index()`` and ``m.shape_type`` as lists."""
     start, child, loc = m.child_start, m.child_shape, m.child_loc
     far, seen = 0.0, False
+    wire, edge = int(ShapeType.WIRE), int(ShapeType.EDGE)
     for i in range(start[s], start[s + 1]):
         w = int(child[i])
-        if m.shape_type[w] != ShapeType.WIRE:
+        if types[w] != wire:
             continue
         for j in range(start[w], start[w + 1]):
-            e, k = int(child[j]), int(tidx[child[j]])
-            if m.shape_type[e] != ShapeType.EDGE:
+            e = int(child[j])
+            k = tidx[e]
+            if types[e] != edge:
                 continue
             seen = True
             place = mat(int(loc[i])) @ mat(int(loc[j]))  # the edge in the face
@@ -348,6 +352,7 @@ def reaches(m: BRepModel) -> tuple[dict[int, float], dict[int, float]]:
             mats[i] = joins.location_matrix(m, i)
         return mats[i]
 
+    tidx, types = m.type_index().tolist(), m.shape_type.tolist()
     for f, s in enumerate(np.flatnonzero(m.shape_type == ShapeType.FACE).tolist()):
         r = resolve_row(m.surfaces, int(m.face_surface[f]), (Kind.TRIMMED_SURFACE,))
         base = m.surfaces[r]
@@ -362,6 +367,8 @@ def reaches(m: BRepModel) -> tuple[dict[int, float], dict[int, float]]:
                 mat,
                 mat(int(m.face_loc[f])) @ np.r_[base.frame[0], 1.0],  # o in the face's frame
                 curve_of,
+                tidx,
+                types,
             )
         far_s[r] = max(far_s.get(r, 0.0), far)
     surfaces = {r: x for r, x in far_s.items() if math.isfinite(x)}

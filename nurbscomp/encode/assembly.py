@@ -431,7 +431,6 @@ def _thread(
     vr = source.vertex_reps
     based |= set(vr[vr[:, VC.KIND] == PointRepKind.ON_CURVE, VC.CURVE].tolist())
     seams = set(reps[reps[:, EC.KIND] == RepKind.ON_CLOSED_SURFACE, EC.EDGE].tolist())
-    edge_shapes = np.flatnonzero(m.shape_type == ShapeType.EDGE)
     nv = len(m.vertex_tol)
     twin = np.bincount(lead, minlength=nv)[lead] > 1 if len(lead) == nv else np.zeros(nv, bool)
     line_twin = _apart_twins(source.vertex_point, lead, twin) if TWIN_LINES else twin
@@ -444,7 +443,7 @@ def _thread(
         if isinstance(m.surfaces[r], Analytic | BSplineSurface)
     }
     faces_of = faces_around(m, ShapeType.EDGE)
-    tidx = m.type_index()
+    table = joins.end_vertices(m)
     rows = _Rows(curves)
     axes: dict[int, int] | None = None
     copied = False
@@ -465,7 +464,7 @@ def _thread(
             seam = e in seams and (g.kind != Kind.LINE or not SEAM_LINES)
             if reps[q, EC.LOC] != 0 or seam or any(f not in plain for f in faces_of[e]):
                 break
-            two = joins.edge_ends(m, int(edge_shapes[e]), tidx)
+            two = joins.edge_ends(table, e)
             held = line_twin if g.kind == Kind.LINE else twin
             if len(two) != 2 or held[[two[joins.FORWARD], two[joins.REVERSED]]].any():
                 break
@@ -585,6 +584,13 @@ def _line_through(
     return new, dev, [(joins.on_line(new, a), joins.on_line(new, b))]
 
 
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``np.cross`` of two 3-vectors, its products and differences in the
+    same order (the same bits), without its cost per call."""
+    (a0, a1, a2), (b0, b1, b2) = a.tolist(), b.tolist()
+    return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
+
+
 def _circle_through(
     m: BRepModel,
     was: Analytic,
@@ -617,8 +623,8 @@ def _circle_through(
     axial = float(d @ n)
     radial = float(np.linalg.norm(d - axial * n))
     move = math.hypot(axial, radial + abs(r2 - r)) + 2 * r2 * float(np.linalg.norm(n - n2))
-    y = np.cross(n, x)
-    y2 = np.cross(n2, new.frame[2])
+    y = _cross(n, x)
+    y2 = _cross(n2, new.frame[2])
     y2 /= np.linalg.norm(y2)
 
     def on_source(t: float) -> np.ndarray:

@@ -115,13 +115,16 @@ def on_line(g: Analytic, p: np.ndarray) -> float:
 def _on_circle(g: Analytic, p: np.ndarray) -> float:
     """The angle of ``p`` about a circle's axis (frame: origin, axis, X
     direction) from its X direction, in [0, 2π); within 1e-9 below 0 is 0."""
-    q, (n, x) = p - g.frame[0], g.frame[1:3]
-    y = np.array([n[1] * x[2] - n[2] * x[1], n[2] * x[0] - n[0] * x[2], n[0] * x[1] - n[1] * x[0]])
-    norm = math.sqrt(_dot(y, y))
+    # in Python floats: each operation rounds as numpy's would, at a tenth of the cost
+    (o0, o1, o2), (n0, n1, n2), (x0, x1, x2) = g.frame[:3].tolist()
+    p0, p1, p2 = (float(c) for c in p)
+    q0, q1, q2 = p0 - o0, p1 - o1, p2 - o2
+    y0, y1, y2 = n1 * x2 - n2 * x1, n2 * x0 - n0 * x2, n0 * x1 - n1 * x0
+    norm = math.sqrt((y0 * y0 + y1 * y1) + y2 * y2)
     if not norm > 0:  # no frame (only a damaged file has one): no angle
         return 0.0
-    y = y / norm  # gp_Ax2's Y direction: N × X, normalised
-    t = math.atan2(_dot(q, y), _dot(q, x))
+    y0, y1, y2 = y0 / norm, y1 / norm, y2 / norm  # gp_Ax2's Y direction: N × X, normalised
+    t = math.atan2((q0 * y0 + q1 * y1) + q2 * y2, (q0 * x0 + q1 * x1) + q2 * x2)
     if t < 0:  # just below the X axis is the start of the turn, not its end
         t = 0.0 if t > -1e-9 else t + 2 * math.pi
     return t
@@ -136,16 +139,53 @@ def curve_uses(m: BRepModel) -> dict[int, list[int]]:
     return use
 
 
-def edge_ends(m: BRepModel, edge_shape: int, tidx: np.ndarray) -> dict[int, int]:
-    """The vertex rows of an edge shape's first FORWARD and first REVERSED
-    direct children with reference location 0 (by orientation, where it has
-    them); ``tidx`` is ``m.type_index()``."""
-    ends: dict[int, int] = {}
-    for k in range(m.child_start[edge_shape], m.child_start[edge_shape + 1]):
-        v, o = int(m.child_shape[k]), int(m.child_orient[k])
-        if m.shape_type[v] == ShapeType.VERTEX and m.child_loc[k] == 0 and o in (0, 1):
-            ends.setdefault(o, int(tidx[v]))
-    return ends
+def end_vertices(m: BRepModel) -> np.ndarray:
+    """Per edge row, the vertex rows of its first FORWARD and first REVERSED
+    direct children with reference location 0, shape (E, 2) (column 0
+    FORWARD, 1 REVERSED); -1 where it has none.  One vectorised pass over
+    the child references (references outside the shapes table are no
+    vertices), where a loop per edge cost a tenth of compressing a part of
+    lines and circles."""
+    types = np.asarray(m.shape_type)
+    start = np.asarray(m.child_start, np.int64)
+    kids = np.asarray(m.child_shape, np.int64)
+    orient = np.asarray(m.child_orient, np.int64)
+    n, nref = len(types), len(kids)
+    tidx = m.type_index()
+    edges = types == ShapeType.EDGE
+    out = np.full((int(edges.sum()), 2), -1, np.int64)
+    if not nref or len(start) != n + 1:
+        return out
+    # the shape whose child list holds each reference (start is nondecreasing
+    # and ends at nref in every model the readers build)
+    parent = np.searchsorted(start, np.arange(nref), side="right") - 1
+    inside = (kids >= 0) & (kids < n) & (parent >= 0) & (parent < n)
+    ktype = np.full(nref, -1, np.int64)
+    ktype[inside] = types[kids[inside]]
+    ptype = np.full(nref, -1, np.int64)
+    ptype[inside] = types[parent[inside]]
+    refs = np.flatnonzero(
+        (ptype == ShapeType.EDGE)
+        & (ktype == ShapeType.VERTEX)
+        & (np.asarray(m.child_loc) == 0)
+        & ((orient == FORWARD) | (orient == REVERSED))
+    )
+    key = tidx[parent[refs]] * 2 + orient[refs]
+    keys, first = np.unique(key, return_index=True)  # the first reference of each
+    out.reshape(-1)[keys] = tidx[kids[refs[first]]]
+    return out
+
+
+def edge_ends(ends: np.ndarray, e: int) -> dict[int, int]:
+    """Edge row ``e``'s end vertex rows by orientation (FORWARD, REVERSED),
+    where it has them; ``ends`` is :func:`end_vertices`'s table."""
+    fwd, rev = ends[e].tolist()
+    out = {}
+    if fwd >= 0:
+        out[FORWARD] = fwd
+    if rev >= 0:
+        out[REVERSED] = rev
+    return out
 
 
 def line_through(a: np.ndarray, b: np.ndarray) -> np.ndarray | None:
@@ -220,6 +260,7 @@ def face_points(m: BRepModel) -> dict[int, int]:
     Records whose first face has no such vertex are left out."""
     types, children, start, locs = m.shape_type, m.child_shape, m.child_start, m.child_loc
     tidx = m.type_index()
+    table = end_vertices(m)
     first = first_row(m.surfaces)
     wire, edge = int(ShapeType.WIRE), int(ShapeType.EDGE)
     out: dict[int, int] = {}
@@ -241,7 +282,7 @@ def face_points(m: BRepModel) -> dict[int, int]:
         for j in range(start[w], start[w + 1]):
             e = int(children[j])
             if types[e] == edge and locs[j] == 0:
-                v = edge_ends(m, e, tidx).get(FORWARD)
+                v = edge_ends(table, int(tidx[e])).get(FORWARD)
                 if v is not None:
                     out[row] = v
                     break
@@ -323,8 +364,7 @@ def through_vertices(m: BRepModel) -> None:
         return
     reps = m.edge_reps
     use = curve_uses(m)
-    edge_shapes = np.flatnonzero(m.shape_type == ShapeType.EDGE)
-    tidx = m.type_index()
+    table = end_vertices(m)
     held = collections.Counter(id(h) for h in m.curves3d)
     axes: dict[int, int] | None = None
     for i in rows:
@@ -334,12 +374,12 @@ def through_vertices(m: BRepModel) -> None:
         if held[id(g)] != 1:
             raise BadReferenceError(f"CRV3 row {i}: a curve through vertices is copied")
         if g.kind == Kind.LINE:
-            _line_through_edge(m, i, qs, edge_shapes, tidx)
+            _line_through_edge(m, i, qs, table)
             continue
         if not qs or any(reps[q, EC.LOC] != 0 for q in qs):
             raise BadReferenceError(f"CRV3 row {i}: a circle through a vertex on no unlocated edge")
         e = int(reps[qs[0], EC.EDGE])
-        ends = edge_ends(m, int(edge_shapes[e]), tidx)
+        ends = edge_ends(table, e)
         if FORWARD not in ends:
             raise BadReferenceError(f"CRV3 row {i}: its edge has no unlocated FORWARD vertex")
         if axes is None:
@@ -357,16 +397,14 @@ def through_vertices(m: BRepModel) -> None:
         g.params[...] = made.params
 
 
-def _line_through_edge(
-    m: BRepModel, i: int, qs: list[int], edge_shapes: np.ndarray, tidx: np.ndarray
-) -> None:
+def _line_through_edge(m: BRepModel, i: int, qs: list[int], table: np.ndarray) -> None:
     """The frame of line row ``i`` (2.2) from its one edge's vertices, in place."""
     g = m.curves3d[i]
     assert isinstance(g, Analytic)
     reps = m.edge_reps
     if len(qs) != 1 or reps[qs[0], EC.LOC] != 0:
         raise BadReferenceError(f"CRV3 row {i}: a line through vertices used by {len(qs)} edges")
-    ends = edge_ends(m, int(edge_shapes[reps[qs[0], EC.EDGE]]), tidx)
+    ends = edge_ends(table, int(reps[qs[0], EC.EDGE]))
     if len(ends) != 2:
         raise BadReferenceError(f"CRV3 row {i}: its edge has no two unlocated vertices")
     a, b = (m.vertex_point[ends[o]] for o in (FORWARD, REVERSED))
@@ -386,26 +424,38 @@ def vertex_ranges(m: BRepModel) -> dict[int, tuple[float, float]]:
     start (a whole turn when both vertices are one).  Only edges with a
     FORWARD and a REVERSED vertex, both unlocated, on an unlocated curve.
     """
-    edge_shapes = np.flatnonzero(m.shape_type == ShapeType.EDGE)
-    tidx = m.type_index()
     reps = m.edge_reps
+    curves = m.curves3d
+    qs = np.flatnonzero((reps[:, EC.KIND] == RepKind.CURVE3D) & (reps[:, EC.LOC] == 0))
+    ends = end_vertices(m)
+    line, circle = int(Kind.LINE), int(Kind.CIRCLE)
+    lines: list[tuple[int, int, int, int]] = []  # (representation, curve, start, end vertex)
     out: dict[int, tuple[float, float]] = {}
-    for q in np.flatnonzero(reps[:, EC.KIND] == RepKind.CURVE3D).tolist():
-        c = int(reps[q, EC.CURVE])
-        if c < 0 or c >= len(m.curves3d) or reps[q, EC.LOC] != 0:
+    for q, c, e in zip(qs.tolist(), reps[qs, EC.CURVE].tolist(), reps[qs, EC.EDGE].tolist()):
+        if c < 0 or c >= len(curves) or not 0 <= e < len(ends):
             continue
-        g = m.curves3d[c]
-        if not isinstance(g, Analytic) or g.kind not in (Kind.LINE, Kind.CIRCLE):
+        g = curves[c]
+        if not isinstance(g, Analytic) or g.kind not in (line, circle):
             continue
-        ends = edge_ends(m, int(edge_shapes[reps[q, EC.EDGE]]), tidx)
-        if len(ends) != 2:
+        a, b = ends[e].tolist()
+        if a < 0 or b < 0:
             continue
-        a, b = (m.vertex_point[ends[e]] for e in (FORWARD, REVERSED))
-        if g.kind == Kind.LINE:
-            out[q] = (on_line(g, a), on_line(g, b))
+        if g.kind == line:
+            lines.append((q, c, a, b))
             continue
-        out[q] = circle_range(g, a, b, ends[FORWARD] == ends[REVERSED])
-    return out
+        p = m.vertex_point
+        out[q] = circle_range(g, p[a], p[b], a == b)
+    if lines:  # on_line's sums in its order, elementwise: the same bits
+        q, c, a, b = (list(x) for x in zip(*lines))
+        frames = np.array([curves[i].frame[:2] for i in c])  # type: ignore[union-attr]
+        o, d = frames[:, 0], frames[:, 1]
+
+        def along(v: list[int]) -> list[float]:
+            p = m.vertex_point[v] - o
+            return ((p[:, 0] * d[:, 0] + p[:, 1] * d[:, 1]) + p[:, 2] * d[:, 2]).tolist()
+
+        out.update(zip(q, zip(along(a), along(b))))
+    return dict(sorted(out.items()))
 
 
 def circle_range(g: Analytic, a: np.ndarray, b: np.ndarray, closed: bool) -> tuple[float, float]:
