@@ -12,8 +12,10 @@ import pytest
 from nurbscomp import codec, container, decode, nearby, occ, pipeline, serialize
 from nurbscomp.encode import coincide
 from nurbscomp.errors import BadReferenceError, SectionError
-from nurbscomp.model import BSplineCurve, BSplineSurface
+from nurbscomp.model import BSplineCurve, BSplineSurface, ShapeType
 from nurbscomp.rules import joins
+
+from .conftest import SAMPLES
 
 GOLDEN = Path(__file__).resolve().parent / "golden"
 
@@ -436,3 +438,46 @@ def test_twin_of_a_side_with_knots_removed(tmp_path: Path) -> None:
     got = pipeline.evaluate(src, nzc)
     assert got["within_tolerance"] and got["topology_same"], got
     assert report["verified"] and report["output_bytes"] < src.stat().st_size / 20
+
+
+def _ends_by_walk(m, e_shape: int, tidx: np.ndarray) -> dict[int, int]:
+    """The reference: an edge shape's first FORWARD and first REVERSED direct
+    vertex children of location 0, walked one reference at a time."""
+    out: dict[int, int] = {}
+    for k in range(m.child_start[e_shape], m.child_start[e_shape + 1]):
+        v, o = int(m.child_shape[k]), int(m.child_orient[k])
+        if not 0 <= v < len(m.shape_type):
+            continue
+        if m.shape_type[v] == ShapeType.VERTEX and m.child_loc[k] == 0 and o in (0, 1):
+            out.setdefault(o, int(tidx[v]))
+    return out
+
+
+@pytest.mark.parametrize("sample", ["assembly.step", "bracket.step", "loft.step", "rings.step"])
+def test_end_vertices_match_a_walk_per_edge(sample: str) -> None:
+    """``joins.end_vertices`` (one vectorised pass) gives each edge the ends a
+    walk of its child list gives, also where the table is damaged: a
+    reference out of the table, a vertex placed by a location, one edge's
+    vertices reversed."""
+    m, _ = occ.shape_to_model(occ.read_cad(SAMPLES / sample).shape)
+    edges = np.flatnonzero(m.shape_type == ShapeType.EDGE)
+    assert len(edges) >= 3
+    hurt = replace(
+        m,
+        child_shape=m.child_shape.copy(),
+        child_loc=m.child_loc.copy(),
+        child_orient=m.child_orient.copy(),
+    )
+    k0 = int(m.child_start[edges[0]])
+    hurt.child_shape[k0] = len(m.shape_type) + 5  # out of the table
+    k1 = int(m.child_start[edges[1]])
+    hurt.child_loc[k1] = 1  # placed: not an end
+    k2 = int(m.child_start[edges[2]])
+    hurt.child_orient[k2 : k2 + 2] = hurt.child_orient[k2 : k2 + 2][::-1]
+    for model in (m, hurt):
+        table = joins.end_vertices(model)
+        tidx = model.type_index()
+        assert table.shape == (len(edges), 2)
+        for e, s in enumerate(edges.tolist()):
+            assert joins.edge_ends(table, e) == _ends_by_walk(model, s, tidx), (sample, e)
+    assert joins.edge_ends(joins.end_vertices(hurt), 0) != joins.edge_ends(joins.end_vertices(m), 0)

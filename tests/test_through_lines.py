@@ -14,7 +14,7 @@ import pytest
 from nurbscomp import container, occ, pipeline, serialize
 from nurbscomp.encode import assembly
 from nurbscomp.errors import BadReferenceError, SectionError
-from nurbscomp.model import EC, REBUILD, Analytic, Kind, RepKind, ShapeType
+from nurbscomp.model import EC, REBUILD, Analytic, Kind, RepKind
 from nurbscomp.occ import topology
 from nurbscomp.rules import joins
 from nurbscomp.rules.ranges import RANGE_VERTICES
@@ -59,11 +59,11 @@ def test_lines_go_through_their_vertices(plate) -> None:
     assert len(rows) >= len(lines) // 2 > 0
     back, _ = pipeline.decode(container.unpack(nzc.read_bytes()))  # the decoded model
     reps = back.edge_reps
-    edge_shapes = np.flatnonzero(back.shape_type == ShapeType.EDGE)
+    table = joins.end_vertices(back)
     for i in rows:
         (q,) = np.flatnonzero((reps[:, EC.KIND] == RepKind.CURVE3D) & (reps[:, EC.CURVE] == i))
         assert tables.range_how[q] == RANGE_VERTICES  # a rule, no floats
-        ends = joins.edge_ends(back, int(edge_shapes[reps[q, EC.EDGE]]), back.type_index())
+        ends = joins.edge_ends(table, int(reps[q, EC.EDGE]))
         a, b = (back.vertex_point[ends[o]] for o in (joins.FORWARD, joins.REVERSED))
         g = back.curves3d[i]
         assert np.array_equal(g.frame[0], a)  # the origin is the FORWARD vertex, bit for bit
