@@ -23,7 +23,7 @@ from __future__ import annotations
 import collections
 import math
 from collections.abc import Iterable
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -446,15 +446,17 @@ def vertex_ranges(m: BRepModel) -> dict[int, tuple[float, float]]:
         p = m.vertex_point
         out[q] = circle_range(g, p[a], p[b], a == b)
     if lines:  # on_line's sums in its order, elementwise: the same bits
-        q, c, a, b = (list(x) for x in zip(*lines))
-        frames = np.array([curves[i].frame[:2] for i in c])  # type: ignore[union-attr]
+        at = np.array(lines, np.int64)
+        frames = np.array([cast(Analytic, curves[i]).frame[:2] for i in at[:, 1].tolist()])
         o, d = frames[:, 0], frames[:, 1]
 
-        def along(v: list[int]) -> list[float]:
+        def along(v: np.ndarray) -> list[float]:
             p = m.vertex_point[v] - o
-            return ((p[:, 0] * d[:, 0] + p[:, 1] * d[:, 1]) + p[:, 2] * d[:, 2]).tolist()
+            return cast(
+                list[float], ((p[:, 0] * d[:, 0] + p[:, 1] * d[:, 1]) + p[:, 2] * d[:, 2]).tolist()
+            )
 
-        out.update(zip(q, zip(along(a), along(b))))
+        out.update(zip(at[:, 0].tolist(), zip(along(at[:, 2]), along(at[:, 3]))))
     return dict(sorted(out.items()))
 
 
