@@ -584,13 +584,6 @@ def _line_through(
     return new, dev, [(joins.on_line(new, a), joins.on_line(new, b))]
 
 
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``np.cross`` of two 3-vectors, its products and differences in the
-    same order (the same bits), without its cost per call."""
-    (a0, a1, a2), (b0, b1, b2) = a.tolist(), b.tolist()
-    return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
-
-
 def _circle_through(
     m: BRepModel,
     was: Analytic,
@@ -623,8 +616,8 @@ def _circle_through(
     axial = float(d @ n)
     radial = float(np.linalg.norm(d - axial * n))
     move = math.hypot(axial, radial + abs(r2 - r)) + 2 * r2 * float(np.linalg.norm(n - n2))
-    y = _cross(n, x)
-    y2 = _cross(n2, new.frame[2])
+    y = np.array(joins.cross(n.tolist(), x.tolist()))
+    y2 = np.array(joins.cross(n2.tolist(), new.frame[2].tolist()))
     y2 /= np.linalg.norm(y2)
 
     def on_source(t: float) -> np.ndarray:
