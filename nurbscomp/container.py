@@ -59,7 +59,7 @@ MAGIC = CONTAINER_MAGIC  # b"\x89NZC", formats' (it tells a container apart from
 #: The version this writer writes (docs/format.md §0).  Format 1.x is frozen:
 #: 1.0, 1.1 and 1.2 decode forever, and no 1.3 will be written.
 MAJOR = 2
-MINOR = 18
+MINOR = 19
 #: Every version this reader reads, oldest first.  A file's *revision* is its
 #: index here (:attr:`Container.revision`); the sections' readers branch on it.
 VERSIONS = (
@@ -85,6 +85,7 @@ VERSIONS = (
     (2, 16),
     (2, 17),
     (2, 18),
+    (2, 19),
 )
 #: The revision this writer writes.
 REVISION = VERSIONS.index((MAJOR, MINOR))
@@ -119,6 +120,7 @@ _KNOWN_FLAGS = (
     FLAG_LOSSLESS | FLAG_PASSTHROUGH | FLAG_EXACT,
     FLAG_LOSSLESS | FLAG_PASSTHROUGH | FLAG_EXACT,
     FLAG_LOSSLESS | FLAG_PASSTHROUGH | FLAG_EXACT,
+    FLAG_LOSSLESS | FLAG_PASSTHROUGH | FLAG_EXACT,
 )
 #: Format 2.6: the first revision with the compact directory and body header.
 COMPACT = VERSIONS.index((2, 6))
@@ -127,6 +129,9 @@ SHORT = VERSIONS.index((2, 13))
 #: Format 2.18: kind-2 vertices' references may be coded as differences
 #: (docs/format.md §2.6, ``serialize.vertices``).
 TWIN_DELTAS = VERSIONS.index((2, 18))
+#: Format 2.19: ``SHAP`` mode 2, the walk that leaves out what the model's
+#: properties imply (docs/format.md §2.5.1, ``topocode``).
+SHAP_IMPLIED = VERSIONS.index((2, 19))
 #: Format 2.13: flag bit 3, the directory is a mask of :data:`TAGS` (a
 #: property of the layout, not of the content: :attr:`Container.flags` never
 #: holds it).

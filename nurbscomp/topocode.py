@@ -13,6 +13,14 @@ vertex predicted from the neighbouring edge uses.  Every decision is a binary
 symbol coded by LZMA's range coder with a 15-bit probability from the
 context's adaptive counts.
 
+Format 2.19's mode 2 is the same walk less what the tables' properties
+imply (:func:`properties`: a wire's children are edges, an edge's two
+children its FORWARD and REVERSED vertices, no location below a solid, ...),
+each named by a bit of its header, with a shape's flags coded once its
+children are known (an edge whose ends are one vertex is one OCCT marks
+closed).  On the corpus it leaves out two decisions in five: the walk decodes
+in about 16 % less time, for 2.8 % fewer bytes.
+
 A model that this walk cannot write as it is numbered (shapes that the root
 does not reach, other orders, a wire's child numbered by a sibling's walk) is
 written in the 1.x layout behind a mode byte: every model is written, none is
@@ -31,8 +39,8 @@ import numpy as np
 from . import budget
 from .errors import BadReferenceError, SectionError
 
-#: Mode byte of a 2.0 SHAP section.
-MODE_ARRAYS, MODE_WALK = 0, 1
+#: Mode byte of a 2.0 SHAP section (mode 2: format 2.19).
+MODE_ARRAYS, MODE_WALK, MODE_IMPLIED = 0, 1, 2
 #: Shapes of one type kept in its recency window.
 WINDOW = 64
 #: Edges per vertex kept for the open-edge candidates.
@@ -48,7 +56,29 @@ _MAX_BITS = 40
 
 #: Mode-1 header: mode, shapes, references.
 HEAD = struct.Struct("<BII")
-_EDGE, _WIRE, _VERTEX = 6, 5, 7
+#: Mode-2 header: mode, the model's properties (``KIDS_TYPED`` ...), shapes, references.
+HEAD2 = struct.Struct("<BBII")
+_SHELL, _FACE, _WIRE, _EDGE, _VERTEX = 3, 4, 5, 6, 7
+#: Mode 2's properties (docs/format.md §2.5.1, *(2.19)*): bits of its header
+#: byte, each naming what the walk then does not code.
+#: Every child of a wire is an edge, every child of an edge a vertex.
+KIDS_TYPED = 1
+#: Every child of a shell is a face, every child of a face a wire.
+FACES_TYPED = 2
+#: Every edge has two children.
+TWO_ENDS = 4
+#: ... the first FORWARD, the second REVERSED (with TWO_ENDS only).
+ENDS_FR = 8
+#: No reference from a shell, face, wire or edge has a location.
+UNLOCATED = 16
+#: Every property mode 2 may name.
+IMPLIED_ALL = KIDS_TYPED | FACES_TYPED | TWO_ENDS | ENDS_FR | UNLOCATED
+#: The child type each property implies, by the parent's type.
+_KID_TYPE = {
+    KIDS_TYPED: {_WIRE: _EDGE, _EDGE: _VERTEX},
+    FACES_TYPED: {_SHELL: _FACE, _FACE: _WIRE},
+}
+_PARENTS_UNLOCATED = (_SHELL, _FACE, _WIRE, _EDGE)
 _F, _R = 0, 1
 
 _TOP = 1 << 24
@@ -349,10 +379,22 @@ class _Frame:
 
 
 def _run(
-    c: _Models, m: Any | None, n_shapes: int, n_refs: int, depth: int | None = None
+    c: _Models,
+    m: Any | None,
+    n_shapes: int,
+    n_refs: int,
+    depth: int | None = None,
+    implied: int | None = None,
 ) -> dict[str, Any]:
-    """The walk of §2.5.1: encodes ``m`` (m given) or decodes (m None)."""
+    """The walk of §2.5.1: encodes ``m`` (m given) or decodes (m None);
+    ``implied``: mode 2's walk, with these properties of the model
+    (:func:`properties`), which it then does not code; None: mode 1's."""
     enc = m is not None
+    mode2 = implied is not None
+    props = implied or 0
+    kid_type = {t: u for bit, tu in _KID_TYPE.items() if props & bit for t, u in tu.items()}
+    two_ends, ends_fr = bool(props & TWO_ENDS), bool(props & ENDS_FR)
+    unlocated = _PARENTS_UNLOCATED if props & UNLOCATED else ()
     types: list[int] = []
     flags: list[int] = []
     start = [0]
@@ -368,6 +410,7 @@ def _run(
     opens: dict[int, int] = {}
     opened = _Marks()  # the edges used an odd number of times, by rank_in_type
     last_flags = [0] * 8
+    closed_flags: dict[tuple[int, int], int] = {}  # mode 2's last flags by (type, hint)
     last_new: dict[Any, int] = {}
     if m is not None:
         m_start, m_kids = m.child_start.tolist(), m.child_shape.tolist()
@@ -397,11 +440,12 @@ def _run(
 
     def open_frame(t: int, src: int, flip: int, parent: Any, pos: int) -> _Frame:
         f = m_flags[src] if enc else 0
-        if c.bit(("fs", t), int(f == last_flags[t])):
-            f = last_flags[t]
-        else:
-            f = c.tree(("f", t), 8, f)
-        last_flags[t] = f
+        if not mode2:  # mode 2 codes a shape's flags once its children are known
+            if c.bit(("fs", t), int(f == last_flags[t])):
+                f = last_flags[t]
+            else:
+                f = c.tree(("f", t), 8, f)
+            last_flags[t] = f
         if depth is not None and parent is not None and len(stack) >= depth:
             raise budget._refuse(len(stack) + 1, "levels of nested sub-shapes", depth)
         return _Frame(t, f, src, flip, parent, pos)
@@ -409,12 +453,18 @@ def _run(
     def more(fr: _Frame, ctx: Any) -> bool:
         nonlocal refs
         j = len(fr.slots)
-        b = c.bit(ctx, int(enc and j < m_start[fr.src + 1] - m_start[fr.src]))
+        if two_ends and fr.t == _EDGE:
+            b = int(j < 2)
+        else:
+            b = c.bit(ctx, int(enc and j < m_start[fr.src + 1] - m_start[fr.src]))
         if b:
             refs += 1
             if refs > n_refs:
                 raise SectionError("SHAP: more references than the section declares")
         return bool(b)
+
+    def location(t: int, ct: int, loc: int) -> int:
+        return 0 if t in unlocated else _location(c, t, ct, loc)
 
     def reserve() -> None:
         nonlocal reserved
@@ -535,19 +585,19 @@ def _run(
             if s < 0:
                 k = ~s
                 o = c.tree(("o", _WIRE, ct, 2, fr.slots[k][1]), 2, true_o)
-                loc = _location(c, _WIRE, ct, true_loc)
+                loc = location(_WIRE, ct, true_loc)
                 fr.slots.append([k, o, loc, 2, ct])
                 return
             last = last_orient[s]
             pred = _flip(_reverse(last) if ct == _EDGE else last, fr.flip)
             o = c.tree(("o", _WIRE, ct, 1, pred), 2, true_o)
-            loc = _location(c, _WIRE, ct, true_loc)
+            loc = location(_WIRE, ct, true_loc)
             fr.slots.append([s, o, loc, 0, ct])
             used(fr, s, o)
             return
         pred = fr.slots[j - 1][1] if j else 4
         o = c.tree(("o", _WIRE, ct, 0, pred), 2, true_o)
-        loc = _location(c, _WIRE, ct, true_loc)
+        loc = location(_WIRE, ct, true_loc)
         reserve()
         fr.news.append(j)
         fr.hi = max(fr.hi, true_s)
@@ -594,7 +644,9 @@ def _run(
                 true_s, true_o, true_loc = m_kids[mk], m_or[mk], m_loc[mk]
             else:
                 true_s = true_o = true_loc = 0
-            ct = c.tree(("t", t), 3, m_type[true_s] if enc else 0)
+            ct = kid_type.get(t, -1)
+            if ct < 0:
+                ct = c.tree(("t", t), 3, m_type[true_s] if enc else 0)
             if t == _WIRE:
                 _wire_child(fr, ct, true_s, true_o, true_loc, chain, prev)
                 continue
@@ -602,7 +654,7 @@ def _run(
             cand: list[int] = []
             role = 0
             if t == _EDGE and ct == _VERTEX:  # orientation first: it tells the end
-                o = c.tree(("o", t, ct, min(j, 2)), 2, true_o)
+                o = j if ends_fr else c.tree(("o", t, ct, min(j, 2)), 2, true_o)
                 par = fr.parent
                 if par is not None and par.t == _WIRE:
                     x = _flip(o, int(par.slots[fr.pos][1] == _R))
@@ -625,7 +677,7 @@ def _run(
                 if not (t == _EDGE and ct == _VERTEX):
                     pred = _flip(last_orient[s], fr.flip)
                     o = c.tree(("o", t, ct, 1, pred), 2, true_o)
-                loc = _location(c, t, ct, true_loc)
+                loc = location(t, ct, true_loc)
                 fr.slots.append([s, o, loc, 0, ct])
                 used(fr, s, o)
                 continue
@@ -633,7 +685,7 @@ def _run(
                 pred = last_new.get((t, ct), _F)
                 o = c.tree(("o", t, ct, 0, pred), 2, true_o)
                 last_new[(t, ct)] = o
-            loc = _location(c, t, ct, true_loc)
+            loc = location(t, ct, true_loc)
             reserve()
             fr.slots.append([true_s, o, loc, 1, ct])
             stack.append(open_frame(ct, true_s, fr.flip ^ int(o == _R), fr, j))
@@ -646,6 +698,15 @@ def _run(
         if enc and fr.src != s:
             raise AssertionError("the walk numbers a shape otherwise")
         reserved -= 1
+        if mode2:  # the flags, an edge's under whether its two ends are one vertex
+            hint = int(t == _EDGE and len(fr.slots) == 2 and fr.slots[0][0] == fr.slots[1][0])
+            key = (t, hint)
+            last = closed_flags.get(key, 0)
+            if c.bit(("fs", t, hint), int(fr.f == last)):
+                fr.f = last
+            else:
+                fr.f = c.tree(("f", t, hint), 8, fr.f)
+            closed_flags[key] = fr.f
         types.append(t)
         flags.append(fr.f)
         for k, o, loc, _, _ in fr.slots:
@@ -691,24 +752,48 @@ def _location(c: _Models, t: int, ct: int, loc: int) -> int:
     return 0
 
 
-def encode(m: Any) -> bytes | None:
+def properties(m: Any) -> int:
+    """The properties of mode 2 (``KIDS_TYPED`` ...) that ``m``'s shapes
+    table has (its references checked in range first: ``_model_fits``)."""
+    kids = np.diff(m.child_start)
+    parent_t = np.repeat(m.shape_type, kids)
+    child_t = m.shape_type[m.child_shape]
+    out = 0
+    for bit, tu in _KID_TYPE.items():
+        if all((child_t[parent_t == t] == u).all() for t, u in tu.items()):
+            out |= bit
+    if (kids[m.shape_type == _EDGE] == 2).all():
+        out |= TWO_ENDS
+        ends = m.child_orient[parent_t == _EDGE].reshape(-1, 2)
+        if (ends[:, 0] == 0).all() and (ends[:, 1] == 1).all():
+            out |= ENDS_FR
+    if not (m.child_loc[np.isin(parent_t, _PARENTS_UNLOCATED)] != 0).any():
+        out |= UNLOCATED
+    return out
+
+
+def encode(m: Any, implied: int | None = None) -> bytes | None:
     """The coded stream of ``m``'s shapes table, or None if the walk does not
-    number ``m`` as it is numbered."""
+    number ``m`` as it is numbered (``implied``: mode 2's walk, with those of
+    :func:`properties` that ``m`` has)."""
     if not _model_fits(m):
         return None
     rc = _Encoder()
     try:
-        _run(rc, m, len(m.shape_type), len(m.child_shape))
+        _run(rc, m, len(m.shape_type), len(m.child_shape), implied=implied)
     except _Unfit:
         return None
     return rc.finish()
 
 
-def decode(data: bytes, n_shapes: int, n_refs: int, depth: int | None = None) -> dict[str, Any]:
+def decode(
+    data: bytes, n_shapes: int, n_refs: int, depth: int | None = None, implied: int | None = None
+) -> dict[str, Any]:
     """The tables of a coded stream of ``n_shapes`` shapes and ``n_refs``
     references; a walk deeper than ``depth`` (the budget's, when given: the
-    nesting it would refuse later anyway) is a LimitError as soon as it is."""
+    nesting it would refuse later anyway) is a LimitError as soon as it is.
+    ``implied``: the stream is mode 2's."""
     rc = _Decoder(data)
-    out = _run(rc, None, n_shapes, n_refs, depth)
+    out = _run(rc, None, n_shapes, n_refs, depth, implied)
     rc.finish()
     return out

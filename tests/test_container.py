@@ -97,8 +97,8 @@ def test_versions_read_and_refused() -> None:
         return c.revision
 
     assert [of(1, m) for m in (0, 1, 2, 9)] == [0, 1, 2, 2]
-    assert [of(2, m) for m in range(19)] == list(range(3, 22))
-    assert of(2, 18) == container.REVISION == 21
+    assert [of(2, m) for m in range(20)] == list(range(3, 23))
+    assert of(2, 19) == container.REVISION == 22
     for major, minor in ((2, container.MINOR + 1), (0, 3)):
         with pytest.raises(VersionError, match=f"{major}.{minor} is not supported"):
             container.unpack(at(major, minor))

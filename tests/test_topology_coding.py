@@ -26,7 +26,7 @@ GOLDEN = Path(__file__).parent / "golden"
 TABLES = ("shape_type", "shape_flags", "child_start", "child_shape", "child_orient", "child_loc")
 
 
-def _round_trip(m: BRepModel, mode: int | None = topocode.MODE_WALK) -> bytes:
+def _round_trip(m: BRepModel, mode: int | None = topocode.MODE_IMPLIED) -> bytes:
     raw = serialize._write_shapes(m)
     if mode is not None:
         assert raw[0] == mode
@@ -61,7 +61,7 @@ def test_golden_models_round_trip(name: str) -> None:
 def test_coded_is_smaller_than_the_arrays() -> None:
     m, _ = fuzz.decoded((GOLDEN / "bracket.lossless.nzc").read_bytes())
     coded = serialize._write_shapes(m)
-    assert coded[0] == topocode.MODE_WALK
+    assert coded[0] == topocode.MODE_IMPLIED
     assert len(coded) < len(serialize._write_shape_arrays(m)) / 2
 
 
@@ -149,19 +149,23 @@ def test_internal_and_external_orientations() -> None:
 
 
 def _walk_round_trip(m: BRepModel) -> bool:
-    """The walk's stream alone decodes to ``m``'s tables (False: the walk
-    does not write ``m``)."""
-    coded = topocode.encode(m)
-    if coded is None:
+    """The walk's streams alone, mode 1's and mode 2's (with the model's
+    properties), decode to ``m``'s tables (False: the walk does not write
+    ``m``)."""
+    if not topocode._model_fits(m):
         return False
-    t = topocode.decode(coded, len(m.shape_type), len(m.child_shape))
-    assert t["types"] == m.shape_type.tolist()
-    assert t["flags"] == m.shape_flags.tolist()
-    assert t["start"] == m.child_start.tolist()
-    assert t["shape"] == m.child_shape.tolist()
-    assert t["orient"] == m.child_orient.tolist()
-    assert t["loc"] == m.child_loc.tolist()
-    assert (t["root_orient"], t["root_loc"]) == (m.root_orient, m.root_loc)
+    for implied in (None, topocode.properties(m)):
+        coded = topocode.encode(m, implied)
+        if coded is None:
+            return False
+        t = topocode.decode(coded, len(m.shape_type), len(m.child_shape), None, implied)
+        assert t["types"] == m.shape_type.tolist()
+        assert t["flags"] == m.shape_flags.tolist()
+        assert t["start"] == m.child_start.tolist()
+        assert t["shape"] == m.child_shape.tolist()
+        assert t["orient"] == m.child_orient.tolist()
+        assert t["loc"] == m.child_loc.tolist()
+        assert (t["root_orient"], t["root_loc"]) == (m.root_orient, m.root_loc)
     return True
 
 
@@ -300,6 +304,101 @@ def test_hostile_bytes_fail_with_format_errors() -> None:
     assert ok < len(cases)
 
 
+def _bracket() -> BRepModel:
+    m, _ = fuzz.decoded((GOLDEN / "bracket.lossless.nzc").read_bytes())
+    return m
+
+
+def _edges_kids(m: BRepModel) -> np.ndarray:
+    """Where the references of the edges are in the child arrays."""
+    kids = np.diff(m.child_start)
+    return np.flatnonzero(np.repeat(m.shape_type, kids) == 6)
+
+
+def test_mode_2_names_the_properties_a_model_has() -> None:
+    """Format 2.19: each property mode 2 leaves out is named only where the
+    model has it, and the tables come back whichever are named."""
+    m = _bracket()
+    every = topocode.IMPLIED_ALL
+    assert topocode.properties(m) == every
+    assert _round_trip(m)[1] == every
+    # an edge whose vertices come REVERSED, then FORWARD
+    m1 = _bracket()
+    at = _edges_kids(m1)[:2]
+    m1.child_orient[at] = m1.child_orient[at[::-1]]
+    assert topocode.properties(m1) == every & ~topocode.ENDS_FR
+    assert _round_trip(m1)[1] == every & ~topocode.ENDS_FR
+    # a face used with a location in its shell
+    m2 = _bracket()
+    kids = np.diff(m2.child_start)
+    faces = np.flatnonzero(np.repeat(m2.shape_type, kids) == 3)
+    m2.child_loc[faces[0]] = 1
+    assert topocode.properties(m2) == every & ~topocode.UNLOCATED
+    assert _round_trip(m2)[1] == every & ~topocode.UNLOCATED
+    # an edge with one vertex (a third reference would renumber the model):
+    # neither TWO_ENDS nor ENDS_FR, and the flags still come back
+    m3 = _bracket()
+    e = int(np.flatnonzero(m3.shape_type == 6)[0])
+    k = int(m3.child_start[e]) + 1
+    m3.child_shape = np.delete(m3.child_shape, k)
+    m3.child_orient = np.delete(m3.child_orient, k)
+    m3.child_loc = np.delete(m3.child_loc, k)
+    m3.child_start[e + 1 :] -= 1
+    if topocode._model_fits(m3):
+        props = topocode.properties(m3)
+        assert not props & (topocode.TWO_ENDS | topocode.ENDS_FR)
+        assert _round_trip(m3)[1] == props
+    # a wire holding a vertex, a shell holding a wire: no type implied
+    m4 = _random_model(random.Random(3))
+    assert _walk_round_trip(m4) or not topocode._model_fits(m4)
+
+
+def test_mode_2_closed_edges_cost_less() -> None:
+    """Mode 2 codes an edge's flags under whether its two ends are one vertex:
+    OCCT's own shapes set the closed flag on those (a plate's round holes)."""
+    cq = _cq()
+    plate = cq.Workplane().box(40, 40, 2).faces(">Z").workplane()
+    plate = plate.rarray(8, 8, 4, 4).hole(3).val()
+    m = _shapes_of(plate.wrapped)
+    closed = [
+        int(m.shape_flags[e])
+        for e in np.flatnonzero(m.shape_type == 6)
+        if m.child_shape[m.child_start[e]] == m.child_shape[m.child_start[e] + 1]
+    ]
+    assert sum(1 for f in closed if f & 16) >= 16  # the closed bit, on each hole's circle
+    one = topocode.encode(m)
+    two = topocode.encode(m, topocode.properties(m))
+    assert one is not None and two is not None
+    assert len(two) < len(one)
+    _round_trip(m)
+
+
+def test_mode_2_is_refused_before_its_revision() -> None:
+    """A 2.18 reader takes mode 1 and the arrays, not mode 2; a 2.19 reader
+    still takes mode 1 (every earlier container decodes)."""
+    m = _bracket()
+    two = serialize._write_shapes(m)
+    assert two[0] == topocode.MODE_IMPLIED
+    with pytest.raises(FormatError):
+        serialize._read_shapes(two, BRepModel(), container.SHAP_IMPLIED - 1, None)
+    coded = topocode.encode(m)
+    assert coded is not None
+    one = topocode.HEAD.pack(topocode.MODE_WALK, len(m.shape_type), len(m.child_shape)) + coded
+    for rev in (container.SHAP_IMPLIED - 1, container.REVISION):
+        back = BRepModel()
+        serialize._read_shapes(one, back, rev, None)
+        for name in TABLES:
+            assert np.array_equal(getattr(back, name), getattr(m, name)), name
+
+
+@pytest.mark.parametrize("props", [32, 64, 128, topocode.ENDS_FR, topocode.ENDS_FR | 1])
+def test_mode_2_unknown_properties_are_refused(props: int) -> None:
+    good = serialize._write_shapes(_bracket())
+    bad = good[:1] + bytes([props]) + good[2:]
+    with pytest.raises(FormatError, match="properties"):
+        serialize._read_shapes(bad, BRepModel(), container.REVISION, None)
+
+
 def test_declared_counts_are_bounded() -> None:
     head = topocode.HEAD.pack(topocode.MODE_WALK, 2_000_000, 0)
     with pytest.raises(LimitError):
@@ -310,3 +409,13 @@ def test_declared_counts_are_bounded() -> None:
     head = topocode.HEAD.pack(topocode.MODE_WALK, 900_000, 90_000)
     with pytest.raises(FormatError):
         serialize._read_shapes(head + bytes(64), BRepModel(), 3, None)
+    # the same of mode 2 (format 2.19)
+    rev = container.SHAP_IMPLIED
+    head2 = topocode.HEAD2.pack(topocode.MODE_IMPLIED, topocode.IMPLIED_ALL, 2_000_000, 0)
+    with pytest.raises(LimitError):
+        from nurbscomp import budget
+
+        serialize._read_shapes(head2 + bytes(5), BRepModel(), rev, budget.DEFAULT)
+    head2 = topocode.HEAD2.pack(topocode.MODE_IMPLIED, topocode.IMPLIED_ALL, 900_000, 90_000)
+    with pytest.raises(FormatError):
+        serialize._read_shapes(head2 + bytes(64), BRepModel(), rev, None)

@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from .. import budget, topocode
+from .. import budget, container, topocode
 from ..entropy import xz_size
 from ..errors import BadReferenceError, LimitError, SectionError
 from ..model import (
@@ -99,10 +99,14 @@ def _write_shapes(m: BRepModel) -> bytes:
 def _write_shapes_now(m: BRepModel) -> bytes:
     """:func:`_write_shapes`, without the kept table."""
     arrays = bytes([topocode.MODE_ARRAYS]) + _write_shape_arrays(m)
-    coded = topocode.encode(m)
+    if not topocode._model_fits(m):
+        return arrays
+    props = topocode.properties(m)
+    coded = topocode.encode(m, props)
     if coded is None:
         return arrays
-    coded = topocode.HEAD.pack(topocode.MODE_WALK, len(m.shape_type), len(m.child_shape)) + coded
+    n, c = len(m.shape_type), len(m.child_shape)
+    coded = topocode.HEAD2.pack(topocode.MODE_IMPLIED, props, n, c) + coded
     # a tiny model whose adaptive contexts never warm up can be smaller in the
     # arrays, once compressed: the smaller of the two is written
     if len(coded) < 512 and _xz(arrays) < _xz(coded):
@@ -143,16 +147,28 @@ def _read_shapes(
     if data[0] == topocode.MODE_ARRAYS:
         _read_shape_arrays(data[1:], m)
         return
-    if data[0] != topocode.MODE_WALK or len(data) < topocode.HEAD.size:
+    implied = None
+    head = topocode.HEAD
+    if data[0] == topocode.MODE_IMPLIED and revision >= container.SHAP_IMPLIED:
+        head = topocode.HEAD2
+        if len(data) < head.size:
+            raise SectionError("SHAP: truncated header at offset 0")
+        _, implied, n, c = head.unpack_from(data)
+        if implied & ~topocode.IMPLIED_ALL or (
+            implied & topocode.ENDS_FR and not implied & topocode.TWO_ENDS
+        ):
+            raise SectionError(f"SHAP: unknown properties {implied:#04x} at offset 1")
+    elif data[0] != topocode.MODE_WALK or len(data) < head.size:
         raise SectionError("SHAP: unknown mode or truncated header at offset 0")
-    _, n, c = topocode.HEAD.unpack_from(data)
+    else:
+        _, n, c = head.unpack_from(data)
     top = topocode.MAX_ROWS if limits is None else min(topocode.MAX_ROWS, limits.rows)
     if n + c > top:
         raise LimitError(f"SHAP declares {n + c:,} shapes and references, more than {top:,}")
     if n == 0:
         raise BadReferenceError("SHAP: bad root reference")
     depth = None if limits is None else limits.depth
-    t = topocode.decode(data[topocode.HEAD.size :], n, c, depth)
+    t = topocode.decode(data[head.size :], n, c, depth, implied)
     m.shape_type = np.array(t["types"], np.uint8)
     m.shape_flags = np.array(t["flags"], np.uint8)
     m.child_start = np.array(t["start"], np.int64)

@@ -35,6 +35,7 @@ REVISION = {
     (2, 16): 19,
     (2, 17): 20,
     (2, 18): 21,
+    (2, 19): 22,
 }
 #: §1.2 (2.6): the tags of the directory's one-byte codes
 TAGS = "META LOCS SURF SNET CRV3 CNET CRV2 SHAP VERT EDGE FACE SIDE PROD FILE TEXT".split()

@@ -89,6 +89,14 @@ def read_shap(raw: bytes, revision: int) -> Shapes:
     mode = raw[0]
     if mode == 0:
         return shapes_from_arrays(Arrays(raw, "SHAP", 1))
+    if mode == 2 and revision >= 22:  # (2.19) the properties byte, then as mode 1
+        if len(raw) < 10:
+            raise ReadError("SHAP: mode 2 header")
+        P = raw[1]
+        if P & ~31 or (P & 8 and not P & 4):
+            raise ReadError(f"SHAP: properties {P}")
+        S, C = struct.unpack_from("<II", raw, 2)
+        return _Walk(raw[10:], S, C, P).run()
     if mode != 1:
         raise ReadError(f"SHAP mode {mode}")
     S, C = struct.unpack_from("<II", raw, 1)
@@ -96,9 +104,12 @@ def read_shap(raw: bytes, revision: int) -> Shapes:
 
 
 class _Walk:
-    def __init__(self, stream: bytes, S: int, C: int) -> None:
+    def __init__(self, stream: bytes, S: int, C: int, P: int | None = None) -> None:
         self.rc = _Range(stream)
         self.S, self.C = S, C
+        self.mode2 = P is not None  # (2.19) with the properties P
+        self.P = P or 0
+        self.last2: dict[tuple[int, int], int] = {}
         self.type: list[int] = []
         self.flags: list[int] = []
         self.children: list[list[tuple[int, int, int]]] = []
@@ -144,8 +155,11 @@ class _Walk:
             return t[0] if t[3] == 0 else None
         return None
 
-    def more(self, ctx: tuple) -> int:
-        b = self.rc.bit(ctx)
+    def more(self, ctx: tuple, F: _Frame | None = None) -> int:
+        if F is not None and F.T == 6 and self.P & 4:  # two ends: implied
+            b = int(len(F.slots) < 2)
+        else:
+            b = self.rc.bit(ctx)
         if b:
             self.refs += 1
             if self.refs > self.C:
@@ -158,6 +172,8 @@ class _Walk:
         self.reserved += 1
 
     def open_frame(self, t: int, parent: _Frame | None, pos: int, fl: int) -> _Frame:
+        if self.mode2:  # the flags come when the frame completes
+            return _Frame(t, 0, fl, parent, pos)
         if self.rc.bit(("fs", t)) == 1:
             f = self.last_flags.get(t, 0)
         else:
@@ -166,6 +182,8 @@ class _Walk:
         return _Frame(t, f, fl, parent, pos)
 
     def location(self, t: int, u: int) -> int:
+        if self.P & 16 and t in (3, 4, 5, 6):
+            return 0
         if self.rc.bit(("l", t, u)) == 1:
             return 1 + self.rc.uint(("L", t, u))
         return 0
@@ -258,11 +276,16 @@ class _Walk:
                         head = self.ends(q, F.slots[0][1])[0] if q is not None else None
                     go = self.more(("m", 5, min(j, 7), 2 if chain is None else int(chain == head)))
                 else:
-                    go = self.more(("m", F.T, min(j, 3)))
+                    go = self.more(("m", F.T, min(j, 3)), F)
                 if not go:
                     F.phase = 2 if F.T == 5 else 3
                     continue
-                U = rc.tree(("t", F.T), 3)
+                implied = {}
+                if self.P & 1:
+                    implied.update({5: 6, 6: 7})
+                if self.P & 2:
+                    implied.update({3: 4, 4: 5})
+                U = implied[F.T] if F.T in implied else rc.tree(("t", F.T), 3)
                 if F.T == 5:
                     self.wire_child(F, U, chain, p)
                     continue
@@ -271,7 +294,7 @@ class _Walk:
                 ev = F.T == 6 and U == 7
                 o = 0
                 if ev:
-                    o = rc.tree(("o", 6, 7, min(j, 2)), 2)
+                    o = j if self.P & 8 else rc.tree(("o", 6, 7, min(j, 2)), 2)
                     W = F.parent
                     if W is not None and W.T == 5:
                         i, n = F.pos, len(W.slots)
@@ -313,6 +336,14 @@ class _Walk:
             if s >= self.S:
                 raise ReadError("SHAP: too many shapes")
             self.reserved -= 1
+            if self.mode2:
+                two = len(F.slots) == 2 and F.slots[0][0] == F.slots[1][0]
+                h = 1 if F.T == 6 and two else 0
+                if rc.bit(("fs", F.T, h)) == 1:
+                    F.f = self.last2.get((F.T, h), 0)
+                else:
+                    F.f = rc.tree(("f", F.T, h), 8)
+                self.last2[(F.T, h)] = F.f
             self.type.append(F.T)
             self.flags.append(F.f)
             self.children.append([(sl[0], sl[1], sl[2]) for sl in F.slots])
