@@ -10,7 +10,9 @@ when that section alone is compressed with ``lzma`` (xz format, preset
 (summed over the files) comes first, then one table per file, and the bits per
 coded pole: SNET (CNET) bytes, xz alone, x 8 over the poles of the coded
 surface (curve) rows (first occurrences; a CNET copy or iso-boundary row counts
-its poles too).  ``--keep DIR`` keeps the containers in DIR.
+its poles too).  Last, ``SHAP``'s bits per edge use (issue 28's goal: 2): the
+section's raw bytes (the walk's range-coded stream and its header) x 8 over
+the references from wires to edges.  ``--keep DIR`` keeps the containers in DIR.
 """
 
 from __future__ import annotations
@@ -48,6 +50,9 @@ def measure(src: Path, tol: float | None, dst: Path) -> dict[str, tuple[int, int
     surf = sum(m.surfaces[i].poles[..., 0].size for i in serialize.coded_rows(m.surfaces))
     crv = sum(len(m.curves3d[i].poles) for i in serialize.coded_rows(m.curves3d))
     out["poles"] = (surf, crv)
+    wires = (m.shape_type == 5).nonzero()[0]
+    kids = [m.child_shape[m.child_start[w] : m.child_start[w + 1]] for w in wires]
+    out["edge uses"] = (sum(int((m.shape_type[k] == 6).sum()) for k in kids), 0)
     return out
 
 
@@ -90,6 +95,19 @@ def bits_per_pole(rows: dict[float | None, dict[str, tuple[int, int]]]) -> list[
     return out
 
 
+def edge_uses(per_file: dict[str, dict[float | None, dict[str, tuple[int, int]]]]) -> list[str]:
+    """SHAP's bits per edge use at 0.01 mm (the section is the same in every
+    mode), per file and in all."""
+    out = ["| file | edge uses | SHAP bytes | bits per edge use |", "|---|---:|---:|---:|"]
+    uses = shap = 0
+    for name, rows in per_file.items():
+        u, b = rows[0.01]["edge uses"][0], rows[0.01]["SHAP"][0]
+        uses, shap = uses + u, shap + b
+        out.append(f"| {name} | {u:,} | {b:,} | {8 * b / max(u, 1):.2f} |")
+    out.append(f"| **total** | **{uses:,}** | **{shap:,}** | **{8 * shap / max(uses, 1):.2f}** |")
+    return out
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--keep", type=Path, help="keep the containers in this folder")
@@ -120,6 +138,9 @@ def main() -> None:
     print("\n".join(table(total)) + "\n")
     print("Bits per coded pole (xz bytes of the section alone x 8 / poles of its coded rows):\n")
     print("\n".join(bits_per_pole(total)) + "\n")
+    print("`SHAP`: bits per edge use (its raw bytes x 8 / the references from wires to")
+    print("edges; the same section at every tolerance):\n")
+    print("\n".join(edge_uses(per_file)) + "\n")
     for name, rows in per_file.items():
         print(f"## {name}\n")
         print("\n".join(table(rows)) + "\n")

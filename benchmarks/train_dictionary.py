@@ -1,8 +1,8 @@
 """How format 2.4's zstd dictionary (``nurbscomp/data/nzc-2.4.dict``, coder 4
 of docs/format.md §1.3), format 2.11's (``nzc-2.11.dict``, coder 5), 2.12's
 (``nzc-2.12.dict``, coder 6: the same script on the code of 2.11 and of
-2.12) and 2.13's (``nzc-2.13.dict``, coder 7, with ``--tol 0.01 0.1``) were
-made; kept to be read, not rerun: the format
+2.12), 2.13's (``nzc-2.13.dict``, coder 7, with ``--tol 0.01 0.1``) and 2.19's
+(``nzc-2.19.dict``, coder 8, the same on the code of 2.19) were made; kept to be read, not rerun: the format
 fixes the file's bytes (its SHA-256 is ``entropy.DICT_SHA256``), not how they
 were made, and a dictionary made again from other containers would be another
 coder.
@@ -11,7 +11,7 @@ coder.
     python benchmarks/train_dictionary.py STRESS OUT.dict [--tol 0.01 0.1]
 
 Each generated STEP and IGES file of one kind and format (the first of its
-kind) is compressed at 0.01 mm (coders 4 to 6; at 0.01 and 0.1 mm for coder 7,
+kind) is compressed at 0.01 mm (coders 4 to 6; at 0.01 and 0.1 mm for coders 7 and 8,
 so that the dictionary favours no one tolerance: with coder 6, 37 of 77
 generated STEP parts came out larger at 0.1 than at 0.01 mm), and zstd's trainer (``zstandard
 .train_dictionary``, 64 KiB) is given the containers' bodies (every section,

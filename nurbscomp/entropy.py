@@ -68,6 +68,7 @@ class Coder(IntEnum):
     ZSTD_DICT_11 = 5  # (format 2.11) zstd frame, level 19, with format 2.11's dictionary
     ZSTD_DICT_12 = 6  # (format 2.12) zstd frame, level 19, with format 2.12's dictionary
     ZSTD_DICT_13 = 7  # (format 2.13) zstd frame, level 19, with format 2.13's dictionary
+    ZSTD_DICT_19 = 8  # (format 2.19) zstd frame, level 19, with format 2.19's dictionary
 
 
 #: Format 2.4's zstd dictionary (coder 4, docs/format.md §1.3): 64 KiB that
@@ -96,6 +97,13 @@ DICT_12_SHA256 = "0eeb1e99cb3c0ddc555df2f3c7e0b4e756dd482b5deed095f8a40e1b7b6ee6
 #: 0.1 mm than at 0.01 mm).
 DICT_13_PATH = Path(__file__).resolve().parent / "data" / "nzc-2.13.dict"
 DICT_13_SHA256 = "307e36e2a324d629761fae2420806785d273294625a8c1532274f103aedbc708"
+#: Format 2.19's zstd dictionary (coder 8): made the same way as coder 7's,
+#: at 0.01 and 0.1 mm, from the containers of 2.19 (``SHAP`` mode 2 changed
+#: what small containers share: with coder 7, a one-face part's container
+#: grew 281 -> 302 bytes, its shorter stream no longer one the dictionary
+#: held).
+DICT_19_PATH = Path(__file__).resolve().parent / "data" / "nzc-2.19.dict"
+DICT_19_SHA256 = "e307da4ab7b6a2afea66ae6ab72c2cf9af6c08cc0abed82c7ced5234e869cac0"
 #: Largest body the dictionary coders are tried on: past it the dictionary's share
 #: is small (on the corpus coder 4 won on one container, of a 38 kB body).
 DICT_MAX = 128 * 1024
@@ -108,6 +116,7 @@ DICTIONARIES = {
     Coder.ZSTD_DICT_11: (DICT_11_PATH, DICT_11_SHA256, (2, 11)),
     Coder.ZSTD_DICT_12: (DICT_12_PATH, DICT_12_SHA256, (2, 12)),
     Coder.ZSTD_DICT_13: (DICT_13_PATH, DICT_13_SHA256, (2, 13)),
+    Coder.ZSTD_DICT_19: (DICT_19_PATH, DICT_19_SHA256, (2, 19)),
 }
 
 

@@ -191,6 +191,9 @@ def test_decompression_bomb_is_not_inflated(coder: entropy.Coder) -> None:
         entropy.Coder.ZSTD_DICT_13: lambda: zstandard.ZstdCompressor(
             level=1, dict_data=entropy.dictionary(7)
         ).compress(zeros),
+        entropy.Coder.ZSTD_DICT_19: lambda: zstandard.ZstdCompressor(
+            level=1, dict_data=entropy.dictionary(8)
+        ).compress(zeros),
     }[coder]()
     assert len(bomb) < len(zeros) // 100
     with pytest.raises(CorruptError, match="1001 bytes, header says 1000"):
@@ -598,4 +601,42 @@ def test_a_small_part_takes_the_2_13_dictionary() -> None:
         "bracket.v2_13.tol0.01.nzc",
         entropy.Coder.ZSTD_DICT_13,
         (entropy.Coder.ZSTD_DICT, entropy.Coder.ZSTD_DICT_11, entropy.Coder.ZSTD_DICT_12),
+    )
+
+
+# ------------------------------------------- coder 8 (2.19): zstd with 2.19's dictionary
+
+
+def test_the_2_19_dictionary_is_the_format_s() -> None:
+    raw = entropy.DICT_19_PATH.read_bytes()
+    assert len(raw) == 65536 and raw[:4] == bytes.fromhex("37a430ec")
+    assert hashlib.sha256(raw).hexdigest() == entropy.DICT_19_SHA256
+
+
+def test_the_2_19_dictionary_coder_only_from_2_19() -> None:
+    sections = [("META", b'{"mode":"tolerance"}')]
+    with pytest.raises(ValueError, match="no coder given"):
+        container.pack(sections, coders=(entropy.Coder.ZSTD_DICT_19,), version=(2, 18))
+    data = container.pack(sections, coders=(entropy.Coder.ZSTD_DICT_19,))
+    assert container.unpack(data).coder == entropy.Coder.ZSTD_DICT_19
+    old = bytearray(container.pack(sections, coders=(entropy.Coder.ZSTD_DICT_13,), version=(2, 18)))
+    body_at = len(old) - container.unpack(bytes(old)).stored_length - 5
+    assert old[body_at] == entropy.Coder.ZSTD_DICT_13
+    old[body_at] = entropy.Coder.ZSTD_DICT_19  # coder 8 in a 2.18 file
+    with pytest.raises(CorruptError, match="unknown coder id 8"):
+        container.unpack(_fix_crcs(bytes(old)))
+
+
+def test_a_small_part_takes_the_2_19_dictionary() -> None:
+    """The golden bracket of 2.19 at 0.01 mm: coder 8 is smaller than coders
+    4 to 7 on its body, and what was written."""
+    _takes_its_dictionary(
+        "bracket.v2_19.tol0.01.nzc",
+        entropy.Coder.ZSTD_DICT_19,
+        (
+            entropy.Coder.ZSTD_DICT,
+            entropy.Coder.ZSTD_DICT_11,
+            entropy.Coder.ZSTD_DICT_12,
+            entropy.Coder.ZSTD_DICT_13,
+        ),
     )

@@ -56,6 +56,7 @@ DICTIONARY = Path(__file__).resolve().parents[2] / "nurbscomp" / "data" / "nzc-2
 DICTIONARY_11 = DICTIONARY.with_name("nzc-2.11.dict")
 DICTIONARY_12 = DICTIONARY.with_name("nzc-2.12.dict")
 DICTIONARY_13 = DICTIONARY.with_name("nzc-2.13.dict")
+DICTIONARY_19 = DICTIONARY.with_name("nzc-2.19.dict")
 
 
 class ReadError(Exception):
@@ -84,10 +85,17 @@ def _inflate(coder: int, payload: bytes, raw_length: int, revision: int) -> byte
         or (coder == 5 and revision >= 14)
         or (coder == 6 and revision >= 15)
         or (coder == 7 and revision >= 16)
+        or (coder == 8 and revision >= 22)
     ):
-        import zstandard  # §1.3 (2.4, 2.11–2.13): zstd with the format's dictionary
+        import zstandard  # §1.3 (2.4, 2.11–2.13, 2.19): zstd with the format's dictionary
 
-        path = {4: DICTIONARY, 5: DICTIONARY_11, 6: DICTIONARY_12, 7: DICTIONARY_13}[coder]
+        path = {
+            4: DICTIONARY,
+            5: DICTIONARY_11,
+            6: DICTIONARY_12,
+            7: DICTIONARY_13,
+            8: DICTIONARY_19,
+        }[coder]
         d = zstandard.ZstdCompressionDict(path.read_bytes())
         reader = zstandard.ZstdDecompressor(dict_data=d).stream_reader(payload)
         out = reader.read(raw_length + 1)
