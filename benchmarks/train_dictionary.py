@@ -2,10 +2,10 @@
 of docs/format.md §1.3), format 2.11's (``nzc-2.11.dict``, coder 5), 2.12's
 (``nzc-2.12.dict``, coder 6: the same script on the code of 2.11 and of
 2.12), 2.13's (``nzc-2.13.dict``, coder 7, with ``--tol 0.01 0.1``) and 2.19's
-(``nzc-2.19.dict``, coder 8, the same on the code of 2.19) were made; kept to be read, not rerun: the format
-fixes the file's bytes (its SHA-256 is ``entropy.DICT_SHA256``), not how they
-were made, and a dictionary made again from other containers would be another
-coder.
+(``nzc-2.19.dict``, coder 8, the same on the code of 2.19) were made; kept
+to be read, not rerun: the format fixes the file's bytes (its SHA-256 is
+``entropy.DICT_SHA256``), not how they were made, and a dictionary made again
+from other containers would be another coder.
 
     python -m tests.stress.files STRESS            # the generated stress corpus
     python benchmarks/train_dictionary.py STRESS OUT.dict [--tol 0.01 0.1]
