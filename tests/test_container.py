@@ -310,12 +310,14 @@ def test_quick_search_on_large_bodies() -> None:
 # ------------------------------------------------- coder 4: zstd with the format's dictionary
 
 
-def test_the_dictionary_is_the_format_s() -> None:
-    """Format 2.4 fixes the dictionary's bytes: a changed file is refused,
-    never used (docs/format.md §1.3)."""
-    raw = entropy.DICT_PATH.read_bytes()
+@pytest.mark.parametrize("coder", sorted(entropy.DICTIONARIES))
+def test_each_dictionary_is_the_format_s(coder: entropy.Coder) -> None:
+    """Formats 2.4, 2.11, 2.12, 2.13 and 2.19 fix their dictionaries' bytes:
+    a changed file is refused, never used (docs/format.md §1.3)."""
+    path, sha, _ = entropy.DICTIONARIES[coder]
+    raw = path.read_bytes()
     assert len(raw) == 65536 and raw[:4] == bytes.fromhex("37a430ec")
-    assert hashlib.sha256(raw).hexdigest() == entropy.DICT_SHA256
+    assert hashlib.sha256(raw).hexdigest() == sha
 
 
 def test_a_small_body_takes_the_dictionary_and_round_trips() -> None:
@@ -357,12 +359,6 @@ def test_a_text_stream_never_takes_a_dictionary_coder(coder: int) -> None:
 
 
 # ------------------------------------------- coder 5 (2.11): zstd with 2.11's dictionary
-
-
-def test_the_2_11_dictionary_is_the_format_s() -> None:
-    raw = entropy.DICT_11_PATH.read_bytes()
-    assert len(raw) == 65536 and raw[:4] == bytes.fromhex("37a430ec")
-    assert hashlib.sha256(raw).hexdigest() == entropy.DICT_11_SHA256
 
 
 def test_a_small_part_takes_the_2_11_dictionary() -> None:
@@ -449,12 +445,6 @@ def test_the_decoded_body_crc_is_checked() -> None:
 
 
 # ------------------------------------------- coder 6 (2.12): zstd with 2.12's dictionary
-
-
-def test_the_2_12_dictionary_is_the_format_s() -> None:
-    raw = entropy.DICT_12_PATH.read_bytes()
-    assert len(raw) == 65536 and raw[:4] == bytes.fromhex("37a430ec")
-    assert hashlib.sha256(raw).hexdigest() == entropy.DICT_12_SHA256
 
 
 def test_a_small_part_takes_the_2_12_dictionary() -> None:
@@ -572,12 +562,6 @@ def test_the_one_crc_covers_the_header() -> None:
 # ------------------------------------------- coder 7 (2.13): zstd with 2.13's dictionary
 
 
-def test_the_2_13_dictionary_is_the_format_s() -> None:
-    raw = entropy.DICT_13_PATH.read_bytes()
-    assert len(raw) == 65536 and raw[:4] == bytes.fromhex("37a430ec")
-    assert hashlib.sha256(raw).hexdigest() == entropy.DICT_13_SHA256
-
-
 def test_the_2_13_dictionary_coder_only_from_2_13() -> None:
     sections = [("META", b'{"mode":"tolerance"}')]
     with pytest.raises(ValueError, match="no coder given"):
@@ -587,11 +571,7 @@ def test_the_2_13_dictionary_coder_only_from_2_13() -> None:
     data[5] = 12  # the same body in a 2.12 header: the short layout is not 2.12's
     with pytest.raises(FormatError):
         container.unpack(_fix_crcs(bytes(data)))
-    old = bytearray(container.pack(sections, coders=(entropy.Coder.ZSTD_DICT_12,), version=(2, 12)))
-    body_at = len(old) - container.unpack(bytes(old)).stored_length - 9
-    old[body_at] = entropy.Coder.ZSTD_DICT_13  # coder 7 in a 2.12 file
-    with pytest.raises(CorruptError, match="unknown coder id 7"):
-        container.unpack(_fix_crcs(bytes(old)))
+    _refused_in((2, 12), entropy.Coder.ZSTD_DICT_12, entropy.Coder.ZSTD_DICT_13)
 
 
 def test_a_small_part_takes_the_2_13_dictionary() -> None:
@@ -607,23 +587,25 @@ def test_a_small_part_takes_the_2_13_dictionary() -> None:
 # ------------------------------------------- coder 8 (2.19): zstd with 2.19's dictionary
 
 
-def test_the_2_19_dictionary_is_the_format_s() -> None:
-    raw = entropy.DICT_19_PATH.read_bytes()
-    assert len(raw) == 65536 and raw[:4] == bytes.fromhex("37a430ec")
-    assert hashlib.sha256(raw).hexdigest() == entropy.DICT_19_SHA256
-
-
 def test_the_2_19_dictionary_coder_only_from_2_19() -> None:
     sections = [("META", b'{"mode":"tolerance"}')]
     with pytest.raises(ValueError, match="no coder given"):
         container.pack(sections, coders=(entropy.Coder.ZSTD_DICT_19,), version=(2, 18))
     data = container.pack(sections, coders=(entropy.Coder.ZSTD_DICT_19,))
     assert container.unpack(data).coder == entropy.Coder.ZSTD_DICT_19
-    old = bytearray(container.pack(sections, coders=(entropy.Coder.ZSTD_DICT_13,), version=(2, 18)))
-    body_at = len(old) - container.unpack(bytes(old)).stored_length - 5
-    assert old[body_at] == entropy.Coder.ZSTD_DICT_13
-    old[body_at] = entropy.Coder.ZSTD_DICT_19  # coder 8 in a 2.18 file
-    with pytest.raises(CorruptError, match="unknown coder id 8"):
+    _refused_in((2, 18), entropy.Coder.ZSTD_DICT_13, entropy.Coder.ZSTD_DICT_19)
+
+
+def _refused_in(version: tuple[int, int], theirs: entropy.Coder, coder: entropy.Coder) -> None:
+    """A file of ``version`` written with ``theirs``, its coder byte set to
+    ``coder`` (a later format's): refused as an unknown coder."""
+    sections = [("META", b'{"mode":"tolerance"}')]
+    old = bytearray(container.pack(sections, coders=(theirs,), version=version))
+    body = 5 if version >= (2, 13) else 9  # the body header: coder and CRC(s)
+    body_at = len(old) - container.unpack(bytes(old)).stored_length - body
+    assert old[body_at] == theirs
+    old[body_at] = coder
+    with pytest.raises(CorruptError, match=f"unknown coder id {int(coder)}"):
         container.unpack(_fix_crcs(bytes(old)))
 
 
