@@ -447,14 +447,16 @@ def test_the_decoded_body_crc_is_checked() -> None:
 # ------------------------------------------- coder 6 (2.12): zstd with 2.12's dictionary
 
 
-def test_a_small_part_takes_the_2_12_dictionary() -> None:
-    """The golden bracket of 2.12 at 0.01 mm: coder 6 is smaller than coders
-    4 and 5 on its body, and what was written."""
-    _takes_its_dictionary(
-        "bracket.v2_12.tol0.01.nzc",
-        entropy.Coder.ZSTD_DICT_12,
-        (entropy.Coder.ZSTD_DICT_11, entropy.Coder.ZSTD_DICT),
+@pytest.mark.parametrize("minor", [12, 13, 19])
+def test_a_small_part_takes_its_format_s_dictionary(minor: int) -> None:
+    """The golden bracket of 2.12 (2.13, 2.19) at 0.01 mm: coder 6 (7, 8) is
+    smaller than every earlier dictionary coder on its body, and what was
+    written."""
+    coder = {12: entropy.Coder.ZSTD_DICT_12, 13: entropy.Coder.ZSTD_DICT_13}.get(
+        minor, entropy.Coder.ZSTD_DICT_19
     )
+    others = tuple(c for c in entropy.DICTIONARIES if c < coder)
+    _takes_its_dictionary(f"bracket.v2_{minor}.tol0.01.nzc", coder, others)
 
 
 def _takes_its_dictionary(
@@ -574,16 +576,6 @@ def test_the_2_13_dictionary_coder_only_from_2_13() -> None:
     _refused_in((2, 12), entropy.Coder.ZSTD_DICT_12, entropy.Coder.ZSTD_DICT_13)
 
 
-def test_a_small_part_takes_the_2_13_dictionary() -> None:
-    """The golden bracket of 2.13 at 0.01 mm: coder 7 is smaller than coders
-    4 to 6 on its body, and what was written."""
-    _takes_its_dictionary(
-        "bracket.v2_13.tol0.01.nzc",
-        entropy.Coder.ZSTD_DICT_13,
-        (entropy.Coder.ZSTD_DICT, entropy.Coder.ZSTD_DICT_11, entropy.Coder.ZSTD_DICT_12),
-    )
-
-
 # ------------------------------------------- coder 8 (2.19): zstd with 2.19's dictionary
 
 
@@ -607,18 +599,3 @@ def _refused_in(version: tuple[int, int], theirs: entropy.Coder, coder: entropy.
     old[body_at] = coder
     with pytest.raises(CorruptError, match=f"unknown coder id {int(coder)}"):
         container.unpack(_fix_crcs(bytes(old)))
-
-
-def test_a_small_part_takes_the_2_19_dictionary() -> None:
-    """The golden bracket of 2.19 at 0.01 mm: coder 8 is smaller than coders
-    4 to 7 on its body, and what was written."""
-    _takes_its_dictionary(
-        "bracket.v2_19.tol0.01.nzc",
-        entropy.Coder.ZSTD_DICT_19,
-        (
-            entropy.Coder.ZSTD_DICT,
-            entropy.Coder.ZSTD_DICT_11,
-            entropy.Coder.ZSTD_DICT_12,
-            entropy.Coder.ZSTD_DICT_13,
-        ),
-    )
