@@ -419,3 +419,35 @@ def test_declared_counts_are_bounded() -> None:
     head2 = topocode.HEAD2.pack(topocode.MODE_IMPLIED, topocode.IMPLIED_ALL, 900_000, 90_000)
     with pytest.raises(FormatError):
         serialize._read_shapes(head2 + bytes(64), BRepModel(), rev, None)
+
+
+@pytest.mark.parametrize("which", ["plane", "box", "cylinder"])
+def test_a_small_container_keeps_the_smaller_walk_mode(which: str) -> None:
+    """A container of at most 2 KiB is packed with SHAP in mode 2 and in mode
+    1, and the smaller kept (``stages.compress.MODE_1_SMALL``): the
+    dictionary coders hold earlier writers' mode-1 streams of common small
+    models. The other mode's container is never smaller."""
+    cq = _cq()
+    import nurbscomp
+    from nurbscomp.serialize import sections as S
+
+    shape = {
+        "plane": lambda: cq.Face.makePlane(10, 10),
+        "box": lambda: cq.Workplane().box(3, 4, 5).val(),
+        "cylinder": lambda: cq.Workplane().cylinder(5, 2).val(),
+    }[which]()
+    data = nurbscomp.compress(shape, tol=0.1)
+    c = container.unpack(data)
+    m, _, _ = S.read_sections(c.get, c.revision, None)
+    written = c.get("SHAP")
+    assert written[0] in (topocode.MODE_WALK, topocode.MODE_IMPLIED)
+    one = serialize.walk_mode_1(m)
+    assert one is not None
+    two = serialize._write_shapes(m)
+    other = one if written[0] == topocode.MODE_IMPLIED else two
+    alt = [(s.tag, other if s.tag == "SHAP" else s.raw) for s in c.sections]
+    assert len(data) <= len(container.pack(alt, c.flags))
+    back = BRepModel()
+    serialize._read_shapes(other, back, container.REVISION, None)
+    for name in TABLES:
+        assert np.array_equal(getattr(back, name), getattr(m, name)), name

@@ -114,6 +114,16 @@ def _write_shapes_now(m: BRepModel) -> bytes:
     return coded
 
 
+def walk_mode_1(m: BRepModel) -> bytes | None:
+    """``m``'s SHAP as format 2.0 to 2.18 write it, mode 1 (a 2.19 reader
+    reads it too), or None where the walk does not write ``m`` (mode 0 then,
+    as in 2.19)."""
+    coded = topocode.encode(m)
+    if coded is None:
+        return None
+    return topocode.HEAD.pack(topocode.MODE_WALK, len(m.shape_type), len(m.child_shape)) + coded
+
+
 def _xz(raw: bytes) -> int:
     """Bytes of ``raw`` compressed alone (xz -9e)."""
     return xz_size(raw, 9 | lzma.PRESET_EXTREME)
