@@ -441,7 +441,7 @@ def test_a_small_container_keeps_the_smaller_walk_mode(which: str) -> None:
     m, _, _ = S.read_sections(c.get, c.revision, None)
     written = c.get("SHAP")
     assert written[0] in (topocode.MODE_WALK, topocode.MODE_IMPLIED)
-    one = serialize.walk_mode_1(m)
+    one = serialize.walk_section(m)
     assert one is not None
     two = serialize._write_shapes(m)
     other = one if written[0] == topocode.MODE_IMPLIED else two

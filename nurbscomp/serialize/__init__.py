@@ -100,7 +100,7 @@ from .topology import (
     _read_shapes,
     _write_shape_arrays,
     _write_shapes,
-    walk_mode_1,
+    walk_section,
 )
 from .vertices import (
     MAX_QUARTER,
@@ -167,7 +167,7 @@ __all__ = [
     "_write_nets",
     "_write_shape_arrays",
     "_write_shapes",
-    "walk_mode_1",
+    "walk_section",
     "_write_sides",
     "_write_tolerances",
     "check_layout",

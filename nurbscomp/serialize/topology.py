@@ -101,12 +101,9 @@ def _write_shapes_now(m: BRepModel) -> bytes:
     arrays = bytes([topocode.MODE_ARRAYS]) + _write_shape_arrays(m)
     if not topocode._model_fits(m):
         return arrays
-    props = topocode.properties(m)
-    coded = topocode.encode(m, props)
+    coded = walk_section(m, topocode.properties(m))
     if coded is None:
         return arrays
-    n, c = len(m.shape_type), len(m.child_shape)
-    coded = topocode.HEAD2.pack(topocode.MODE_IMPLIED, props, n, c) + coded
     # a tiny model whose adaptive contexts never warm up can be smaller in the
     # arrays, once compressed: the smaller of the two is written
     if len(coded) < 512 and _xz(arrays) < _xz(coded):
@@ -114,14 +111,17 @@ def _write_shapes_now(m: BRepModel) -> bytes:
     return coded
 
 
-def walk_mode_1(m: BRepModel) -> bytes | None:
-    """``m``'s SHAP as format 2.0 to 2.18 write it, mode 1 (a 2.19 reader
-    reads it too), or None where the walk does not write ``m`` (mode 0 then,
-    as in 2.19)."""
-    coded = topocode.encode(m)
+def walk_section(m: BRepModel, implied: int | None = None) -> bytes | None:
+    """``m``'s SHAP as the walk writes it: mode 2 with the properties
+    ``implied``, or mode 1 (None: as formats 2.0 to 2.18 write it, which a
+    2.19 reader reads too); None where the walk does not write ``m``."""
+    coded = topocode.encode(m, implied)
     if coded is None:
         return None
-    return topocode.HEAD.pack(topocode.MODE_WALK, len(m.shape_type), len(m.child_shape)) + coded
+    n, c = len(m.shape_type), len(m.child_shape)
+    if implied is None:
+        return topocode.HEAD.pack(topocode.MODE_WALK, n, c) + coded
+    return topocode.HEAD2.pack(topocode.MODE_IMPLIED, implied, n, c) + coded
 
 
 def _xz(raw: bytes) -> int:

@@ -549,7 +549,7 @@ def _smaller_with_mode_1(
     for a container of at most :data:`MODE_1_SMALL` bytes."""
     if len(data) > MODE_1_SMALL:
         return data
-    one = serialize.walk_mode_1(m)
+    one = serialize.walk_section(m)
     if one is None:
         return data
     alt = [(tag, one if tag == "SHAP" else raw) for tag, raw in sections]
