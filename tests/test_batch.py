@@ -481,16 +481,16 @@ def archive_round_trip(cad: Path, tmp_path: Path) -> dict[str, dict[str, Any]]:
 @pytest.mark.slow
 def test_corpus_archive_round_trip(tmp_path: Path) -> None:
     """The issue's "done when": corpus and generated files, -j 2, and back.
-    The corpus files under 700 kB (six of the eleven, STEP and IGES, linked
+    The corpus files under 300 kB (three of the eleven, STEP and IGES, linked
     into a folder): the larger ones are compressed by the corpus tiers, and
     here they would only make the suite slower, not the batch runner surer."""
     from .conftest import CORPUS
 
     cad = tmp_path / "corpus"
     cad.mkdir()
-    small = [p for p in sorted(CORPUS.iterdir()) if p.is_file() and p.stat().st_size < 700_000]
+    small = [p for p in sorted(CORPUS.iterdir()) if p.is_file() and p.stat().st_size < 300_000]
     small = [p for p in small if p.suffix.lower() in (".step", ".stp", ".igs", ".iges")]
-    assert len({p.suffix.lower() for p in small} & {".igs", ".iges"}) and len(small) >= 4
+    assert len({p.suffix.lower() for p in small} & {".igs", ".iges"}) and len(small) >= 3
     for p in small:
         (cad / p.name).symlink_to(p)
     archive_round_trip(cad, tmp_path / "work")
@@ -543,8 +543,12 @@ def test_progress_bar_only_on_a_terminal(tmp_path: Path) -> None:
     assert "file/s" in shown or "s/file" in shown, shown
     assert "/4 [" in shown and "x]" in shown  # files done of 4, and the ratio so far
     assert re.search(r"(teapot|bracket)_\d\.step: (read|code|write|check)", shown), shown
-    code, shown = _on_a_terminal([*args, "-q", "-f"], tmp_path)
+    quiet = tmp_path / "quiet"  # one file is enough to show nothing
+    quiet.mkdir()
+    shutil.copy(SAMPLES / "bracket.step", quiet / "bracket.step")
+    code, shown = _on_a_terminal([*args, "-q"], quiet)
     assert code == 0 and shown == "", shown
+    assert (quiet / "out" / "bracket.step.nzc").exists()
 
 
 def test_largest_inputs_start_first(tmp_path: Path) -> None:

@@ -418,10 +418,11 @@ def test_rm_removes_inputs_once_done(work: Path) -> None:
 
 @pytest.mark.slow
 @pytest.mark.corpus
-def test_decompress_to_stdout_in_the_source_format(work: Path) -> None:
+def test_decompress_to_stdout_in_the_source_format(work: Path, made) -> None:
     assert run("compress", "-q", str(work / "part.step"))[0] == 0
-    igs = work / "occ.nzc"  # no format in the name: the container's META tells
-    assert run("compress", "-q", str(CORPUS / "occt__occ22470.igs"), "-o", str(igs))[0] == 0
+    # no format in the name: the container's META tells (the run's container
+    # of occ22470 at the default 0.01 mm, as `compress` makes it)
+    shutil.copy(made(CORPUS / "occt__occ22470.igs", 0.01), work / "occ.nzc")
     r = _script("decompress", "-c", "part.step.nzc", cwd=work)
     assert r.returncode == 0 and r.stdout.startswith(b"ISO-10303-21;"), r.stderr
     r = _script("-dc", "occ.nzc", cwd=work)
@@ -503,8 +504,10 @@ def test_no_empty_mirrored_folders(work: Path) -> None:
 
 
 def test_a_tolerance_larger_than_the_part_is_warned_of(work: Path) -> None:
-    code, _, err = run("compress", "--tol", "10m", str(work / "part.step"))
+    # (a tolerance near the part's size codes slowly: 10 m took 14 s here,
+    # 11 of them within 100 mm)
+    code, _, err = run("compress", "--tol", "2cm", str(work / "part.step"))
     assert code == 0
-    assert "tolerance 10000 mm is more than 10% of the part's size" in err
+    assert "tolerance 20 mm is more than 10% of the part's size" in err
     code, _, err = run("compress", "-f", "--tol", "0.1", str(work / "part.step"))
     assert code == 0 and "warning" not in err

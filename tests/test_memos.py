@@ -74,3 +74,26 @@ def test_feature_limits_are_remembered_by_poles_and_tol() -> None:
         assert hot == nets.feature_limit(poles, tol)
     assert nets.feature_limit(small, 0.1) < nets.feature_limit(small, 0.001) * 101
     assert nets.feature_limit(small, 0.1) != nets.feature_limit(g.poles, 0.1)
+
+
+def test_a_digest_tells_apart_what_its_parts_hold() -> None:
+    """``memo.digest``: the same values give the same key whatever the
+    arrays' identity or memory layout; the dtype, the shape, where one part
+    ends and the next begins, and an array changed in place give others."""
+    from nurbscomp.memo import digest
+
+    a = np.arange(12.0).reshape(3, 4)
+    key = digest(a, 3, None, (1.0, 2.0))
+    assert digest(a.copy(), 3, None, (1.0, 2.0)) == key
+    assert digest(np.asfortranarray(a), 3, None, (1.0, 2.0)) == key  # values, not layout
+    others = [
+        digest(a.reshape(4, 3), 3, None, (1.0, 2.0)),
+        digest(a.view(np.int64), 3, None, (1.0, 2.0)),  # the same bytes, another dtype
+        digest(a, 3.0, None, (1.0, 2.0)),
+        digest(a, 3, (1.0, 2.0)),
+        digest(a[:1], a[1:], 3, None, (1.0, 2.0)),  # the same bytes, split in two
+        digest(a, "3", None, (1.0, 2.0)),
+    ]
+    assert len({key, *others}) == 1 + len(others)
+    a[1, 1] += 1e-12
+    assert digest(a, 3, None, (1.0, 2.0)) != key

@@ -13,6 +13,7 @@ from nurbscomp.units import parse_length
         ("0.001in", 0.0254),
         ("2mil", 0.0508),
         ("1cm", 10.0),
+        ("10m", 10000.0),
         ("3MM", 3.0),
     ],
 )
