@@ -54,8 +54,10 @@ def _check_container(
 @pytest.mark.slow
 @pytest.mark.parametrize("path", sample_files(), ids=lambda p: p.name)
 @pytest.mark.parametrize("tol", [0.001, 0.1])
-def test_samples_within_tol(path: Path, tmp_path: Path, tol: float) -> None:
-    rep = _check(path, tmp_path, tol)
+def test_samples_within_tol(path: Path, tmp_path: Path, tol: float, made) -> None:
+    nzc = made(path, tol)  # the run's container, its report beside it
+    rep = json.loads(nzc.with_suffix(".json").read_text())
+    _check_container(path, tmp_path, nzc, rep, tol)
     if path.name in ("teapot.step", "blob.step"):
         # freeform models: (nearly) every face coded, far smaller than the text
         assert rep["faces_by_method"].get("exact", 0) <= len(rep["face_method_list"]) // 4
@@ -550,7 +552,7 @@ def test_unit_curves_keep_every_edge_point_for_point(name: str) -> None:
 @pytest.mark.parametrize("by_face, split", [(False, False), (False, True), (True, False)])
 @pytest.mark.parametrize("name", ["teapot.step", "blob.step"])
 def test_pcurve_cache_builds_the_same_shape(
-    name: str, by_face: bool, split: bool, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+    name: str, by_face: bool, split: bool, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, made
 ) -> None:
     """A build that reuses pcurves projected for another model (the validity
     stage's candidates) is the fresh build, bit for bit; so is one whose
@@ -573,8 +575,7 @@ def test_pcurve_cache_builds_the_same_shape(
     path = next(p for p in sample_files() if p.name == name)
     models = []
     for tol in (0.001, 0.1):
-        pipeline.compress_file(path, tmp_path / f"{tol}.nzc", tol=tol)
-        m = pipeline.decode_file(tmp_path / f"{tol}.nzc")[1]
+        m = pipeline.decode_file(made(path, tol))[1]  # the run's containers
         assert m.pcurves_by_face  # a new container's rule
         m.pcurves_by_face = by_face
         models.append(m)
@@ -598,7 +599,7 @@ def test_pcurve_cache_builds_the_same_shape(
     )
     cache = occ.PcurveCache()
     misses = []
-    handed.clear()  # the compressions' builds split too
+    handed.clear()  # the decodes' builds split too
     for m in (a, b, mixed, a):  # cold, cold, mixed, then every pcurve from the cache
         hits = cache.hits
         fresh, cached = occ.model_to_shape(m), occ.model_to_shape(m, cache)

@@ -451,3 +451,33 @@ def test_a_small_container_keeps_the_smaller_walk_mode(which: str) -> None:
     serialize._read_shapes(other, back, container.REVISION, None)
     for name in TABLES:
         assert np.array_equal(getattr(back, name), getattr(m, name)), name
+
+
+def test_brep_exact_containers_of_large_models_hold_the_arrays(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A B-rep-exact container of a model of ``ARRAYS_REFS`` references or
+    more holds SHAP as arrays (mode 0), which decode without the walk's
+    loop, and builds the shape the walk's container builds; under the
+    threshold, and in tolerance mode, the walk stays."""
+    from nurbscomp import pipeline
+    from nurbscomp.serialize import topology
+    from nurbscomp.stages import decompress
+
+    from .conftest import SAMPLES, brep_bytes
+
+    src = SAMPLES / "assembly.step"
+
+    def made(name: str, **kw: object) -> tuple[int, bytes]:
+        out = tmp_path / name
+        pipeline.compress_file(src, out, **kw)  # type: ignore[arg-type]
+        c = container.unpack(out.read_bytes())
+        return c.get("SHAP")[0], brep_bytes(decompress.decode_file(out)[0])
+
+    walk, shape = made("walk.nzc", tol=None, lossless=True)
+    refs = len(_shapes_of(occ.read_cad(src).shape).child_shape)
+    assert refs < topology.ARRAYS_REFS and walk == topocode.MODE_IMPLIED
+    monkeypatch.setattr(topology, "ARRAYS_REFS", refs)
+    arrays, same = made("arrays.nzc", tol=None, lossless=True)
+    assert arrays == topocode.MODE_ARRAYS and same == shape
+    assert made("tol.nzc", tol=0.1)[0] == topocode.MODE_IMPLIED

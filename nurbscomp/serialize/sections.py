@@ -57,7 +57,9 @@ def model_to_sections(
         ("CRV3", lambda: _write_geometry(m.curves3d, 3, t.rows(Table.CURVE3D))),
         ("CNET", lambda: _write_nets(t.cnet, _net_shapes(m.curves3d, t, Table.CURVE3D), False)),
         ("CRV2", lambda: _write_geometry(m.curves2d, 2)),
-        ("SHAP", lambda: _write_shapes(m)),
+        # B-rep exact: large models' SHAP as arrays, which decode in a few
+        # numpy calls (docs/format.md §2.5.1)
+        ("SHAP", lambda: _write_shapes(m, arrays=meta.get("mode") == "lossless")),
         ("VERT", lambda: _write_vertices(m, tol)),
         ("EDGE", lambda: _write_edges(m, t.range_how)),
         ("FACE", lambda: _write_faces(m)),
