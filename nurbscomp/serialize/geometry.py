@@ -3,6 +3,8 @@ knot vectors by form, weights, analytic rows on grids, COPY rows."""
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from .. import container, entropy
@@ -488,6 +490,7 @@ class _Cursor:
 
     def __init__(self, a: np.ndarray, name: str) -> None:
         self.a, self.pos, self.name = a, 0, name
+        self._values: list[Any] | None = None  # ``a`` as Python numbers, for :meth:`one`
 
     def take(self, n: int) -> np.ndarray:
         if n < 0 or self.pos + n > len(self.a):
@@ -497,7 +500,14 @@ class _Cursor:
         return out
 
     def one(self) -> int:
-        return int(self.take(1)[0])
+        """The next value, as an int (a list lookup: a table's headers are
+        read one value at a time, tens of thousands of them)."""
+        if self.pos >= len(self.a):
+            raise SectionError(f"{self.name} stream is too short at value {self.pos}")
+        if self._values is None:
+            self._values = self.a.tolist()
+        self.pos += 1
+        return int(self._values[self.pos - 1])
 
     def done(self) -> None:
         if self.pos != len(self.a):
