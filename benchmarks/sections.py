@@ -96,8 +96,9 @@ def bits_per_pole(rows: dict[float | None, dict[str, tuple[int, int]]]) -> list[
 
 
 def edge_uses(per_file: dict[str, dict[float | None, dict[str, tuple[int, int]]]]) -> list[str]:
-    """SHAP's bits per edge use at 0.01 mm (the section is the same in every
-    mode), per file and in all."""
+    """SHAP's bits per edge use at 0.01 mm (the section is the same at every
+    tolerance; B-rep-exact containers of 2,048 references or more hold the
+    arrays instead), per file and in all."""
     out = ["| file | edge uses | SHAP bytes | bits per edge use |", "|---|---:|---:|---:|"]
     uses = shap = 0
     for name, rows in per_file.items():
@@ -139,7 +140,8 @@ def main() -> None:
     print("Bits per coded pole (xz bytes of the section alone x 8 / poles of its coded rows):\n")
     print("\n".join(bits_per_pole(total)) + "\n")
     print("`SHAP`: bits per edge use (its raw bytes x 8 / the references from wires to")
-    print("edges; the same section at every tolerance):\n")
+    print("edges; the same section at every tolerance, the walk of docs/format.md")
+    print("§2.5.1, where the B-rep-exact containers of large models hold its arrays):\n")
     print("\n".join(edge_uses(per_file)) + "\n")
     for name, rows in per_file.items():
         print(f"## {name}\n")
