@@ -102,7 +102,7 @@ def _write_shapes(m: BRepModel, arrays: bool = False) -> bytes:
     coder is a Python loop (a fifth of a second on NIST_MBE_PMI_2)."""
     global _last_shapes
     if arrays and len(m.child_shape) >= ARRAYS_REFS:
-        return bytes([topocode.MODE_ARRAYS]) + _write_shape_arrays(m)
+        return _arrays_section(m)
     key = _shapes_key(m)
     last = _last_shapes
     if last is not None and last[0] == key:
@@ -114,7 +114,7 @@ def _write_shapes(m: BRepModel, arrays: bool = False) -> bytes:
 
 def _write_shapes_now(m: BRepModel) -> bytes:
     """:func:`_write_shapes`, without the kept table."""
-    arrays = bytes([topocode.MODE_ARRAYS]) + _write_shape_arrays(m)
+    arrays = _arrays_section(m)
     if not topocode._model_fits(m):
         return arrays
     coded = walk_section(m, topocode.properties(m))
@@ -138,6 +138,11 @@ def walk_section(m: BRepModel, implied: int | None = None) -> bytes | None:
     if implied is None:
         return topocode.HEAD.pack(topocode.MODE_WALK, n, c) + coded
     return topocode.HEAD2.pack(topocode.MODE_IMPLIED, implied, n, c) + coded
+
+
+def _arrays_section(m: BRepModel) -> bytes:
+    """``m``'s SHAP in mode 0: the mode byte, then the 1.x arrays."""
+    return bytes([topocode.MODE_ARRAYS]) + _write_shape_arrays(m)
 
 
 def _xz(raw: bytes) -> int:
